@@ -1,0 +1,1 @@
+//! Independent CPU path tracer (placeholder, being written).

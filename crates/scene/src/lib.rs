@@ -1,0 +1,278 @@
+//! glTF 2.0 scene import for gibake.
+//!
+//! Turns a `.gltf` / `.glb` file into a flat [`Scene`] following the
+//! conventions of `docs/method.md` (and the design brief):
+//!
+//! - **Primary light**: the one `KHR_lights_punctual` light of type `spot` or
+//!   `directional`. `color × intensity` is radiant intensity in W/sr (spot) or
+//!   irradiance in W/m² (directional), linear RGB. Point lights, or several
+//!   candidate lights, are an error unless [`LoadOptions::light`] names one.
+//! - **Dynamic objects**: a node is dynamic if it or an ancestor has
+//!   `extras: {"dynamic": true}`, or if an animation channel targets it or an
+//!   ancestor. Everything else is static and is flattened to world space.
+//! - **Materials**: Lambertian, albedo = baseColorFactor × baseColorTexture
+//!   (sRGB decoded to linear). All other material inputs are ignored. Every
+//!   surface is two-sided for light transport.
+//! - **Geometry**: triangles only (other modes are skipped with a warning);
+//!   missing normals are computed (area-weighted vertex normals).
+//! - **Camera**: the first node (document order of the default scene's
+//!   traversal) that carries a camera.
+//!
+//! Dynamic meshes are kept in their node's local space; [`Scene::dynamic_transform`]
+//! samples the animation at any time, so the runtime can move them per frame.
+
+mod animation;
+mod error;
+mod import;
+mod mesh;
+
+pub use animation::{Animator, Trs};
+pub use error::SceneError;
+pub use import::{LoadOptions, load, load_from_slice};
+pub use mesh::{compute_normals, Aabb};
+
+use glam::{Mat4, Vec2, Vec3};
+
+/// The primary light's kind, with its kind-specific parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LightKind {
+    /// A spot light. `color` is radiant intensity (W/sr) on the axis.
+    Spot {
+        /// glTF `innerConeAngle`, radians.
+        inner_cone: f32,
+        /// glTF `outerConeAngle`, radians (0 < outer ≤ π/2).
+        outer_cone: f32,
+    },
+    /// A directional light. `color` is irradiance (W/m²) on a surface facing it.
+    Directional,
+}
+
+/// The one fixed primary light.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    /// Name from the glTF (or `light #i`).
+    pub name: String,
+    /// Spot or directional, with parameters.
+    pub kind: LightKind,
+    /// `color × intensity`, linear RGB: W/sr (spot) or W/m² (directional).
+    pub color: Vec3,
+    /// World-space position (meaningless for directional lights, kept for framing).
+    pub position: Vec3,
+    /// World-space unit direction the light points to (the node's −Z).
+    pub direction: Vec3,
+}
+
+impl Light {
+    /// glTF's recommended spot falloff for a unit direction `dir_from_light`
+    /// (from the light to the receiver). 1 for directional lights.
+    ///
+    /// `scale = 1 / max(0.001, cos(inner) − cos(outer))`,
+    /// `offset = −cos(outer) · scale`, `att = saturate(cd · scale + offset)²`.
+    pub fn spot_attenuation(&self, dir_from_light: Vec3) -> f32 {
+        match self.kind {
+            LightKind::Directional => 1.0,
+            LightKind::Spot { inner_cone, outer_cone } => {
+                let cos_outer = outer_cone.cos();
+                let scale = 1.0 / (inner_cone.cos() - cos_outer).max(0.001);
+                let offset = -cos_outer * scale;
+                let cd = self.direction.dot(dir_from_light);
+                let a = (cd * scale + offset).clamp(0.0, 1.0);
+                a * a
+            }
+        }
+    }
+}
+
+/// Projection of a [`Camera`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Perspective with vertical field of view `yfov` (radians).
+    Perspective {
+        /// Vertical field of view, radians.
+        yfov: f32,
+        /// glTF `znear` (scene units).
+        znear: f32,
+        /// glTF `zfar`, `None` for infinite.
+        zfar: Option<f32>,
+    },
+    /// Orthographic with half extents `xmag`, `ymag`.
+    Orthographic {
+        /// Half width.
+        xmag: f32,
+        /// Half height.
+        ymag: f32,
+        /// Near plane.
+        znear: f32,
+        /// Far plane.
+        zfar: f32,
+    },
+}
+
+/// The scene camera (aspect comes from the output size, not the file).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    /// Name from the glTF.
+    pub name: String,
+    /// Node index carrying the camera (may be animated).
+    pub node: usize,
+    /// Projection parameters.
+    pub projection: Projection,
+}
+
+/// A decoded texture: RGBA8 texels whose RGB are sRGB-encoded.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// `width × height × 4` bytes, row 0 = first row of the image (v = 0).
+    pub rgba8_srgb: Vec<u8>,
+}
+
+/// A Lambertian material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Name from the glTF.
+    pub name: String,
+    /// baseColorFactor RGB (linear).
+    pub base_color: Vec3,
+    /// Index into [`Scene::textures`] of the baseColorTexture, if any.
+    pub texture: Option<usize>,
+}
+
+/// One triangle mesh (one glTF primitive).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mesh {
+    /// `node name/mesh name/primitive index`, for messages.
+    pub name: String,
+    /// Positions: world space for static meshes, node-local for dynamic ones.
+    pub positions: Vec<Vec3>,
+    /// Unit normals in the same space as `positions` (computed if missing).
+    pub normals: Vec<Vec3>,
+    /// TEXCOORD_0, present iff the material has a texture.
+    pub uvs: Option<Vec<Vec2>>,
+    /// Triangle list, counter-clockwise front faces.
+    pub indices: Vec<u32>,
+    /// Index into [`Scene::materials`].
+    pub material: usize,
+}
+
+/// A moving object: one glTF node with a mesh, moved as a rigid body.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DynamicObject {
+    /// Node name.
+    pub name: String,
+    /// glTF node index (for [`Scene::dynamic_transform`]).
+    pub node: usize,
+    /// Indices into [`Scene::dynamic_meshes`] that belong to this object.
+    pub meshes: Vec<usize>,
+    /// Local-space bounds of all its meshes.
+    pub local_bounds: Aabb,
+}
+
+/// A flattened glTF scene, ready for baking, rendering and reference tracing.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Source file, for messages.
+    pub source: std::path::PathBuf,
+    /// The primary light.
+    pub light: Light,
+    /// The first camera, if the file has one.
+    pub camera: Option<Camera>,
+    /// Materials referenced by meshes.
+    pub materials: Vec<Material>,
+    /// Decoded textures referenced by materials.
+    pub textures: Vec<Texture>,
+    /// Static meshes in world space.
+    pub static_meshes: Vec<Mesh>,
+    /// Dynamic meshes in node-local space.
+    pub dynamic_meshes: Vec<Mesh>,
+    /// Moving objects (each owns some of `dynamic_meshes`).
+    pub dynamic_objects: Vec<DynamicObject>,
+    /// Node hierarchy and animations, for sampling transforms at any time.
+    pub animator: Animator,
+    /// Warnings gathered while importing (skipped primitives, ignored inputs).
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// World matrix of dynamic object `i` at time `t` seconds (each animation
+    /// clamped to its own range).
+    pub fn dynamic_transform(&self, i: usize, t: f32) -> Mat4 {
+        self.animator.world_matrix(self.dynamic_objects[i].node, t)
+    }
+
+    /// World matrix of the camera node at time `t`.
+    pub fn camera_transform(&self, t: f32) -> Option<Mat4> {
+        self.camera.as_ref().map(|c| self.animator.world_matrix(c.node, t))
+    }
+
+    /// Bounds of the static geometry (world space).
+    pub fn static_bounds(&self) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        for m in &self.static_meshes {
+            for p in &m.positions {
+                b.grow(*p);
+            }
+        }
+        b
+    }
+
+    /// Bounds of dynamic object `i` at time `t` (world space, the transformed local box).
+    pub fn dynamic_bounds(&self, i: usize, t: f32) -> Aabb {
+        self.dynamic_objects[i].local_bounds.transformed(self.dynamic_transform(i, t))
+    }
+
+    /// Bounds swept by all dynamic objects over the whole animation range
+    /// (sampled at every keyframe time and at least 64 steps).
+    pub fn dynamic_swept_bounds(&self) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        if self.dynamic_objects.is_empty() {
+            return b;
+        }
+        for t in self.animator.sample_times(64) {
+            for i in 0..self.dynamic_objects.len() {
+                b = b.union(&self.dynamic_bounds(i, t));
+            }
+        }
+        b
+    }
+
+    /// Static bounds united with the swept bounds of the moving objects.
+    pub fn full_bounds(&self) -> Aabb {
+        self.static_bounds().union(&self.dynamic_swept_bounds())
+    }
+
+    /// Every mesh of the scene at time `t` in world space, static first, as
+    /// `(mesh, world matrix)` pairs (identity for static meshes).
+    pub fn meshes_at(&self, t: f32) -> Vec<(&Mesh, Mat4)> {
+        let mut out: Vec<(&Mesh, Mat4)> =
+            self.static_meshes.iter().map(|m| (m, Mat4::IDENTITY)).collect();
+        for (i, o) in self.dynamic_objects.iter().enumerate() {
+            let w = self.dynamic_transform(i, t);
+            for &mi in &o.meshes {
+                out.push((&self.dynamic_meshes[mi], w));
+            }
+        }
+        out
+    }
+
+    /// Albedo (linear RGB) of material `m` at texture coordinate `uv`
+    /// (bilinear, repeat wrap, sRGB decoded before filtering). Used by the CPU
+    /// reference; the GPU samples the same texture with the same filter.
+    pub fn albedo(&self, material: usize, uv: Option<Vec2>) -> Vec3 {
+        let m = &self.materials[material];
+        match (m.texture, uv) {
+            (Some(t), Some(uv)) => m.base_color * mesh::sample_bilinear_srgb(&self.textures[t], uv),
+            _ => m.base_color,
+        }
+    }
+
+    /// Total static and dynamic triangle counts.
+    pub fn triangle_counts(&self) -> (usize, usize) {
+        let s = self.static_meshes.iter().map(|m| m.indices.len() / 3).sum();
+        let d = self.dynamic_meshes.iter().map(|m| m.indices.len() / 3).sum();
+        (s, d)
+    }
+}
