@@ -1,1 +1,19 @@
-//! GPU context (placeholder).
+//! GPU foundation shared by gibake's baker and runtime.
+//!
+//! - [`GpuContext`]: a headless wgpu device on a deterministically chosen
+//!   adapter, with its provenance ([`AdapterRecord`]).
+//! - [`shaders`]: the shared WGSL (types, radiometry, projections) and how
+//!   passes compose it.
+//! - [`LightView`]: the primary light's projection (CPU twin of
+//!   `projection.wgsl`).
+//! - [`readback`]: texture/buffer copies to the CPU.
+//! - [`mesh`]: scene meshes uploaded as GPU buffers.
+
+mod context;
+mod light_view;
+pub mod mesh;
+pub mod readback;
+pub mod shaders;
+
+pub use context::{AdapterRecord, GpuContext, GpuError, GpuOptions};
+pub use light_view::{GpuLightView, GpuPrimaryLight, LightView, MAX_SPOT_HALF_ANGLE, look_to, orthographic_reversed_z, orthonormal_basis, perspective_reversed_z};

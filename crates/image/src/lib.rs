@@ -111,7 +111,7 @@ impl Image {
     }
 
     /// Reads an EXR's `R`, `G`, `B` channels (any sample type) as f32.
-    pub fn read_exr(path: &Path) -> Result<Image, ImageError> {
+    pub fn read_exr(path: &Path) -> Result<self::Image, ImageError> {
         use exr::prelude::*;
         let img = read_first_rgba_layer_from_file(
             path,
@@ -125,7 +125,7 @@ impl Image {
         )
         .map_err(|source| ImageError::Exr { path: path.to_owned(), source })?;
         let (w, h, pixels) = img.layer_data.channel_data.pixels;
-        Ok(Image { width: w as u32, height: h as u32, pixels })
+        Ok(self::Image { width: w as u32, height: h as u32, pixels })
     }
 
     /// Writes a tone-mapped sRGB PNG preview. `exposure` scales radiance

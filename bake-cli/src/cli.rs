@@ -1,0 +1,193 @@
+//! Command-line arguments (clap derive). The subcommand and flag names are
+//! fixed by the design brief.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// gibake bakes the light that static geometry bounces (virtual point
+/// lights with per-light shadow maps) and, at run time, adds only what moving
+/// objects change. Scenes are glTF 2.0 files with one KHR_lights_punctual spot
+/// or directional light; see docs/method.md for the conventions.
+#[derive(Parser, Debug)]
+#[command(name = "gibake", version, about, long_about = None, propagate_version = true)]
+pub struct Cli {
+    /// Log progress details to stderr (also: GIBAKE_LOG=info|debug).
+    #[arg(short, long, global = true)]
+    pub verbose: bool,
+    /// The command.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Scene input shared by the commands that read a glTF.
+#[derive(Args, Debug, Clone)]
+pub struct SceneArgs {
+    /// The glTF 2.0 scene (.gltf or .glb).
+    pub scene: PathBuf,
+    /// Pick the primary light by name when the scene has several.
+    #[arg(long, value_name = "NAME")]
+    pub light: Option<String>,
+}
+
+/// The commands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Bake VPLs and their shadow maps into OUT.gibake/ (not built yet).
+    Bake(BakeArgs),
+    /// Render frames of a scene on the GPU.
+    Render(RenderArgs),
+    /// Render the independent CPU reference (path tracer, direct + one bounce).
+    Reference(ReferenceArgs),
+    /// Compare two baked assets (not built yet).
+    Diff(DiffArgs),
+    /// Describe a baked asset (not built yet).
+    Inspect(InspectArgs),
+    /// Measure error against run time for every mode and quality (not built yet).
+    Bench(BenchArgs),
+    /// Render the bundled corner_bunny scene (direct light) and its reference.
+    Demo(DemoArgs),
+}
+
+/// `gibake bake`.
+#[derive(Args, Debug)]
+pub struct BakeArgs {
+    /// Scene.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Output asset directory.
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+/// Render modes.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModeArg {
+    /// The method: direct + static VPLs with merged maps + dynamic VPLs.
+    Full,
+    /// Direct light from the primary light only.
+    Direct,
+    /// The indirect part of `full` only.
+    Indirect,
+    /// Dachsbacher's RSM: every VPL, no visibility.
+    Rsm,
+    /// Re-render every VPL map from all geometry every frame (cost baseline).
+    Naive,
+}
+
+/// `gibake render`.
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Scene.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// The baked asset (needed by every mode but `direct`).
+    #[arg(long, value_name = "OUT.gibake")]
+    pub bake: Option<PathBuf>,
+    /// Animation time in seconds (each animation is clamped to its range).
+    #[arg(long, default_value_t = 0.0)]
+    pub time: f32,
+    /// Output width in pixels.
+    #[arg(long, default_value_t = 640)]
+    pub width: u32,
+    /// Output height in pixels.
+    #[arg(long, default_value_t = 480)]
+    pub height: u32,
+    /// What to render.
+    #[arg(long, value_enum, default_value_t = ModeArg::Full)]
+    pub mode: ModeArg,
+    /// Output: .exr (linear radiance, R G B f32) or .png (tone-mapped preview).
+    /// With --frames, a `#` run in the name is replaced by the frame number.
+    #[arg(short, long, value_name = "FRAME.exr|FRAME.png")]
+    pub output: PathBuf,
+    /// Number of frames (a sequence starting at --time, 1/fps apart).
+    #[arg(long, default_value_t = 1)]
+    pub frames: u32,
+    /// Frames per second of a sequence.
+    #[arg(long, default_value_t = 30.0)]
+    pub fps: f32,
+    /// Write per-pass timings and counts as JSON.
+    #[arg(long, value_name = "FILE.json")]
+    pub stats: Option<PathBuf>,
+    /// Supersampling: render at N× the resolution and box-filter down.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub ssaa: u32,
+    /// Primary shadow map resolution.
+    #[arg(long, default_value_t = 2048)]
+    pub shadow_map_size: u32,
+    /// GPU adapter to use (substring of its name; default: GIBAKE_ADAPTER or the first real GPU).
+    #[arg(long)]
+    pub adapter: Option<String>,
+}
+
+/// `gibake reference`.
+#[derive(Args, Debug)]
+pub struct ReferenceArgs {
+    /// Scene.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Animation time in seconds.
+    #[arg(long, default_value_t = 0.0)]
+    pub time: f32,
+    /// Output width in pixels.
+    #[arg(long, default_value_t = 640)]
+    pub width: u32,
+    /// Output height in pixels.
+    #[arg(long, default_value_t = 480)]
+    pub height: u32,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 256)]
+    pub spp: u32,
+    /// Direct light only (path depth 2) instead of direct + one bounce.
+    #[arg(long)]
+    pub direct_only: bool,
+    /// Random seed (the image is deterministic for a given seed).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output EXR (linear radiance) or PNG preview.
+    #[arg(short, long, value_name = "REF.exr")]
+    pub output: PathBuf,
+}
+
+/// `gibake diff`.
+#[derive(Args, Debug)]
+pub struct DiffArgs {
+    /// First asset.
+    pub a: PathBuf,
+    /// Second asset.
+    pub b: PathBuf,
+    /// Machine-readable output.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `gibake inspect`.
+#[derive(Args, Debug)]
+pub struct InspectArgs {
+    /// The asset.
+    pub asset: PathBuf,
+    /// Machine-readable output.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `gibake bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {}
+
+/// `gibake demo`.
+#[derive(Args, Debug)]
+pub struct DemoArgs {
+    /// Output directory.
+    #[arg(short, long, default_value = "gibake-demo")]
+    pub output: PathBuf,
+    /// Image width.
+    #[arg(long, default_value_t = 256)]
+    pub width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 256)]
+    pub height: u32,
+    /// Reference samples per pixel.
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+}

@@ -1,0 +1,300 @@
+//! The primary light's projection, defined once for the bake (RSM) and the
+//! runtime (shadow map, dynamic RSM). [`LightView`] is the CPU twin of
+//! `wgsl/projection.wgsl`; [`GpuLightView`] is its GPU layout.
+//!
+//! - **Spot**: perspective from the light position along its direction,
+//!   field of view `2 × outer cone` (clamped to 2 × 80°: a single perspective
+//!   map cannot hold a wider cone; light outside it counts as unshadowed).
+//!   The stored metric is Euclidean distance to the light.
+//! - **Directional**: orthographic along the light direction, fitted to the
+//!   given bounds (static geometry plus the swept bounds of moving objects).
+//!   The stored metric is the distance along the light direction from the
+//!   front plane of the fitted box.
+//!
+//! Both use reversed Z (near → 1, far → 0) for depth ordering. Biases are in
+//! units of the texel footprint at the receiver ([`LightView::footprint`]),
+//! which scales with the scene, so nothing depends on scene units.
+
+use gibake_scene::{Aabb, Light, LightKind};
+use glam::{Mat4, Vec3, Vec4};
+
+/// Largest spot half-angle a single perspective map covers.
+pub const MAX_SPOT_HALF_ANGLE: f32 = 80.0 * std::f32::consts::PI / 180.0;
+
+/// A light's view for shadow maps and RSMs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightView {
+    /// True for directional (orthographic) views.
+    pub directional: bool,
+    /// World → clip (reversed Z).
+    pub view_proj: Mat4,
+    /// Spot: light position. Directional: a point on the front plane.
+    pub origin: Vec3,
+    /// Unit direction the light points to.
+    pub direction: Vec3,
+    /// Spot: `2·tan(fov/2)/size` (footprint per unit distance).
+    /// Directional: world size of one texel.
+    pub texel_scale: f32,
+    /// Map resolution (square).
+    pub size: u32,
+    /// Spot: world-space area of one texel at unit distance, per steradian is
+    /// computed per texel in WGSL; directional: world area of one texel.
+    pub texel_area: f32,
+}
+
+/// An orthonormal basis `(tangent, bitangent)` around unit `n`, continuous
+/// and valid for every direction (Duff et al. 2017, "Building an Orthonormal
+/// Basis, Revisited"). No fixed up vector, so nothing degenerates.
+pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    let t = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    let bt = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+    (t, bt)
+}
+
+/// Right-handed perspective projection (view looks down −Z) with reversed Z:
+/// depth 1 at `near`, 0 at `far`, for the `[0, 1]` clip range of wgpu.
+pub fn perspective_reversed_z(fov_y: f32, aspect: f32, near: f32, far: f32) -> Mat4 {
+    let f = 1.0 / (0.5 * fov_y).tan();
+    let a = near / (far - near);
+    let b = near * far / (far - near);
+    Mat4::from_cols(
+        Vec4::new(f / aspect, 0.0, 0.0, 0.0),
+        Vec4::new(0.0, f, 0.0, 0.0),
+        Vec4::new(0.0, 0.0, a, -1.0),
+        Vec4::new(0.0, 0.0, b, 0.0),
+    )
+}
+
+/// Right-handed orthographic projection with reversed Z over
+/// `[-half_w, half_w] × [-half_h, half_h] × [near, far]`.
+pub fn orthographic_reversed_z(half_w: f32, half_h: f32, near: f32, far: f32) -> Mat4 {
+    let r = 1.0 / (far - near);
+    Mat4::from_cols(
+        Vec4::new(1.0 / half_w, 0.0, 0.0, 0.0),
+        Vec4::new(0.0, 1.0 / half_h, 0.0, 0.0),
+        Vec4::new(0.0, 0.0, r, 0.0),
+        Vec4::new(0.0, 0.0, far * r, 1.0),
+    )
+}
+
+/// View matrix of an eye at `origin` looking along unit `dir`, with the
+/// up axis from [`orthonormal_basis`] (valid for every direction).
+pub fn look_to(origin: Vec3, dir: Vec3) -> Mat4 {
+    // Camera looks down −Z: z axis = −dir; x, y from the continuous basis.
+    let (t, b) = orthonormal_basis(dir);
+    let z = -dir;
+    let (x, y) = (t, b);
+    // Make (x, y, z) right-handed.
+    let (x, y) = if x.cross(y).dot(z) > 0.0 { (x, y) } else { (y, x) };
+    Mat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), origin.extend(1.0)).inverse()
+}
+
+impl LightView {
+    /// The light's view fitted to `bounds` (must include every surface that
+    /// can cast a shadow or receive light), with a `size × size` map.
+    pub fn new(light: &Light, bounds: &Aabb, size: u32) -> LightView {
+        let dir = light.direction.normalize();
+        let size_f = size as f32;
+        match light.kind {
+            LightKind::Spot { outer_cone, .. } => {
+                let half = outer_cone.clamp(1e-3, MAX_SPOT_HALF_ANGLE);
+                let view = look_to(light.position, dir);
+                let mut far = 0.0f32;
+                for i in 0..8 {
+                    let c = corner(bounds, i);
+                    far = far.max((c - light.position).length());
+                }
+                let far = (far * 1.01).max(f32::MIN_POSITIVE);
+                let near = far * 1e-5;
+                let proj = perspective_reversed_z(2.0 * half, 1.0, near, far);
+                let texel_scale = 2.0 * half.tan() / size_f;
+                LightView {
+                    directional: false,
+                    view_proj: proj * view,
+                    origin: light.position,
+                    direction: dir,
+                    texel_scale,
+                    size,
+                    texel_area: texel_scale * texel_scale,
+                }
+            }
+            LightKind::Directional => {
+                let (t, b) = orthonormal_basis(dir);
+                let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+                for i in 0..8 {
+                    let c = corner(bounds, i);
+                    let l = Vec3::new(c.dot(t), c.dot(b), c.dot(dir));
+                    lo = lo.min(l);
+                    hi = hi.max(l);
+                }
+                let extent = (hi - lo).max_element().max(f32::MIN_POSITIVE);
+                let margin = extent * 0.01;
+                let half_w = ((hi.x - lo.x).max(hi.y - lo.y)) * 0.5 + margin;
+                let cx = (lo.x + hi.x) * 0.5;
+                let cy = (lo.y + hi.y) * 0.5;
+                let front = lo.z - margin;
+                let depth = hi.z - lo.z + 2.0 * margin;
+                let origin = t * cx + b * cy + dir * front;
+                let view = look_to(origin, dir);
+                let proj = orthographic_reversed_z(half_w, half_w, 0.0, depth);
+                let texel = 2.0 * half_w / size_f;
+                LightView {
+                    directional: true,
+                    view_proj: proj * view,
+                    origin,
+                    direction: dir,
+                    texel_scale: texel,
+                    size,
+                    texel_area: texel * texel,
+                }
+            }
+        }
+    }
+
+    /// The stored shadow metric of a world point (see module docs).
+    pub fn metric(&self, p: Vec3) -> f32 {
+        if self.directional { (p - self.origin).dot(self.direction) } else { (p - self.origin).length() }
+    }
+
+    /// World size of one map texel at `p`.
+    pub fn footprint(&self, p: Vec3) -> f32 {
+        if self.directional { self.texel_scale } else { self.metric(p) * self.texel_scale }
+    }
+
+    /// Continuous texel coordinates of `p` (x right, y down, texel centres at
+    /// half-integers), or `None` if behind a spot light.
+    pub fn texel_coords(&self, p: Vec3) -> Option<glam::Vec2> {
+        let c = self.view_proj * p.extend(1.0);
+        if c.w <= 0.0 {
+            return None;
+        }
+        let ndc = c.truncate() / c.w;
+        let uv = glam::Vec2::new(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
+        Some(uv * self.size as f32)
+    }
+
+    /// GPU layout of this view.
+    pub fn to_gpu(&self) -> GpuLightView {
+        GpuLightView {
+            view_proj: self.view_proj.to_cols_array_2d(),
+            origin: self.origin.extend(if self.directional { 1.0 } else { 0.0 }).to_array(),
+            direction: self.direction.extend(self.texel_scale).to_array(),
+            params: Vec4::new(self.size as f32, 1.0 / self.size as f32, self.texel_area, 0.0).to_array(),
+        }
+    }
+}
+
+fn corner(b: &Aabb, i: usize) -> Vec3 {
+    Vec3::new(
+        if i & 1 == 0 { b.min.x } else { b.max.x },
+        if i & 2 == 0 { b.min.y } else { b.max.y },
+        if i & 4 == 0 { b.min.z } else { b.max.z },
+    )
+}
+
+/// GPU layout of [`LightView`]. Must match `LightView` in `wgsl/projection.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuLightView {
+    /// World → clip.
+    pub view_proj: [[f32; 4]; 4],
+    /// xyz origin, w = 1 directional / 0 spot.
+    pub origin: [f32; 4],
+    /// xyz direction, w = texel scale.
+    pub direction: [f32; 4],
+    /// x size, y 1/size, z texel area, w unused.
+    pub params: [f32; 4],
+}
+
+/// GPU layout of the primary light's radiometry. Must match `PrimaryLight`
+/// in `wgsl/light.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuPrimaryLight {
+    /// xyz position, w = 1 directional / 0 spot.
+    pub position: [f32; 4],
+    /// xyz unit direction the light points to.
+    pub direction: [f32; 4],
+    /// rgb: W/sr (spot) or W/m² (directional).
+    pub color: [f32; 4],
+    /// x: spot scale, y: spot offset (glTF falloff), zw unused.
+    pub spot: [f32; 4],
+}
+
+impl GpuPrimaryLight {
+    /// From the scene's light.
+    pub fn new(light: &Light) -> Self {
+        let (dir_flag, scale, offset) = match light.kind {
+            LightKind::Directional => (1.0, 0.0, 1.0),
+            LightKind::Spot { inner_cone, outer_cone } => {
+                let cos_outer = outer_cone.cos();
+                let scale = 1.0 / (inner_cone.cos() - cos_outer).max(0.001);
+                (0.0, scale, -cos_outer * scale)
+            }
+        };
+        GpuPrimaryLight {
+            position: light.position.extend(dir_flag).to_array(),
+            direction: light.direction.normalize().extend(0.0).to_array(),
+            color: light.color.extend(0.0).to_array(),
+            spot: [scale, offset, 0.0, 0.0],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn basis_is_orthonormal_for_every_axis_and_near_poles() {
+        for n in [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z, Vec3::new(1e-8, 0.0, -1.0).normalize()] {
+            let (t, b) = orthonormal_basis(n);
+            assert!((t.length() - 1.0).abs() < 1e-5 && (b.length() - 1.0).abs() < 1e-5, "{n}");
+            assert!(t.dot(b).abs() < 1e-5 && t.dot(n).abs() < 1e-5 && b.dot(n).abs() < 1e-5, "{n}");
+        }
+    }
+
+    fn spot(pos: Vec3, dir: Vec3) -> Light {
+        Light {
+            name: "s".into(),
+            kind: LightKind::Spot { inner_cone: 0.3, outer_cone: 0.6 },
+            color: Vec3::ONE,
+            position: pos,
+            direction: dir,
+        }
+    }
+
+    #[test]
+    fn spot_axis_projects_to_the_map_centre_and_scales_invariantly() {
+        for s in [1e-3f32, 1.0, 1e3] {
+            let l = spot(Vec3::new(0.0, 2.0, 0.0) * s, -Vec3::Y);
+            let b = Aabb { min: Vec3::splat(-1.0) * s, max: Vec3::splat(1.0) * s };
+            let v = LightView::new(&l, &b, 512);
+            let c = v.texel_coords(Vec3::ZERO).unwrap();
+            assert!((c - glam::Vec2::splat(256.0)).length() < 1e-2, "{c}");
+            let p = Vec3::new(0.3, 0.0, -0.2) * s;
+            let c = v.texel_coords(p).unwrap();
+            let v1 = LightView::new(&spot(Vec3::new(0.0, 2.0, 0.0), -Vec3::Y), &Aabb { min: Vec3::splat(-1.0), max: Vec3::ONE }, 512);
+            let c1 = v1.texel_coords(p / s).unwrap();
+            assert!((c - c1).length() < 1e-2, "{c} {c1}");
+            assert!((v.footprint(p) / s - v1.footprint(p / s)).abs() < 1e-6 * v1.footprint(p / s).max(1.0));
+        }
+    }
+
+    #[test]
+    fn directional_fit_contains_the_bounds() {
+        let l = Light { name: "d".into(), kind: LightKind::Directional, color: Vec3::ONE, position: Vec3::ZERO, direction: Vec3::new(0.3, -1.0, 0.2).normalize() };
+        let b = Aabb { min: Vec3::new(-5.0, 0.0, -3.0), max: Vec3::new(4.0, 2.0, 6.0) };
+        let v = LightView::new(&l, &b, 256);
+        for i in 0..8 {
+            let c = v.texel_coords(corner(&b, i)).unwrap();
+            assert!(c.x > 0.0 && c.x < 256.0 && c.y > 0.0 && c.y < 256.0, "{c}");
+            let clip = v.view_proj * corner(&b, i).extend(1.0);
+            assert!(clip.z / clip.w > 0.0 && clip.z / clip.w < 1.0);
+            assert!(v.metric(corner(&b, i)) > 0.0);
+        }
+    }
+}

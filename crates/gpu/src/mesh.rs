@@ -1,0 +1,275 @@
+//! Scene meshes on the GPU: one vertex/index buffer pair for all meshes,
+//! a per-draw storage buffer (model matrix, albedo) indexed by
+//! `instance_index`, and one bind group per material texture.
+//!
+//! Static draws have identity transforms and never change; the world
+//! matrices of dynamic draws are rewritten by [`SceneGpu::update_dynamic`].
+
+use std::ops::Range;
+
+use gibake_scene::Scene;
+use glam::Mat4;
+use wgpu::util::DeviceExt;
+
+/// One interleaved vertex. Must match `VertexIn` in the passes' WGSL.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuVertex {
+    /// Position (world for static meshes, local for dynamic ones).
+    pub position: [f32; 3],
+    /// Unit normal.
+    pub normal: [f32; 3],
+    /// TEXCOORD_0 (0 when untextured).
+    pub uv: [f32; 2],
+}
+
+impl GpuVertex {
+    /// Vertex buffer layout: locations 0 position, 1 normal, 2 uv.
+    pub const LAYOUT: wgpu::VertexBufferLayout<'static> = wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<GpuVertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2],
+    };
+}
+
+/// Per-draw data. Must match `DrawData` in `wgsl/mesh.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuDrawData {
+    /// Object → world.
+    pub model: [[f32; 4]; 4],
+    /// Inverse-transpose of the model's upper 3×3 (columns padded).
+    pub normal_matrix: [[f32; 4]; 4],
+    /// rgb baseColorFactor, w = 1 if textured.
+    pub albedo: [f32; 4],
+}
+
+impl GpuDrawData {
+    fn new(model: Mat4, albedo: glam::Vec3, textured: bool) -> Self {
+        let n = Mat4::from_mat3(glam::Mat3::from_mat4(model).inverse().transpose());
+        GpuDrawData {
+            model: model.to_cols_array_2d(),
+            normal_matrix: n.to_cols_array_2d(),
+            albedo: albedo.extend(if textured { 1.0 } else { 0.0 }).to_array(),
+        }
+    }
+}
+
+/// One draw call: a mesh with its material.
+#[derive(Clone, Debug)]
+pub struct Draw {
+    /// Range in the index buffer.
+    pub indices: Range<u32>,
+    /// Added to every index.
+    pub base_vertex: i32,
+    /// Index in the draw-data buffer (passed as `first_instance`).
+    pub id: u32,
+    /// Index into [`SceneGpu::material_groups`].
+    pub material: usize,
+    /// Dynamic object index, `None` for static draws.
+    pub object: Option<usize>,
+}
+
+/// All scene geometry on the GPU.
+pub struct SceneGpu {
+    /// Interleaved vertices of every mesh.
+    pub vertices: wgpu::Buffer,
+    /// Indices of every mesh.
+    pub indices: wgpu::Buffer,
+    /// Per-draw data, indexed by `instance_index`.
+    pub draw_data: wgpu::Buffer,
+    /// Static draws.
+    pub static_draws: Vec<Draw>,
+    /// Dynamic draws.
+    pub dynamic_draws: Vec<Draw>,
+    /// Layout of group 0 of mesh passes: the draw-data buffer (binding 0),
+    /// the pass uniform (binding 1, owned by the pass).
+    pub material_layout: wgpu::BindGroupLayout,
+    /// One bind group per material: texture (binding 0), sampler (binding 1).
+    pub material_groups: Vec<wgpu::BindGroup>,
+    cpu_draw_data: Vec<GpuDrawData>,
+}
+
+impl SceneGpu {
+    /// Uploads every static and dynamic mesh of `scene`, dynamic objects
+    /// placed at time `time`.
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene, time: f32) -> SceneGpu {
+        let mut vertices: Vec<GpuVertex> = Vec::new();
+        let mut indices: Vec<u32> = Vec::new();
+        let mut draw_data = Vec::new();
+        let mut static_draws = Vec::new();
+        let mut dynamic_draws = Vec::new();
+        let mut push = |mesh: &gibake_scene::Mesh, model: Mat4, object: Option<usize>| {
+            let base_vertex = vertices.len() as i32;
+            let uvs = mesh.uvs.as_deref();
+            for (i, (p, n)) in mesh.positions.iter().zip(&mesh.normals).enumerate() {
+                let uv = uvs.map(|u| u[i].to_array()).unwrap_or([0.0; 2]);
+                vertices.push(GpuVertex { position: p.to_array(), normal: n.to_array(), uv });
+            }
+            let start = indices.len() as u32;
+            indices.extend_from_slice(&mesh.indices);
+            let m = &scene.materials[mesh.material];
+            let textured = m.texture.is_some() && mesh.uvs.is_some();
+            let id = draw_data.len() as u32;
+            draw_data.push(GpuDrawData::new(model, m.base_color, textured));
+            let d = Draw {
+                indices: start..indices.len() as u32,
+                base_vertex,
+                id,
+                material: if textured { mesh.material } else { scene.materials.len() },
+                object,
+            };
+            if object.is_some() { dynamic_draws.push(d) } else { static_draws.push(d) }
+        };
+        for m in &scene.static_meshes {
+            push(m, Mat4::IDENTITY, None);
+        }
+        for (oi, o) in scene.dynamic_objects.iter().enumerate() {
+            let model = scene.dynamic_transform(oi, time);
+            for &mi in &o.meshes {
+                push(&scene.dynamic_meshes[mi], model, Some(oi));
+            }
+        }
+        if vertices.is_empty() {
+            vertices.push(GpuVertex { position: [0.0; 3], normal: [0.0, 1.0, 0.0], uv: [0.0; 2] });
+        }
+        if indices.is_empty() {
+            indices.extend_from_slice(&[0, 0, 0]);
+        }
+        if draw_data.is_empty() {
+            draw_data.push(GpuDrawData::new(Mat4::IDENTITY, glam::Vec3::ONE, false));
+        }
+        let vb = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("scene vertices"),
+            contents: bytemuck::cast_slice(&vertices),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        let ib = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("scene indices"),
+            contents: bytemuck::cast_slice(&indices),
+            usage: wgpu::BufferUsages::INDEX,
+        });
+        let db = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("draw data"),
+            contents: bytemuck::cast_slice(&draw_data),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        });
+        let material_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("material"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("albedo"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::Repeat,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let make_group = |tex: &gibake_scene::Texture| {
+            let t = device.create_texture_with_data(
+                queue,
+                &wgpu::TextureDescriptor {
+                    label: Some("albedo texture"),
+                    size: wgpu::Extent3d { width: tex.width.max(1), height: tex.height.max(1), depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::Rgba8UnormSrgb,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                },
+                wgpu::util::TextureDataOrder::LayerMajor,
+                &tex.rgba8_srgb,
+            );
+            let view = t.create_view(&Default::default());
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("material"),
+                layout: &material_layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
+                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&sampler) },
+                ],
+            })
+        };
+        // Group per material (untextured ones reuse the white texture at the end).
+        let white = gibake_scene::Texture { width: 1, height: 1, rgba8_srgb: vec![255; 4] };
+        let mut material_groups = Vec::with_capacity(scene.materials.len() + 1);
+        for m in &scene.materials {
+            match m.texture {
+                Some(t) => material_groups.push(make_group(&scene.textures[t])),
+                None => material_groups.push(make_group(&white)),
+            }
+        }
+        material_groups.push(make_group(&white));
+        SceneGpu {
+            vertices: vb,
+            indices: ib,
+            draw_data: db,
+            static_draws,
+            dynamic_draws,
+            material_layout,
+            material_groups,
+            cpu_draw_data: draw_data,
+        }
+    }
+
+    /// Rewrites the world matrices of the dynamic draws for time `time`.
+    pub fn update_dynamic(&mut self, queue: &wgpu::Queue, scene: &Scene, time: f32) {
+        let transforms: Vec<Mat4> = (0..scene.dynamic_objects.len()).map(|i| scene.dynamic_transform(i, time)).collect();
+        self.set_dynamic_transforms(queue, &transforms);
+    }
+
+    /// Rewrites the world matrices of the dynamic draws from one matrix per
+    /// dynamic object (the game-facing way to move objects).
+    pub fn set_dynamic_transforms(&mut self, queue: &wgpu::Queue, transforms: &[Mat4]) {
+        let Some(first) = self.dynamic_draws.first().map(|d| d.id as usize) else { return };
+        for d in &self.dynamic_draws {
+            let o = d.object.expect("dynamic draw has an object");
+            let Some(&model) = transforms.get(o) else { continue };
+            let old = self.cpu_draw_data[d.id as usize];
+            let albedo = glam::Vec4::from_array(old.albedo);
+            self.cpu_draw_data[d.id as usize] = GpuDrawData::new(model, albedo.truncate(), albedo.w > 0.5);
+        }
+        let range = &self.cpu_draw_data[first..];
+        queue.write_buffer(
+            &self.draw_data,
+            (first * std::mem::size_of::<GpuDrawData>()) as u64,
+            bytemuck::cast_slice(range),
+        );
+    }
+
+    /// Records the draws (static, dynamic or both) into a render pass whose
+    /// pipeline uses group 1 for the material (if `materials`).
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, draws: &[Draw], materials: bool) {
+        pass.set_vertex_buffer(0, self.vertices.slice(..));
+        pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+        for d in draws {
+            if materials {
+                pass.set_bind_group(1, &self.material_groups[d.material], &[]);
+            }
+            pass.draw_indexed(d.indices.clone(), d.base_vertex, d.id..d.id + 1);
+        }
+    }
+}
+
+/// WGSL for mesh passes: vertex input and per-draw data. Must match
+/// [`GpuVertex`] and [`GpuDrawData`].
+pub const MESH_WGSL: &str = include_str!("wgsl/mesh.wgsl");

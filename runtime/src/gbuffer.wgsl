@@ -1,0 +1,74 @@
+// gbuffer.wgsl — camera G-buffer of all geometry (needs common.wgsl, mesh.wgsl).
+// Targets: 0 world position (w = 1 covered), 1 oct(shading normal).xy +
+// oct(geometric normal).zw, both facing the viewer, 2 albedo.
+
+struct Camera {
+    view_proj: mat4x4<f32>,
+    position: vec4<f32>,   // w = 1 orthographic
+    forward: vec4<f32>,
+}
+
+@group(0) @binding(0) var<storage, read> draws: array<DrawData>;
+@group(0) @binding(1) var<uniform> camera: Camera;
+@group(1) @binding(0) var albedo_tex: texture_2d<f32>;
+@group(1) @binding(1) var albedo_smp: sampler;
+
+struct VsOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(3) @interpolate(flat) draw: u32,
+}
+
+@vertex
+fn vs_main(v: VertexIn) -> VsOut {
+    let d = draws[v.draw];
+    let world = (d.model * vec4<f32>(v.position, 1.0)).xyz;
+    var o: VsOut;
+    o.clip = camera.view_proj * vec4<f32>(world, 1.0);
+    o.world = world;
+    o.normal = (d.normal_matrix * vec4<f32>(v.normal, 0.0)).xyz;
+    o.uv = v.uv;
+    o.draw = v.draw;
+    return o;
+}
+
+struct FsOut {
+    @location(0) position: vec4<f32>,
+    @location(1) normals: vec4<f32>,
+    @location(2) albedo: vec4<f32>,
+}
+
+@fragment
+fn fs_main(i: VsOut, @builtin(front_facing) front: bool) -> FsOut {
+    let d = draws[i.draw];
+    var albedo = d.albedo.rgb;
+    // Sample unconditionally (uniform control flow), use only if textured.
+    let t = textureSample(albedo_tex, albedo_smp, i.uv).rgb;
+    if (d.albedo.w > 0.5) {
+        albedo = albedo * t;
+    }
+    var to_eye = camera.position.xyz - i.world;
+    if (camera.position.w > 0.5) {
+        to_eye = -camera.forward.xyz;
+    }
+    var ns = normalize(i.normal);
+    if (!front) {
+        ns = -ns;
+    }
+    // Flat geometric normal from screen derivatives (exact per triangle).
+    let c = cross(dpdx(i.world), dpdy(i.world));
+    var ng = ns;
+    if (dot(c, c) > 0.0) {
+        ng = normalize(c);
+    }
+    if (dot(ng, to_eye) < 0.0) {
+        ng = -ng;
+    }
+    var o: FsOut;
+    o.position = vec4<f32>(i.world, 1.0);
+    o.normals = vec4<f32>(oct_encode(ns), oct_encode(ng));
+    o.albedo = vec4<f32>(albedo, 1.0);
+    return o;
+}
