@@ -29,7 +29,7 @@ mod mesh;
 pub use animation::{Animator, Trs};
 pub use error::SceneError;
 pub use import::{LoadOptions, load, load_from_slice};
-pub use mesh::{compute_normals, Aabb};
+pub use mesh::{Aabb, compute_normals};
 
 use glam::{Mat4, Vec2, Vec3};
 
@@ -71,7 +71,10 @@ impl Light {
     pub fn spot_attenuation(&self, dir_from_light: Vec3) -> f32 {
         match self.kind {
             LightKind::Directional => 1.0,
-            LightKind::Spot { inner_cone, outer_cone } => {
+            LightKind::Spot {
+                inner_cone,
+                outer_cone,
+            } => {
                 let cos_outer = outer_cone.cos();
                 let scale = 1.0 / (inner_cone.cos() - cos_outer).max(0.001);
                 let offset = -cos_outer * scale;
@@ -205,7 +208,9 @@ impl Scene {
 
     /// World matrix of the camera node at time `t`.
     pub fn camera_transform(&self, t: f32) -> Option<Mat4> {
-        self.camera.as_ref().map(|c| self.animator.world_matrix(c.node, t))
+        self.camera
+            .as_ref()
+            .map(|c| self.animator.world_matrix(c.node, t))
     }
 
     /// Bounds of the static geometry (world space).
@@ -221,7 +226,9 @@ impl Scene {
 
     /// Bounds of dynamic object `i` at time `t` (world space, the transformed local box).
     pub fn dynamic_bounds(&self, i: usize, t: f32) -> Aabb {
-        self.dynamic_objects[i].local_bounds.transformed(self.dynamic_transform(i, t))
+        self.dynamic_objects[i]
+            .local_bounds
+            .transformed(self.dynamic_transform(i, t))
     }
 
     /// Bounds swept by all dynamic objects over the whole animation range
@@ -247,8 +254,11 @@ impl Scene {
     /// Every mesh of the scene at time `t` in world space, static first, as
     /// `(mesh, world matrix)` pairs (identity for static meshes).
     pub fn meshes_at(&self, t: f32) -> Vec<(&Mesh, Mat4)> {
-        let mut out: Vec<(&Mesh, Mat4)> =
-            self.static_meshes.iter().map(|m| (m, Mat4::IDENTITY)).collect();
+        let mut out: Vec<(&Mesh, Mat4)> = self
+            .static_meshes
+            .iter()
+            .map(|m| (m, Mat4::IDENTITY))
+            .collect();
         for (i, o) in self.dynamic_objects.iter().enumerate() {
             let w = self.dynamic_transform(i, t);
             for &mi in &o.meshes {
@@ -272,7 +282,11 @@ impl Scene {
     /// Total static and dynamic triangle counts.
     pub fn triangle_counts(&self) -> (usize, usize) {
         let s = self.static_meshes.iter().map(|m| m.indices.len() / 3).sum();
-        let d = self.dynamic_meshes.iter().map(|m| m.indices.len() / 3).sum();
+        let d = self
+            .dynamic_meshes
+            .iter()
+            .map(|m| m.indices.len() / 3)
+            .sum();
         (s, d)
     }
 }

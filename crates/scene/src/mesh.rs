@@ -15,7 +15,10 @@ pub struct Aabb {
 
 impl Aabb {
     /// The empty box (identity of [`Aabb::union`]).
-    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
 
     /// True if no point was added.
     pub fn is_empty(&self) -> bool {
@@ -30,7 +33,10 @@ impl Aabb {
 
     /// The smallest box holding both.
     pub fn union(&self, o: &Aabb) -> Aabb {
-        Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
+        Aabb {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
     }
 
     /// Centre of the box.
@@ -40,7 +46,11 @@ impl Aabb {
 
     /// Length of the diagonal (0 for an empty box).
     pub fn diagonal(&self) -> f32 {
-        if self.is_empty() { 0.0 } else { (self.max - self.min).length() }
+        if self.is_empty() {
+            0.0
+        } else {
+            (self.max - self.min).length()
+        }
     }
 
     /// The box of the 8 transformed corners.
@@ -80,12 +90,18 @@ pub fn compute_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
         }
     }
     let fallback = fallback.unwrap_or(Vec3::Y);
-    acc.into_iter().map(|n| n.try_normalize().unwrap_or(fallback)).collect()
+    acc.into_iter()
+        .map(|n| n.try_normalize().unwrap_or(fallback))
+        .collect()
 }
 
 fn srgb_to_linear(c: u8) -> f32 {
     let c = c as f32 / 255.0;
-    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
 }
 
 /// Bilinear sample (repeat wrap, texel centres at half-integers, sRGB decoded
@@ -108,7 +124,11 @@ pub fn sample_bilinear_srgb(t: &Texture, uv: Vec2) -> Vec3 {
         let yi = yi.rem_euclid(h) as usize;
         let o = (yi * t.width as usize + xi) * 4;
         let p = &t.rgba8_srgb[o..o + 3];
-        Vec3::new(srgb_to_linear(p[0]), srgb_to_linear(p[1]), srgb_to_linear(p[2]))
+        Vec3::new(
+            srgb_to_linear(p[0]),
+            srgb_to_linear(p[1]),
+            srgb_to_linear(p[2]),
+        )
     };
     let (xi, yi) = (x0 as i64, y0 as i64);
     let top = texel(xi, yi).lerp(texel(xi + 1, yi), fx);
