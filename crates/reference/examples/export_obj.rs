@@ -1,0 +1,198 @@
+//! Exports a scene for the Mitsuba 3 validation and renders the gibake
+//! reference images of it.
+//!
+//! ```text
+//! cargo run -p gibake-reference --release --example export_obj -- OUT_DIR \
+//!     [--scene SCENE.glb] [--time T] [--size N] [--spp N] [--segments N] [--seed S] [--spot]
+//! ```
+//!
+//! Without `--scene` the hand-built validation corner
+//! (`gibake_reference::scenes::validation_corner`) is used; `--spot` replaces
+//! its directional light by a hard-edged spot (glTF inner = outer = 35°,
+//! 6 W/sr), which Mitsuba's `spot` emitter reproduces up to a 0.1°-wide rim. Writes to `OUT_DIR`:
+//! one OBJ per mesh (world space at time T, positions and vertex normals),
+//! `scene.json` (camera, light, meshes with albedo, image size, spp, timings)
+//! and `gibake_direct.exr` / `gibake_one_bounce.exr` (N × N, `spp` samples).
+//! `crates/reference/validation/mitsuba_validate.py OUT_DIR` renders the same
+//! scene with Mitsuba and compares.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use gibake_reference::{Depth, RayScene, Settings, View, render_view, scenes};
+use gibake_scene::{LightKind, LoadOptions, Projection, Scene};
+use glam::Vec3;
+
+fn usage() -> ! {
+    eprintln!(
+        "usage: export_obj OUT_DIR [--scene SCENE.glb] [--time T] [--size N] [--spp N] [--segments N] [--seed S] [--spot]"
+    );
+    std::process::exit(2);
+}
+
+fn v3(v: Vec3) -> String {
+    format!("[{:?}, {:?}, {:?}]", v.x, v.y, v.z)
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let mut out: Option<PathBuf> = None;
+    let mut scene_path: Option<PathBuf> = None;
+    let mut use_spot = false;
+    let (mut time, mut size, mut spp, mut segments, mut seed) =
+        (0.0f32, 128u32, 1024u32, 48u32, 0u64);
+    while let Some(a) = args.next() {
+        let mut val = || args.next().unwrap_or_else(|| usage());
+        match a.as_str() {
+            "--scene" => scene_path = Some(val().into()),
+            "--time" => time = val().parse().unwrap_or_else(|_| usage()),
+            "--size" => size = val().parse().unwrap_or_else(|_| usage()),
+            "--spp" => spp = val().parse().unwrap_or_else(|_| usage()),
+            "--segments" => segments = val().parse().unwrap_or_else(|_| usage()),
+            "--seed" => seed = val().parse().unwrap_or_else(|_| usage()),
+            "--spot" => use_spot = true,
+            s if s.starts_with("--") => usage(),
+            s => out = Some(s.into()),
+        }
+    }
+    let out = out.unwrap_or_else(|| usage());
+    std::fs::create_dir_all(&out).expect("create OUT_DIR");
+
+    let (scene, view): (Scene, View) = match &scene_path {
+        None => {
+            let (mut scene, view) = scenes::validation_corner(segments);
+            if use_spot {
+                let pos = Vec3::new(0.9, 1.9, 1.3);
+                let cone = 35f32.to_radians();
+                scene.light = scenes::spot(
+                    pos,
+                    Vec3::new(-0.3, 0.2, -0.4) - pos,
+                    Vec3::splat(6.0),
+                    cone,
+                    cone,
+                );
+            }
+            (scene, view)
+        }
+        Some(p) => {
+            let scene = gibake_scene::load(p, &LoadOptions::default()).unwrap_or_else(|e| {
+                eprintln!("{e}");
+                std::process::exit(2)
+            });
+            let view = View::from_scene(&scene, time).unwrap_or_else(|e| {
+                eprintln!("{e}");
+                std::process::exit(2)
+            });
+            (scene, view)
+        }
+    };
+    if !scene.textures.is_empty() {
+        eprintln!("warning: textures are not exported; Mitsuba gets the base colour factors only");
+    }
+
+    // Meshes, in world space at `time`.
+    let mut meshes_json = Vec::new();
+    let mut triangles = 0usize;
+    for (i, (mesh, world)) in scene.meshes_at(time).into_iter().enumerate() {
+        let normal_matrix = glam::Mat3::from_mat4(world).inverse().transpose();
+        let mut obj = String::new();
+        for p in &mesh.positions {
+            let p = world.transform_point3(*p);
+            writeln!(obj, "v {:?} {:?} {:?}", p.x, p.y, p.z).unwrap();
+        }
+        for n in &mesh.normals {
+            let n = (normal_matrix * *n).normalize_or_zero();
+            writeln!(obj, "vn {:?} {:?} {:?}", n.x, n.y, n.z).unwrap();
+        }
+        for t in mesh.indices.chunks_exact(3) {
+            writeln!(
+                obj,
+                "f {0}//{0} {1}//{1} {2}//{2}",
+                t[0] + 1,
+                t[1] + 1,
+                t[2] + 1
+            )
+            .unwrap();
+        }
+        triangles += mesh.indices.len() / 3;
+        let file = format!("mesh_{i:03}.obj");
+        std::fs::write(out.join(&file), obj).expect("write OBJ");
+        let albedo = scene.materials[mesh.material].base_color;
+        meshes_json.push(format!(
+            "    {{\"file\": \"{file}\", \"name\": {:?}, \"albedo\": {}}}",
+            mesh.name,
+            v3(albedo)
+        ));
+    }
+
+    let camera = match view.projection {
+        Projection::Perspective { yfov, znear, .. } => format!(
+            "{{\"type\": \"perspective\", \"position\": {}, \"forward\": {}, \"up\": {}, \"yfov_deg\": {:?}, \"znear\": {:?}}}",
+            v3(view.position),
+            v3(view.forward()),
+            v3(view.up()),
+            yfov.to_degrees(),
+            znear
+        ),
+        Projection::Orthographic { .. } => {
+            eprintln!("orthographic cameras are not supported by the validation script");
+            std::process::exit(2)
+        }
+    };
+    let l = &scene.light;
+    let light = match l.kind {
+        LightKind::Directional => format!(
+            "{{\"type\": \"directional\", \"direction\": {}, \"irradiance\": {}}}",
+            v3(l.direction),
+            v3(l.color)
+        ),
+        LightKind::Spot {
+            inner_cone,
+            outer_cone,
+        } => format!(
+            "{{\"type\": \"spot\", \"position\": {}, \"direction\": {}, \"intensity\": {}, \"inner_deg\": {:?}, \"outer_deg\": {:?}}}",
+            v3(l.position),
+            v3(l.direction),
+            v3(l.color),
+            inner_cone.to_degrees(),
+            outer_cone.to_degrees()
+        ),
+    };
+
+    // gibake reference renders.
+    let rs = RayScene::build(&scene, time);
+    let mut renders = Vec::new();
+    for (depth, name) in [(Depth::Direct, "direct"), (Depth::OneBounce, "one_bounce")] {
+        let settings = Settings {
+            width: size,
+            height: size,
+            spp,
+            time,
+            depth,
+            seed,
+        };
+        let t0 = Instant::now();
+        let img = render_view(&rs, &view, &settings, &|_| {}).expect("render");
+        let secs = t0.elapsed().as_secs_f64();
+        let file = format!("gibake_{name}.exr");
+        img.write_exr(&out.join(&file)).expect("write EXR");
+        eprintln!(
+            "gibake {name}: {size}×{size}, {spp} spp, {secs:.2} s, mean {}",
+            img.mean()
+        );
+        renders.push(format!(
+            "    \"{name}\": {{\"file\": \"{file}\", \"seconds\": {secs:.3}}}"
+        ));
+    }
+
+    let threads = rayon::current_num_threads();
+    let json = format!(
+        "{{\n  \"source\": {:?},\n  \"width\": {size},\n  \"height\": {size},\n  \"spp\": {spp},\n  \"time\": {time:?},\n  \"triangles\": {triangles},\n  \"threads\": {threads},\n  \"camera\": {camera},\n  \"light\": {light},\n  \"meshes\": [\n{}\n  ],\n  \"gibake\": {{\n{}\n  }}\n}}\n",
+        scene.source.display().to_string(),
+        meshes_json.join(",\n"),
+        renders.join(",\n")
+    );
+    std::fs::write(out.join("scene.json"), json).expect("write scene.json");
+    eprintln!("wrote {} ({triangles} triangles)", out.display());
+}
