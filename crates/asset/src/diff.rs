@@ -1,0 +1,1075 @@
+//! [`diff`]: compares two assets under a [`Tolerance`] (settings, scene hash,
+//! light view, VPL sets, every map) and reports what differs
+//! ([`DiffReport`], `Display` + `Serialize`); [`write_diff_images`] writes
+//! `|A − B|` EXRs of the maps that differ.
+
+use std::collections::HashMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::exrio::{self, Samples};
+use crate::format::layers_to_atlas;
+use crate::{Asset, AssetError, NO_MAP, VplRecord};
+
+/// How far apart two assets may be and still count as equal.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Tolerance {
+    /// Relative tolerance per map texel: `|a − b| ≤ map_rel · max(|a|, |b|)`
+    /// passes (also used for the light view's numbers).
+    pub map_rel: f32,
+    /// Absolute tolerance per map texel (in the map's units) that always
+    /// passes, whatever `map_rel` says. Maps are in scene units, so keep it 0
+    /// for scale-invariant comparisons.
+    pub map_abs_texels: f32,
+    /// VPL position tolerance, relative to the scene diagonal (the diagonal
+    /// of the bounding box of all VPL positions of both assets).
+    pub vpl_position_rel: f32,
+    /// VPL normal tolerance (angle, degrees).
+    pub vpl_normal_deg: f32,
+    /// VPL flux (and area) tolerance, relative: `‖Φa − Φb‖ / max(‖Φa‖, ‖Φb‖)`.
+    pub vpl_flux_rel: f32,
+    /// Fraction of a map's texels that may be over tolerance (0 = none).
+    pub max_texels_over: f64,
+    /// Count provenance differences (adapter, driver, baker version) as
+    /// differences; by default they are only reported.
+    pub strict_provenance: bool,
+}
+
+impl Tolerance {
+    /// Everything exact: the same scene, settings and adapter must give
+    /// byte-identical assets, so any difference counts.
+    pub fn same_machine() -> Tolerance {
+        Tolerance {
+            map_rel: 0.0,
+            map_abs_texels: 0.0,
+            vpl_position_rel: 0.0,
+            vpl_normal_deg: 0.0,
+            vpl_flux_rel: 0.0,
+            max_texels_over: 0.0,
+            strict_provenance: false,
+        }
+    }
+
+    /// For a bake on another GPU or driver: maps within 1e-3 relative with at
+    /// most 0.5 % of texels over; VPL positions within 1e-3 of the scene
+    /// diagonal, normals within 1°, flux within 1e-3 relative.
+    pub fn another_gpu() -> Tolerance {
+        Tolerance {
+            map_rel: 1e-3,
+            map_abs_texels: 0.0,
+            vpl_position_rel: 1e-3,
+            vpl_normal_deg: 1.0,
+            vpl_flux_rel: 1e-3,
+            max_texels_over: 0.005,
+            strict_provenance: false,
+        }
+    }
+}
+
+impl Default for Tolerance {
+    fn default() -> Self {
+        Tolerance::same_machine()
+    }
+}
+
+/// One field that differs.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FieldDiff {
+    /// Field name.
+    pub field: String,
+    /// Value in A.
+    pub a: String,
+    /// Value in B.
+    pub b: String,
+}
+
+/// A VPL that is unmatched or over tolerance.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct VplMismatch {
+    /// Index in A (`None`: only in B).
+    pub a: Option<usize>,
+    /// Index in B (`None`: only in A).
+    pub b: Option<usize>,
+    /// Position (A's when matched or only in A, else B's).
+    pub position: [f32; 3],
+    /// Position difference relative to the scene diagonal (0 when unmatched).
+    pub position_rel: f64,
+    /// Normal difference, degrees.
+    pub normal_deg: f64,
+    /// Relative flux difference.
+    pub flux_rel: f64,
+    /// Relative area difference.
+    pub area_rel: f64,
+}
+
+/// Comparison of the VPL sets.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct VplDiff {
+    /// VPLs in A.
+    pub count_a: usize,
+    /// VPLs in B.
+    pub count_b: usize,
+    /// `"index"` (same count, every pair close) or `"nearest"` (mutual
+    /// nearest neighbours within 2 % of the scene diagonal).
+    pub matching: String,
+    /// Matched pairs.
+    pub matched: usize,
+    /// VPLs of A with no partner in B.
+    pub unmatched_a: usize,
+    /// VPLs of B with no partner in A.
+    pub unmatched_b: usize,
+    /// Scene diagonal used to normalise positions.
+    pub scene_diagonal: f64,
+    /// Largest position difference of a pair, relative to the diagonal.
+    pub max_position_rel: f64,
+    /// RMS position difference, relative to the diagonal.
+    pub rms_position_rel: f64,
+    /// Largest normal difference (degrees).
+    pub max_normal_deg: f64,
+    /// RMS normal difference (degrees).
+    pub rms_normal_deg: f64,
+    /// Largest relative flux difference.
+    pub max_flux_rel: f64,
+    /// RMS relative flux difference.
+    pub rms_flux_rel: f64,
+    /// Largest relative area difference.
+    pub max_area_rel: f64,
+    /// Pairs whose RSM texel counts differ (reported only).
+    pub texel_count_differs: usize,
+    /// Matched pairs over tolerance.
+    pub over_tolerance: usize,
+    /// The worst VPLs (unmatched first), at most 10.
+    pub worst: Vec<VplMismatch>,
+    /// No unmatched VPL and no pair over tolerance.
+    pub within_tolerance: bool,
+}
+
+/// Comparison of one map (or one RSM channel, or all hemisphere maps).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MapDiff {
+    /// `primary_depth`, `vpl_maps`, `rsm.D`, `rsm.flux.R`, … `rsm.vpl`.
+    pub name: String,
+    /// Whether both exist with the same dimensions (else see `note`).
+    pub comparable: bool,
+    /// Texels compared.
+    pub texels: u64,
+    /// Largest absolute difference over texels finite in both.
+    pub max_abs: f64,
+    /// RMS difference over texels finite in both.
+    pub rmse: f64,
+    /// Texels over tolerance (including infinite vs finite).
+    pub over: u64,
+    /// `over / texels`.
+    pub over_fraction: f64,
+    /// Texels infinite (no surface) in one and finite in the other.
+    pub inf_mismatch: u64,
+    /// For `vpl_maps`: the A index of the VPL whose map is worst.
+    pub worst_vpl: Option<usize>,
+    /// For `vpl_maps`: texels over tolerance in that worst map.
+    pub worst_layer_over: u64,
+    /// For `vpl_maps`: largest absolute difference in that worst map.
+    pub worst_layer_max_abs: f64,
+    /// Why not comparable, if so.
+    pub note: String,
+    /// Comparable and `over_fraction ≤ max_texels_over`.
+    pub within_tolerance: bool,
+}
+
+/// What [`diff`] found.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DiffReport {
+    /// The tolerance used.
+    pub tolerance: Tolerance,
+    /// Settings that differ.
+    pub settings: Vec<FieldDiff>,
+    /// Provenance fields that differ (differences only with
+    /// `strict_provenance`).
+    pub provenance: Vec<FieldDiff>,
+    /// Static scene hash, when it differs.
+    pub static_scene_hash: Option<FieldDiff>,
+    /// Light view fields that differ beyond `map_rel`.
+    pub light_view: Vec<FieldDiff>,
+    /// The VPL sets.
+    pub vpls: VplDiff,
+    /// Every map.
+    pub maps: Vec<MapDiff>,
+    /// One line per difference that counts; empty when equal.
+    pub differences: Vec<String>,
+}
+
+impl DiffReport {
+    /// True when nothing differs beyond the tolerance.
+    pub fn equal(&self) -> bool {
+        self.differences.is_empty()
+    }
+}
+
+// ---------------------------------------------------------------- VPL matching
+
+/// Matching radius, relative to the scene diagonal.
+const MATCH_RADIUS: f64 = 0.02;
+
+struct Matching {
+    pairs: Vec<(usize, usize)>,
+    unmatched_a: Vec<usize>,
+    unmatched_b: Vec<usize>,
+    by_index: bool,
+    diag: f64,
+}
+
+fn pos(v: &VplRecord) -> [f64; 3] {
+    v.position.map(|x| x as f64)
+}
+
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+fn scene_diagonal(a: &[VplRecord], b: &[VplRecord]) -> f64 {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for v in a.iter().chain(b) {
+        for k in 0..3 {
+            let p = v.position[k] as f64;
+            if p.is_finite() {
+                lo[k] = lo[k].min(p);
+                hi[k] = hi[k].max(p);
+            }
+        }
+    }
+    let d = dist(lo, hi);
+    if d.is_finite() && d > 0.0 { d } else { 1.0 }
+}
+
+/// Nearest point of `to` (restricted to `live`) within `radius` of `p`,
+/// ties to the lowest index.
+struct Grid {
+    cell: f64,
+    origin: [f64; 3],
+    cells: HashMap<[i64; 3], Vec<usize>>,
+}
+
+impl Grid {
+    fn key(&self, p: [f64; 3]) -> [i64; 3] {
+        [0, 1, 2].map(|k| ((p[k] - self.origin[k]) / self.cell).floor() as i64)
+    }
+
+    fn new(points: &[VplRecord], live: &[bool], cell: f64, origin: [f64; 3]) -> Grid {
+        let mut g = Grid {
+            cell,
+            origin,
+            cells: HashMap::new(),
+        };
+        for (i, v) in points.iter().enumerate() {
+            if live[i] {
+                let k = g.key(pos(v));
+                g.cells.entry(k).or_default().push(i);
+            }
+        }
+        g
+    }
+
+    fn nearest(&self, points: &[VplRecord], p: [f64; 3], radius: f64) -> Option<usize> {
+        let k = self.key(p);
+        let mut best: Option<(f64, usize)> = None;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let key = [
+                        k[0].wrapping_add(dx),
+                        k[1].wrapping_add(dy),
+                        k[2].wrapping_add(dz),
+                    ];
+                    for &j in self.cells.get(&key).map(Vec::as_slice).unwrap_or(&[]) {
+                        let d = dist(p, pos(&points[j]));
+                        if d <= radius && best.is_none_or(|(bd, bj)| (d, j) < (bd, bj)) {
+                            best = Some((d, j));
+                        }
+                    }
+                }
+            }
+        }
+        best.map(|(_, j)| j)
+    }
+}
+
+fn match_vpls(a: &[VplRecord], b: &[VplRecord]) -> Matching {
+    let diag = scene_diagonal(a, b);
+    let radius = MATCH_RADIUS * diag;
+    if a.len() == b.len() && a.iter().zip(b).all(|(x, y)| dist(pos(x), pos(y)) <= radius) {
+        return Matching {
+            pairs: (0..a.len()).map(|i| (i, i)).collect(),
+            unmatched_a: vec![],
+            unmatched_b: vec![],
+            by_index: true,
+            diag,
+        };
+    }
+    let origin = a.first().or(b.first()).map(pos).unwrap_or([0.0; 3]);
+    let (mut live_a, mut live_b) = (vec![true; a.len()], vec![true; b.len()]);
+    let mut pairs = Vec::new();
+    // Mutual nearest neighbours, repeated on what is left.
+    for _round in 0..8 {
+        let ga = Grid::new(a, &live_a, radius, origin);
+        let gb = Grid::new(b, &live_b, radius, origin);
+        let mut new = Vec::new();
+        for i in (0..a.len()).filter(|&i| live_a[i]) {
+            let Some(j) = gb.nearest(b, pos(&a[i]), radius) else {
+                continue;
+            };
+            if ga.nearest(a, pos(&b[j]), radius) == Some(i) {
+                new.push((i, j));
+            }
+        }
+        if new.is_empty() {
+            break;
+        }
+        for &(i, j) in &new {
+            live_a[i] = false;
+            live_b[j] = false;
+        }
+        pairs.extend(new);
+    }
+    pairs.sort_unstable();
+    Matching {
+        pairs,
+        unmatched_a: (0..a.len()).filter(|&i| live_a[i]).collect(),
+        unmatched_b: (0..b.len()).filter(|&j| live_b[j]).collect(),
+        by_index: false,
+        diag,
+    }
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    let m = a.abs().max(b.abs());
+    if m == 0.0 { 0.0 } else { (a - b).abs() / m }
+}
+
+fn rel3(a: [f32; 3], b: [f32; 3]) -> f64 {
+    let (a, b) = (a.map(|x| x as f64), b.map(|x| x as f64));
+    let norm = |v: [f64; 3]| dist(v, [0.0; 3]);
+    let m = norm(a).max(norm(b));
+    if m == 0.0 { 0.0 } else { dist(a, b) / m }
+}
+
+fn angle_deg(a: [f32; 3], b: [f32; 3]) -> f64 {
+    let (a, b) = (a.map(|x| x as f64), b.map(|x| x as f64));
+    let (na, nb) = (dist(a, [0.0; 3]), dist(b, [0.0; 3]));
+    if na == 0.0 || nb == 0.0 {
+        return if na == nb { 0.0 } else { 90.0 };
+    }
+    let c = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / (na * nb);
+    c.clamp(-1.0, 1.0).acos().to_degrees()
+}
+
+fn compare_vpls(a: &[VplRecord], b: &[VplRecord], m: &Matching, tol: &Tolerance) -> VplDiff {
+    let mut d = VplDiff {
+        count_a: a.len(),
+        count_b: b.len(),
+        matching: if m.by_index { "index" } else { "nearest" }.into(),
+        matched: m.pairs.len(),
+        unmatched_a: m.unmatched_a.len(),
+        unmatched_b: m.unmatched_b.len(),
+        scene_diagonal: m.diag,
+        max_position_rel: 0.0,
+        rms_position_rel: 0.0,
+        max_normal_deg: 0.0,
+        rms_normal_deg: 0.0,
+        max_flux_rel: 0.0,
+        rms_flux_rel: 0.0,
+        max_area_rel: 0.0,
+        texel_count_differs: 0,
+        over_tolerance: 0,
+        worst: vec![],
+        within_tolerance: true,
+    };
+    let mut worst = Vec::new();
+    for &i in &m.unmatched_a {
+        worst.push((f64::INFINITY, mismatch(Some(i), None, a[i].position)));
+    }
+    for &j in &m.unmatched_b {
+        worst.push((f64::INFINITY, mismatch(None, Some(j), b[j].position)));
+    }
+    let (mut sp, mut sn, mut sf) = (0.0, 0.0, 0.0);
+    let score = |x: f64, t: f32| {
+        if x == 0.0 {
+            0.0
+        } else {
+            x / (t as f64).max(1e-12)
+        }
+    };
+    for &(i, j) in &m.pairs {
+        let (va, vb) = (&a[i], &b[j]);
+        let p = dist(pos(va), pos(vb)) / m.diag;
+        let n = angle_deg(va.normal, vb.normal);
+        let f = rel3(va.flux, vb.flux);
+        let ar = rel(va.area as f64, vb.area as f64);
+        d.max_position_rel = d.max_position_rel.max(p);
+        d.max_normal_deg = d.max_normal_deg.max(n);
+        d.max_flux_rel = d.max_flux_rel.max(f);
+        d.max_area_rel = d.max_area_rel.max(ar);
+        (sp, sn, sf) = (sp + p * p, sn + n * n, sf + f * f);
+        if va.texels != vb.texels {
+            d.texel_count_differs += 1;
+        }
+        let over = p > tol.vpl_position_rel as f64
+            || n > tol.vpl_normal_deg as f64
+            || f > tol.vpl_flux_rel as f64
+            || ar > tol.vpl_flux_rel as f64;
+        if over {
+            d.over_tolerance += 1;
+            let s = score(p, tol.vpl_position_rel)
+                .max(score(n, tol.vpl_normal_deg))
+                .max(score(f, tol.vpl_flux_rel))
+                .max(score(ar, tol.vpl_flux_rel));
+            let mut mm = mismatch(Some(i), Some(j), va.position);
+            (mm.position_rel, mm.normal_deg, mm.flux_rel, mm.area_rel) = (p, n, f, ar);
+            worst.push((s, mm));
+        }
+    }
+    let k = m.pairs.len().max(1) as f64;
+    (d.rms_position_rel, d.rms_normal_deg, d.rms_flux_rel) =
+        ((sp / k).sqrt(), (sn / k).sqrt(), (sf / k).sqrt());
+    // Stable: unmatched (infinite score) first in index order, then worst first.
+    worst.sort_by(|x, y| y.0.total_cmp(&x.0));
+    d.worst = worst.into_iter().take(10).map(|(_, m)| m).collect();
+    d.within_tolerance = d.unmatched_a == 0 && d.unmatched_b == 0 && d.over_tolerance == 0;
+    d
+}
+
+fn mismatch(a: Option<usize>, b: Option<usize>, position: [f32; 3]) -> VplMismatch {
+    VplMismatch {
+        a,
+        b,
+        position,
+        position_rel: 0.0,
+        normal_deg: 0.0,
+        flux_rel: 0.0,
+        area_rel: 0.0,
+    }
+}
+
+// ---------------------------------------------------------------- maps
+
+#[derive(Default, Clone, Copy)]
+struct Acc {
+    texels: u64,
+    finite: u64,
+    sum_sq: f64,
+    max_abs: f64,
+    over: u64,
+    inf_mismatch: u64,
+}
+
+impl Acc {
+    fn add(&mut self, a: f32, b: f32, tol: &Tolerance) {
+        self.texels += 1;
+        if a.is_finite() && b.is_finite() {
+            let d = (a as f64 - b as f64).abs();
+            self.finite += 1;
+            self.sum_sq += d * d;
+            self.max_abs = self.max_abs.max(d);
+            let allowed = (tol.map_abs_texels as f64)
+                .max(tol.map_rel as f64 * (a.abs() as f64).max(b.abs() as f64));
+            if d > allowed {
+                self.over += 1;
+            }
+        } else if a == b || (a.is_nan() && b.is_nan()) {
+            // Same infinity (or both NaN): equal.
+        } else {
+            self.over += 1;
+            if a.is_finite() != b.is_finite() {
+                self.inf_mismatch += 1;
+            }
+        }
+    }
+
+    fn add_u32(&mut self, a: u32, b: u32) {
+        self.texels += 1;
+        self.finite += 1;
+        let d = (a as f64 - b as f64).abs();
+        self.sum_sq += d * d;
+        self.max_abs = self.max_abs.max(d);
+        if a != b {
+            self.over += 1;
+        }
+    }
+
+    fn merge(&mut self, o: &Acc) {
+        self.texels += o.texels;
+        self.finite += o.finite;
+        self.sum_sq += o.sum_sq;
+        self.max_abs = self.max_abs.max(o.max_abs);
+        self.over += o.over;
+        self.inf_mismatch += o.inf_mismatch;
+    }
+
+    fn report(&self, name: &str, tol: &Tolerance) -> MapDiff {
+        let over_fraction = if self.texels == 0 {
+            0.0
+        } else {
+            self.over as f64 / self.texels as f64
+        };
+        MapDiff {
+            name: name.into(),
+            comparable: true,
+            texels: self.texels,
+            max_abs: self.max_abs,
+            rmse: if self.finite == 0 {
+                0.0
+            } else {
+                (self.sum_sq / self.finite as f64).sqrt()
+            },
+            over: self.over,
+            over_fraction,
+            inf_mismatch: self.inf_mismatch,
+            worst_vpl: None,
+            worst_layer_over: 0,
+            worst_layer_max_abs: 0.0,
+            note: String::new(),
+            within_tolerance: self.over as f64 <= tol.max_texels_over * self.texels as f64,
+        }
+    }
+}
+
+fn not_comparable(name: &str, note: String) -> MapDiff {
+    MapDiff {
+        name: name.into(),
+        comparable: false,
+        texels: 0,
+        max_abs: 0.0,
+        rmse: 0.0,
+        over: 0,
+        over_fraction: 0.0,
+        inf_mismatch: 0,
+        worst_vpl: None,
+        worst_layer_over: 0,
+        worst_layer_max_abs: 0.0,
+        note,
+        within_tolerance: false,
+    }
+}
+
+fn compare_slices(a: &[f32], b: &[f32], tol: &Tolerance) -> Acc {
+    let mut acc = Acc::default();
+    for (&x, &y) in a.iter().zip(b) {
+        acc.add(x, y, tol);
+    }
+    acc
+}
+
+/// `(A's VPL index, A's map, B's map)`; `None`: not stored (all infinite).
+type MapPair<'a> = (usize, Option<&'a [f32]>, Option<&'a [f32]>);
+
+/// The hemisphere map pairs to compare: for each matched VPL pair where at
+/// least one side stores a map, `(A index, A map or None, B map or None)`.
+fn map_pairs<'a>(a: &'a Asset, b: &'a Asset, m: &Matching) -> Vec<MapPair<'a>> {
+    m.pairs
+        .iter()
+        .filter(|&&(i, j)| a.vpls[i].map != NO_MAP || b.vpls[j].map != NO_MAP)
+        .map(|&(i, j)| (i, a.vpl_map_of(i), b.vpl_map_of(j)))
+        .collect()
+}
+
+fn compare_maps(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> Vec<MapDiff> {
+    let mut out = Vec::new();
+    let (pa, pb) = (&a.primary_depth, &b.primary_depth);
+    if pa.size != pb.size || pa.data.len() != pb.data.len() {
+        out.push(not_comparable(
+            "primary_depth",
+            format!("size {}² vs {}²", pa.size, pb.size),
+        ));
+    } else {
+        out.push(compare_slices(&pa.data, &pb.data, tol).report("primary_depth", tol));
+    }
+
+    let (sa, sb) = (
+        a.manifest.settings.vpl_map_size,
+        b.manifest.settings.vpl_map_size,
+    );
+    if sa != sb {
+        out.push(not_comparable(
+            "vpl_maps",
+            format!("map size {sa}² vs {sb}²"),
+        ));
+    } else {
+        let texels = sa as usize * sa as usize;
+        let inf = vec![f32::INFINITY; texels];
+        let mut total = Acc::default();
+        let mut worst: Option<(usize, Acc)> = None;
+        for (i, ma, mb) in map_pairs(a, b, m) {
+            let (ma, mb) = (ma.unwrap_or(&inf), mb.unwrap_or(&inf));
+            let acc = compare_slices(ma, mb, tol);
+            total.merge(&acc);
+            let better = |w: &(usize, Acc)| (acc.over, acc.max_abs) > (w.1.over, w.1.max_abs);
+            if worst.as_ref().is_none_or(better) {
+                worst = Some((i, acc));
+            }
+        }
+        let mut r = total.report("vpl_maps", tol);
+        if let Some((i, w)) = worst.filter(|(_, w)| w.over > 0 || w.max_abs > 0.0) {
+            (r.worst_vpl, r.worst_layer_over, r.worst_layer_max_abs) = (Some(i), w.over, w.max_abs);
+        }
+        out.push(r);
+    }
+
+    match (&a.rsm, &b.rsm) {
+        (None, None) => {}
+        (Some(_), None) => out.push(not_comparable("rsm", "stored in A only".into())),
+        (None, Some(_)) => out.push(not_comparable("rsm", "stored in B only".into())),
+        (Some(ra), Some(rb)) if ra.size != rb.size || ra.metric.len() != rb.metric.len() => out
+            .push(not_comparable(
+                "rsm",
+                format!("size {}² vs {}²", ra.size, rb.size),
+            )),
+        (Some(ra), Some(rb)) => {
+            out.push(compare_slices(&ra.metric, &rb.metric, tol).report("rsm.D", tol));
+            for (c, name) in ["rsm.flux.R", "rsm.flux.G", "rsm.flux.B"]
+                .iter()
+                .enumerate()
+            {
+                let mut acc = Acc::default();
+                for (x, y) in ra.flux.iter().zip(&rb.flux) {
+                    acc.add(x[c], y[c], tol);
+                }
+                out.push(acc.report(name, tol));
+            }
+            let mut acc = Acc::default();
+            for (&x, &y) in ra.vpl.iter().zip(&rb.vpl) {
+                acc.add_u32(x, y);
+            }
+            out.push(acc.report("rsm.vpl", tol));
+        }
+    }
+    out
+}
+
+// ---------------------------------------------------------------- diff
+
+fn field<T: fmt::Debug + PartialEq>(out: &mut Vec<FieldDiff>, name: &str, a: &T, b: &T) {
+    if a != b {
+        out.push(FieldDiff {
+            field: name.into(),
+            a: format!("{a:?}"),
+            b: format!("{b:?}"),
+        });
+    }
+}
+
+fn close_arrays(out: &mut Vec<FieldDiff>, name: &str, a: &[f32], b: &[f32], rel_tol: f32) {
+    let scale = a.iter().chain(b).fold(0f32, |m, x| m.max(x.abs()));
+    let ok = a.len() == b.len()
+        && a.iter()
+            .zip(b)
+            .all(|(x, y)| x == y || (x - y).abs() <= rel_tol * scale);
+    if !ok {
+        out.push(FieldDiff {
+            field: name.into(),
+            a: format!("{a:?}"),
+            b: format!("{b:?}"),
+        });
+    }
+}
+
+/// Compares asset `a` with asset `b` under `tol`: settings, provenance
+/// (reported; counted only with `strict_provenance`), static scene hash,
+/// light view, the VPL sets (matched by index when the counts agree and every
+/// pair is close, else by mutual nearest neighbours within 2 % of the scene
+/// diagonal) and every map (`primary_depth`; the hemisphere maps of matched
+/// VPLs, a missing map counting as all-infinite; each RSM channel). Infinity
+/// equals infinity; infinite vs finite is over tolerance.
+pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
+    let (ma, mb) = (&a.manifest, &b.manifest);
+    let mut differences = Vec::new();
+
+    let mut settings = Vec::new();
+    let (sa, sb) = (&ma.settings, &mb.settings);
+    field(&mut settings, "rsm_size", &sa.rsm_size, &sb.rsm_size);
+    field(
+        &mut settings,
+        "vpl_map_size",
+        &sa.vpl_map_size,
+        &sb.vpl_map_size,
+    );
+    field(
+        &mut settings,
+        "shadow_map_size",
+        &sa.shadow_map_size,
+        &sb.shadow_map_size,
+    );
+    field(
+        &mut settings,
+        "threshold",
+        &sa.threshold.to_bits(),
+        &sb.threshold.to_bits(),
+    );
+    if let Some(f) = settings.last_mut().filter(|f| f.field == "threshold") {
+        (f.a, f.b) = (sa.threshold.to_string(), sb.threshold.to_string());
+    }
+    field(&mut settings, "vpl_budget", &sa.vpl_budget, &sb.vpl_budget);
+    for f in &settings {
+        differences.push(format!("settings: {} {} vs {}", f.field, f.a, f.b));
+    }
+
+    let mut provenance = Vec::new();
+    let (pa, pb) = (&ma.provenance, &mb.provenance);
+    field(
+        &mut provenance,
+        "baker_version",
+        &pa.baker_version,
+        &pb.baker_version,
+    );
+    field(
+        &mut provenance,
+        "scene_name",
+        &pa.scene_name,
+        &pb.scene_name,
+    );
+    field(&mut provenance, "adapter", &pa.adapter, &pb.adapter);
+    field(&mut provenance, "backend", &pa.backend, &pb.backend);
+    field(&mut provenance, "driver", &pa.driver, &pb.driver);
+    if tol.strict_provenance {
+        for f in &provenance {
+            differences.push(format!("provenance: {} {} vs {}", f.field, f.a, f.b));
+        }
+    }
+
+    let static_scene_hash = (ma.static_scene_hash != mb.static_scene_hash).then(|| {
+        let hex = |h: &[u8; 32]| h.iter().map(|b| format!("{b:02x}")).collect::<String>();
+        FieldDiff {
+            field: "static_scene_hash".into(),
+            a: hex(&ma.static_scene_hash),
+            b: hex(&mb.static_scene_hash),
+        }
+    });
+    if static_scene_hash.is_some() {
+        differences.push("static scene hash differs: baked from different static scenes".into());
+    }
+
+    let mut light_view = Vec::new();
+    let (la, lb) = (&ma.light_view, &mb.light_view);
+    field(
+        &mut light_view,
+        "directional",
+        &la.directional,
+        &lb.directional,
+    );
+    close_arrays(
+        &mut light_view,
+        "view_proj",
+        &la.view_proj,
+        &lb.view_proj,
+        tol.map_rel,
+    );
+    close_arrays(
+        &mut light_view,
+        "origin",
+        &la.origin,
+        &lb.origin,
+        tol.map_rel,
+    );
+    close_arrays(
+        &mut light_view,
+        "direction",
+        &la.direction,
+        &lb.direction,
+        tol.map_rel,
+    );
+    close_arrays(
+        &mut light_view,
+        "texel_scale",
+        &[la.texel_scale],
+        &[lb.texel_scale],
+        tol.map_rel,
+    );
+    close_arrays(
+        &mut light_view,
+        "texel_area",
+        &[la.texel_area],
+        &[lb.texel_area],
+        tol.map_rel,
+    );
+    for f in &light_view {
+        differences.push(format!("light view: {} differs", f.field));
+    }
+
+    let matching = match_vpls(&a.vpls, &b.vpls);
+    let vpls = compare_vpls(&a.vpls, &b.vpls, &matching, tol);
+    if vpls.unmatched_a > 0 || vpls.unmatched_b > 0 {
+        differences.push(format!(
+            "VPLs: {} of A and {} of B unmatched (counts {} vs {})",
+            vpls.unmatched_a, vpls.unmatched_b, vpls.count_a, vpls.count_b
+        ));
+    }
+    if vpls.over_tolerance > 0 {
+        differences.push(format!(
+            "VPLs: {} matched pairs over tolerance (max position {:.3e} of the diagonal, normal {:.3}°, flux {:.3e})",
+            vpls.over_tolerance, vpls.max_position_rel, vpls.max_normal_deg, vpls.max_flux_rel
+        ));
+    }
+
+    let maps = compare_maps(a, b, &matching, tol);
+    for m in maps.iter().filter(|m| !m.within_tolerance) {
+        if m.comparable {
+            differences.push(format!(
+                "map {}: {} of {} texels ({:.4}%) over tolerance (allowed {:.4}%), max abs diff {:.4e}",
+                m.name,
+                m.over,
+                m.texels,
+                100.0 * m.over_fraction,
+                100.0 * tol.max_texels_over,
+                m.max_abs
+            ));
+        } else {
+            differences.push(format!("map {}: not comparable ({})", m.name, m.note));
+        }
+    }
+
+    DiffReport {
+        tolerance: tol.clone(),
+        settings,
+        provenance,
+        static_scene_hash,
+        light_view,
+        vpls,
+        maps,
+        differences,
+    }
+}
+
+impl fmt::Display for DiffReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.equal() {
+            writeln!(f, "EQUAL within tolerance")?;
+        } else {
+            writeln!(f, "DIFFERENT: {} difference(s)", self.differences.len())?;
+            for d in &self.differences {
+                writeln!(f, "  - {d}")?;
+            }
+        }
+        let t = &self.tolerance;
+        writeln!(
+            f,
+            "tolerance: map rel {} abs {}, texels over ≤ {}%, VPL position {} of diagonal, normal {}°, flux {}{}",
+            t.map_rel,
+            t.map_abs_texels,
+            100.0 * t.max_texels_over,
+            t.vpl_position_rel,
+            t.vpl_normal_deg,
+            t.vpl_flux_rel,
+            if t.strict_provenance {
+                ", strict provenance"
+            } else {
+                ""
+            }
+        )?;
+        let list = |f: &mut fmt::Formatter<'_>, title: &str, v: &[FieldDiff]| -> fmt::Result {
+            if v.is_empty() {
+                return writeln!(f, "{title}: same");
+            }
+            writeln!(f, "{title}:")?;
+            for d in v {
+                writeln!(f, "  {}: {} vs {}", d.field, d.a, d.b)?;
+            }
+            Ok(())
+        };
+        list(f, "settings", &self.settings)?;
+        let prov_title = if self.tolerance.strict_provenance {
+            "provenance"
+        } else {
+            "provenance (reported only)"
+        };
+        list(f, prov_title, &self.provenance)?;
+        match &self.static_scene_hash {
+            None => writeln!(f, "static scene hash: same")?,
+            Some(h) => writeln!(f, "static scene hash: {} vs {}", h.a, h.b)?,
+        }
+        list(f, "light view", &self.light_view)?;
+        let v = &self.vpls;
+        writeln!(
+            f,
+            "VPLs: {} vs {}, matched {} by {}, unmatched {} in A / {} in B (scene diagonal {:.4})",
+            v.count_a,
+            v.count_b,
+            v.matched,
+            v.matching,
+            v.unmatched_a,
+            v.unmatched_b,
+            v.scene_diagonal
+        )?;
+        writeln!(
+            f,
+            "  position max {:.3e} rms {:.3e} (of diagonal); normal max {:.3}° rms {:.3}°; flux max {:.3e} rms {:.3e}; area max {:.3e}",
+            v.max_position_rel,
+            v.rms_position_rel,
+            v.max_normal_deg,
+            v.rms_normal_deg,
+            v.max_flux_rel,
+            v.rms_flux_rel,
+            v.max_area_rel
+        )?;
+        if v.texel_count_differs > 0 {
+            writeln!(
+                f,
+                "  {} matched pairs cover different RSM texel counts",
+                v.texel_count_differs
+            )?;
+        }
+        for w in &v.worst {
+            let idx = |x: Option<usize>| x.map_or("-".to_string(), |i| i.to_string());
+            match (w.a, w.b) {
+                (Some(_), Some(_)) => writeln!(
+                    f,
+                    "  VPL A#{} / B#{} at {:?}: position {:.3e}, normal {:.3}°, flux {:.3e}, area {:.3e}",
+                    idx(w.a),
+                    idx(w.b),
+                    w.position,
+                    w.position_rel,
+                    w.normal_deg,
+                    w.flux_rel,
+                    w.area_rel
+                )?,
+                (Some(_), None) => {
+                    writeln!(f, "  VPL A#{} at {:?}: no match in B", idx(w.a), w.position)?
+                }
+                _ => writeln!(f, "  VPL B#{} at {:?}: no match in A", idx(w.b), w.position)?,
+            }
+        }
+        writeln!(f, "maps:")?;
+        for m in &self.maps {
+            if !m.comparable {
+                writeln!(f, "  {:<14} not comparable: {}", m.name, m.note)?;
+                continue;
+            }
+            writeln!(
+                f,
+                "  {:<14} {:>10} texels  max abs {:.4e}  rmse {:.4e}  over {} ({:.4}%), inf/finite {}  {}",
+                m.name,
+                m.texels,
+                m.max_abs,
+                m.rmse,
+                m.over,
+                100.0 * m.over_fraction,
+                m.inf_mismatch,
+                if m.within_tolerance {
+                    "ok"
+                } else {
+                    "DIFFERENT"
+                }
+            )?;
+            if let Some(i) = m.worst_vpl {
+                writeln!(
+                    f,
+                    "  {:<14} worst: map of VPL A#{i}, {} texels over, max abs {:.4e}",
+                    "", m.worst_layer_over, m.worst_layer_max_abs
+                )?;
+            }
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------- images
+
+fn abs_diff(a: f32, b: f32) -> f32 {
+    if a == b || (a.is_nan() && b.is_nan()) {
+        0.0
+    } else if a.is_finite() && b.is_finite() {
+        (a - b).abs()
+    } else {
+        f32::INFINITY
+    }
+}
+
+fn write_exr(
+    dir: &Path,
+    name: &str,
+    w: usize,
+    h: usize,
+    channels: Vec<(&str, Samples)>,
+) -> Result<PathBuf, AssetError> {
+    let path = dir.join(name);
+    let bytes = exrio::encode(w, h, channels)
+        .map_err(|e| AssetError::invalid(&path, format!("cannot encode EXR: {e}")))?;
+    std::fs::write(&path, bytes).map_err(|e| AssetError::io(&path, e))?;
+    Ok(path)
+}
+
+/// Writes an EXR of `|A − B|` (channel `D`; infinity where one side is
+/// infinite and the other not, 0 where both are infinite) into `dir` for
+/// each map that differs and has the same size in both:
+/// `primary_depth.diff.exr`; `vpl_maps.diff.exr`, an atlas (layout as in
+/// `vpl_maps.exr`) with one tile per matched VPL pair where either side
+/// stores a map, in A's VPL order (a missing map counts as all-infinite);
+/// `rsm.diff.exr` with channels `D`, `flux.R`, `flux.G`, `flux.B` and `vpl`
+/// (1 where the VPL index differs). Creates `dir` if needed; returns the
+/// paths written (none when nothing differs).
+pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf>, AssetError> {
+    std::fs::create_dir_all(dir).map_err(|e| AssetError::io(dir, e))?;
+    let mut written = Vec::new();
+    let diffs = |x: &[f32], y: &[f32]| -> Vec<f32> {
+        x.iter().zip(y).map(|(&p, &q)| abs_diff(p, q)).collect()
+    };
+    let nonzero = |v: &[f32]| v.iter().any(|&x| x != 0.0);
+
+    let (pa, pb) = (&a.primary_depth, &b.primary_depth);
+    if pa.size == pb.size && pa.data.len() == pb.data.len() {
+        let d = diffs(&pa.data, &pb.data);
+        if nonzero(&d) {
+            let n = pa.size as usize;
+            let ch = vec![("D", Samples::F32(d))];
+            written.push(write_exr(dir, "primary_depth.diff.exr", n, n, ch)?);
+        }
+    }
+
+    let size = a.manifest.settings.vpl_map_size;
+    if size == b.manifest.settings.vpl_map_size {
+        let matching = match_vpls(&a.vpls, &b.vpls);
+        let texels = size as usize * size as usize;
+        let inf = vec![f32::INFINITY; texels];
+        let mut layers = Vec::new();
+        let mut count = 0u32;
+        for (_, ma, mb) in map_pairs(a, b, &matching) {
+            layers.extend(diffs(ma.unwrap_or(&inf), mb.unwrap_or(&inf)));
+            count += 1;
+        }
+        if nonzero(&layers) {
+            let (w, h, atlas) = layers_to_atlas(&layers, count, size);
+            let ch = vec![("D", Samples::F32(atlas))];
+            written.push(write_exr(dir, "vpl_maps.diff.exr", w, h, ch)?);
+        }
+    }
+
+    if let (Some(ra), Some(rb)) = (&a.rsm, &b.rsm) {
+        if ra.size == rb.size && ra.metric.len() == rb.metric.len() {
+            let d = diffs(&ra.metric, &rb.metric);
+            let flux = |c: usize| -> Vec<f32> {
+                ra.flux
+                    .iter()
+                    .zip(&rb.flux)
+                    .map(|(x, y)| abs_diff(x[c], y[c]))
+                    .collect()
+            };
+            let (r, g, bl) = (flux(0), flux(1), flux(2));
+            let v: Vec<f32> = ra
+                .vpl
+                .iter()
+                .zip(&rb.vpl)
+                .map(|(x, y)| if x == y { 0.0 } else { 1.0 })
+                .collect();
+            if [&d, &r, &g, &bl, &v].iter().any(|c| nonzero(c)) {
+                let n = ra.size as usize;
+                let ch = vec![
+                    ("D", Samples::F32(d)),
+                    ("flux.R", Samples::F32(r)),
+                    ("flux.G", Samples::F32(g)),
+                    ("flux.B", Samples::F32(bl)),
+                    ("vpl", Samples::F32(v)),
+                ];
+                written.push(write_exr(dir, "rsm.diff.exr", n, n, ch)?);
+            }
+        }
+    }
+    Ok(written)
+}

@@ -1,0 +1,881 @@
+//! Reading and writing the `NAME.gibake/` directory: `manifest.bin` (magic,
+//! version, bincode payload, BLAKE3 trailer), `vpls.bin`, and the EXR maps.
+//! See `docs/asset-format.md` for the byte layout.
+
+use std::fs;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+use crate::exrio::{self, Kind, Samples};
+use crate::{
+    Asset, AssetError, FORMAT_MAJOR, FORMAT_MINOR, FileEntry, MAGIC, Manifest, Map, NO_MAP,
+    RsmData, VplRecord,
+};
+
+/// The manifest file name.
+pub const FILE_MANIFEST: &str = "manifest.bin";
+/// The VPL record array file name.
+pub const FILE_VPLS: &str = "vpls.bin";
+/// The primary shadow map file name.
+pub const FILE_PRIMARY_DEPTH: &str = "primary_depth.exr";
+/// The hemisphere map atlas file name (only when `map_count > 0`).
+pub const FILE_VPL_MAPS: &str = "vpl_maps.exr";
+/// The static RSM file name (only when `has_dynamic`).
+pub const FILE_RSM: &str = "rsm.exr";
+
+/// Size of one [`VplRecord`] in `vpls.bin`.
+pub const VPL_RECORD_BYTES: usize = 48;
+/// Largest accepted map resolution (RSM, primary shadow map, hemisphere map).
+pub const MAX_MAP_SIZE: u32 = 16384;
+/// Largest accepted number of texels in one map file (the atlas): 2³¹
+/// (8 GiB of f32). Protects readers from absurd allocations.
+const MAX_TEXELS: u64 = 1 << 31;
+/// Largest accepted manifest payload (16 MiB; real ones are a few hundred bytes).
+const MAX_PAYLOAD: u64 = 1 << 24;
+/// Magic (8) + major (2) + minor (2) + payload length (8).
+const HEADER_BYTES: usize = 20;
+/// BLAKE3 of everything before it.
+const TRAILER_BYTES: usize = 32;
+
+type Limited = bincode::config::Configuration<
+    bincode::config::LittleEndian,
+    bincode::config::Varint,
+    bincode::config::Limit<{ 1 << 24 }>,
+>;
+
+fn bincode_config() -> Limited {
+    bincode::config::standard().with_limit::<{ 1 << 24 }>()
+}
+
+/// The atlas grid of `map_count` maps: `(cols, rows)` with
+/// `cols = ceil(sqrt(map_count))` and `rows = ceil(map_count / cols)`;
+/// `(0, 0)` for no maps. Map `k` sits at column `k % cols`, row `k / cols`.
+pub fn atlas_grid(map_count: u32) -> (u32, u32) {
+    let n = map_count as u64;
+    if n == 0 {
+        return (0, 0);
+    }
+    let mut c = (n as f64).sqrt() as u64;
+    while c * c < n {
+        c += 1;
+    }
+    while c > 1 && (c - 1) * (c - 1) >= n {
+        c -= 1;
+    }
+    (c as u32, n.div_ceil(c) as u32)
+}
+
+fn hex16(h: &[u8; 32]) -> String {
+    h[..8].iter().map(|b| format!("{b:02x}")).collect()
+}
+
+// ---------------------------------------------------------------- manifest
+
+fn encode_manifest(manifest: &Manifest, path: &Path) -> Result<Vec<u8>, AssetError> {
+    let payload = bincode::serde::encode_to_vec(manifest, bincode_config())
+        .map_err(|e| AssetError::invalid(path, format!("cannot encode the manifest: {e}")))?;
+    let mut out = Vec::with_capacity(HEADER_BYTES + payload.len() + TRAILER_BYTES);
+    out.extend_from_slice(&MAGIC);
+    out.extend_from_slice(&FORMAT_MAJOR.to_le_bytes());
+    out.extend_from_slice(&FORMAT_MINOR.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&payload);
+    let hash = blake3::hash(&out);
+    out.extend_from_slice(hash.as_bytes());
+    Ok(out)
+}
+
+/// Decodes `manifest.bin` bytes; returns the manifest and the file's minor version.
+fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetError> {
+    let bad = |m: String| AssetError::invalid(path, m);
+    if bytes.len() >= MAGIC.len() && bytes[..MAGIC.len()] != MAGIC {
+        return Err(bad("not a gibake asset manifest (wrong magic bytes)".into()));
+    }
+    if bytes.len() < HEADER_BYTES {
+        return Err(bad(format!(
+            "truncated: {} bytes, the header alone is {HEADER_BYTES}",
+            bytes.len()
+        )));
+    }
+    let major = u16::from_le_bytes([bytes[8], bytes[9]]);
+    let minor = u16::from_le_bytes([bytes[10], bytes[11]]);
+    if major != FORMAT_MAJOR {
+        return Err(AssetError::NotSupported {
+            path: path.to_owned(),
+            message: format!(
+                "asset format {major}.{minor} is not supported by this gibake (reads {FORMAT_MAJOR}.x, up to {FORMAT_MAJOR}.{FORMAT_MINOR}); re-bake the scene with this gibake"
+            ),
+        });
+    }
+    let mut len8 = [0u8; 8];
+    len8.copy_from_slice(&bytes[12..20]);
+    let len = u64::from_le_bytes(len8);
+    let rest = (bytes.len() - HEADER_BYTES) as u64;
+    if len > MAX_PAYLOAD || len + TRAILER_BYTES as u64 != rest {
+        return Err(bad(format!(
+            "payload length field says {len} bytes, but {rest} bytes follow the header (expected the payload plus a {TRAILER_BYTES}-byte checksum): truncated or damaged"
+        )));
+    }
+    let end = HEADER_BYTES + len as usize;
+    if blake3::hash(&bytes[..end]).as_bytes() != &bytes[end..] {
+        return Err(bad("checksum mismatch: the manifest is damaged".into()));
+    }
+    let payload = &bytes[HEADER_BYTES..end];
+    let (manifest, used): (Manifest, usize) =
+        bincode::serde::decode_from_slice(payload, bincode_config())
+            .map_err(|e| bad(format!("damaged manifest payload: {e}")))?;
+    if used != payload.len() && !is_newer_minor(minor) {
+        return Err(bad(format!(
+            "{} unexpected bytes after the manifest payload",
+            payload.len() - used
+        )));
+    }
+    Ok((manifest, minor))
+}
+
+/// Reads a whole file, refusing files larger than `max` bytes (before reading).
+fn read_capped(path: &Path, max: u64) -> Result<Vec<u8>, AssetError> {
+    let f = fs::File::open(path).map_err(|e| AssetError::io(path, e))?;
+    let len = f.metadata().map_err(|e| AssetError::io(path, e))?.len();
+    if len > max {
+        return Err(AssetError::invalid(
+            path,
+            format!("file is {len} bytes, more than the {max} a valid one can have"),
+        ));
+    }
+    let mut buf = Vec::with_capacity(len as usize);
+    f.take(max + 1)
+        .read_to_end(&mut buf)
+        .map_err(|e| AssetError::io(path, e))?;
+    if buf.len() as u64 > max {
+        return Err(AssetError::invalid(path, "file grew while being read"));
+    }
+    Ok(buf)
+}
+
+/// Whether a file of format minor `minor` may hold additions this version
+/// does not know (trailing payload bytes, more files).
+fn is_newer_minor(minor: u16) -> bool {
+    minor > FORMAT_MINOR
+}
+
+fn is_plain_name(name: &str) -> bool {
+    !name.is_empty()
+        && name.len() <= 255
+        && !name.starts_with('.')
+        && name
+            .bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-' || b == b'.')
+}
+
+/// The files a manifest with these counts must list, in the order they are
+/// written.
+fn required_files(m: &Manifest) -> Vec<&'static str> {
+    let mut v = vec![FILE_VPLS, FILE_PRIMARY_DEPTH];
+    if m.map_count > 0 {
+        v.push(FILE_VPL_MAPS);
+    }
+    if m.has_dynamic {
+        v.push(FILE_RSM);
+    }
+    v
+}
+
+fn atlas_dims(m: &Manifest) -> (u64, u64) {
+    let (cols, rows) = atlas_grid(m.map_count);
+    let s = m.settings.vpl_map_size as u64;
+    (cols as u64 * s, rows as u64 * s)
+}
+
+/// Checks the manifest's values (sizes, counts, and unless writing, the file
+/// list) on their own.
+fn validate_manifest(
+    m: &Manifest,
+    minor: u16,
+    path: &Path,
+    check_files: bool,
+) -> Result<(), AssetError> {
+    let bad = |msg: String| Err(AssetError::invalid(path, msg));
+    let s = &m.settings;
+    for (name, v) in [
+        ("rsm_size", s.rsm_size),
+        ("vpl_map_size", s.vpl_map_size),
+        ("shadow_map_size", s.shadow_map_size),
+    ] {
+        if v == 0 || v > MAX_MAP_SIZE {
+            return bad(format!(
+                "settings.{name} = {v} is not in 1..={MAX_MAP_SIZE}"
+            ));
+        }
+    }
+    if !s.threshold.is_finite() {
+        return bad(format!(
+            "settings.threshold = {} is not finite",
+            s.threshold
+        ));
+    }
+    let lv = &m.light_view;
+    let lv_finite = lv
+        .view_proj
+        .iter()
+        .chain(&lv.origin)
+        .chain(&lv.direction)
+        .chain([&lv.texel_scale, &lv.texel_area])
+        .all(|x| x.is_finite());
+    if !lv_finite {
+        return bad("light_view holds a value that is not finite".into());
+    }
+    if m.map_count > m.vpl_count {
+        return bad(format!(
+            "map_count {} is larger than vpl_count {} (each stored map belongs to one VPL)",
+            m.map_count, m.vpl_count
+        ));
+    }
+    let (w, h) = atlas_dims(m);
+    if w * h > MAX_TEXELS || w > i32::MAX as u64 || h > i32::MAX as u64 {
+        return bad(format!(
+            "{} hemisphere maps of {}² make an absurdly large atlas ({w}x{h})",
+            m.map_count, s.vpl_map_size
+        ));
+    }
+    if !check_files {
+        return Ok(());
+    }
+    let required = required_files(m);
+    for (i, f) in m.files.iter().enumerate() {
+        if m.files[..i].iter().any(|g| g.name == f.name) {
+            return bad(format!("file `{}` is listed twice", f.name));
+        }
+        let known = [
+            FILE_VPLS,
+            FILE_PRIMARY_DEPTH,
+            FILE_VPL_MAPS,
+            FILE_RSM,
+            FILE_MANIFEST,
+        ];
+        if known.contains(&f.name.as_str()) {
+            if !required.contains(&f.name.as_str()) {
+                return bad(format!(
+                    "file `{}` is listed but the counts say it is not stored (map_count {}, has_dynamic {})",
+                    f.name, m.map_count, m.has_dynamic
+                ));
+            }
+        } else if !is_newer_minor(minor) || !is_plain_name(&f.name) {
+            return bad(format!("unknown file `{}` listed", f.name.escape_debug()));
+        }
+    }
+    for r in &required {
+        if !m.files.iter().any(|f| f.name == *r) {
+            return bad(format!("file `{r}` is not listed"));
+        }
+    }
+    let vpls_size = m.vpl_count as u64 * VPL_RECORD_BYTES as u64;
+    if let Some(f) = m.files.iter().find(|f| f.name == FILE_VPLS) {
+        if f.size != vpls_size {
+            return bad(format!(
+                "`{FILE_VPLS}` is listed with {} bytes but vpl_count {} needs {vpls_size}",
+                f.size, m.vpl_count
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn load_manifest_inner(dir: &Path) -> Result<(Manifest, u16), AssetError> {
+    let path = dir.join(FILE_MANIFEST);
+    let bytes = read_capped(&path, (HEADER_BYTES + TRAILER_BYTES) as u64 + MAX_PAYLOAD)?;
+    let (m, minor) = decode_manifest(&bytes, &path)?;
+    validate_manifest(&m, minor, &path, true)?;
+    Ok((m, minor))
+}
+
+/// Reads and verifies `dir/manifest.bin` only (magic, version, length,
+/// checksum, values): cheap, for `inspect` and for checking the scene hash
+/// before loading the maps. Does not read or verify the other files.
+pub fn load_manifest(dir: &Path) -> Result<Manifest, AssetError> {
+    load_manifest_inner(dir).map(|(m, _)| m)
+}
+
+/// Compares the asset's static scene hash with `hash` (the static scene hash
+/// of the scene at `scene_path`); a [`AssetError::SceneMismatch`] naming the
+/// asset (by the scene it was baked from) and the scene when they differ.
+pub fn check_scene_hash(
+    manifest: &Manifest,
+    hash: &[u8; 32],
+    scene_path: &Path,
+) -> Result<(), AssetError> {
+    let asset = format!("the asset baked from `{}`", manifest.provenance.scene_name);
+    check_hash(asset, manifest, hash, scene_path)
+}
+
+/// Like [`check_scene_hash`], naming the asset by its directory `asset_dir`.
+pub fn check_scene_hash_for(
+    asset_dir: &Path,
+    manifest: &Manifest,
+    hash: &[u8; 32],
+    scene_path: &Path,
+) -> Result<(), AssetError> {
+    let asset = format!(
+        "{} (baked from `{}`)",
+        asset_dir.display(),
+        manifest.provenance.scene_name
+    );
+    check_hash(asset, manifest, hash, scene_path)
+}
+
+fn check_hash(
+    asset: String,
+    manifest: &Manifest,
+    hash: &[u8; 32],
+    scene_path: &Path,
+) -> Result<(), AssetError> {
+    if &manifest.static_scene_hash == hash {
+        return Ok(());
+    }
+    Err(AssetError::SceneMismatch {
+        asset,
+        scene: scene_path.to_owned(),
+        asset_hash: hex16(&manifest.static_scene_hash),
+        scene_hash: hex16(hash),
+    })
+}
+
+// ---------------------------------------------------------------- load
+
+/// Reads one listed file, checking its size (before reading) and BLAKE3.
+fn read_verified(dir: &Path, entry: &FileEntry) -> Result<Vec<u8>, AssetError> {
+    let path = dir.join(&entry.name);
+    let f = fs::File::open(&path).map_err(|e| AssetError::io(&path, e))?;
+    let len = f.metadata().map_err(|e| AssetError::io(&path, e))?.len();
+    if len != entry.size {
+        return Err(AssetError::invalid(
+            &path,
+            format!(
+                "file is {len} bytes but the manifest says {}: truncated or damaged",
+                entry.size
+            ),
+        ));
+    }
+    let mut buf = Vec::new();
+    buf.try_reserve_exact(len as usize)
+        .map_err(|_| AssetError::invalid(&path, format!("cannot allocate {len} bytes")))?;
+    f.take(len + 1)
+        .read_to_end(&mut buf)
+        .map_err(|e| AssetError::io(&path, e))?;
+    if buf.len() as u64 != len {
+        return Err(AssetError::invalid(
+            &path,
+            "file changed size while being read",
+        ));
+    }
+    if blake3::hash(&buf).as_bytes() != &entry.blake3 {
+        return Err(AssetError::invalid(
+            &path,
+            "checksum mismatch (BLAKE3 differs from the manifest): the file is damaged",
+        ));
+    }
+    Ok(buf)
+}
+
+fn decode_vpls(bytes: &[u8], path: &Path, map_count: u32) -> Result<Vec<VplRecord>, AssetError> {
+    let mut out = Vec::with_capacity(bytes.len() / VPL_RECORD_BYTES);
+    for (i, chunk) in bytes.chunks_exact(VPL_RECORD_BYTES).enumerate() {
+        let mut w = [0u32; 12];
+        for (k, v) in w.iter_mut().enumerate() {
+            *v = u32::from_le_bytes([
+                chunk[4 * k],
+                chunk[4 * k + 1],
+                chunk[4 * k + 2],
+                chunk[4 * k + 3],
+            ]);
+        }
+        let f = |k: usize| f32::from_bits(w[k]);
+        let rec = VplRecord {
+            position: [f(0), f(1), f(2)],
+            area: f(3),
+            normal: [f(4), f(5), f(6)],
+            texels: w[7],
+            flux: [f(8), f(9), f(10)],
+            map: w[11],
+        };
+        check_vpl(&rec, i, map_count).map_err(|m| AssetError::invalid(path, m))?;
+        out.push(rec);
+    }
+    Ok(out)
+}
+
+fn check_vpl(rec: &VplRecord, i: usize, map_count: u32) -> Result<(), String> {
+    let floats = rec
+        .position
+        .iter()
+        .chain(&rec.normal)
+        .chain(&rec.flux)
+        .chain([&rec.area]);
+    if !floats.clone().all(|x| x.is_finite()) {
+        return Err(format!("VPL {i} holds a value that is not finite: {rec:?}"));
+    }
+    if rec.area < 0.0 || rec.flux.iter().any(|&x| x < 0.0) {
+        return Err(format!("VPL {i} has a negative area or flux: {rec:?}"));
+    }
+    if rec.map != NO_MAP && rec.map >= map_count {
+        return Err(format!(
+            "VPL {i} refers to hemisphere map {} but only {map_count} are stored",
+            rec.map
+        ));
+    }
+    Ok(())
+}
+
+fn encode_vpls(vpls: &[VplRecord]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(vpls.len() * VPL_RECORD_BYTES);
+    for r in vpls {
+        let words: [u32; 12] = [
+            r.position[0].to_bits(),
+            r.position[1].to_bits(),
+            r.position[2].to_bits(),
+            r.area.to_bits(),
+            r.normal[0].to_bits(),
+            r.normal[1].to_bits(),
+            r.normal[2].to_bits(),
+            r.texels,
+            r.flux[0].to_bits(),
+            r.flux[1].to_bits(),
+            r.flux[2].to_bits(),
+            r.map,
+        ];
+        for w in words {
+            out.extend_from_slice(&w.to_le_bytes());
+        }
+    }
+    out
+}
+
+fn no_nan(data: &[f32], path: &Path, what: &str) -> Result<(), AssetError> {
+    match data.iter().position(|x| x.is_nan()) {
+        None => Ok(()),
+        Some(i) => Err(AssetError::invalid(
+            path,
+            format!("{what} holds NaN at texel {i}"),
+        )),
+    }
+}
+
+/// Splits an atlas (`cols*size × rows*size`) into `count` layer-major maps.
+pub(crate) fn atlas_to_layers(atlas: &[f32], count: u32, size: u32) -> Vec<f32> {
+    let (cols, _) = atlas_grid(count);
+    let (s, cols) = (size as usize, cols as usize);
+    let w = cols * s;
+    let mut out = Vec::with_capacity(count as usize * s * s);
+    for k in 0..count as usize {
+        let (cx, cy) = (k % cols, k / cols);
+        for y in 0..s {
+            let start = (cy * s + y) * w + cx * s;
+            out.extend_from_slice(&atlas[start..start + s]);
+        }
+    }
+    out
+}
+
+/// Packs `count` layer-major maps of `size²` into an atlas (unused tiles
+/// +inf); returns `(width, height, texels)`.
+pub(crate) fn layers_to_atlas(layers: &[f32], count: u32, size: u32) -> (usize, usize, Vec<f32>) {
+    let (cols, rows) = atlas_grid(count);
+    let s = size as usize;
+    let (w, h) = (cols as usize * s, rows as usize * s);
+    let mut out = vec![f32::INFINITY; w * h];
+    for k in 0..count as usize {
+        let (cx, cy) = (k % cols as usize, k / cols as usize);
+        for y in 0..s {
+            let dst = (cy * s + y) * w + cx * s;
+            let src = (k * s + y) * s;
+            out[dst..dst + s].copy_from_slice(&layers[src..src + s]);
+        }
+    }
+    (w, h, out)
+}
+
+/// Loads the asset at `dir` and verifies everything: magic, version (another
+/// major is [`AssetError::NotSupported`] naming both versions), manifest
+/// length and checksum, every file's size and BLAKE3 against the manifest,
+/// the counts and sizes against the file contents, and the values (finite
+/// VPL records, map indices in range, no NaN in maps). Every error names the
+/// file concerned. Never panics, and never allocates more than the files on
+/// disk justify (plus the decoded maps, whose size the manifest bounds).
+pub fn load(dir: &Path) -> Result<Asset, AssetError> {
+    let (manifest, _minor) = load_manifest_inner(dir)?;
+    // Verify every listed file (including unknown ones of a newer minor)
+    // before decoding anything.
+    let mut contents: Vec<(&str, Vec<u8>)> = Vec::new();
+    for entry in &manifest.files {
+        let bytes = read_verified(dir, entry)?;
+        contents.push((entry.name.as_str(), bytes));
+    }
+    let take = |name: &str| -> &[u8] {
+        contents
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, b)| b.as_slice())
+            .unwrap_or(&[])
+    };
+    let s = &manifest.settings;
+
+    let path = dir.join(FILE_VPLS);
+    let vpls = decode_vpls(take(FILE_VPLS), &path, manifest.map_count)?;
+
+    let path = dir.join(FILE_PRIMARY_DEPTH);
+    let n = s.shadow_map_size as usize;
+    let data = exrio::decode(take(FILE_PRIMARY_DEPTH), &path, n, n, &[("D", Kind::F32)])?;
+    let data = data
+        .into_iter()
+        .next()
+        .map(Samples::into_f32)
+        .unwrap_or_default();
+    no_nan(&data, &path, "channel D")?;
+    let primary_depth = Map {
+        size: s.shadow_map_size,
+        data,
+    };
+
+    let vpl_maps = if manifest.map_count > 0 {
+        let path = dir.join(FILE_VPL_MAPS);
+        let (w, h) = atlas_dims(&manifest);
+        let data = exrio::decode(
+            take(FILE_VPL_MAPS),
+            &path,
+            w as usize,
+            h as usize,
+            &[("D", Kind::F32)],
+        )?;
+        let atlas = data
+            .into_iter()
+            .next()
+            .map(Samples::into_f32)
+            .unwrap_or_default();
+        let layers = atlas_to_layers(&atlas, manifest.map_count, s.vpl_map_size);
+        no_nan(&layers, &path, "channel D")?;
+        layers
+    } else {
+        Vec::new()
+    };
+
+    let rsm = if manifest.has_dynamic {
+        let path = dir.join(FILE_RSM);
+        let n = s.rsm_size as usize;
+        let chans = [
+            ("D", Kind::F32),
+            ("flux.R", Kind::F32),
+            ("flux.G", Kind::F32),
+            ("flux.B", Kind::F32),
+            ("vpl", Kind::U32),
+        ];
+        let mut it = exrio::decode(take(FILE_RSM), &path, n, n, &chans)?.into_iter();
+        let mut next = || {
+            it.next()
+                .ok_or_else(|| AssetError::invalid(&path, "channel missing"))
+        };
+        let metric = next()?.into_f32();
+        let (r, g, b) = (next()?.into_f32(), next()?.into_f32(), next()?.into_f32());
+        let vpl = next()?.into_u32();
+        no_nan(&metric, &path, "channel D")?;
+        for (c, name) in [(&r, "flux.R"), (&g, "flux.G"), (&b, "flux.B")] {
+            no_nan(c, &path, &format!("channel {name}"))?;
+        }
+        if let Some(i) = vpl
+            .iter()
+            .position(|&v| v != u32::MAX && v >= manifest.vpl_count)
+        {
+            return Err(AssetError::invalid(
+                &path,
+                format!(
+                    "channel vpl refers to VPL {} at texel {i} but there are {}",
+                    vpl[i], manifest.vpl_count
+                ),
+            ));
+        }
+        let flux = r
+            .iter()
+            .zip(&g)
+            .zip(&b)
+            .map(|((r, g), b)| [*r, *g, *b])
+            .collect();
+        Some(RsmData {
+            size: s.rsm_size,
+            metric,
+            flux,
+            vpl,
+        })
+    } else {
+        None
+    };
+
+    Ok(Asset {
+        manifest,
+        vpls,
+        primary_depth,
+        vpl_maps,
+        rsm,
+    })
+}
+
+// ---------------------------------------------------------------- write
+
+/// Checks the in-memory asset's consistency and returns the manifest to
+/// write (counts and flags filled in from the data, `files` empty).
+fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
+    let bad = |m: String| Err(AssetError::invalid(dir, format!("cannot write: {m}")));
+    let mut m = asset.manifest.clone();
+    m.files.clear();
+    let s = &m.settings;
+    let size = s.vpl_map_size as usize;
+    let texels = size * size;
+    if texels == 0 {
+        return bad("settings.vpl_map_size is 0".into());
+    }
+    if !asset.vpl_maps.len().is_multiple_of(texels) {
+        return bad(format!(
+            "vpl_maps holds {} values, not a multiple of vpl_map_size² = {texels}",
+            asset.vpl_maps.len()
+        ));
+    }
+    let Ok(vpl_count) = u32::try_from(asset.vpls.len()) else {
+        return bad(format!("{} VPLs are too many", asset.vpls.len()));
+    };
+    let Ok(map_count) = u32::try_from(asset.vpl_maps.len() / texels) else {
+        return bad("too many hemisphere maps".into());
+    };
+    m.vpl_count = vpl_count;
+    m.map_count = map_count;
+    m.has_dynamic = asset.rsm.is_some();
+    let sm = s.shadow_map_size;
+    if asset.primary_depth.size != sm || asset.primary_depth.data.len() != sm as usize * sm as usize
+    {
+        return bad(format!(
+            "primary_depth is {}² with {} values but settings.shadow_map_size is {sm}",
+            asset.primary_depth.size,
+            asset.primary_depth.data.len()
+        ));
+    }
+    if let Some(r) = &asset.rsm {
+        let n = s.rsm_size as usize * s.rsm_size as usize;
+        if r.size != s.rsm_size || r.metric.len() != n || r.flux.len() != n || r.vpl.len() != n {
+            return bad(format!(
+                "rsm is {}² ({} / {} / {} values) but settings.rsm_size is {}",
+                r.size,
+                r.metric.len(),
+                r.flux.len(),
+                r.vpl.len(),
+                s.rsm_size
+            ));
+        }
+        if r.metric
+            .iter()
+            .chain(r.flux.iter().flatten())
+            .any(|x| x.is_nan())
+        {
+            return bad("rsm holds NaN".into());
+        }
+        if let Some(v) = r.vpl.iter().find(|&&v| v != u32::MAX && v >= vpl_count) {
+            return bad(format!("rsm refers to VPL {v} but there are {vpl_count}"));
+        }
+    }
+    if asset.primary_depth.data.iter().any(|x| x.is_nan()) {
+        return bad("primary_depth holds NaN".into());
+    }
+    if asset.vpl_maps.iter().any(|x| x.is_nan()) {
+        return bad("vpl_maps holds NaN".into());
+    }
+    for (i, r) in asset.vpls.iter().enumerate() {
+        check_vpl(r, i, map_count)
+            .map_err(|e| AssetError::invalid(dir, format!("cannot write: {e}")))?;
+    }
+    validate_manifest(&m, FORMAT_MINOR, dir, false).map_err(|e| match e {
+        AssetError::Invalid { message, .. } => {
+            AssetError::invalid(dir, format!("cannot write: {message}"))
+        }
+        e => e,
+    })?;
+    Ok(m)
+}
+
+/// Whether `dir` exists and may be replaced: `Ok(false)` when absent,
+/// `Ok(true)` when it is a gibake asset (has `manifest.bin`) or an empty
+/// directory, an error otherwise.
+fn check_target(dir: &Path) -> Result<bool, AssetError> {
+    let meta = match fs::symlink_metadata(dir) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(false),
+        Err(e) => return Err(AssetError::io(dir, e)),
+    };
+    if !meta.is_dir() {
+        return Err(AssetError::invalid(
+            dir,
+            "exists and is not a directory; refusing to replace it with an asset",
+        ));
+    }
+    if dir.join(FILE_MANIFEST).is_file() {
+        return Ok(true);
+    }
+    let mut entries = fs::read_dir(dir).map_err(|e| AssetError::io(dir, e))?;
+    if entries.next().is_none() {
+        return Ok(true);
+    }
+    Err(AssetError::invalid(
+        dir,
+        "exists and is not a gibake asset (no manifest.bin); refusing to replace it",
+    ))
+}
+
+fn sibling(dir: &Path, suffix: &str) -> Result<PathBuf, AssetError> {
+    let name = dir
+        .file_name()
+        .ok_or_else(|| AssetError::invalid(dir, "not a valid asset directory name"))?;
+    let mut tmp = std::ffi::OsString::from(".");
+    tmp.push(name);
+    tmp.push(format!(".{suffix}-{}", std::process::id()));
+    Ok(dir.with_file_name(tmp))
+}
+
+fn write_file(path: &Path, bytes: &[u8]) -> Result<(), AssetError> {
+    let mut f = fs::File::create(path).map_err(|e| AssetError::io(path, e))?;
+    f.write_all(bytes).map_err(|e| AssetError::io(path, e))?;
+    f.sync_all().map_err(|e| AssetError::io(path, e))
+}
+
+/// A step of [`write()`] at which a fault can be injected (tests only).
+type Hook<'a> = &'a mut dyn FnMut(&str) -> std::io::Result<()>;
+
+/// Writes `asset` to the directory `dir` (conventionally `NAME.gibake`).
+///
+/// Everything is written into a temporary sibling directory
+/// (`.NAME.gibake.tmp-<pid>`), `manifest.bin` last, then renamed into place.
+/// An existing `dir` is replaced only if it is a gibake asset (has
+/// `manifest.bin`) or empty; anything else is refused and left untouched.
+/// On failure the temporary directory is removed and no asset is left at
+/// `dir` (an asset that was there before stays as it was).
+///
+/// `manifest.files`, `vpl_count`, `map_count` and `has_dynamic` are filled
+/// in from the data (the in-memory `asset` is not changed); the data must be
+/// consistent with the settings (map sizes, map indices, no NaN), else
+/// [`AssetError::Invalid`] and nothing is written. The output is
+/// deterministic: the same asset gives byte-identical files.
+pub fn write(asset: &Asset, dir: &Path) -> Result<(), AssetError> {
+    write_with_hook(asset, dir, &mut |_| Ok(()))
+}
+
+fn write_with_hook(asset: &Asset, dir: &Path, hook: Hook<'_>) -> Result<(), AssetError> {
+    let mut manifest = prepare_manifest(asset, dir)?;
+    check_target(dir)?;
+    let tmp = sibling(dir, "tmp")?;
+    if fs::symlink_metadata(&tmp).is_ok() {
+        fs::remove_dir_all(&tmp).map_err(|e| AssetError::io(&tmp, e))?;
+    }
+    fs::create_dir(&tmp).map_err(|e| AssetError::io(&tmp, e))?;
+    let result = write_into(asset, &mut manifest, &tmp, hook).and_then(|()| {
+        hook("rename").map_err(|e| AssetError::io(dir, e))?;
+        replace(&tmp, dir)
+    });
+    if result.is_err() {
+        let _ = fs::remove_dir_all(&tmp);
+    }
+    result
+}
+
+fn write_into(
+    asset: &Asset,
+    manifest: &mut Manifest,
+    tmp: &Path,
+    hook: Hook<'_>,
+) -> Result<(), AssetError> {
+    let s = manifest.settings.clone();
+    for name in required_files(manifest) {
+        let path = tmp.join(name);
+        hook(name).map_err(|e| AssetError::io(&path, e))?;
+        let exr_err =
+            |e: exr::error::Error| AssetError::invalid(&path, format!("cannot encode EXR: {e}"));
+        let bytes = match name {
+            FILE_VPLS => encode_vpls(&asset.vpls),
+            FILE_PRIMARY_DEPTH => {
+                let n = s.shadow_map_size as usize;
+                let d = asset.primary_depth.data.clone();
+                exrio::encode(n, n, vec![("D", Samples::F32(d))]).map_err(exr_err)?
+            }
+            FILE_VPL_MAPS => {
+                let (w, h, atlas) =
+                    layers_to_atlas(&asset.vpl_maps, manifest.map_count, s.vpl_map_size);
+                exrio::encode(w, h, vec![("D", Samples::F32(atlas))]).map_err(exr_err)?
+            }
+            _ => {
+                let Some(r) = &asset.rsm else { continue };
+                let n = r.size as usize;
+                let ch = |c: usize| Samples::F32(r.flux.iter().map(|f| f[c]).collect());
+                exrio::encode(
+                    n,
+                    n,
+                    vec![
+                        ("D", Samples::F32(r.metric.clone())),
+                        ("flux.R", ch(0)),
+                        ("flux.G", ch(1)),
+                        ("flux.B", ch(2)),
+                        ("vpl", Samples::U32(r.vpl.clone())),
+                    ],
+                )
+                .map_err(exr_err)?
+            }
+        };
+        write_file(&path, &bytes)?;
+        manifest.files.push(FileEntry {
+            name: name.to_owned(),
+            size: bytes.len() as u64,
+            blake3: *blake3::hash(&bytes).as_bytes(),
+        });
+    }
+    let path = tmp.join(FILE_MANIFEST);
+    hook(FILE_MANIFEST).map_err(|e| AssetError::io(&path, e))?;
+    let bytes = encode_manifest(manifest, &path)?;
+    write_file(&path, &bytes)
+}
+
+/// Moves the finished temporary directory to `dir`, replacing an existing
+/// asset there (moved aside first, restored if the final rename fails).
+fn replace(tmp: &Path, dir: &Path) -> Result<(), AssetError> {
+    if !check_target(dir)? {
+        return fs::rename(tmp, dir).map_err(|e| AssetError::io(dir, e));
+    }
+    let old = sibling(dir, "old")?;
+    if fs::symlink_metadata(&old).is_ok() {
+        fs::remove_dir_all(&old).map_err(|e| AssetError::io(&old, e))?;
+    }
+    fs::rename(dir, &old).map_err(|e| AssetError::io(dir, e))?;
+    if let Err(e) = fs::rename(tmp, dir) {
+        let _ = fs::rename(&old, dir);
+        return Err(AssetError::io(dir, e));
+    }
+    // The new asset is in place; a leftover hidden `.old` directory is harmless.
+    let _ = fs::remove_dir_all(&old);
+    Ok(())
+}
+
+/// Helpers for tests of this crate and its users; not part of the format.
+pub mod testing {
+    use super::*;
+
+    /// Like [`write()`], but fails with an injected I/O error just before the
+    /// step `step`: a file name (`"vpls.bin"`, `"primary_depth.exr"`,
+    /// `"vpl_maps.exr"`, `"rsm.exr"`, `"manifest.bin"`) or `"rename"`.
+    pub fn write_failing_before(asset: &Asset, dir: &Path, step: &str) -> Result<(), AssetError> {
+        write_with_hook(asset, dir, &mut |s| {
+            if s == step {
+                Err(std::io::Error::other(format!(
+                    "injected failure before {s}"
+                )))
+            } else {
+                Ok(())
+            }
+        })
+    }
+
+    /// The bytes of `manifest.bin` for `manifest` as [`write()`] would write them.
+    pub fn manifest_bytes(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
+        encode_manifest(manifest, Path::new(FILE_MANIFEST))
+    }
+}

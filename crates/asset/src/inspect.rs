@@ -1,0 +1,321 @@
+//! [`inspect`]: a summary of an asset (counts, sizes, settings, provenance,
+//! VPL statistics), printable (`Display`) or serialisable (`Serialize`).
+
+use std::fmt;
+
+use serde::Serialize;
+
+use crate::format::{FILE_MANIFEST, testing::manifest_bytes};
+use crate::{Asset, BakeSettings, FORMAT_MAJOR, FORMAT_MINOR, NO_MAP, Provenance};
+
+/// Size of one file of the asset.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FileSize {
+    /// File name inside the asset directory.
+    pub name: String,
+    /// Size in bytes.
+    pub bytes: u64,
+}
+
+/// Order statistics of a set of values (all 0 when empty).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Stats {
+    /// Number of values.
+    pub count: usize,
+    /// Sum.
+    pub total: f64,
+    /// Smallest.
+    pub min: f64,
+    /// Median (mean of the two middle values for an even count).
+    pub median: f64,
+    /// Largest.
+    pub max: f64,
+    /// Mean.
+    pub mean: f64,
+}
+
+impl Stats {
+    /// Statistics of `values` (NaN sorts last; none are expected).
+    pub fn of(values: impl IntoIterator<Item = f64>) -> Stats {
+        let mut v: Vec<f64> = values.into_iter().collect();
+        if v.is_empty() {
+            return Stats::default();
+        }
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        let total: f64 = v.iter().sum();
+        let median = if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            0.5 * (v[n / 2 - 1] + v[n / 2])
+        };
+        Stats {
+            count: n,
+            total,
+            min: v[0],
+            median,
+            max: v[n - 1],
+            mean: total / n as f64,
+        }
+    }
+}
+
+/// Coverage of a distance/metric map.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MapStats {
+    /// Resolution (square) of one map.
+    pub size: u32,
+    /// Number of maps (layers).
+    pub layers: u32,
+    /// Fraction of texels that see a surface (finite value).
+    pub covered_fraction: f64,
+    /// Smallest finite value (0 when none).
+    pub min: f64,
+    /// Largest finite value (0 when none).
+    pub max: f64,
+}
+
+impl MapStats {
+    fn of(size: u32, layers: u32, data: &[f32]) -> MapStats {
+        let (mut n, mut lo, mut hi) = (0usize, f64::INFINITY, f64::NEG_INFINITY);
+        for &x in data.iter().filter(|x| x.is_finite()) {
+            n += 1;
+            lo = lo.min(x as f64);
+            hi = hi.max(x as f64);
+        }
+        let covered_fraction = if data.is_empty() {
+            0.0
+        } else {
+            n as f64 / data.len() as f64
+        };
+        let (min, max) = if n == 0 { (0.0, 0.0) } else { (lo, hi) };
+        MapStats {
+            size,
+            layers,
+            covered_fraction,
+            min,
+            max,
+        }
+    }
+}
+
+/// The summary [`inspect`] returns.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Inspection {
+    /// Format version this summary was made with (`major.minor`).
+    pub format_version: String,
+    /// Provenance (baker, scene, adapter).
+    pub provenance: Provenance,
+    /// Bake settings.
+    pub settings: BakeSettings,
+    /// Static scene hash (64 hex digits).
+    pub static_scene_hash: String,
+    /// `"spot"` or `"directional"`.
+    pub light: String,
+    /// Light origin.
+    pub light_origin: [f32; 3],
+    /// Light direction.
+    pub light_direction: [f32; 3],
+    /// Number of VPLs.
+    pub vpl_count: usize,
+    /// Number of stored hemisphere maps.
+    pub map_count: usize,
+    /// VPLs whose map is not stored (it sees no surface).
+    pub vpls_without_map: usize,
+    /// Whether the scene has moving objects (RSM stored).
+    pub has_dynamic: bool,
+    /// Size of every file, `manifest.bin` first (empty list of data files if
+    /// the asset was never written or loaded).
+    pub files: Vec<FileSize>,
+    /// Sum of `files`.
+    pub total_bytes: u64,
+    /// Total VPL flux (W, RGB).
+    pub total_flux: [f64; 3],
+    /// Luminance of VPL flux.
+    pub flux_luminance: Stats,
+    /// VPL areas (world units²).
+    pub area: Stats,
+    /// RSM texels per VPL.
+    pub texels: Stats,
+    /// The primary shadow map.
+    pub primary_depth: MapStats,
+    /// The hemisphere maps.
+    pub vpl_maps: MapStats,
+    /// The RSM metric (`None` without moving objects).
+    pub rsm: Option<MapStats>,
+}
+
+/// Summarises `asset`: counts, file sizes (from its manifest, as written or
+/// loaded), settings, provenance, VPL flux/area statistics and map coverage.
+pub fn inspect(asset: &Asset) -> Inspection {
+    let m = &asset.manifest;
+    let manifest_size = manifest_bytes(m).map(|b| b.len() as u64).unwrap_or(0);
+    let mut files = vec![FileSize {
+        name: FILE_MANIFEST.into(),
+        bytes: manifest_size,
+    }];
+    files.extend(m.files.iter().map(|f| FileSize {
+        name: f.name.clone(),
+        bytes: f.size,
+    }));
+    let total_bytes = files.iter().map(|f| f.bytes).sum();
+    let mut total_flux = [0f64; 3];
+    for v in &asset.vpls {
+        for (t, f) in total_flux.iter_mut().zip(v.flux) {
+            *t += f as f64;
+        }
+    }
+    let s = &m.settings;
+    let map_count = asset.stored_map_count();
+    Inspection {
+        format_version: format!("{FORMAT_MAJOR}.{FORMAT_MINOR}"),
+        provenance: m.provenance.clone(),
+        settings: s.clone(),
+        static_scene_hash: m
+            .static_scene_hash
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect(),
+        light: if m.light_view.directional {
+            "directional"
+        } else {
+            "spot"
+        }
+        .into(),
+        light_origin: m.light_view.origin,
+        light_direction: m.light_view.direction,
+        vpl_count: asset.vpls.len(),
+        map_count,
+        vpls_without_map: asset.vpls.iter().filter(|v| v.map == NO_MAP).count(),
+        has_dynamic: asset.rsm.is_some(),
+        files,
+        total_bytes,
+        total_flux,
+        flux_luminance: Stats::of(asset.vpls.iter().map(|v| v.flux_luminance() as f64)),
+        area: Stats::of(asset.vpls.iter().map(|v| v.area as f64)),
+        texels: Stats::of(asset.vpls.iter().map(|v| v.texels as f64)),
+        primary_depth: MapStats::of(asset.primary_depth.size, 1, &asset.primary_depth.data),
+        vpl_maps: MapStats::of(s.vpl_map_size, map_count as u32, &asset.vpl_maps),
+        rsm: asset
+            .rsm
+            .as_ref()
+            .map(|r| MapStats::of(r.size, 1, &r.metric)),
+    }
+}
+
+/// Human-readable byte count.
+pub(crate) fn human_bytes(b: u64) -> String {
+    const UNITS: [&str; 4] = ["KiB", "MiB", "GiB", "TiB"];
+    if b < 1024 {
+        return format!("{b} B");
+    }
+    let mut v = b as f64 / 1024.0;
+    let mut u = 0;
+    while v >= 1024.0 && u + 1 < UNITS.len() {
+        v /= 1024.0;
+        u += 1;
+    }
+    format!("{v:.1} {}", UNITS[u])
+}
+
+fn g(x: f64) -> String {
+    if x == 0.0 || (1e-3..1e5).contains(&x.abs()) {
+        format!("{x:.4}")
+    } else {
+        format!("{x:.4e}")
+    }
+}
+
+fn fmt_map(f: &mut fmt::Formatter<'_>, name: &str, m: &MapStats) -> fmt::Result {
+    writeln!(
+        f,
+        "  {name:<14} {} x {}²  {:.1}% covered  finite range {} .. {}",
+        m.layers,
+        m.size,
+        100.0 * m.covered_fraction,
+        g(m.min),
+        g(m.max)
+    )
+}
+
+impl fmt::Display for Inspection {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let p = &self.provenance;
+        let s = &self.settings;
+        writeln!(f, "gibake asset, format {}", self.format_version)?;
+        writeln!(
+            f,
+            "  baked by gibake {} from `{}`",
+            p.baker_version, p.scene_name
+        )?;
+        writeln!(
+            f,
+            "  adapter {} ({}, driver {})",
+            p.adapter, p.backend, p.driver
+        )?;
+        writeln!(f, "  static scene hash {}", self.static_scene_hash)?;
+        let (o, d) = (self.light_origin, self.light_direction);
+        writeln!(
+            f,
+            "  light: {} at ({}, {}, {}) toward ({}, {}, {})",
+            self.light, o[0], o[1], o[2], d[0], d[1], d[2]
+        )?;
+        let budget = s
+            .vpl_budget
+            .map(|b| format!(", VPL budget {b}"))
+            .unwrap_or_default();
+        writeln!(
+            f,
+            "settings: RSM {}², VPL maps {}², shadow map {}², threshold {}{budget}",
+            s.rsm_size, s.vpl_map_size, s.shadow_map_size, s.threshold
+        )?;
+        writeln!(
+            f,
+            "VPLs: {} ({} hemisphere maps stored, {} VPLs see no surface and store none)",
+            self.vpl_count, self.map_count, self.vpls_without_map
+        )?;
+        let t = self.total_flux;
+        writeln!(
+            f,
+            "  total flux (W)    R {}  G {}  B {}",
+            g(t[0]),
+            g(t[1]),
+            g(t[2])
+        )?;
+        let l = &self.flux_luminance;
+        writeln!(
+            f,
+            "  flux luminance    min {}  median {}  max {}",
+            g(l.min),
+            g(l.median),
+            g(l.max)
+        )?;
+        let a = &self.area;
+        writeln!(
+            f,
+            "  area              total {}  min {}  median {}  max {}",
+            g(a.total),
+            g(a.min),
+            g(a.median),
+            g(a.max)
+        )?;
+        let x = &self.texels;
+        writeln!(
+            f,
+            "  RSM texels/VPL    total {}  min {}  median {}  max {}",
+            x.total, x.min, x.median, x.max
+        )?;
+        writeln!(f, "maps:")?;
+        fmt_map(f, "primary depth", &self.primary_depth)?;
+        fmt_map(f, "VPL maps", &self.vpl_maps)?;
+        match &self.rsm {
+            Some(r) => fmt_map(f, "RSM", r)?,
+            None => writeln!(f, "  RSM            not stored (no moving objects)")?,
+        }
+        writeln!(f, "files:")?;
+        for file in &self.files {
+            writeln!(f, "  {:<18} {:>12}", file.name, human_bytes(file.bytes))?;
+        }
+        writeln!(f, "  {:<18} {:>12}", "total", human_bytes(self.total_bytes))
+    }
+}

@@ -1,0 +1,222 @@
+//! The `.gibake` baked asset: a directory holding a manifest, the VPL records
+//! and EXR maps of one bake. The byte-level specification is
+//! `docs/asset-format.md`; this crate is its reference implementation.
+//!
+//! The types below are the in-memory model shared by the baker
+//! (`gibake-bake`) and the runtime (`gibake-runtime`). The functions:
+//!
+//! - [`write()`]: atomic write (temporary sibling directory, manifest last, rename);
+//! - [`load`] / [`load_manifest`]: read and verify everything (magic, version,
+//!   checksums, counts, sizes, values) without panicking on any input;
+//! - [`check_scene_hash`]: refuse an asset baked from a different static scene;
+//! - [`inspect`]: a summary ([`Inspection`], `Display` + `Serialize`);
+//! - [`diff`] / [`write_diff_images`]: compare two assets under a [`Tolerance`].
+
+use serde::{Deserialize, Serialize};
+
+mod diff;
+mod error;
+mod exrio;
+mod format;
+mod inspect;
+
+pub use diff::{
+    DiffReport, FieldDiff, MapDiff, Tolerance, VplDiff, VplMismatch, diff, write_diff_images,
+};
+pub use error::AssetError;
+#[doc(hidden)]
+pub use format::testing;
+pub use format::{
+    FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM, FILE_VPL_MAPS, FILE_VPLS, MAX_MAP_SIZE,
+    VPL_RECORD_BYTES, atlas_grid, check_scene_hash, check_scene_hash_for, load, load_manifest,
+    write,
+};
+pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
+
+/// Magic bytes at the start of `manifest.bin`.
+pub const MAGIC: [u8; 8] = *b"GIBAKE\0\x01";
+/// Format major version: readers reject any other major.
+pub const FORMAT_MAJOR: u16 = 1;
+/// Format minor version: additive changes only.
+pub const FORMAT_MINOR: u16 = 0;
+
+/// One static VPL record. Stored as a little-endian array in `vpls.bin`
+/// (48 bytes each, fields in this order).
+#[repr(C)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable, Serialize, Deserialize,
+)]
+pub struct VplRecord {
+    /// World position.
+    pub position: [f32; 3],
+    /// Surface area its texels cover (world units²).
+    pub area: f32,
+    /// Unit normal.
+    pub normal: [f32; 3],
+    /// Number of RSM texels.
+    pub texels: u32,
+    /// Flux (W, linear RGB); it emits flux/π · cos θ per steradian.
+    pub flux: [f32; 3],
+    /// Layer of its hemisphere map in `vpl_maps.exr`, or [`NO_MAP`] when
+    /// its map sees no surface (every direction is unoccluded).
+    pub map: u32,
+}
+
+/// [`VplRecord::map`] of a VPL whose map is not stored.
+pub const NO_MAP: u32 = u32::MAX;
+
+/// Bake settings, as given (or resolved) at bake time.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BakeSettings {
+    /// RSM resolution (square).
+    pub rsm_size: u32,
+    /// Hemisphere map resolution per VPL (square).
+    pub vpl_map_size: u32,
+    /// Primary shadow map resolution (square).
+    pub shadow_map_size: u32,
+    /// Clustering threshold used.
+    pub threshold: f32,
+    /// `--vpls N` if a count was asked for.
+    pub vpl_budget: Option<u32>,
+}
+
+/// The light view the maps were rendered with (so the runtime merges
+/// moving objects in exactly the same projection). Mirrors
+/// `gibake_gpu::LightView`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LightViewRecord {
+    /// Orthographic (directional light).
+    pub directional: bool,
+    /// World → clip, column-major.
+    pub view_proj: [f32; 16],
+    /// Origin.
+    pub origin: [f32; 3],
+    /// Direction.
+    pub direction: [f32; 3],
+    /// Texel scale.
+    pub texel_scale: f32,
+    /// Texel area.
+    pub texel_area: f32,
+}
+
+/// Where and with what the asset was baked.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Provenance {
+    /// `gibake` version that baked it.
+    pub baker_version: String,
+    /// Scene file name (no directory).
+    pub scene_name: String,
+    /// Adapter name.
+    pub adapter: String,
+    /// Backend.
+    pub backend: String,
+    /// Driver and version.
+    pub driver: String,
+}
+
+/// Checksum entry of one file of the asset.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FileEntry {
+    /// File name inside the asset directory.
+    pub name: String,
+    /// Size in bytes.
+    pub size: u64,
+    /// BLAKE3 hash of the file's bytes.
+    pub blake3: [u8; 32],
+}
+
+/// The manifest payload (bincode 2.0.1, serde, standard config).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// Provenance.
+    pub provenance: Provenance,
+    /// Settings.
+    pub settings: BakeSettings,
+    /// BLAKE3 of the static part of the scene (see `gibake_bake::static_scene_hash`).
+    pub static_scene_hash: [u8; 32],
+    /// The light view of the primary shadow map (shadow_map_size) and RSM (rsm_size).
+    pub light_view: LightViewRecord,
+    /// Number of VPLs.
+    pub vpl_count: u32,
+    /// Number of stored hemisphere maps.
+    pub map_count: u32,
+    /// Whether the scene has moving objects (then `rsm.exr` is stored).
+    pub has_dynamic: bool,
+    /// Per-stage bake times are NOT stored (determinism); files and checksums are.
+    pub files: Vec<FileEntry>,
+}
+
+/// A single-channel square f32 map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Map {
+    /// Width = height.
+    pub size: u32,
+    /// `size²` values, row-major, row 0 at the top.
+    pub data: Vec<f32>,
+}
+
+/// The static RSM data only the dynamic merge reads (stored only when the
+/// scene has moving objects).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RsmData {
+    /// Width = height (rsm_size).
+    pub size: u32,
+    /// Static metric per texel (INFINITY = empty).
+    pub metric: Vec<f32>,
+    /// Reflected flux per texel (RGB).
+    pub flux: Vec<[f32; 3]>,
+    /// VPL index per texel (u32::MAX = none).
+    pub vpl: Vec<u32>,
+}
+
+/// A whole baked asset in memory.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Asset {
+    /// The manifest (its `files` is filled in when written).
+    pub manifest: Manifest,
+    /// VPLs.
+    pub vpls: Vec<VplRecord>,
+    /// Static primary shadow map (metric, shadow_map_size²).
+    pub primary_depth: Map,
+    /// Hemisphere maps, `map_count` layers of `vpl_map_size²` distances
+    /// (INFINITY = no surface), layer-major.
+    pub vpl_maps: Vec<f32>,
+    /// RSM data for the dynamic merge, `None` without moving objects.
+    pub rsm: Option<RsmData>,
+}
+
+impl Asset {
+    /// Number of stored hemisphere maps implied by the data
+    /// (`vpl_maps.len() / vpl_map_size²`, 0 when the size is 0).
+    pub fn stored_map_count(&self) -> usize {
+        let n = self.manifest.settings.vpl_map_size as usize;
+        self.vpl_maps.len().checked_div(n * n).unwrap_or(0)
+    }
+
+    /// Hemisphere map `layer` (`vpl_map_size²` distances, row 0 at the top),
+    /// or `None` when the layer is not stored.
+    pub fn vpl_map(&self, layer: u32) -> Option<&[f32]> {
+        let n = self.manifest.settings.vpl_map_size as usize;
+        let texels = n * n;
+        let start = (layer as usize).checked_mul(texels)?;
+        self.vpl_maps.get(start..start.checked_add(texels)?)
+    }
+
+    /// The hemisphere map of VPL `vpl`, or `None` when it has no stored map
+    /// ([`NO_MAP`]: every direction is unoccluded) or the index is out of range.
+    pub fn vpl_map_of(&self, vpl: usize) -> Option<&[f32]> {
+        let rec = self.vpls.get(vpl)?;
+        if rec.map == NO_MAP {
+            None
+        } else {
+            self.vpl_map(rec.map)
+        }
+    }
+}
+
+impl VplRecord {
+    /// Luminance of the flux (Rec. 709 weights).
+    pub fn flux_luminance(&self) -> f32 {
+        0.2126 * self.flux[0] + 0.7152 * self.flux[1] + 0.0722 * self.flux[2]
+    }
+}

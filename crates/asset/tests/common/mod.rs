@@ -1,0 +1,201 @@
+//! Small in-memory assets shared by the integration tests.
+#![allow(dead_code, missing_docs)]
+
+use std::path::{Path, PathBuf};
+
+use gibake_asset::*;
+
+/// Deterministic pseudo-random numbers in [0, 1).
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Rng {
+        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+    }
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    pub fn f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+}
+
+pub const SHADOW: u32 = 16;
+pub const VPL_MAP: u32 = 8;
+pub const RSM: u32 = 8;
+pub const VPLS: usize = 10;
+
+/// A small asset: 10 VPLs, 7 of them with a hemisphere map (5x5 grid would be
+/// 3 cols x 3 rows), maps with some +inf texels; an RSM when `dynamic`.
+pub fn sample_asset(dynamic: bool) -> Asset {
+    let mut rng = Rng::new(7);
+    let mut vpls = Vec::new();
+    let mut layer = 0u32;
+    for i in 0..VPLS {
+        let has_map = i % 3 != 1;
+        let map = if has_map {
+            layer += 1;
+            layer - 1
+        } else {
+            NO_MAP
+        };
+        vpls.push(VplRecord {
+            position: [
+                rng.f32() * 4.0 - 2.0,
+                rng.f32() * 3.0,
+                rng.f32() * 4.0 - 2.0,
+            ],
+            area: 0.01 + rng.f32() * 0.1,
+            normal: [0.0, 1.0, 0.0],
+            texels: 1 + rng.below(20) as u32,
+            flux: [rng.f32(), rng.f32() * 0.5, rng.f32() * 0.25],
+            map,
+        });
+    }
+    let map_count = layer as usize;
+    let texels = (VPL_MAP * VPL_MAP) as usize;
+    let vpl_maps: Vec<f32> = (0..map_count * texels)
+        .map(|_| {
+            if rng.f32() < 0.3 {
+                f32::INFINITY
+            } else {
+                0.1 + rng.f32() * 5.0
+            }
+        })
+        .collect();
+    let primary: Vec<f32> = (0..(SHADOW * SHADOW) as usize)
+        .map(|_| {
+            if rng.f32() < 0.1 {
+                f32::INFINITY
+            } else {
+                1.0 + rng.f32() * 9.0
+            }
+        })
+        .collect();
+    let rsm = dynamic.then(|| {
+        let n = (RSM * RSM) as usize;
+        RsmData {
+            size: RSM,
+            metric: (0..n)
+                .map(|_| {
+                    if rng.f32() < 0.2 {
+                        f32::INFINITY
+                    } else {
+                        1.0 + rng.f32()
+                    }
+                })
+                .collect(),
+            flux: (0..n).map(|_| [rng.f32(), rng.f32(), rng.f32()]).collect(),
+            vpl: (0..n)
+                .map(|_| {
+                    if rng.f32() < 0.2 {
+                        u32::MAX
+                    } else {
+                        rng.below(VPLS) as u32
+                    }
+                })
+                .collect(),
+        }
+    });
+    Asset {
+        manifest: Manifest {
+            provenance: Provenance {
+                baker_version: "0.1.0".into(),
+                scene_name: "corner.gltf".into(),
+                adapter: "llvmpipe (LLVM 15.0.6, 256 bits)".into(),
+                backend: "vulkan".into(),
+                driver: "Mesa 22.3.6".into(),
+            },
+            settings: BakeSettings {
+                rsm_size: RSM,
+                vpl_map_size: VPL_MAP,
+                shadow_map_size: SHADOW,
+                threshold: 0.05,
+                vpl_budget: Some(VPLS as u32),
+            },
+            static_scene_hash: [0xAB; 32],
+            light_view: LightViewRecord {
+                directional: false,
+                view_proj: std::array::from_fn(|i| i as f32 * 0.25 - 1.0),
+                origin: [0.0, 5.0, 0.0],
+                direction: [0.0, -1.0, 0.0],
+                texel_scale: 0.01,
+                texel_area: 0.0001,
+            },
+            vpl_count: 0,
+            map_count: 0,
+            has_dynamic: false,
+            files: vec![],
+        },
+        vpls,
+        primary_depth: Map {
+            size: SHADOW,
+            data: primary,
+        },
+        vpl_maps,
+        rsm,
+    }
+}
+
+/// `asset` as `load` returns it after `write`: counts filled in, `files` from disk.
+pub fn as_written(asset: &Asset, loaded: &Asset) -> Asset {
+    let mut a = asset.clone();
+    a.manifest.vpl_count = a.vpls.len() as u32;
+    a.manifest.map_count = a.stored_map_count() as u32;
+    a.manifest.has_dynamic = a.rsm.is_some();
+    a.manifest.files = loaded.manifest.files.clone();
+    a
+}
+
+/// Writes `asset` to `<tmp>/scene.gibake` and returns the path.
+pub fn written(tmp: &Path, asset: &Asset) -> PathBuf {
+    let dir = tmp.join("scene.gibake");
+    write(asset, &dir).expect("write");
+    dir
+}
+
+/// The names of the files in `dir`, sorted.
+pub fn file_names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// Rewrites `manifest.bin` in `dir` with `f` applied to the manifest
+/// (re-encoded, valid checksum).
+pub fn edit_manifest(dir: &Path, f: impl FnOnce(&mut Manifest)) {
+    // Decoded directly (bincode 2, standard config) so that it works on
+    // manifests `load_manifest` would refuse.
+    let bytes = std::fs::read(dir.join("manifest.bin")).unwrap();
+    let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
+    let (mut m, used): (Manifest, usize) =
+        bincode::serde::decode_from_slice(&bytes[20..20 + len], bincode::config::standard())
+            .expect("manifest payload");
+    assert_eq!(used, len);
+    f(&mut m);
+    std::fs::write(
+        dir.join("manifest.bin"),
+        testing::manifest_bytes(&m).unwrap(),
+    )
+    .unwrap();
+}
+
+/// Replaces file `name` in `dir` by `bytes` and updates its manifest entry so
+/// that the checksums pass (to reach the parsers behind them).
+pub fn replace_signed(dir: &Path, name: &str, bytes: &[u8]) {
+    std::fs::write(dir.join(name), bytes).unwrap();
+    edit_manifest(dir, |m| {
+        let e = m.files.iter_mut().find(|e| e.name == name).unwrap();
+        e.size = bytes.len() as u64;
+        e.blake3 = *blake3::hash(bytes).as_bytes();
+    });
+}

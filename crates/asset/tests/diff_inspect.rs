@@ -1,0 +1,332 @@
+//! `diff` and `inspect`.
+
+mod common;
+
+use common::*;
+use gibake_asset::*;
+
+#[test]
+fn identical_assets_are_equal() {
+    let a = sample_asset(true);
+    for tol in [Tolerance::same_machine(), Tolerance::another_gpu()] {
+        let r = diff(&a, &a, &tol);
+        assert!(r.equal(), "{r}");
+        assert!(r.to_string().starts_with("EQUAL"), "{r}");
+        assert_eq!(r.vpls.matching, "index");
+        assert_eq!(r.vpls.matched, VPLS);
+        let names: Vec<&str> = r.maps.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "primary_depth",
+                "vpl_maps",
+                "rsm.D",
+                "rsm.flux.R",
+                "rsm.flux.G",
+                "rsm.flux.B",
+                "rsm.vpl"
+            ]
+        );
+        assert!(r.maps.iter().all(|m| m.over == 0 && m.max_abs == 0.0));
+    }
+}
+
+#[test]
+fn a_written_and_loaded_asset_equals_the_original() {
+    let tmp = tempfile::tempdir().unwrap();
+    let a = sample_asset(true);
+    let dir = written(tmp.path(), &a);
+    let b = load(&dir).unwrap();
+    assert!(diff(&a, &b, &Tolerance::same_machine()).equal());
+}
+
+#[test]
+fn a_slightly_moved_vpl_is_reported() {
+    let a = sample_asset(false);
+    let mut b = a.clone();
+    b.vpls[3].position[0] += 0.01;
+    let r = diff(&a, &b, &Tolerance::same_machine());
+    assert!(!r.equal());
+    assert_eq!(r.vpls.matching, "index");
+    assert_eq!(r.vpls.over_tolerance, 1);
+    assert_eq!(r.vpls.worst[0].a, Some(3));
+    assert_eq!(r.vpls.worst[0].b, Some(3));
+    assert!(r.vpls.max_position_rel > 0.0);
+    let text = r.to_string();
+    assert!(text.contains("VPL A#3 / B#3"), "{text}");
+    // Within 1e-3 of the diagonal for another GPU? 0.01 / ~6 is not.
+    assert!(!diff(&a, &b, &Tolerance::another_gpu()).equal());
+}
+
+#[test]
+fn a_far_moved_or_missing_vpl_is_unmatched() {
+    let a = sample_asset(false);
+    let mut b = a.clone();
+    b.vpls[3].position = [1.9, 2.9, -1.9];
+    let r = diff(&a, &b, &Tolerance::another_gpu());
+    assert!(!r.equal());
+    assert_eq!(r.vpls.matching, "nearest");
+    assert_eq!((r.vpls.unmatched_a, r.vpls.unmatched_b), (1, 1));
+    assert_eq!(r.vpls.matched, VPLS - 1);
+    assert_eq!(r.vpls.worst[0].a, Some(3));
+    assert_eq!(r.vpls.worst[1].b, Some(3));
+    assert!(r.to_string().contains("VPL A#3 at"), "{r}");
+
+    // One VPL dropped (and its map): the rest still match by position.
+    let mut c = a.clone();
+    c.vpls.remove(1); // VPL 1 has no map
+    let r = diff(&a, &c, &Tolerance::same_machine());
+    assert_eq!(
+        (r.vpls.unmatched_a, r.vpls.unmatched_b, r.vpls.matched),
+        (1, 0, VPLS - 1)
+    );
+    assert_eq!(r.vpls.worst[0].a, Some(1));
+    let maps = r.maps.iter().find(|m| m.name == "vpl_maps").unwrap();
+    assert!(maps.within_tolerance && maps.over == 0, "{r}");
+    assert!(r.differences.iter().any(|d| d.contains("unmatched")), "{r}");
+}
+
+#[test]
+fn changed_settings_and_scene_hash_are_reported() {
+    let a = sample_asset(false);
+    let mut b = a.clone();
+    b.manifest.settings.threshold = 0.1;
+    b.manifest.settings.vpl_budget = None;
+    b.manifest.static_scene_hash[0] = 0;
+    let r = diff(&a, &b, &Tolerance::another_gpu());
+    assert!(!r.equal());
+    let fields: Vec<&str> = r.settings.iter().map(|f| f.field.as_str()).collect();
+    assert_eq!(fields, ["threshold", "vpl_budget"]);
+    assert_eq!(
+        (r.settings[0].a.as_str(), r.settings[0].b.as_str()),
+        ("0.05", "0.1")
+    );
+    assert!(r.static_scene_hash.is_some());
+    let text = r.to_string();
+    assert!(text.contains("threshold 0.05 vs 0.1"), "{text}");
+    assert!(text.contains("static scene hash differs"), "{text}");
+}
+
+#[test]
+fn provenance_counts_only_when_strict() {
+    let a = sample_asset(false);
+    let mut b = a.clone();
+    b.manifest.provenance.adapter = "NVIDIA GeForce GTX 780".into();
+    let r = diff(&a, &b, &Tolerance::same_machine());
+    assert!(r.equal(), "{r}");
+    assert_eq!(r.provenance.len(), 1);
+    assert!(r.to_string().contains("GTX 780"));
+    let strict = Tolerance {
+        strict_provenance: true,
+        ..Tolerance::same_machine()
+    };
+    let r = diff(&a, &b, &strict);
+    assert!(!r.equal());
+    assert!(r.differences[0].contains("adapter"), "{r}");
+}
+
+#[test]
+fn same_machine_is_exact_another_gpu_is_not() {
+    let a = sample_asset(true);
+    let mut b = a.clone();
+    // Tiny relative changes everywhere.
+    for x in b.primary_depth.data.iter_mut().chain(&mut b.vpl_maps) {
+        *x *= 1.0 + 1e-5;
+    }
+    for v in &mut b.vpls {
+        v.flux[0] *= 1.0 + 1e-5;
+        v.position[1] += 1e-5;
+        v.normal = [0.0, 1.0, 1e-4];
+    }
+    b.manifest.light_view.texel_scale *= 1.0 + 1e-6;
+    let r = diff(&a, &b, &Tolerance::same_machine());
+    assert!(!r.equal(), "{r}");
+    assert!(
+        r.maps
+            .iter()
+            .any(|m| m.name == "primary_depth" && !m.within_tolerance)
+    );
+    assert!(!r.light_view.is_empty());
+    let r = diff(&a, &b, &Tolerance::another_gpu());
+    assert!(r.equal(), "{r}");
+    assert!(r.maps[0].max_abs > 0.0 && r.maps[0].rmse > 0.0);
+
+    // A few texels far off: within 0.5 % → equal; more → different.
+    let n = b.primary_depth.data.len(); // 256 texels: 1 is 0.39 %
+    let mut c = a.clone();
+    c.primary_depth.data[7] = 1000.0;
+    assert!(diff(&a, &c, &Tolerance::another_gpu()).equal());
+    c.primary_depth.data[8] = 1000.0;
+    let r = diff(&a, &c, &Tolerance::another_gpu());
+    assert!(!r.equal());
+    assert_eq!(r.maps[0].over, 2);
+    assert!((r.maps[0].over_fraction - 2.0 / n as f64).abs() < 1e-12);
+}
+
+#[test]
+fn infinity_matches_infinity_but_not_a_finite_value() {
+    let a = sample_asset(false);
+    let i = a
+        .primary_depth
+        .data
+        .iter()
+        .position(|x| x.is_infinite())
+        .unwrap();
+    let j = a.vpl_maps.iter().position(|x| x.is_finite()).unwrap();
+    let mut b = a.clone();
+    b.primary_depth.data[i] = 5.0;
+    b.vpl_maps[j] = f32::INFINITY;
+    let r = diff(
+        &a,
+        &b,
+        &Tolerance {
+            max_texels_over: 0.5,
+            ..Tolerance::another_gpu()
+        },
+    );
+    let p = &r.maps[0];
+    assert_eq!((p.over, p.inf_mismatch, p.max_abs), (1, 1, 0.0));
+    let m = &r.maps[1];
+    assert_eq!((m.over, m.inf_mismatch), (1, 1));
+    // Layer j/64 belongs to the VPL with that map.
+    let layer = (j / (VPL_MAP * VPL_MAP) as usize) as u32;
+    let vpl = a.vpls.iter().position(|v| v.map == layer).unwrap();
+    assert_eq!(m.worst_vpl, Some(vpl));
+    assert!(diff(&a, &b, &Tolerance::same_machine()).differences.len() == 2);
+}
+
+#[test]
+fn a_missing_map_counts_as_all_infinite() {
+    let mut a = sample_asset(false);
+    // Make layer 0 entirely +inf, then store it as NO_MAP in B.
+    let t = (VPL_MAP * VPL_MAP) as usize;
+    a.vpl_maps[..t].fill(f32::INFINITY);
+    let mut b = a.clone();
+    b.vpl_maps.drain(..t);
+    for v in &mut b.vpls {
+        v.map = match v.map {
+            0 => NO_MAP,
+            NO_MAP => NO_MAP,
+            k => k - 1,
+        };
+    }
+    let r = diff(&a, &b, &Tolerance::same_machine());
+    assert!(r.equal(), "{r}");
+}
+
+#[test]
+fn rsm_presence_and_channels_are_compared() {
+    let a = sample_asset(true);
+    let mut b = a.clone();
+    b.rsm = None;
+    let r = diff(&a, &b, &Tolerance::another_gpu());
+    assert!(!r.equal());
+    assert!(
+        r.differences
+            .iter()
+            .any(|d| d.contains("rsm") && d.contains("A only")),
+        "{r}"
+    );
+    let mut c = a.clone();
+    c.rsm.as_mut().unwrap().vpl[0] = 3;
+    c.rsm.as_mut().unwrap().vpl[1] = 4;
+    let r = diff(&a, &c, &Tolerance::same_machine());
+    let v = r.maps.iter().find(|m| m.name == "rsm.vpl").unwrap();
+    assert!(!v.within_tolerance && v.over >= 1, "{r}");
+}
+
+#[test]
+fn diff_images_are_written_for_differing_maps_only() {
+    use exr::prelude::*;
+    let tmp = tempfile::tempdir().unwrap();
+    let a = sample_asset(true);
+    assert!(write_diff_images(&a, &a, tmp.path()).unwrap().is_empty());
+    let mut b = a.clone();
+    b.primary_depth.data[5] += 2.0;
+    let k = a.vpls[0].map as usize * (VPL_MAP * VPL_MAP) as usize;
+    b.vpl_maps[k + 9] = if b.vpl_maps[k + 9].is_finite() {
+        b.vpl_maps[k + 9] + 0.5
+    } else {
+        1.0
+    };
+    let out = tmp.path().join("diff");
+    let files = write_diff_images(&a, &b, &out).unwrap();
+    let names: Vec<String> = files
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, ["primary_depth.diff.exr", "vpl_maps.diff.exr"]);
+    let img = read_all_flat_layers_from_file(&files[0]).unwrap();
+    let FlatSamples::F32(d) = &img.layer_data[0].channel_data.list[0].sample_data else {
+        panic!()
+    };
+    assert!((d[5] - 2.0).abs() < 1e-5 && d.iter().filter(|&&x| x != 0.0).count() == 1);
+    let img = read_all_flat_layers_from_file(&files[1]).unwrap();
+    let FlatSamples::F32(d) = &img.layer_data[0].channel_data.list[0].sample_data else {
+        panic!()
+    };
+    // Tile 0 (VPL 0's map) holds the one difference, at (1, 1).
+    let w = img.layer_data[0].size.width();
+    assert!(d[w + 1] > 0.0);
+    assert_eq!(d.iter().filter(|&&x| x != 0.0 && x.is_finite()).count(), 1);
+}
+
+#[test]
+fn reports_serialise_to_json() {
+    let a = sample_asset(true);
+    let mut b = a.clone();
+    b.vpls[2].flux[2] = 9.0;
+    let r = diff(&a, &b, &Tolerance::another_gpu());
+    let json = serde_json::to_value(&r).unwrap();
+    assert_eq!(json["vpls"]["over_tolerance"], 1);
+    assert_eq!(json["vpls"]["worst"][0]["a"], 2);
+    assert_eq!(json["tolerance"]["vpl_normal_deg"], 1.0);
+    assert!(!json["differences"].as_array().unwrap().is_empty());
+}
+
+#[test]
+fn inspect_reports_counts_sizes_and_statistics() {
+    let tmp = tempfile::tempdir().unwrap();
+    let a = sample_asset(true);
+    let dir = written(tmp.path(), &a);
+    let loaded = load(&dir).unwrap();
+    let i = inspect(&loaded);
+    assert_eq!((i.vpl_count, i.map_count, i.vpls_without_map), (VPLS, 7, 3));
+    assert!(i.has_dynamic);
+    // File sizes are the real ones, manifest.bin included.
+    let on_disk: u64 = file_names(&dir)
+        .iter()
+        .map(|n| std::fs::metadata(dir.join(n)).unwrap().len())
+        .sum();
+    assert_eq!(i.total_bytes, on_disk);
+    assert_eq!(i.files.len(), 5);
+    assert_eq!(i.files[0].name, "manifest.bin");
+    assert_eq!(
+        i.files[0].bytes,
+        std::fs::metadata(dir.join("manifest.bin")).unwrap().len()
+    );
+    let total_r: f64 = a.vpls.iter().map(|v| v.flux[0] as f64).sum();
+    assert!((i.total_flux[0] - total_r).abs() < 1e-9);
+    assert!(i.flux_luminance.min <= i.flux_luminance.median);
+    assert!(i.flux_luminance.median <= i.flux_luminance.max);
+    assert_eq!(i.area.count, VPLS);
+    assert!(i.primary_depth.covered_fraction > 0.5 && i.primary_depth.covered_fraction < 1.0);
+
+    let text = i.to_string();
+    assert!(
+        text.contains("VPLs: 10 (7 hemisphere maps stored, 3 VPLs see no surface"),
+        "{text}"
+    );
+    assert!(
+        text.contains("corner.gltf") && text.contains("llvmpipe"),
+        "{text}"
+    );
+    assert!(text.contains("rsm.exr") && text.contains("total"), "{text}");
+    let json = serde_json::to_value(&i).unwrap();
+    assert_eq!(json["vpl_count"], 10);
+    assert_eq!(json["map_count"], 7);
+    assert_eq!(json["settings"]["vpl_map_size"], VPL_MAP);
+
+    let s = inspect(&sample_asset(false)).to_string();
+    assert!(s.contains("not stored (no moving objects)"), "{s}");
+}

@@ -1,0 +1,269 @@
+//! Round trip, determinism and the documented on-disk layout.
+
+mod common;
+
+use common::*;
+use gibake_asset::*;
+
+#[test]
+fn round_trip_static_and_dynamic() {
+    for dynamic in [false, true] {
+        let tmp = tempfile::tempdir().unwrap();
+        let asset = sample_asset(dynamic);
+        let dir = written(tmp.path(), &asset);
+        let loaded = load(&dir).unwrap();
+        assert_eq!(loaded, as_written(&asset, &loaded));
+        assert_eq!(loaded.manifest.vpl_count, VPLS as u32);
+        assert_eq!(loaded.manifest.map_count, 7);
+        assert_eq!(loaded.manifest.has_dynamic, dynamic);
+        let mut expect = vec![
+            "manifest.bin",
+            "primary_depth.exr",
+            "vpl_maps.exr",
+            "vpls.bin",
+        ];
+        if dynamic {
+            expect.push("rsm.exr");
+            expect.sort();
+        }
+        assert_eq!(file_names(&dir), expect);
+        // Nothing else left next to it.
+        assert_eq!(file_names(tmp.path()), vec!["scene.gibake"]);
+        assert_eq!(load_manifest(&dir).unwrap(), loaded.manifest);
+    }
+}
+
+#[test]
+fn counts_are_filled_in_from_the_data() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut asset = sample_asset(true);
+    asset.manifest.vpl_count = 999;
+    asset.manifest.map_count = 3;
+    asset.manifest.has_dynamic = false;
+    let dir = written(tmp.path(), &asset);
+    let m = load_manifest(&dir).unwrap();
+    assert_eq!(
+        (m.vpl_count, m.map_count, m.has_dynamic),
+        (VPLS as u32, 7, true)
+    );
+    let names: Vec<&str> = m.files.iter().map(|f| f.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["vpls.bin", "primary_depth.exr", "vpl_maps.exr", "rsm.exr"]
+    );
+    for f in &m.files {
+        let bytes = std::fs::read(dir.join(&f.name)).unwrap();
+        assert_eq!(f.size, bytes.len() as u64);
+        assert_eq!(&f.blake3, blake3::hash(&bytes).as_bytes());
+    }
+}
+
+#[test]
+fn nothing_stored_that_is_not_needed() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut asset = sample_asset(false);
+    asset.vpl_maps.clear();
+    for v in &mut asset.vpls {
+        v.map = NO_MAP;
+    }
+    let dir = written(tmp.path(), &asset);
+    assert_eq!(
+        file_names(&dir),
+        ["manifest.bin", "primary_depth.exr", "vpls.bin"]
+    );
+    let loaded = load(&dir).unwrap();
+    assert_eq!(loaded.manifest.map_count, 0);
+    assert!(loaded.vpl_maps.is_empty() && loaded.rsm.is_none());
+}
+
+#[test]
+fn empty_vpl_set_round_trips() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut asset = sample_asset(false);
+    asset.vpls.clear();
+    asset.vpl_maps.clear();
+    let dir = written(tmp.path(), &asset);
+    let loaded = load(&dir).unwrap();
+    assert!(loaded.vpls.is_empty());
+    assert_eq!(std::fs::metadata(dir.join("vpls.bin")).unwrap().len(), 0);
+}
+
+#[test]
+fn writing_twice_gives_identical_bytes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let asset = sample_asset(true);
+    let a = tmp.path().join("a.gibake");
+    let b = tmp.path().join("b.gibake");
+    write(&asset, &a).unwrap();
+    write(&asset, &b).unwrap();
+    let names = file_names(&a);
+    assert_eq!(names, file_names(&b));
+    for n in &names {
+        let (x, y) = (
+            std::fs::read(a.join(n)).unwrap(),
+            std::fs::read(b.join(n)).unwrap(),
+        );
+        assert!(x == y, "{n} differs between two writes");
+    }
+    // Rewriting in place (replacing the asset) gives the same bytes too.
+    let before = std::fs::read(a.join("vpl_maps.exr")).unwrap();
+    write(&asset, &a).unwrap();
+    assert_eq!(before, std::fs::read(a.join("vpl_maps.exr")).unwrap());
+    // Loading and writing again is byte-identical as well.
+    let c = tmp.path().join("c.gibake");
+    write(&load(&a).unwrap(), &c).unwrap();
+    for n in &names {
+        assert_eq!(
+            std::fs::read(a.join(n)).unwrap(),
+            std::fs::read(c.join(n)).unwrap(),
+            "{n}"
+        );
+    }
+}
+
+#[test]
+fn atlas_grid_layout() {
+    assert_eq!(atlas_grid(0), (0, 0));
+    assert_eq!(atlas_grid(1), (1, 1));
+    assert_eq!(atlas_grid(2), (2, 1));
+    assert_eq!(atlas_grid(4), (2, 2));
+    assert_eq!(atlas_grid(5), (3, 2));
+    assert_eq!(atlas_grid(7), (3, 3));
+    assert_eq!(atlas_grid(9), (3, 3));
+    assert_eq!(atlas_grid(10), (4, 3));
+    assert_eq!(atlas_grid(1_000_000), (1000, 1000));
+    assert_eq!(atlas_grid(u32::MAX), (65536, 65536));
+}
+
+fn read_exr(path: &std::path::Path) -> exr::prelude::FlatImage {
+    exr::prelude::read_all_flat_layers_from_file(path).expect("standard EXR reader")
+}
+
+fn channel<'a>(img: &'a exr::prelude::FlatImage, name: &str) -> &'a exr::prelude::FlatSamples {
+    let layer = &img.layer_data[0];
+    &layer
+        .channel_data
+        .list
+        .iter()
+        .find(|c| c.name.eq(name))
+        .expect(name)
+        .sample_data
+}
+
+#[test]
+fn exr_files_have_the_documented_layout() {
+    use exr::prelude::FlatSamples;
+    let tmp = tempfile::tempdir().unwrap();
+    let asset = sample_asset(true);
+    let dir = written(tmp.path(), &asset);
+
+    // primary_depth.exr: one f32 channel D, row 0 at the top.
+    let img = read_exr(&dir.join("primary_depth.exr"));
+    assert_eq!(img.layer_data.len(), 1);
+    let layer = &img.layer_data[0];
+    assert_eq!(layer.size.width(), SHADOW as usize);
+    assert_eq!(layer.channel_data.list.len(), 1);
+    let FlatSamples::F32(d) = channel(&img, "D") else {
+        panic!("D is not f32")
+    };
+    assert_eq!(d, &asset.primary_depth.data);
+
+    // vpl_maps.exr: 7 maps in a 3x3 grid of 8x8 tiles, unused tiles +inf.
+    let img = read_exr(&dir.join("vpl_maps.exr"));
+    let layer = &img.layer_data[0];
+    let (w, h) = (layer.size.width(), layer.size.height());
+    assert_eq!((w, h), (24, 24));
+    let FlatSamples::F32(atlas) = channel(&img, "D") else {
+        panic!("D is not f32")
+    };
+    let s = VPL_MAP as usize;
+    for k in 0..9usize {
+        let (cx, cy) = (k % 3, k / 3);
+        for y in 0..s {
+            for x in 0..s {
+                let v = atlas[(cy * s + y) * w + cx * s + x];
+                if k < 7 {
+                    assert_eq!(v.to_bits(), asset.vpl_maps[(k * s + y) * s + x].to_bits());
+                } else {
+                    assert_eq!(v, f32::INFINITY);
+                }
+            }
+        }
+    }
+
+    // rsm.exr: D, flux.R/G/B f32, vpl u32.
+    let img = read_exr(&dir.join("rsm.exr"));
+    let r = asset.rsm.as_ref().unwrap();
+    let mut names: Vec<String> = img.layer_data[0]
+        .channel_data
+        .list
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["D", "flux.B", "flux.G", "flux.R", "vpl"]);
+    let FlatSamples::F32(m) = channel(&img, "D") else {
+        panic!()
+    };
+    assert_eq!(m, &r.metric);
+    let FlatSamples::F32(g) = channel(&img, "flux.G") else {
+        panic!()
+    };
+    assert!(g.iter().zip(&r.flux).all(|(a, b)| *a == b[1]));
+    let FlatSamples::U32(v) = channel(&img, "vpl") else {
+        panic!("vpl is not u32")
+    };
+    assert_eq!(v, &r.vpl);
+}
+
+#[test]
+fn vpls_bin_is_a_little_endian_array() {
+    let tmp = tempfile::tempdir().unwrap();
+    let asset = sample_asset(false);
+    let dir = written(tmp.path(), &asset);
+    let bytes = std::fs::read(dir.join("vpls.bin")).unwrap();
+    assert_eq!(bytes.len(), 48 * VPLS);
+    assert_eq!(std::mem::size_of::<VplRecord>(), 48);
+    let word = |i: usize, k: usize| {
+        u32::from_le_bytes(
+            bytes[48 * i + 4 * k..48 * i + 4 * k + 4]
+                .try_into()
+                .unwrap(),
+        )
+    };
+    for (i, v) in asset.vpls.iter().enumerate() {
+        assert_eq!(word(i, 0), v.position[0].to_bits());
+        assert_eq!(word(i, 3), v.area.to_bits());
+        assert_eq!(word(i, 5), v.normal[1].to_bits());
+        assert_eq!(word(i, 7), v.texels);
+        assert_eq!(word(i, 10), v.flux[2].to_bits());
+        assert_eq!(word(i, 11), v.map);
+    }
+}
+
+#[test]
+fn manifest_bin_has_the_documented_layout() {
+    let tmp = tempfile::tempdir().unwrap();
+    let asset = sample_asset(false);
+    let dir = written(tmp.path(), &asset);
+    let bytes = std::fs::read(dir.join("manifest.bin")).unwrap();
+    assert_eq!(&bytes[..8], b"GIBAKE\0\x01");
+    assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), FORMAT_MAJOR);
+    assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), FORMAT_MINOR);
+    let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
+    assert_eq!(bytes.len(), 20 + len + 32);
+    assert_eq!(
+        &bytes[20 + len..],
+        blake3::hash(&bytes[..20 + len]).as_bytes()
+    );
+    // Payload: provenance strings first, each a varint length + UTF-8.
+    let p = &bytes[20..20 + len];
+    assert_eq!(p[0], 5);
+    assert_eq!(&p[1..6], b"0.1.0");
+    assert_eq!(p[6] as usize, "corner.gltf".len());
+    assert_eq!(&p[7..18], b"corner.gltf");
+    // ... and it ends with the file list: varint count 3, then the last
+    // entry's 32-byte hash.
+    let m = load_manifest(&dir).unwrap();
+    assert_eq!(&p[len - 32..], &m.files[2].blake3);
+}
