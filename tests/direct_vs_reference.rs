@@ -19,7 +19,7 @@ fn gpu_direct_matches_reference_direct_on_bundled_scenes() {
                 shadow_map_size: 2048,
                 mode: gibake_runtime::Mode::Direct,
             };
-            let gpu = gibake_runtime::render_image(&ctx, &scene, &settings, time, 2).unwrap();
+            let gpu = gibake_runtime::render_image(&ctx, &scene, None, &settings, time, 2).unwrap();
             let reference = gibake_reference::render(
                 &scene,
                 &gibake_reference::Settings {
@@ -35,10 +35,17 @@ fn gpu_direct_matches_reference_direct_on_bundled_scenes() {
             .unwrap();
             assert!(gpu.all_finite(), "{name} t={time}: non-finite pixels");
             let mean = reference.mean();
-            assert!(mean.max_element() > 0.0, "{name} t={time}: the reference is black");
+            assert!(
+                mean.max_element() > 0.0,
+                "{name} t={time}: the reference is black"
+            );
             let e = gibake_image::rel_mse(&gpu, &reference);
             report.push(format!("{name} t={time}: rel MSE {e:.5}"));
-            assert!(e <= 0.02, "{name} t={time}: rel MSE {e} > 0.02\n{}", report.join("\n"));
+            assert!(
+                e <= 0.02,
+                "{name} t={time}: rel MSE {e} > 0.02\n{}",
+                report.join("\n")
+            );
         }
     }
     eprintln!("{}", report.join("\n"));

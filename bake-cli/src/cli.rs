@@ -33,15 +33,15 @@ pub struct SceneArgs {
 /// The commands.
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Bake VPLs and their shadow maps into OUT.gibake/ (not built yet).
+    /// Bake VPLs and their hemisphere shadow maps into OUT.gibake/.
     Bake(BakeArgs),
     /// Render frames of a scene on the GPU.
     Render(RenderArgs),
     /// Render the independent CPU reference (path tracer, direct + one bounce).
     Reference(ReferenceArgs),
-    /// Compare two baked assets (not built yet).
+    /// Compare two baked assets: exit 0 equal (within tolerance), 1 different, 2 bad input.
     Diff(DiffArgs),
-    /// Describe a baked asset (not built yet).
+    /// Describe a baked asset: counts, sizes, settings, provenance, VPL flux.
     Inspect(InspectArgs),
     /// Measure error against run time for every mode and quality (not built yet).
     Bench(BenchArgs),
@@ -55,9 +55,30 @@ pub struct BakeArgs {
     /// Scene.
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// Output asset directory.
-    #[arg(short, long)]
+    /// Output asset directory (NAME.gibake). Replaced if it is an existing asset.
+    #[arg(short, long, value_name = "OUT.gibake")]
     pub output: PathBuf,
+    /// Number of VPLs to make (the result has N ± 2%). Default 256 unless --threshold is given.
+    #[arg(long, value_name = "N", conflicts_with = "threshold")]
+    pub vpls: Option<u32>,
+    /// Quadtree split threshold (dimensionless; smaller → more VPLs).
+    #[arg(long, value_name = "X")]
+    pub threshold: Option<f32>,
+    /// Reflective shadow map resolution.
+    #[arg(long, default_value_t = 512, value_name = "N")]
+    pub rsm_size: u32,
+    /// Hemisphere shadow map resolution per VPL.
+    #[arg(long, default_value_t = 128, value_name = "N")]
+    pub vpl_map_size: u32,
+    /// Primary shadow map resolution.
+    #[arg(long, default_value_t = 2048, value_name = "N")]
+    pub shadow_map_size: u32,
+    /// Print the summary (counts, per-stage times) as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// GPU adapter to use (substring of its name).
+    #[arg(long)]
+    pub adapter: Option<String>,
 }
 
 /// Render modes.
@@ -81,7 +102,8 @@ pub struct RenderArgs {
     /// Scene.
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// The baked asset (needed by every mode but `direct`).
+    /// The baked asset (needed by every mode but `direct`, which renders its
+    /// own static shadow map without one).
     #[arg(long, value_name = "OUT.gibake")]
     pub bake: Option<PathBuf>,
     /// Animation time in seconds (each animation is clamped to its range).
@@ -159,6 +181,37 @@ pub struct DiffArgs {
     /// Machine-readable output.
     #[arg(long)]
     pub json: bool,
+    /// Tolerance preset: `same-machine` (exact) or `another-gpu` (small
+    /// relative differences and a few texels allowed). See docs/asset-format.md.
+    #[arg(long, value_enum, default_value_t = TolerancePreset::SameMachine)]
+    pub tolerance: TolerancePreset,
+    /// Relative tolerance per map texel (overrides the preset).
+    #[arg(long, value_name = "REL")]
+    pub map_rel: Option<f32>,
+    /// Allowed fraction of map texels over tolerance (overrides the preset).
+    #[arg(long, value_name = "FRACTION")]
+    pub max_texels_over: Option<f64>,
+    /// VPL position tolerance, relative to the scene diagonal (overrides the preset).
+    #[arg(long, value_name = "REL")]
+    pub vpl_position_rel: Option<f32>,
+    /// VPL flux tolerance, relative (overrides the preset).
+    #[arg(long, value_name = "REL")]
+    pub vpl_flux_rel: Option<f32>,
+    /// Count provenance differences (adapter, driver, baker version) as differences.
+    #[arg(long)]
+    pub strict_provenance: bool,
+    /// Write |A−B| EXR images of the maps that differ into this directory.
+    #[arg(long, value_name = "DIR")]
+    pub images: Option<PathBuf>,
+}
+
+/// Tolerance presets of `diff`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TolerancePreset {
+    /// Bit-exact (same scene, settings and adapter give identical bytes).
+    SameMachine,
+    /// Small differences allowed (another GPU or driver).
+    AnotherGpu,
 }
 
 /// `gibake inspect`.

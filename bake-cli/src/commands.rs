@@ -8,7 +8,10 @@ use anyhow::{Context, bail};
 use gibake_gpu::{GpuContext, GpuOptions};
 use gibake_scene::{LoadOptions, Scene};
 
-use crate::cli::{Cli, Command, DemoArgs, ModeArg, ReferenceArgs, RenderArgs, SceneArgs};
+use crate::cli::{
+    BakeArgs, Cli, Command, DemoArgs, DiffArgs, InspectArgs, ModeArg, ReferenceArgs, RenderArgs,
+    SceneArgs, TolerancePreset,
+};
 use crate::output::{bar, write_image_atomic};
 
 /// The bundled paper scene, embedded for `gibake demo`.
@@ -20,9 +23,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Render(a) => render(a),
         Command::Reference(a) => reference(a),
         Command::Demo(a) => demo(a),
-        Command::Bake(_) => not_built("bake", "issue 3"),
-        Command::Diff(_) => not_built("diff", "issue 3"),
-        Command::Inspect(_) => not_built("inspect", "issue 3"),
+        Command::Bake(a) => bake(a),
+        Command::Diff(a) => diff(a),
+        Command::Inspect(a) => inspect(a),
         Command::Bench(_) => not_built("bench", "issues 3 and 4"),
     }
 }
@@ -33,7 +36,12 @@ fn not_built(cmd: &str, issue: &str) -> anyhow::Result<ExitCode> {
 }
 
 fn load_scene(a: &SceneArgs) -> anyhow::Result<Scene> {
-    let scene = gibake_scene::load(&a.scene, &LoadOptions { light: a.light.clone() })?;
+    let scene = gibake_scene::load(
+        &a.scene,
+        &LoadOptions {
+            light: a.light.clone(),
+        },
+    )?;
     for w in &scene.warnings {
         tracing::warn!("{}: {w}", a.scene.display());
     }
@@ -41,9 +49,16 @@ fn load_scene(a: &SceneArgs) -> anyhow::Result<Scene> {
 }
 
 fn check_output_dir(path: &Path) -> anyhow::Result<()> {
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
     if !dir.is_dir() {
-        bail!("{}: the output directory {} does not exist", path.display(), dir.display());
+        bail!(
+            "{}: the output directory {} does not exist",
+            path.display(),
+            dir.display()
+        );
     }
     Ok(())
 }
@@ -68,15 +83,40 @@ fn frame_path(path: &Path, frame: u32, frames: u32) -> PathBuf {
     if frames <= 1 {
         return path.to_owned();
     }
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     if let Some(start) = name.find('#') {
         let len = name[start..].chars().take_while(|c| *c == '#').count();
-        let new = format!("{}{:0len$}{}", &name[..start], frame, &name[start + len..], len = len);
+        let new = format!(
+            "{}{:0len$}{}",
+            &name[..start],
+            frame,
+            &name[start + len..],
+            len = len
+        );
         return path.with_file_name(new);
     }
-    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_else(|| "exr".into());
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "exr".into());
     path.with_file_name(format!("{stem}_{frame:04}.{ext}"))
+}
+
+fn mode_of(m: ModeArg) -> gibake_runtime::Mode {
+    match m {
+        ModeArg::Full => gibake_runtime::Mode::Full,
+        ModeArg::Direct => gibake_runtime::Mode::Direct,
+        ModeArg::Indirect => gibake_runtime::Mode::Indirect,
+        ModeArg::Rsm => gibake_runtime::Mode::Rsm,
+        ModeArg::Naive => gibake_runtime::Mode::Naive,
+    }
 }
 
 fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
@@ -89,47 +129,86 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         bail!("--frames must be at least 1");
     }
     check_output_dir(&a.output)?;
-    let mode = match a.mode {
-        ModeArg::Direct => gibake_runtime::Mode::Direct,
-        other => {
-            eprintln!(
-                "gibake render --mode {}: not built yet (issue 4); only --mode direct works at this stage.",
-                format!("{other:?}").to_lowercase()
-            );
-            return Ok(ExitCode::from(2));
-        }
+    let mode = mode_of(a.mode);
+    let asset = match (&a.bake, mode) {
+        (Some(p), _) => Some(gibake_asset::load(p)?),
+        (None, gibake_runtime::Mode::Direct) => None,
+        (None, _) => bail!(
+            "--mode {} needs a baked asset: run `gibake bake {} -o OUT.gibake` and pass --bake OUT.gibake",
+            format!("{:?}", a.mode).to_lowercase(),
+            a.scene.scene.display()
+        ),
     };
-    if a.bake.is_some() {
-        tracing::warn!("--bake is not used by --mode direct");
-    }
     let scene = load_scene(&a.scene)?;
-    let ctx = GpuContext::new(&GpuOptions { adapter: a.adapter.clone() })?;
+    let ctx = GpuContext::new(&GpuOptions {
+        adapter: a.adapter.clone(),
+    })?;
     eprintln!("GPU: {}", ctx.record);
     let settings = gibake_runtime::RenderSettings {
-        width: a.width,
-        height: a.height,
+        width: a.width * a.ssaa,
+        height: a.height * a.ssaa,
         shadow_map_size: a.shadow_map_size,
         mode,
     };
-    let mut frame_times = Vec::new();
+    let t0 = Instant::now();
+    let mut renderer = gibake_runtime::Renderer::new(
+        &ctx.device,
+        &ctx.queue,
+        &scene,
+        asset.as_ref(),
+        &settings,
+        a.time,
+    )
+    .with_context(|| format!("setting up {}", a.scene.scene.display()))?;
+    ctx.wait()?;
+    let setup_s = t0.elapsed().as_secs_f64();
+    let mut frames = Vec::new();
     for f in 0..a.frames {
         let t = a.time + f as f32 / a.fps;
         let start = Instant::now();
-        let img = gibake_runtime::render_image(&ctx, &scene, &settings, t, a.ssaa)
-            .with_context(|| format!("rendering {}", a.scene.scene.display()))?;
-        frame_times.push(start.elapsed().as_secs_f64());
+        renderer.set_time(&ctx.queue, &scene, t)?;
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        renderer.encode(&ctx.device, &ctx.queue, &mut enc);
+        ctx.queue.submit([enc.finish()]);
+        let stats = renderer.stats(&ctx.device);
+        let frame_s = start.elapsed().as_secs_f64();
+        let img = gibake_runtime::read_output(&ctx, &renderer, a.ssaa)?;
         let out = frame_path(&a.output, f, a.frames);
         write_image_atomic(&img, &out)?;
-        eprintln!("wrote {} ({:.3} s)", out.display(), frame_times.last().copied().unwrap_or(0.0));
+        let gpu_ms: f64 = stats.passes.iter().map(|(_, ms)| ms).sum();
+        eprintln!(
+            "wrote {} (t = {t:.3} s, GPU {gpu_ms:.2} ms, wall {:.3} s)",
+            out.display(),
+            frame_s
+        );
+        frames.push(serde_json::json!({
+            "time": t,
+            "output": out,
+            "wall_seconds": frame_s,
+            "timing": stats.timing,
+            "passes_ms": stats.passes.iter().map(|(n, ms)| serde_json::json!({"pass": n, "ms": ms})).collect::<Vec<_>>(),
+            "update_ms": stats.update_ms(),
+            "static_vpls": stats.static_vpls,
+            "dynamic_vpl_slots": stats.dynamic_vpl_slots,
+            "affected_maps": stats.affected_maps,
+            "update_draw_calls": stats.update_draw_calls,
+            "draw_calls": stats.draw_calls,
+        }));
     }
     if let Some(stats) = &a.stats {
         let json = serde_json::json!({
             "adapter": ctx.record.to_string(),
+            "scene": a.scene.scene,
             "mode": format!("{:?}", a.mode).to_lowercase(),
-            "timing": "wall (CPU-side, includes readback)",
-            "frame_seconds": frame_times,
+            "width": a.width,
+            "height": a.height,
+            "ssaa": a.ssaa,
+            "setup_seconds": setup_s,
+            "asset_upload_bytes": renderer.asset_bytes(),
+            "frames": frames,
         });
-        std::fs::write(stats, serde_json::to_string_pretty(&json)?).with_context(|| format!("{}", stats.display()))?;
+        std::fs::write(stats, serde_json::to_string_pretty(&json)?)
+            .with_context(|| format!("{}", stats.display()))?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -147,17 +226,29 @@ fn reference(a: ReferenceArgs) -> anyhow::Result<ExitCode> {
         height: a.height,
         spp: a.spp,
         time: a.time,
-        depth: if a.direct_only { gibake_reference::Depth::Direct } else { gibake_reference::Depth::OneBounce },
+        depth: if a.direct_only {
+            gibake_reference::Depth::Direct
+        } else {
+            gibake_reference::Depth::OneBounce
+        },
         seed: a.seed,
     };
     let start = Instant::now();
     let img = run_reference(&scene, &settings)?;
     write_image_atomic(&img, &a.output)?;
-    eprintln!("wrote {} ({:.2} s, {} spp)", a.output.display(), start.elapsed().as_secs_f64(), a.spp);
+    eprintln!(
+        "wrote {} ({:.2} s, {} spp)",
+        a.output.display(),
+        start.elapsed().as_secs_f64(),
+        a.spp
+    );
     Ok(ExitCode::SUCCESS)
 }
 
-fn run_reference(scene: &Scene, settings: &gibake_reference::Settings) -> anyhow::Result<gibake_image::Image> {
+fn run_reference(
+    scene: &Scene,
+    settings: &gibake_reference::Settings,
+) -> anyhow::Result<gibake_image::Image> {
     let pb = bar(settings.height as u64, "reference");
     let img = gibake_reference::render(scene, settings, &|rows| pb.set_position(rows))
         .with_context(|| format!("reference render of {}", scene.source.display()))?;
@@ -167,11 +258,15 @@ fn run_reference(scene: &Scene, settings: &gibake_reference::Settings) -> anyhow
 
 fn demo(a: DemoArgs) -> anyhow::Result<ExitCode> {
     check_size(a.width, a.height)?;
-    std::fs::create_dir_all(&a.output).with_context(|| format!("creating {}", a.output.display()))?;
+    std::fs::create_dir_all(&a.output)
+        .with_context(|| format!("creating {}", a.output.display()))?;
     let path = PathBuf::from("corner_bunny.glb (embedded)");
     let scene = gibake_scene::load_from_slice(CORNER_BUNNY, &path, &LoadOptions::default())?;
     let (st, dt) = scene.triangle_counts();
-    eprintln!("scene: corner_bunny — {st} static triangles, {} moving objects ({dt} triangles)", scene.dynamic_objects.len());
+    eprintln!(
+        "scene: corner_bunny — {st} static triangles, {} moving objects ({dt} triangles)",
+        scene.dynamic_objects.len()
+    );
     let ctx = GpuContext::new(&GpuOptions::default())?;
     eprintln!("GPU: {}", ctx.record);
     let settings = gibake_runtime::RenderSettings {
@@ -181,7 +276,7 @@ fn demo(a: DemoArgs) -> anyhow::Result<ExitCode> {
         mode: gibake_runtime::Mode::Direct,
     };
     let t0 = Instant::now();
-    let gpu = gibake_runtime::render_image(&ctx, &scene, &settings, 0.0, 2)?;
+    let gpu = gibake_runtime::render_image(&ctx, &scene, None, &settings, 0.0, 2)?;
     let gpu_s = t0.elapsed().as_secs_f64();
     write_image_atomic(&gpu, &a.output.join("direct.exr"))?;
     write_image_atomic(&gpu, &a.output.join("direct.png"))?;
@@ -201,7 +296,165 @@ fn demo(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let err = gibake_image::rel_mse(&gpu, &reference);
     println!("{:<28} {:>10} {:>12}", "image", "time (s)", "rel MSE");
     println!("{:<28} {:>10.3} {:>12.5}", "GPU direct (wgpu)", gpu_s, err);
-    println!("{:<28} {:>10.3} {:>12}", format!("CPU reference ({} spp)", a.spp), ref_s, "—");
+    println!(
+        "{:<28} {:>10.3} {:>12}",
+        format!("CPU reference ({} spp)", a.spp),
+        ref_s,
+        "—"
+    );
     println!("images in {}", a.output.display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// indicatif progress for the bake's stages.
+struct BarProgress {
+    bar: std::sync::Mutex<Option<indicatif::ProgressBar>>,
+    quiet: bool,
+}
+
+impl gibake_bake::BakeProgress for BarProgress {
+    fn begin(&self, stage: &str, total: u64) {
+        if self.quiet {
+            return;
+        }
+        let pb = if total > 0 {
+            bar(total, stage)
+        } else {
+            let pb = indicatif::ProgressBar::new_spinner();
+            pb.set_message(stage.to_string());
+            pb.enable_steady_tick(std::time::Duration::from_millis(120));
+            pb
+        };
+        *self.bar.lock().expect("progress lock") = Some(pb);
+    }
+    fn advance(&self, n: u64) {
+        if let Some(pb) = self.bar.lock().expect("progress lock").as_ref() {
+            pb.inc(n);
+        }
+    }
+    fn end(&self) {
+        if let Some(pb) = self.bar.lock().expect("progress lock").take() {
+            pb.finish_and_clear();
+        }
+    }
+}
+
+fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
+    if let Some(dir) = a.output.parent().filter(|p| !p.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            bail!(
+                "{}: the output directory {} does not exist",
+                a.output.display(),
+                dir.display()
+            );
+        }
+    }
+    let target = match (a.vpls, a.threshold) {
+        (Some(n), _) => gibake_bake::cluster::ClusterTarget::Count(n),
+        (None, Some(t)) => gibake_bake::cluster::ClusterTarget::Threshold(t),
+        (None, None) => gibake_bake::cluster::ClusterTarget::Count(256),
+    };
+    let opts = gibake_bake::BakeOptions {
+        rsm_size: a.rsm_size,
+        vpl_map_size: a.vpl_map_size,
+        shadow_map_size: a.shadow_map_size,
+        target,
+    };
+    let total = Instant::now();
+    let scene = load_scene(&a.scene)?;
+    let load_s = total.elapsed().as_secs_f64();
+    let ctx = GpuContext::new(&GpuOptions {
+        adapter: a.adapter.clone(),
+    })?;
+    let progress = BarProgress {
+        bar: std::sync::Mutex::new(None),
+        quiet: a.json,
+    };
+    let out = gibake_bake::bake(&ctx, &scene, &opts, &progress, env!("CARGO_PKG_VERSION"))
+        .with_context(|| format!("baking {}", a.scene.scene.display()))?;
+    let w = Instant::now();
+    gibake_asset::write(&out.asset, &a.output)?;
+    let write_s = w.elapsed().as_secs_f64();
+    let m = &out.asset.manifest;
+    let mut stages: Vec<(String, f64)> = vec![("load scene".into(), load_s)];
+    stages.extend(out.stages.iter().map(|s| (s.stage.to_string(), s.seconds)));
+    stages.push(("write".into(), write_s));
+    let total_s = total.elapsed().as_secs_f64();
+    if a.json {
+        let json = serde_json::json!({
+            "asset": a.output,
+            "adapter": ctx.record.to_string(),
+            "vpls": m.vpl_count,
+            "maps_stored": m.map_count,
+            "threshold": m.settings.threshold,
+            "has_dynamic": m.has_dynamic,
+            "stages": stages.iter().map(|(n, s)| serde_json::json!({"stage": n, "seconds": s})).collect::<Vec<_>>(),
+            "total_seconds": total_s,
+        });
+        println!("{}", serde_json::to_string_pretty(&json)?);
+    } else {
+        eprintln!("GPU: {}", ctx.record);
+        eprintln!(
+            "baked {}: {} VPLs ({} maps stored), threshold {:.4}",
+            a.output.display(),
+            m.vpl_count,
+            m.map_count,
+            m.settings.threshold
+        );
+        for (n, s) in &stages {
+            eprintln!("  {n:<12} {s:>8.3} s");
+        }
+        eprintln!("  {:<12} {:>8.3} s", "total", total_s);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn inspect(a: InspectArgs) -> anyhow::Result<ExitCode> {
+    let asset = gibake_asset::load(&a.asset)?;
+    let info = gibake_asset::inspect(&asset);
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&info)?);
+    } else {
+        println!("{info}");
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
+    let asset_a = gibake_asset::load(&a.a)?;
+    let asset_b = gibake_asset::load(&a.b)?;
+    let mut tol = match a.tolerance {
+        TolerancePreset::SameMachine => gibake_asset::Tolerance::same_machine(),
+        TolerancePreset::AnotherGpu => gibake_asset::Tolerance::another_gpu(),
+    };
+    if let Some(v) = a.map_rel {
+        tol.map_rel = v;
+    }
+    if let Some(v) = a.max_texels_over {
+        tol.max_texels_over = v;
+    }
+    if let Some(v) = a.vpl_position_rel {
+        tol.vpl_position_rel = v;
+    }
+    if let Some(v) = a.vpl_flux_rel {
+        tol.vpl_flux_rel = v;
+    }
+    tol.strict_provenance |= a.strict_provenance;
+    let report = gibake_asset::diff(&asset_a, &asset_b, &tol);
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        println!("{report}");
+    }
+    if let Some(dir) = &a.images {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        for p in gibake_asset::write_diff_images(&asset_a, &asset_b, dir)? {
+            eprintln!("wrote {}", p.display());
+        }
+    }
+    Ok(if report.equal() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
 }

@@ -11,18 +11,34 @@ use indicatif::{ProgressBar, ProgressStyle};
 /// file that looks valid.
 pub fn write_image_atomic(img: &Image, path: &Path) -> anyhow::Result<()> {
     let tmp = temp_sibling(path);
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("exr").to_ascii_lowercase();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("exr")
+        .to_ascii_lowercase();
     let tmp = tmp.with_extension(format!("tmp.{ext}"));
-    let r = if ext == "png" { img.write_png(&tmp, None) } else { img.write_exr(&tmp) };
+    let r = if ext == "png" {
+        img.write_png(&tmp, None)
+    } else {
+        img.write_exr(&tmp)
+    };
     if let Err(e) = r {
         let _ = std::fs::remove_file(&tmp);
         return Err(e).with_context(|| format!("writing {}", path.display()));
     }
-    std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot move the finished file into place", path.display()))
+    std::fs::rename(&tmp, path).with_context(|| {
+        format!(
+            "{}: cannot move the finished file into place",
+            path.display()
+        )
+    })
 }
 
 fn temp_sibling(path: &Path) -> PathBuf {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
     path.with_file_name(format!(".{name}.{}", std::process::id()))
 }
 
@@ -30,9 +46,11 @@ fn temp_sibling(path: &Path) -> PathBuf {
 pub fn bar(len: u64, what: &str) -> ProgressBar {
     let pb = ProgressBar::new(len);
     pb.set_style(
-        ProgressStyle::with_template("{prefix:>10} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})")
-            .expect("static template")
-            .progress_chars("=> "),
+        ProgressStyle::with_template(
+            "{prefix:>10} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})",
+        )
+        .expect("static template")
+        .progress_chars("=> "),
     );
     pb.set_prefix(what.to_string());
     pb

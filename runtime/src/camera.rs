@@ -30,8 +30,15 @@ pub struct NoCamera {
 
 impl CameraMatrices {
     /// The first camera of `scene` at time `time` for a `width × height` output.
-    pub fn new(scene: &Scene, time: f32, width: u32, height: u32) -> Result<CameraMatrices, NoCamera> {
-        let cam = scene.camera.as_ref().ok_or_else(|| NoCamera { path: scene.source.clone() })?;
+    pub fn new(
+        scene: &Scene,
+        time: f32,
+        width: u32,
+        height: u32,
+    ) -> Result<CameraMatrices, NoCamera> {
+        let cam = scene.camera.as_ref().ok_or_else(|| NoCamera {
+            path: scene.source.clone(),
+        })?;
         let world = scene.camera_transform(time).unwrap_or(Mat4::IDENTITY);
         let (_scale, rot, pos) = world.to_scale_rotation_translation();
         let rigid = Mat4::from_rotation_translation(rot.normalize(), pos);
@@ -49,9 +56,12 @@ impl CameraMatrices {
                 );
                 (p, false)
             }
-            Projection::Orthographic { ymag, znear, zfar, .. } => {
-                (gibake_gpu::orthographic_reversed_z(ymag * aspect, ymag, znear, zfar), true)
-            }
+            Projection::Orthographic {
+                ymag, znear, zfar, ..
+            } => (
+                gibake_gpu::orthographic_reversed_z(ymag * aspect, ymag, znear, zfar),
+                true,
+            ),
         };
         Ok(CameraMatrices {
             view_proj: proj * view,
@@ -65,7 +75,10 @@ impl CameraMatrices {
     pub fn to_gpu(&self) -> GpuCamera {
         GpuCamera {
             view_proj: self.view_proj.to_cols_array_2d(),
-            position: self.position.extend(if self.orthographic { 1.0 } else { 0.0 }).to_array(),
+            position: self
+                .position
+                .extend(if self.orthographic { 1.0 } else { 0.0 })
+                .to_array(),
             forward: self.forward.extend(0.0).to_array(),
         }
     }

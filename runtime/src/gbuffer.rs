@@ -30,7 +30,11 @@ pub struct GBuffer {
 impl GBuffer {
     /// Allocates a `width × height` G-buffer.
     pub fn new(device: &wgpu::Device, width: u32, height: u32) -> GBuffer {
-        let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
+        let size = wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        };
         let make = |format, label| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
@@ -50,9 +54,18 @@ impl GBuffer {
             .zip(["gbuffer position", "gbuffer normals", "gbuffer albedo"])
             .map(|(f, l)| make(*f, l))
             .collect();
-        let views = textures.iter().map(|t| t.create_view(&Default::default())).collect();
-        let depth = make(crate::shadow::DEPTH_FORMAT, "gbuffer depth");
-        GBuffer { textures, views, depth_view: depth.create_view(&Default::default()), width, height }
+        let views = textures
+            .iter()
+            .map(|t| t.create_view(&Default::default()))
+            .collect();
+        let depth = make(gibake_gpu::passes::shadow::DEPTH_FORMAT, "gbuffer depth");
+        GBuffer {
+            textures,
+            views,
+            depth_view: depth.create_view(&Default::default()),
+            width,
+            height,
+        }
     }
 }
 
@@ -103,8 +116,14 @@ impl GBufferPass {
             label: Some("gbuffer"),
             layout: &layout,
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: scene_gpu.draw_data.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: uniform_buf.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: scene_gpu.draw_data.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: uniform_buf.as_entire_binding(),
+                },
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -112,7 +131,8 @@ impl GBufferPass {
             bind_group_layouts: &[Some(&layout), Some(&scene_gpu.material_layout)],
             immediate_size: 0,
         });
-        let targets: Vec<Option<wgpu::ColorTargetState>> = GBUFFER_FORMATS.iter().map(|f| Some((*f).into())).collect();
+        let targets: Vec<Option<wgpu::ColorTargetState>> =
+            GBUFFER_FORMATS.iter().map(|f| Some((*f).into())).collect();
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("gbuffer"),
             layout: Some(&pl),
@@ -122,9 +142,12 @@ impl GBufferPass {
                 compilation_options: Default::default(),
                 buffers: &[Some(GpuVertex::LAYOUT)],
             },
-            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            primitive: wgpu::PrimitiveState {
+                cull_mode: None,
+                ..Default::default()
+            },
             depth_stencil: Some(wgpu::DepthStencilState {
-                format: crate::shadow::DEPTH_FORMAT,
+                format: gibake_gpu::passes::shadow::DEPTH_FORMAT,
                 depth_write_enabled: Some(true),
                 depth_compare: Some(wgpu::CompareFunction::Greater),
                 stencil: Default::default(),
@@ -140,11 +163,22 @@ impl GBufferPass {
             multiview_mask: None,
             cache: None,
         });
-        GBufferPass { pipeline, bind_group, uniform_buf }
+        GBufferPass {
+            pipeline,
+            bind_group,
+            uniform_buf,
+        }
     }
 
     /// Records the pass into `target`.
-    pub fn encode(&self, encoder: &mut wgpu::CommandEncoder, target: &GBuffer, scene_gpu: &SceneGpu, draws: &[&[Draw]]) {
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &GBuffer,
+        scene_gpu: &SceneGpu,
+        draws: &[&[Draw]],
+        ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) {
         let attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = target
             .views
             .iter()
@@ -153,7 +187,10 @@ impl GBufferPass {
                     view: v,
                     depth_slice: None,
                     resolve_target: None,
-                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        store: wgpu::StoreOp::Store,
+                    },
                 })
             })
             .collect();
@@ -162,10 +199,13 @@ impl GBufferPass {
             color_attachments: &attachments,
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &target.depth_view,
-                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(0.0),
+                    store: wgpu::StoreOp::Store,
+                }),
                 stencil_ops: None,
             }),
-            timestamp_writes: None,
+            timestamp_writes: ts,
             occlusion_query_set: None,
             multiview_mask: None,
         });

@@ -1,36 +1,64 @@
 //! gibake's game-facing runtime.
 //!
-//! A [`Renderer`] owns the GPU resources for one scene on the caller's
-//! `wgpu::Device`: scene meshes, the camera G-buffer, the merged primary
-//! shadow map and the shading pass. Each frame the caller moves the dynamic
-//! objects ([`Renderer::set_time`] samples the scene's animation, or
-//! [`Renderer::set_dynamic_transforms`] takes the game's own matrices),
-//! records the frame with [`Renderer::encode`], and reads or samples
-//! [`Renderer::output`] (linear radiance, `Rgba32Float`).
+//! A [`Renderer`] owns the GPU resources for one scene and (except in
+//! `direct` mode) one baked asset, on the caller's `wgpu::Device`. Each
+//! frame the caller moves the dynamic objects ([`Renderer::set_time`]
+//! samples the scene's animation; [`Renderer::set_dynamic_transforms`] takes
+//! the game's own matrices), records the frame with [`Renderer::encode`], and
+//! reads or samples [`Renderer::output`] (linear radiance, `Rgba32Float`).
 //!
-//! Passes, in order: [`shadow::ShadowPass`] (primary shadow map of static +
-//! moving geometry), [`gbuffer::GBufferPass`], [`shade::ShadePass`].
+//! Per frame, only what moving objects cause is done (design brief, steps
+//! 4–8), all on the GPU, with no read-back:
+//! 1. moving objects → their own primary shadow map; shading takes the
+//!    minimum with the baked static map (the z-min merge, without copying);
+//! 2. moving objects → a small RSM at the bake's RSM resolution; texels where
+//!    they are nearer the light than the static surface
+//!    - scale the static VPLs' flux by their lit fraction (partial occlusion),
+//!    - become dynamic VPLs (quadtree on the GPU);
+//! 3. static VPL maps: only the VPLs whose hemisphere a moving object's
+//!    bounds enter get a tile in which the moving objects are rasterized
+//!    exactly; shading takes the minimum with the baked map. A VPL no longer
+//!    affected simply has no tile: its baked map is used as it is.
+//! 4. G-buffer, then shading.
+//!
+//! With no moving objects none of 1–3 exists: no pass, no texture.
 
+pub mod baked;
 pub mod camera;
+pub mod dynamic_rsm;
 pub mod gbuffer;
 pub mod shade;
-pub mod shadow;
+pub mod timer;
 
+use std::time::Instant;
+
+use gibake_asset::Asset;
 use gibake_gpu::mesh::SceneGpu;
-use gibake_gpu::{GpuContext, GpuError, GpuPrimaryLight, LightView};
+use gibake_gpu::passes::hemi_raster::{GpuHemiJob, HemiAtlas, HemiRasterPass, NO_LAYER};
+use gibake_gpu::passes::shadow::ShadowPass;
+use gibake_gpu::{GpuContext, GpuError, GpuPrimaryLight, LightView, hemisphere};
 use gibake_image::Image;
-use gibake_scene::Scene;
-use glam::Mat4;
+use gibake_scene::{Aabb, Scene};
+use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
 pub use camera::{CameraMatrices, NoCamera};
 
-/// What a frame contains.
+/// What a frame contains (the `--mode` of `gibake render`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Mode {
-    /// Direct light from the primary light only.
+    /// The method: direct + static VPLs with merged maps + dynamic VPLs.
     #[default]
+    Full,
+    /// Direct light only (needs no asset).
     Direct,
+    /// The indirect part of `Full`.
+    Indirect,
+    /// Dachsbacher's RSM: direct + every VPL, no VPL visibility.
+    Rsm,
+    /// Like `Full`, but every VPL map is re-rendered from all geometry every
+    /// frame (the cost baseline; same image).
+    Naive,
 }
 
 /// Settings of a [`Renderer`].
@@ -40,7 +68,8 @@ pub struct RenderSettings {
     pub width: u32,
     /// Output height in pixels.
     pub height: u32,
-    /// Resolution of the primary shadow map (square).
+    /// Primary shadow map resolution when no asset is given (direct mode);
+    /// with an asset, the baked map's resolution is used.
     pub shadow_map_size: u32,
     /// What to render.
     pub mode: Mode,
@@ -48,7 +77,12 @@ pub struct RenderSettings {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { width: 640, height: 480, shadow_map_size: 2048, mode: Mode::Direct }
+        RenderSettings {
+            width: 640,
+            height: 480,
+            shadow_map_size: 2048,
+            mode: Mode::Full,
+        }
     }
 }
 
@@ -61,48 +95,222 @@ pub enum RuntimeError {
     /// A GPU operation failed.
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// The asset does not fit the scene.
+    #[error(transparent)]
+    Asset(#[from] gibake_asset::AssetError),
     /// A bad setting (zero size, size over the device's limits, ...).
     #[error("invalid render setting: {0}")]
     InvalidSetting(String),
+    /// The mode needs a baked asset.
+    #[error("--mode {0} needs a baked asset (--bake OUT.gibake); run `gibake bake` first")]
+    NeedsAsset(&'static str),
+}
+
+/// Per-frame counts and times.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct FrameStats {
+    /// "gpu timestamps" or "wall (no timestamp queries on this adapter)".
+    pub timing: String,
+    /// Per pass `(name, milliseconds)`, in order.
+    pub passes: Vec<(String, f64)>,
+    /// Static VPLs shaded.
+    pub static_vpls: u32,
+    /// Dynamic VPL slots shaded.
+    pub dynamic_vpl_slots: u32,
+    /// VPL maps into which moving objects were rasterized this frame.
+    pub affected_maps: u32,
+    /// Draw calls recorded by the per-frame update (merge passes).
+    pub update_draw_calls: u32,
+    /// Draw calls in total.
+    pub draw_calls: u32,
+}
+
+impl FrameStats {
+    /// Sum of the update passes (everything but G-buffer and shading).
+    pub fn update_ms(&self) -> f64 {
+        self.passes
+            .iter()
+            .filter(|(n, _)| n != "gbuffer" && n != "shade")
+            .map(|(_, t)| t)
+            .sum()
+    }
+}
+
+struct HemiState {
+    pass: HemiRasterPass,
+    atlas: HemiAtlas,
+    tile_buf: wgpu::Buffer,
+    jobs: Vec<GpuHemiJob>,
+    tiles: Vec<u32>,
 }
 
 /// Renders frames of one scene.
 pub struct Renderer {
     settings: RenderSettings,
     scene_gpu: SceneGpu,
-    shadow: shadow::ShadowPass,
+    baked: Option<baked::BakedGpu>,
+    _own_static: Option<ShadowPass>,
+    dyn_primary: Option<ShadowPass>,
+    dyn_rsm: Option<dynamic_rsm::DynamicRsmPass>,
+    occlusion: Option<dynamic_rsm::OcclusionPass>,
+    hemi: Option<HemiState>,
     gbuffer: gbuffer::GBuffer,
     gbuffer_pass: gbuffer::GBufferPass,
     shade: shade::ShadePass,
+    frame_group: wgpu::BindGroup,
+    gi_group: wgpu::BindGroup,
+    params: shade::GpuShadeParams,
     output: wgpu::Texture,
     _light_buf: wgpu::Buffer,
+    dummy_buf: wgpu::Buffer,
+    dyn_vpl_buf: wgpu::Buffer,
     camera: CameraMatrices,
+    local_bounds: Vec<Aabb>,
+    transforms: Vec<Mat4>,
+    timer: Option<timer::Timer>,
+    stats: FrameStats,
+    wall_start: Option<Instant>,
+}
+
+fn mode_name(m: Mode) -> &'static str {
+    match m {
+        Mode::Full => "full",
+        Mode::Direct => "direct",
+        Mode::Indirect => "indirect",
+        Mode::Rsm => "rsm",
+        Mode::Naive => "naive",
+    }
 }
 
 impl Renderer {
-    /// Creates every GPU resource for `scene`, with moving objects at `time`.
+    /// Creates every GPU resource for `scene` (and `asset`, needed by every
+    /// mode but `Direct`), with moving objects at `time`. The asset must
+    /// have been baked from this scene's static part.
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         scene: &Scene,
+        asset: Option<&Asset>,
         settings: &RenderSettings,
         time: f32,
     ) -> Result<Renderer, RuntimeError> {
         let limit = device.limits().max_texture_dimension_2d;
-        for (what, v) in [("width", settings.width), ("height", settings.height), ("shadow map size", settings.shadow_map_size)] {
+        for (what, v) in [
+            ("width", settings.width),
+            ("height", settings.height),
+            ("shadow map size", settings.shadow_map_size),
+        ] {
             if v == 0 || v > limit {
-                return Err(RuntimeError::InvalidSetting(format!("{what} {v} must be in 1..={limit} on this device")));
+                return Err(RuntimeError::InvalidSetting(format!(
+                    "{what} {v} must be in 1..={limit} on this device"
+                )));
             }
+        }
+        let mode = settings.mode;
+        if asset.is_none() && mode != Mode::Direct {
+            return Err(RuntimeError::NeedsAsset(mode_name(mode)));
+        }
+        if let Some(a) = asset {
+            gibake_asset::check_scene_hash(
+                &a.manifest,
+                &gibake_scene::static_scene_hash(scene),
+                &scene.source,
+            )?;
         }
         let camera = CameraMatrices::new(scene, time, settings.width, settings.height)?;
         let scene_gpu = SceneGpu::new(device, queue, scene, time);
-        let view = LightView::new(&scene.light, &scene.full_bounds(), settings.shadow_map_size);
-        let shadow = shadow::ShadowPass::new(device, &scene_gpu, view);
+        let has_dynamic = !scene.dynamic_objects.is_empty();
+        let indirect = mode != Mode::Direct;
+
+        let baked = match asset {
+            Some(a) => Some(baked::BakedGpu::new(device, queue, a)?),
+            None => None,
+        };
+        // Primary shadow map: baked static map, or rendered once here.
+        let (view, own_static) = match &baked {
+            Some(b) => (b.view, None),
+            None => {
+                let view =
+                    LightView::new(&scene.light, &scene.full_bounds(), settings.shadow_map_size);
+                let pass = ShadowPass::new(device, &scene_gpu, view);
+                let mut enc = device.create_command_encoder(&Default::default());
+                pass.encode(&mut enc, &scene_gpu, &[&scene_gpu.static_draws], None);
+                queue.submit([enc.finish()]);
+                (view, Some(pass))
+            }
+        };
+        let primary_static = match (&baked, &own_static) {
+            (Some(b), _) => b.primary.clone(),
+            (None, Some(p)) => p.metric_view.clone(),
+            (None, None) => unreachable!("one of the two exists"),
+        };
+        let dyn_primary = has_dynamic.then(|| ShadowPass::new(device, &scene_gpu, view));
+        let light_view_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("primary light view"),
+            contents: bytemuck::bytes_of(&view.to_gpu()),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+
+        // Moving objects' RSM and partial occlusion.
+        let (dyn_rsm, occlusion) = match (&baked, has_dynamic && indirect) {
+            (Some(b), true) => match &b.rsm {
+                Some(r) => {
+                    let pass = dynamic_rsm::DynamicRsmPass::new(device, &scene_gpu, &r.view);
+                    let occ = dynamic_rsm::OcclusionPass::new(
+                        device,
+                        &r.static_metric,
+                        &pass,
+                        &r.texel_info,
+                        b.vpls.len() as u32,
+                    );
+                    (Some(pass), Some(occ))
+                }
+                None => (None, None),
+            },
+            _ => (None, None),
+        };
+
+        // Hemisphere-map merge (full/indirect with moving objects) or
+        // re-render (naive).
+        let needs_hemi = match mode {
+            Mode::Naive => true,
+            Mode::Full | Mode::Indirect => has_dynamic,
+            _ => false,
+        };
+        let hemi = match (&baked, needs_hemi) {
+            (Some(b), true) => {
+                let n = b.vpls.len() as u32;
+                let capacity = if mode == Mode::Naive { n } else { n.min(64) };
+                let atlas = HemiAtlas::new(device, b.map_size, capacity);
+                let diag = scene.full_bounds().diagonal().max(f32::MIN_POSITIVE);
+                let pass =
+                    HemiRasterPass::new(device, &scene_gpu, &b.static_maps, 1.0 / (4.0 * diag));
+                let tile_buf = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("VPL tiles"),
+                    size: 4 * n.max(1) as u64,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                Some(HemiState {
+                    pass,
+                    atlas,
+                    tile_buf,
+                    jobs: Vec::new(),
+                    tiles: vec![u32::MAX; n as usize],
+                })
+            }
+            _ => None,
+        };
+
         let gbuffer = gbuffer::GBuffer::new(device, settings.width, settings.height);
         let gbuffer_pass = gbuffer::GBufferPass::new(device, &scene_gpu);
         let output = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("radiance"),
-            size: wgpu::Extent3d { width: settings.width, height: settings.height, depth_or_array_layers: 1 },
+            size: wgpu::Extent3d {
+                width: settings.width,
+                height: settings.height,
+                depth_or_array_layers: 1,
+            },
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
@@ -118,60 +326,356 @@ impl Renderer {
             usage: wgpu::BufferUsages::UNIFORM,
         });
         let out_view = output.create_view(&Default::default());
-        let flags = match settings.mode {
-            Mode::Direct => shade::FLAG_DIRECT,
-        };
-        let shade = shade::ShadePass::new(
+        let shade = shade::ShadePass::new(device);
+        let dyn_primary_view = dyn_primary
+            .as_ref()
+            .map(|p| p.metric_view.clone())
+            .unwrap_or_else(|| primary_static.clone());
+        let frame_group = shade.frame_group(
             device,
-            &shade::ShadeInputs {
+            &shade::FrameInputs {
                 gbuffer: &gbuffer,
-                shadow_map: &shadow.metric_view,
+                primary_static: &primary_static,
+                primary_dynamic: &dyn_primary_view,
                 light: &light_buf,
-                light_view: &shadow.uniform_buf,
+                light_view: &light_view_buf,
                 output: &out_view,
             },
-            flags,
         );
-        queue.write_buffer(&gbuffer_pass.uniform_buf, 0, bytemuck::bytes_of(&camera.to_gpu()));
-        Ok(Renderer {
+        let dummy_buf = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("dummy"),
+            size: 64,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let dyn_vpl_buf = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("dynamic VPLs"),
+            size: 48,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+
+        let mut flags = match mode {
+            Mode::Direct => shade::FLAG_DIRECT,
+            Mode::Full | Mode::Naive => {
+                shade::FLAG_DIRECT | shade::FLAG_STATIC_VPL | shade::FLAG_VISIBILITY
+            }
+            Mode::Indirect => shade::FLAG_STATIC_VPL | shade::FLAG_VISIBILITY,
+            Mode::Rsm => shade::FLAG_DIRECT | shade::FLAG_STATIC_VPL,
+        };
+        if mode == Mode::Naive {
+            flags |= shade::FLAG_ATLAS_ONLY;
+        }
+        if dyn_primary.is_some() {
+            flags |= shade::FLAG_DYN_PRIMARY;
+        }
+        if occlusion.is_some() {
+            flags |= shade::FLAG_OCCLUSION;
+        }
+        let params = shade::GpuShadeParams {
+            size: [settings.width, settings.height],
+            flags,
+            n_static: baked.as_ref().map(|b| b.vpls.len() as u32).unwrap_or(0),
+            map_size: baked.as_ref().map(|b| b.map_size).unwrap_or(1),
+            atlas_cols: hemi.as_ref().map(|h| h.atlas.cols).unwrap_or(1),
+            n_dynamic: 0,
+            pad: 0,
+        };
+        queue.write_buffer(&shade.uniform_buf, 0, bytemuck::bytes_of(&params));
+        queue.write_buffer(
+            &gbuffer_pass.uniform_buf,
+            0,
+            bytemuck::bytes_of(&camera.to_gpu()),
+        );
+
+        let local_bounds = scene
+            .dynamic_objects
+            .iter()
+            .map(|o| o.local_bounds)
+            .collect();
+        let transforms = (0..scene.dynamic_objects.len())
+            .map(|i| scene.dynamic_transform(i, time))
+            .collect();
+        let mut r = Renderer {
             settings: settings.clone(),
             scene_gpu,
-            shadow,
+            baked,
+            _own_static: own_static,
+            dyn_primary,
+            dyn_rsm,
+            occlusion,
+            hemi,
             gbuffer,
             gbuffer_pass,
             shade,
+            frame_group,
+            gi_group: dummy_group_placeholder(device),
+            params,
             output,
             _light_buf: light_buf,
+            dummy_buf,
+            dyn_vpl_buf,
             camera,
-        })
+            local_bounds,
+            transforms,
+            timer: timer::Timer::new(device, queue, 8),
+            stats: FrameStats::default(),
+            wall_start: None,
+        };
+        r.gi_group = r.make_gi_group(device);
+        Ok(r)
+    }
+
+    fn make_gi_group(&self, device: &wgpu::Device) -> wgpu::BindGroup {
+        let fallback_maps;
+        let static_maps = match &self.baked {
+            Some(b) => &b.static_maps,
+            None => {
+                fallback_maps = tiny_texture(device, true);
+                &fallback_maps
+            }
+        };
+        let fallback_atlas;
+        let atlas = match &self.hemi {
+            Some(h) => &h.atlas.view,
+            None => {
+                fallback_atlas = tiny_texture(device, false);
+                &fallback_atlas
+            }
+        };
+        self.shade.gi_group(
+            device,
+            &shade::GiInputs {
+                vpls: self
+                    .baked
+                    .as_ref()
+                    .map(|b| &b.vpl_buf)
+                    .unwrap_or(&self.dummy_buf),
+                occlusion: self
+                    .occlusion
+                    .as_ref()
+                    .map(|o| &o.occluded)
+                    .unwrap_or(&self.dummy_buf),
+                vpl_tile: self
+                    .hemi
+                    .as_ref()
+                    .map(|h| &h.tile_buf)
+                    .unwrap_or(&self.dummy_buf),
+                static_maps,
+                atlas,
+                dyn_vpls: &self.dyn_vpl_buf,
+            },
+        )
     }
 
     /// Moves the dynamic objects and the camera to the scene's animation at `time`.
-    pub fn set_time(&mut self, queue: &wgpu::Queue, scene: &Scene, time: f32) -> Result<(), RuntimeError> {
-        self.scene_gpu.update_dynamic(queue, scene, time);
-        self.camera = CameraMatrices::new(scene, time, self.settings.width, self.settings.height)?;
-        queue.write_buffer(&self.gbuffer_pass.uniform_buf, 0, bytemuck::bytes_of(&self.camera.to_gpu()));
+    pub fn set_time(
+        &mut self,
+        queue: &wgpu::Queue,
+        scene: &Scene,
+        time: f32,
+    ) -> Result<(), RuntimeError> {
+        let transforms: Vec<Mat4> = (0..scene.dynamic_objects.len())
+            .map(|i| scene.dynamic_transform(i, time))
+            .collect();
+        self.set_dynamic_transforms(queue, &transforms);
+        self.set_camera(
+            queue,
+            CameraMatrices::new(scene, time, self.settings.width, self.settings.height)?,
+        );
         Ok(())
     }
 
     /// Sets the dynamic objects' world matrices (one per
     /// `Scene::dynamic_objects` entry), as a game would each frame.
     pub fn set_dynamic_transforms(&mut self, queue: &wgpu::Queue, transforms: &[Mat4]) {
+        for (t, m) in self.transforms.iter_mut().zip(transforms) {
+            *t = *m;
+        }
         self.scene_gpu.set_dynamic_transforms(queue, transforms);
     }
 
-    /// Sets the camera (world → clip matrix with reversed Z, eye, forward).
+    /// Sets the camera.
     pub fn set_camera(&mut self, queue: &wgpu::Queue, camera: CameraMatrices) {
         self.camera = camera;
-        queue.write_buffer(&self.gbuffer_pass.uniform_buf, 0, bytemuck::bytes_of(&camera.to_gpu()));
+        queue.write_buffer(
+            &self.gbuffer_pass.uniform_buf,
+            0,
+            bytemuck::bytes_of(&camera.to_gpu()),
+        );
     }
 
-    /// Records one frame.
-    pub fn encode(&self, encoder: &mut wgpu::CommandEncoder) {
-        let all = [&self.scene_gpu.static_draws[..], &self.scene_gpu.dynamic_draws[..]];
-        self.shadow.encode(encoder, &self.scene_gpu, &all);
-        self.gbuffer_pass.encode(encoder, &self.gbuffer, &self.scene_gpu, &all);
-        self.shade.encode(encoder);
+    /// The VPLs whose hemisphere a moving object's bounds enter.
+    fn affected_vpls(&self) -> Vec<u32> {
+        let Some(b) = &self.baked else {
+            return Vec::new();
+        };
+        let boxes: Vec<Aabb> = self
+            .local_bounds
+            .iter()
+            .zip(&self.transforms)
+            .map(|(l, m)| l.transformed(*m))
+            .collect();
+        let mut out = Vec::new();
+        for (i, v) in b.vpls.iter().enumerate() {
+            let n = Vec3::from_array(v.normal);
+            let o = hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
+            let hit = boxes.iter().any(|bx| {
+                // The box enters the open half-space in front of the VPL.
+                let c = bx.center();
+                let e = (bx.max - bx.min) * 0.5;
+                (c - o).dot(n) + e.dot(n.abs()) > 0.0
+            });
+            if hit {
+                out.push(i as u32);
+            }
+        }
+        out
+    }
+
+    /// Records one frame. Needs the device to grow the merge atlas when
+    /// more VPL maps are affected than ever before.
+    pub fn encode(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+    ) {
+        self.wall_start = Some(Instant::now());
+        let mut stats = FrameStats {
+            static_vpls: self.params.n_static,
+            ..Default::default()
+        };
+        if let Some(t) = self.timer.as_mut() {
+            t.reset();
+        }
+        let mut calls = 0u32;
+        // 1. Moving objects into their primary shadow map.
+        if let Some(p) = &self.dyn_primary {
+            let ts = self.timer.as_mut().and_then(|t| t.render("primary merge"));
+            p.encode(
+                encoder,
+                &self.scene_gpu,
+                &[&self.scene_gpu.dynamic_draws],
+                ts,
+            );
+            calls += self.scene_gpu.dynamic_draws.len() as u32;
+        }
+        // 2. Moving objects' RSM, partial occlusion.
+        if let (Some(r), Some(o)) = (&self.dyn_rsm, &self.occlusion) {
+            let ts = self.timer.as_mut().and_then(|t| t.render("dynamic rsm"));
+            calls += r.encode(encoder, &self.scene_gpu, ts);
+            let ts = self.timer.as_mut().and_then(|t| t.compute("occlusion"));
+            o.encode(encoder, ts);
+        }
+        // 3. VPL maps.
+        if self.hemi.is_some() {
+            let naive = self.settings.mode == Mode::Naive;
+            let chosen: Vec<u32> = if naive {
+                (0..self.params.n_static).collect()
+            } else {
+                self.affected_vpls()
+            };
+            let grow = {
+                let h = self.hemi.as_ref().expect("checked");
+                chosen.len() as u32 > h.atlas.capacity
+            };
+            if grow {
+                let b = self.baked.as_ref().expect("hemi implies baked");
+                let cap = (chosen.len() as u32)
+                    .next_power_of_two()
+                    .min(b.vpls.len() as u32);
+                let h = self.hemi.as_mut().expect("checked");
+                h.atlas = HemiAtlas::new(device, b.map_size, cap);
+                self.params.atlas_cols = h.atlas.cols;
+                queue.write_buffer(&self.shade.uniform_buf, 0, bytemuck::bytes_of(&self.params));
+                self.gi_group = self.make_gi_group(device);
+            }
+            let b = self.baked.as_ref().expect("hemi implies baked");
+            let h = self.hemi.as_mut().expect("checked");
+            h.jobs.clear();
+            h.tiles.iter_mut().for_each(|t| *t = u32::MAX);
+            for (slot, &i) in chosen.iter().enumerate() {
+                let v = &b.vpls[i as usize];
+                let n = Vec3::from_array(v.normal);
+                let o = hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
+                let t = h.atlas.tile_origin(slot as u32);
+                h.jobs.push(GpuHemiJob {
+                    origin: o.extend(0.0).to_array(),
+                    normal: n.extend(0.0).to_array(),
+                    tile: [t[0], t[1], NO_LAYER, 0],
+                });
+                h.tiles[i as usize] = slot as u32;
+            }
+            queue.write_buffer(&h.tile_buf, 0, bytemuck::cast_slice(&h.tiles));
+            h.pass.set_jobs(
+                device,
+                queue,
+                &self.scene_gpu,
+                &b.static_maps,
+                &h.atlas,
+                &h.jobs,
+            );
+            stats.affected_maps = chosen.len() as u32;
+            if !chosen.is_empty() {
+                let ts = self.timer.as_mut().and_then(|t| t.render("vpl maps"));
+                let draws: Vec<&[gibake_gpu::mesh::Draw]> = if naive {
+                    vec![&self.scene_gpu.static_draws, &self.scene_gpu.dynamic_draws]
+                } else {
+                    vec![&self.scene_gpu.dynamic_draws]
+                };
+                calls += h.pass.encode(encoder, &h.atlas, &draws, true, ts);
+            }
+        }
+        stats.update_draw_calls = calls;
+        // 4. G-buffer and shading.
+        let all = [
+            &self.scene_gpu.static_draws[..],
+            &self.scene_gpu.dynamic_draws[..],
+        ];
+        let ts = self.timer.as_mut().and_then(|t| t.render("gbuffer"));
+        self.gbuffer_pass
+            .encode(encoder, &self.gbuffer, &self.scene_gpu, &all, ts);
+        calls += (all[0].len() + all[1].len()) as u32;
+        let ts = self.timer.as_mut().and_then(|t| t.compute("shade"));
+        self.shade.encode(
+            encoder,
+            &self.frame_group,
+            &self.gi_group,
+            [self.settings.width, self.settings.height],
+            ts,
+        );
+        if let Some(t) = &self.timer {
+            t.resolve(encoder);
+        }
+        stats.draw_calls = calls;
+        stats.dynamic_vpl_slots = self.params.n_dynamic;
+        self.stats = stats;
+    }
+
+    /// Stats of the last frame: waits for the GPU, reads the timestamps.
+    pub fn stats(&mut self, device: &wgpu::Device) -> FrameStats {
+        let mut s = self.stats.clone();
+        match &self.timer {
+            Some(t) => {
+                s.timing = "gpu timestamps".into();
+                s.passes = t
+                    .read(device)
+                    .into_iter()
+                    .map(|(n, ms)| (n.to_string(), ms))
+                    .collect();
+            }
+            None => {
+                let _ = device.poll(wgpu::PollType::wait_indefinitely());
+                s.timing = "wall (no timestamp queries on this adapter)".into();
+                let ms = self
+                    .wall_start
+                    .map(|w| w.elapsed().as_secs_f64() * 1e3)
+                    .unwrap_or(0.0);
+                s.passes = vec![("frame".into(), ms)];
+            }
+        }
+        s
     }
 
     /// The frame's linear radiance (`Rgba32Float`, row 0 at the top).
@@ -179,10 +683,47 @@ impl Renderer {
         &self.output
     }
 
-    /// The primary light's view.
-    pub fn light_view(&self) -> &LightView {
-        &self.shadow.view
+    /// GPU bytes uploaded from the asset.
+    pub fn asset_bytes(&self) -> u64 {
+        self.baked.as_ref().map(|b| b.bytes).unwrap_or(0)
     }
+}
+
+fn tiny_texture(device: &wgpu::Device, array: bool) -> wgpu::TextureView {
+    let t = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("unused"),
+        size: wgpu::Extent3d {
+            width: 1,
+            height: 1,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::R32Float,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING,
+        view_formats: &[],
+    });
+    t.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(if array {
+            wgpu::TextureViewDimension::D2Array
+        } else {
+            wgpu::TextureViewDimension::D2
+        }),
+        ..Default::default()
+    })
+}
+
+fn dummy_group_placeholder(device: &wgpu::Device) -> wgpu::BindGroup {
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("empty"),
+        entries: &[],
+    });
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("empty"),
+        layout: &layout,
+        entries: &[],
+    })
 }
 
 /// Renders one frame at `time` on `ctx` and reads it back. `ssaa` renders at
@@ -191,6 +732,7 @@ impl Renderer {
 pub fn render_image(
     ctx: &GpuContext,
     scene: &Scene,
+    asset: Option<&Asset>,
     settings: &RenderSettings,
     time: f32,
     ssaa: u32,
@@ -199,11 +741,21 @@ pub fn render_image(
     let mut hi = settings.clone();
     hi.width = settings.width * ssaa;
     hi.height = settings.height * ssaa;
-    let renderer = Renderer::new(&ctx.device, &ctx.queue, scene, &hi, time)?;
+    let mut renderer = Renderer::new(&ctx.device, &ctx.queue, scene, asset, &hi, time)?;
     let mut enc = ctx.device.create_command_encoder(&Default::default());
-    renderer.encode(&mut enc);
+    renderer.encode(&ctx.device, &ctx.queue, &mut enc);
     ctx.queue.submit([enc.finish()]);
-    let data = gibake_gpu::readback::read_texture_f32(ctx, renderer.output(), 0, 4)?;
-    let img = Image::from_rgba_f32(hi.width, hi.height, &data);
-    Ok(gibake_image::box_downsample(&img, ssaa))
+    read_output(ctx, &renderer, ssaa)
+}
+
+/// Reads a renderer's output back (box-filtered by `ssaa`).
+pub fn read_output(
+    ctx: &GpuContext,
+    renderer: &Renderer,
+    ssaa: u32,
+) -> Result<Image, RuntimeError> {
+    let out = renderer.output();
+    let data = gibake_gpu::readback::read_texture_f32(ctx, out, 0, 4)?;
+    let img = Image::from_rgba_f32(out.width(), out.height(), &data);
+    Ok(gibake_image::box_downsample(&img, ssaa.max(1)))
 }

@@ -1,8 +1,8 @@
-//! Deferred shading pass (compute): reads the G-buffer and the merged
-//! primary shadow map, writes linear radiance (`Rgba32Float`).
+//! Deferred shading pass (compute, `shade.wgsl`): direct light with the
+//! merged primary shadow map, static VPLs with merged hemisphere maps and
+//! partial occlusion, dynamic VPLs. Writes linear radiance (`Rgba32Float`).
 
 use gibake_gpu::shaders;
-use wgpu::util::DeviceExt;
 
 use crate::gbuffer::GBuffer;
 
@@ -11,35 +11,57 @@ pub const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Floa
 
 /// Must match `ShadeParams` in `shade.wgsl`.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuShadeParams {
     /// Output size.
     pub size: [u32; 2],
-    /// Bit 0: direct.
+    /// `FLAG_*` bits.
     pub flags: u32,
+    /// Number of static VPLs.
+    pub n_static: u32,
+    /// Hemisphere map size.
+    pub map_size: u32,
+    /// Tiles per atlas row.
+    pub atlas_cols: u32,
+    /// Number of dynamic VPL slots.
+    pub n_dynamic: u32,
     /// Padding.
     pub pad: u32,
 }
 
-/// Flag bit: add direct light.
+/// Direct light.
 pub const FLAG_DIRECT: u32 = 1;
+/// Static VPLs.
+pub const FLAG_STATIC_VPL: u32 = 2;
+/// Dynamic VPLs.
+pub const FLAG_DYNAMIC_VPL: u32 = 4;
+/// VPL visibility from hemisphere maps (off in `rsm` mode).
+pub const FLAG_VISIBILITY: u32 = 8;
+/// Every VPL map is an atlas tile (`naive`).
+pub const FLAG_ATLAS_ONLY: u32 = 16;
+/// Moving objects drawn into the primary map.
+pub const FLAG_DYN_PRIMARY: u32 = 32;
+/// Partial occlusion of static VPLs.
+pub const FLAG_OCCLUSION: u32 = 64;
 
-/// The shading pass: pipeline, bind group, uniforms.
+/// The shading pass: pipeline, bind group layouts, uniform.
 pub struct ShadePass {
     pipeline: wgpu::ComputePipeline,
-    bind_group: wgpu::BindGroup,
+    /// Layout of group 0 (G-buffer, primary maps, light, params, output).
+    pub frame_layout: wgpu::BindGroupLayout,
+    /// Layout of group 1 (VPL data and maps).
+    pub gi_layout: wgpu::BindGroupLayout,
     /// `GpuShadeParams` uniform.
     pub uniform_buf: wgpu::Buffer,
-    size: [u32; 2],
 }
 
-fn tex_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+fn tex_entry(binding: u32, dim: wgpu::TextureViewDimension) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
         ty: wgpu::BindingType::Texture {
             sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: wgpu::TextureViewDimension::D2,
+            view_dimension: dim,
             multisampled: false,
         },
         count: None,
@@ -50,75 +72,108 @@ fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
         count: None,
     }
 }
 
-/// Inputs of [`ShadePass::new`].
-pub struct ShadeInputs<'a> {
+fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// Frame inputs (group 0).
+pub struct FrameInputs<'a> {
     /// The camera G-buffer.
     pub gbuffer: &'a GBuffer,
-    /// Merged primary shadow map (metric).
-    pub shadow_map: &'a wgpu::TextureView,
+    /// Static primary shadow map (metric).
+    pub primary_static: &'a wgpu::TextureView,
+    /// Moving objects' primary shadow map (or any R32Float view when none).
+    pub primary_dynamic: &'a wgpu::TextureView,
     /// `GpuPrimaryLight` uniform.
     pub light: &'a wgpu::Buffer,
-    /// `GpuLightView` uniform of the shadow map.
+    /// `GpuLightView` uniform of the primary maps.
     pub light_view: &'a wgpu::Buffer,
     /// Output radiance view (`Rgba32Float`, storage binding).
     pub output: &'a wgpu::TextureView,
 }
 
+/// GI inputs (group 1).
+pub struct GiInputs<'a> {
+    /// Static VPL records.
+    pub vpls: &'a wgpu::Buffer,
+    /// Per static VPL occluded fraction (fixed point 2^24).
+    pub occlusion: &'a wgpu::Buffer,
+    /// Per static VPL atlas tile or `u32::MAX`.
+    pub vpl_tile: &'a wgpu::Buffer,
+    /// Baked maps (array).
+    pub static_maps: &'a wgpu::TextureView,
+    /// Atlas of merged/re-rendered maps.
+    pub atlas: &'a wgpu::TextureView,
+    /// Dynamic VPL slots.
+    pub dyn_vpls: &'a wgpu::Buffer,
+}
+
 impl ShadePass {
     /// Creates the pass.
-    pub fn new(device: &wgpu::Device, inputs: &ShadeInputs<'_>, flags: u32) -> ShadePass {
+    pub fn new(device: &wgpu::Device) -> ShadePass {
         let module = shaders::module(device, "shade.wgsl", include_str!("shade.wgsl"));
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("shade"),
+        use wgpu::TextureViewDimension::{D2, D2Array};
+        let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shade frame"),
             entries: &[
-                tex_entry(0),
-                tex_entry(1),
-                tex_entry(2),
-                tex_entry(3),
-                uniform_entry(4),
+                tex_entry(0, D2),
+                tex_entry(1, D2),
+                tex_entry(2, D2),
+                tex_entry(3, D2),
+                tex_entry(4, D2),
                 uniform_entry(5),
                 uniform_entry(6),
+                uniform_entry(7),
                 wgpu::BindGroupLayoutEntry {
-                    binding: 7,
+                    binding: 8,
                     visibility: wgpu::ShaderStages::COMPUTE,
                     ty: wgpu::BindingType::StorageTexture {
                         access: wgpu::StorageTextureAccess::WriteOnly,
                         format: RADIANCE_FORMAT,
-                        view_dimension: wgpu::TextureViewDimension::D2,
+                        view_dimension: D2,
                     },
                     count: None,
                 },
             ],
         });
-        let size = [inputs.gbuffer.width, inputs.gbuffer.height];
-        let uniform_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("shade params"),
-            contents: bytemuck::bytes_of(&GpuShadeParams { size, flags, pad: 0 }),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        });
-        let g = &inputs.gbuffer.views;
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("shade"),
-            layout: &layout,
+        let gi_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shade gi"),
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&g[0]) },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&g[1]) },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&g[2]) },
-                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(inputs.shadow_map) },
-                wgpu::BindGroupEntry { binding: 4, resource: inputs.light.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 5, resource: inputs.light_view.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 6, resource: uniform_buf.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::TextureView(inputs.output) },
+                storage_entry(0),
+                storage_entry(1),
+                storage_entry(2),
+                tex_entry(3, D2Array),
+                tex_entry(4, D2),
+                storage_entry(5),
             ],
+        });
+        let uniform_buf = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("shade params"),
+            size: std::mem::size_of::<GpuShadeParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("shade"),
-            bind_group_layouts: &[Some(&layout)],
+            bind_group_layouts: &[Some(&frame_layout), Some(&gi_layout)],
             immediate_size: 0,
         });
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -129,14 +184,137 @@ impl ShadePass {
             compilation_options: Default::default(),
             cache: None,
         });
-        ShadePass { pipeline, bind_group, uniform_buf, size }
+        ShadePass {
+            pipeline,
+            frame_layout,
+            gi_layout,
+            uniform_buf,
+        }
+    }
+
+    /// Bind group 0.
+    pub fn frame_group(&self, device: &wgpu::Device, i: &FrameInputs<'_>) -> wgpu::BindGroup {
+        let g = &i.gbuffer.views;
+        let tv = wgpu::BindingResource::TextureView;
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shade frame"),
+            layout: &self.frame_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: tv(&g[0]),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: tv(&g[1]),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: tv(&g[2]),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: tv(i.primary_static),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: tv(i.primary_dynamic),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: i.light.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: i.light_view.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 7,
+                    resource: self.uniform_buf.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 8,
+                    resource: tv(i.output),
+                },
+            ],
+        })
+    }
+
+    /// Bind group 1.
+    pub fn gi_group(&self, device: &wgpu::Device, i: &GiInputs<'_>) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shade gi"),
+            layout: &self.gi_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: i.vpls.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: i.occlusion.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: i.vpl_tile.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::TextureView(i.static_maps),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(i.atlas),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: i.dyn_vpls.as_entire_binding(),
+                },
+            ],
+        })
     }
 
     /// Records the pass.
-    pub fn encode(&self, encoder: &mut wgpu::CommandEncoder) {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("shade"), timestamp_writes: None });
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &wgpu::BindGroup,
+        gi: &wgpu::BindGroup,
+        size: [u32; 2],
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("shade"),
+            timestamp_writes: timestamps,
+        });
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.dispatch_workgroups(self.size[0].div_ceil(8), self.size[1].div_ceil(8), 1);
+        pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(1, gi, &[]);
+        pass.dispatch_workgroups(size[0].div_ceil(8), size[1].div_ceil(8), 1);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn runtime_shaders_validate() {
+        use gibake_gpu::mesh::MESH_WGSL;
+        use gibake_gpu::shaders::{compose, validate};
+        for (name, src) in [
+            ("shade.wgsl", include_str!("shade.wgsl").to_string()),
+            (
+                "gbuffer.wgsl",
+                format!("{MESH_WGSL}\n{}", include_str!("gbuffer.wgsl")),
+            ),
+            (
+                "dynamic_rsm.wgsl",
+                format!("{MESH_WGSL}\n{}", include_str!("dynamic_rsm.wgsl")),
+            ),
+            ("occlusion.wgsl", include_str!("occlusion.wgsl").to_string()),
+        ] {
+            if let Err(e) = validate(&compose(&src)) {
+                panic!("{name} does not validate:\n{e}");
+            }
+        }
     }
 }

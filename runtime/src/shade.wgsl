@@ -1,36 +1,176 @@
-// shade.wgsl — deferred shading (needs common.wgsl, light.wgsl, projection.wgsl).
-// One invocation per pixel: direct light from the primary light with the
-// merged shadow map. Accumulates in f32, writes linear radiance.
+// shade.wgsl — deferred shading (needs common.wgsl, light.wgsl,
+// projection.wgsl, hemisphere.wgsl). One invocation per pixel:
+//   direct light with the merged primary shadow map (static ∪ moving),
+// + every static VPL with its merged hemisphere map, its flux scaled by the
+//   lit fraction of its own RSM texels,
+// + every dynamic VPL, unshadowed.
+// VPL transport has no singularity: a VPL is a small disk of its texels'
+// area A, E = Φ/π · cosθ_v cosθ_r / (d² + A/π) (exact on the disk's axis).
+// Accumulates in f32; writes linear radiance.
 
 struct ShadeParams {
     size: vec2<u32>,
-    flags: u32,      // bit 0: direct
+    flags: u32,
+    n_static: u32,
+    map_size: u32,
+    atlas_cols: u32,
+    n_dynamic: u32,
     _pad: u32,
 }
 
 const FLAG_DIRECT: u32 = 1u;
+const FLAG_STATIC_VPL: u32 = 2u;
+const FLAG_DYNAMIC_VPL: u32 = 4u;
+const FLAG_VISIBILITY: u32 = 8u;      // use hemisphere maps (off: RSM mode)
+const FLAG_ATLAS_ONLY: u32 = 16u;     // naive: every map is an atlas tile
+const FLAG_DYN_PRIMARY: u32 = 32u;    // moving objects in the primary map
+const FLAG_OCCLUSION: u32 = 64u;      // partial occlusion of static VPLs
+
+const NONE: u32 = 0xffffffffu;
+const OCCL_ONE: f32 = 16777216.0;     // 2^24: fixed-point 1.0 of occlusion sums
+
+// Hemisphere-map biases, in texel footprints at the receiver.
+const VPL_NORMAL_OFFSET: f32 = 1.0;
+const VPL_DEPTH_BIAS: f32 = 1.0;
+
+struct Vpl {              // must match gibake_asset::VplRecord (48 bytes)
+    position: vec3<f32>,
+    area: f32,
+    normal: vec3<f32>,
+    texels: u32,
+    flux: vec3<f32>,
+    map: u32,
+}
+
+struct DynVpl {           // must match GpuDynVpl in dynamic_vpl.rs
+    position: vec4<f32>,  // xyz, w = area
+    normal: vec4<f32>,    // xyz, w = 1 if the slot holds a VPL
+    flux: vec4<f32>,
+}
 
 @group(0) @binding(0) var g_position: texture_2d<f32>;
 @group(0) @binding(1) var g_normals: texture_2d<f32>;
 @group(0) @binding(2) var g_albedo: texture_2d<f32>;
-@group(0) @binding(3) var shadow_map: texture_2d<f32>;
-@group(0) @binding(4) var<uniform> light: PrimaryLight;
-@group(0) @binding(5) var<uniform> light_view: LightView;
-@group(0) @binding(6) var<uniform> params: ShadeParams;
-@group(0) @binding(7) var out_radiance: texture_storage_2d<rgba32float, write>;
+@group(0) @binding(3) var primary_static: texture_2d<f32>;
+@group(0) @binding(4) var primary_dynamic: texture_2d<f32>;
+@group(0) @binding(5) var<uniform> light: PrimaryLight;
+@group(0) @binding(6) var<uniform> light_view: LightView;
+@group(0) @binding(7) var<uniform> params: ShadeParams;
+@group(0) @binding(8) var out_radiance: texture_storage_2d<rgba32float, write>;
+
+@group(1) @binding(0) var<storage, read> vpls: array<Vpl>;
+@group(1) @binding(1) var<storage, read> occlusion: array<u32>;
+@group(1) @binding(2) var<storage, read> vpl_tile: array<u32>;
+@group(1) @binding(3) var static_maps: texture_2d_array<f32>;
+@group(1) @binding(4) var atlas: texture_2d<f32>;
+@group(1) @binding(5) var<storage, read> dyn_vpls: array<DynVpl>;
+
+fn has(f: u32) -> bool {
+    return (params.flags & f) != 0u;
+}
+
+// Merged primary-map visibility: 2×2 PCF over min(static, moving).
+fn primary_visibility(p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
+    let w = lv_footprint(light_view, p);
+    let cos_t = clamp(dot(ng, wi), 0.0, 1.0);
+    let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+    let q = p + ng * (w * SHADOW_NORMAL_OFFSET * sin_t);
+    let d = lv_metric(light_view, q);
+    let tc = lv_texel_coords(light_view, q);
+    if (tc.z <= 0.0 || any(tc.xy < vec2<f32>(0.0)) || any(tc.xy > vec2<f32>(light_view.params.x))) {
+        return 1.0;
+    }
+    let size = i32(light_view.params.x);
+    let t = tc.xy - vec2<f32>(0.5);
+    let i0 = vec2<i32>(floor(t));
+    let f = t - floor(t);
+    let bias = w * SHADOW_DEPTH_BIAS;
+    var lit = vec4<f32>(0.0);
+    let offs = array<vec2<i32>, 4>(vec2<i32>(0, 0), vec2<i32>(1, 0), vec2<i32>(0, 1), vec2<i32>(1, 1));
+    for (var k = 0; k < 4; k++) {
+        let c = clamp(i0 + offs[k], vec2<i32>(0), vec2<i32>(size - 1));
+        var s = textureLoad(primary_static, c, 0).r;
+        if (has(FLAG_DYN_PRIMARY)) {
+            s = min(s, textureLoad(primary_dynamic, c, 0).r);
+        }
+        lit[k] = select(0.0, 1.0, d <= s + bias);
+    }
+    return mix(mix(lit.x, lit.y, f.x), mix(lit.z, lit.w, f.x), f.y);
+}
 
 fn direct_radiance(p: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
     let inc = light_incident(light, p);
-    let cos_g = dot(ng, inc.wi);
-    if (cos_g <= 0.0) {
+    if (dot(ng, inc.wi) <= 0.0) {
         return vec3<f32>(0.0);
     }
     let cos_s = max(dot(ns, inc.wi), 0.0);
     if (cos_s <= 0.0 || all(inc.irradiance == vec3<f32>(0.0))) {
         return vec3<f32>(0.0);
     }
-    let vis = lv_visibility(light_view, shadow_map, p, ng, inc.wi);
-    return albedo * INV_PI * inc.irradiance * (cos_s * vis);
+    return albedo * INV_PI * inc.irradiance * (cos_s * primary_visibility(p, ng, inc.wi));
+}
+
+// Distance stored for VPL i in direction texel c (min of its static map and
+// its moving-object tile; +inf when neither exists).
+fn vpl_map_distance(i: u32, map: u32, tile: u32, c: vec2<i32>) -> f32 {
+    var s = 3.0e38;
+    if (map != NONE && !has(FLAG_ATLAS_ONLY)) {
+        s = textureLoad(static_maps, c, i32(map), 0).r;
+    }
+    if (tile != NONE) {
+        let n = i32(params.map_size);
+        let cols = i32(params.atlas_cols);
+        let origin = vec2<i32>(i32(tile) % cols, i32(tile) / cols) * n;
+        s = min(s, textureLoad(atlas, origin + c, 0).r);
+    }
+    return s;
+}
+
+// Fraction of VPL i's light that reaches x (2×2 PCF of its hemisphere map).
+fn vpl_visibility(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ng: vec3<f32>) -> f32 {
+    let tile = vpl_tile[i];
+    if ((v.map == NONE || has(FLAG_ATLAS_ONLY)) && tile == NONE) {
+        return 1.0;
+    }
+    let n = f32(params.map_size);
+    // Texel footprint at x: the hemi-octahedral texel subtends at most
+    // ~2√2/n radians.
+    let dist0 = length(x - origin);
+    let w = dist0 * (2.83 / n);
+    let to_vpl = normalize(origin - x);
+    let cos_t = clamp(dot(ng, to_vpl), 0.0, 1.0);
+    let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+    let q = x + ng * (w * VPL_NORMAL_OFFSET * sin_t);
+    let dq = q - origin;
+    let d = length(dq);
+    let tc = hemi_texel_coords(v.normal, dq / d, n) - vec2<f32>(0.5);
+    let i0 = vec2<i32>(floor(tc));
+    let f = tc - floor(tc);
+    let bias = w * VPL_DEPTH_BIAS;
+    var lit = vec4<f32>(0.0);
+    let offs = array<vec2<i32>, 4>(vec2<i32>(0, 0), vec2<i32>(1, 0), vec2<i32>(0, 1), vec2<i32>(1, 1));
+    let size = i32(params.map_size);
+    for (var k = 0; k < 4; k++) {
+        let c = clamp(i0 + offs[k], vec2<i32>(0), vec2<i32>(size - 1));
+        lit[k] = select(0.0, 1.0, d <= vpl_map_distance(i, v.map, tile, c) + bias);
+    }
+    return mix(mix(lit.x, lit.y, f.x), mix(lit.z, lit.w, f.x), f.y);
+}
+
+// Irradiance from a disk-like VPL at `origin` (normal nv, area a, flux phi).
+fn vpl_irradiance(origin: vec3<f32>, nv: vec3<f32>, a: f32, phi: vec3<f32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
+    let dv = x - origin;
+    let d2 = dot(dv, dv);
+    if (d2 <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let dir = dv * inverseSqrt(d2);
+    let cos_v = dot(nv, dir);
+    let cos_r = dot(ns, -dir);
+    if (cos_v <= 0.0 || cos_r <= 0.0 || dot(ng, -dir) <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    return finite_or_zero3(phi * (INV_PI * cos_v * cos_r / (d2 + a * INV_PI)));
 }
 
 @compute @workgroup_size(8, 8)
@@ -42,13 +182,43 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let pos = textureLoad(g_position, px, 0);
     var radiance = vec3<f32>(0.0);
     if (pos.w > 0.5) {
+        let x = pos.xyz;
         let nn = textureLoad(g_normals, px, 0);
         let ns = oct_decode(nn.xy);
         let ng = oct_decode(nn.zw);
         let albedo = textureLoad(g_albedo, px, 0).rgb;
-        if ((params.flags & FLAG_DIRECT) != 0u) {
-            radiance += direct_radiance(pos.xyz, ns, ng, albedo);
+        if (has(FLAG_DIRECT)) {
+            radiance += direct_radiance(x, ns, ng, albedo);
         }
+        var e = vec3<f32>(0.0);
+        if (has(FLAG_STATIC_VPL)) {
+            for (var i = 0u; i < params.n_static; i++) {
+                let v = vpls[i];
+                let origin = vpl_origin(v.position, v.normal, v.area);
+                var phi = v.flux;
+                if (has(FLAG_OCCLUSION)) {
+                    phi = phi * max(1.0 - f32(occlusion[i]) / OCCL_ONE, 0.0);
+                }
+                let ei = vpl_irradiance(origin, v.normal, v.area, phi, x, ns, ng);
+                if (all(ei == vec3<f32>(0.0))) {
+                    continue;
+                }
+                var vis = 1.0;
+                if (has(FLAG_VISIBILITY)) {
+                    vis = vpl_visibility(i, v, origin, x, ng);
+                }
+                e += ei * vis;
+            }
+        }
+        if (has(FLAG_DYNAMIC_VPL)) {
+            for (var i = 0u; i < params.n_dynamic; i++) {
+                let v = dyn_vpls[i];
+                if (v.normal.w > 0.5) {
+                    e += vpl_irradiance(v.position.xyz, v.normal.xyz, v.position.w, v.flux.rgb, x, ns, ng);
+                }
+            }
+        }
+        radiance += albedo * INV_PI * e;
     }
     textureStore(out_radiance, px, vec4<f32>(finite_or_zero3(radiance), 1.0));
 }

@@ -26,7 +26,11 @@ pub struct AdapterRecord {
 
 impl fmt::Display for AdapterRecord {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} ({}, {} {}, {})", self.name, self.backend, self.driver, self.driver_info, self.device_type)
+        write!(
+            f,
+            "{} ({}, {} {}, {})",
+            self.name, self.backend, self.driver, self.driver_info, self.device_type
+        )
     }
 }
 
@@ -111,26 +115,44 @@ impl GpuContext {
         let mut adapters = instance.enumerate_adapters(backends).await;
         adapters.sort_by(|a, b| {
             let (ia, ib) = (a.get_info(), b.get_info());
-            (type_rank(ia.device_type), ia.name.clone(), format!("{:?}", ia.backend)).cmp(&(
-                type_rank(ib.device_type),
-                ib.name.clone(),
-                format!("{:?}", ib.backend),
-            ))
+            (
+                type_rank(ia.device_type),
+                ia.name.clone(),
+                format!("{:?}", ia.backend),
+            )
+                .cmp(&(
+                    type_rank(ib.device_type),
+                    ib.name.clone(),
+                    format!("{:?}", ib.backend),
+                ))
         });
         if adapters.is_empty() {
-            return Err(GpuError::NoAdapter { backends: format!("{backends:?}") });
+            return Err(GpuError::NoAdapter {
+                backends: format!("{backends:?}"),
+            });
         }
-        let wanted = options.adapter.clone().or_else(|| std::env::var("GIBAKE_ADAPTER").ok());
+        let wanted = options
+            .adapter
+            .clone()
+            .or_else(|| std::env::var("GIBAKE_ADAPTER").ok());
         let adapter = match wanted {
             Some(w) => {
                 let lw = w.to_lowercase();
-                let pos = adapters.iter().position(|a| a.get_info().name.to_lowercase().contains(&lw));
+                let pos = adapters
+                    .iter()
+                    .position(|a| a.get_info().name.to_lowercase().contains(&lw));
                 match pos {
                     Some(i) => adapters.swap_remove(i),
                     None => {
-                        let available =
-                            adapters.iter().map(|a| format!("{:?}", a.get_info().name)).collect::<Vec<_>>().join(", ");
-                        return Err(GpuError::NoMatchingAdapter { wanted: w, available });
+                        let available = adapters
+                            .iter()
+                            .map(|a| format!("{:?}", a.get_info().name))
+                            .collect::<Vec<_>>()
+                            .join(", ");
+                        return Err(GpuError::NoMatchingAdapter {
+                            wanted: w,
+                            available,
+                        });
                     }
                 }
             }
@@ -163,9 +185,19 @@ impl GpuContext {
                 trace: wgpu::Trace::Off,
             })
             .await
-            .map_err(|source| GpuError::RequestDevice { adapter: info.name.clone(), source })?;
+            .map_err(|source| GpuError::RequestDevice {
+                adapter: info.name.clone(),
+                source,
+            })?;
         tracing::info!("GPU adapter: {record}");
-        Ok(GpuContext { instance, adapter, device, queue, record, timestamps })
+        Ok(GpuContext {
+            instance,
+            adapter,
+            device,
+            queue,
+            record,
+            timestamps,
+        })
     }
 
     /// Blocks until all submitted work is done.

@@ -10,10 +10,15 @@
 //! - [`mesh`]: scene meshes uploaded as GPU buffers.
 
 mod context;
+pub mod hemisphere;
 mod light_view;
 pub mod mesh;
+pub mod passes;
 pub mod readback;
 pub mod shaders;
 
 pub use context::{AdapterRecord, GpuContext, GpuError, GpuOptions};
-pub use light_view::{GpuLightView, GpuPrimaryLight, LightView, MAX_SPOT_HALF_ANGLE, look_to, orthographic_reversed_z, orthonormal_basis, perspective_reversed_z};
+pub use light_view::{
+    GpuLightView, GpuPrimaryLight, LightView, MAX_SPOT_HALF_ANGLE, look_to,
+    orthographic_reversed_z, orthonormal_basis, perspective_reversed_z,
+};

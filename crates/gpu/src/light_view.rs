@@ -88,8 +88,18 @@ pub fn look_to(origin: Vec3, dir: Vec3) -> Mat4 {
     let z = -dir;
     let (x, y) = (t, b);
     // Make (x, y, z) right-handed.
-    let (x, y) = if x.cross(y).dot(z) > 0.0 { (x, y) } else { (y, x) };
-    Mat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), origin.extend(1.0)).inverse()
+    let (x, y) = if x.cross(y).dot(z) > 0.0 {
+        (x, y)
+    } else {
+        (y, x)
+    };
+    Mat4::from_cols(
+        x.extend(0.0),
+        y.extend(0.0),
+        z.extend(0.0),
+        origin.extend(1.0),
+    )
+    .inverse()
 }
 
 impl LightView {
@@ -154,14 +164,33 @@ impl LightView {
         }
     }
 
+    /// The same view with a `size × size` map (texel scale and area rescaled).
+    pub fn resized(&self, size: u32) -> LightView {
+        let r = self.size as f32 / size.max(1) as f32;
+        LightView {
+            size,
+            texel_scale: self.texel_scale * r,
+            texel_area: self.texel_area * r * r,
+            ..*self
+        }
+    }
+
     /// The stored shadow metric of a world point (see module docs).
     pub fn metric(&self, p: Vec3) -> f32 {
-        if self.directional { (p - self.origin).dot(self.direction) } else { (p - self.origin).length() }
+        if self.directional {
+            (p - self.origin).dot(self.direction)
+        } else {
+            (p - self.origin).length()
+        }
     }
 
     /// World size of one map texel at `p`.
     pub fn footprint(&self, p: Vec3) -> f32 {
-        if self.directional { self.texel_scale } else { self.metric(p) * self.texel_scale }
+        if self.directional {
+            self.texel_scale
+        } else {
+            self.metric(p) * self.texel_scale
+        }
     }
 
     /// Continuous texel coordinates of `p` (x right, y down, texel centres at
@@ -176,13 +205,52 @@ impl LightView {
         Some(uv * self.size as f32)
     }
 
+    /// The ray through the centre of texel `(x, y)`: `(origin, unit
+    /// direction)`. Spot: from the light; directional: from the front plane.
+    pub fn texel_ray(&self, x: u32, y: u32) -> (Vec3, Vec3) {
+        let n = self.size as f32;
+        let ndc = glam::Vec2::new(
+            (x as f32 + 0.5) / n * 2.0 - 1.0,
+            1.0 - (y as f32 + 0.5) / n * 2.0,
+        );
+        let inv = self.view_proj.inverse();
+        let near = inv.project_point3(ndc.extend(1.0));
+        let far = inv.project_point3(ndc.extend(0.0));
+        if self.directional {
+            (near, self.direction)
+        } else {
+            (self.origin, (far - near).normalize())
+        }
+    }
+
+    /// Solid angle (spot) or perpendicular area (directional) of texel
+    /// `(x, y)`: `texel_scale² · cos³θ` around the spot axis, `texel_scale²`
+    /// for directional lights. CPU twin of `lv_texel_measure` in WGSL.
+    pub fn texel_measure(&self, dir: Vec3) -> f32 {
+        if self.directional {
+            self.texel_area
+        } else {
+            let c = dir.dot(self.direction).max(0.0);
+            self.texel_area * c * c * c
+        }
+    }
+
     /// GPU layout of this view.
     pub fn to_gpu(&self) -> GpuLightView {
         GpuLightView {
             view_proj: self.view_proj.to_cols_array_2d(),
-            origin: self.origin.extend(if self.directional { 1.0 } else { 0.0 }).to_array(),
+            origin: self
+                .origin
+                .extend(if self.directional { 1.0 } else { 0.0 })
+                .to_array(),
             direction: self.direction.extend(self.texel_scale).to_array(),
-            params: Vec4::new(self.size as f32, 1.0 / self.size as f32, self.texel_area, 0.0).to_array(),
+            params: Vec4::new(
+                self.size as f32,
+                1.0 / self.size as f32,
+                self.texel_area,
+                0.0,
+            )
+            .to_array(),
         }
     }
 }
@@ -229,7 +297,10 @@ impl GpuPrimaryLight {
     pub fn new(light: &Light) -> Self {
         let (dir_flag, scale, offset) = match light.kind {
             LightKind::Directional => (1.0, 0.0, 1.0),
-            LightKind::Spot { inner_cone, outer_cone } => {
+            LightKind::Spot {
+                inner_cone,
+                outer_cone,
+            } => {
                 let cos_outer = outer_cone.cos();
                 let scale = 1.0 / (inner_cone.cos() - cos_outer).max(0.001);
                 (0.0, scale, -cos_outer * scale)
@@ -250,17 +321,34 @@ mod tests {
 
     #[test]
     fn basis_is_orthonormal_for_every_axis_and_near_poles() {
-        for n in [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z, Vec3::new(1e-8, 0.0, -1.0).normalize()] {
+        for n in [
+            Vec3::X,
+            Vec3::Y,
+            Vec3::Z,
+            -Vec3::X,
+            -Vec3::Y,
+            -Vec3::Z,
+            Vec3::new(1e-8, 0.0, -1.0).normalize(),
+        ] {
             let (t, b) = orthonormal_basis(n);
-            assert!((t.length() - 1.0).abs() < 1e-5 && (b.length() - 1.0).abs() < 1e-5, "{n}");
-            assert!(t.dot(b).abs() < 1e-5 && t.dot(n).abs() < 1e-5 && b.dot(n).abs() < 1e-5, "{n}");
+            assert!(
+                (t.length() - 1.0).abs() < 1e-5 && (b.length() - 1.0).abs() < 1e-5,
+                "{n}"
+            );
+            assert!(
+                t.dot(b).abs() < 1e-5 && t.dot(n).abs() < 1e-5 && b.dot(n).abs() < 1e-5,
+                "{n}"
+            );
         }
     }
 
     fn spot(pos: Vec3, dir: Vec3) -> Light {
         Light {
             name: "s".into(),
-            kind: LightKind::Spot { inner_cone: 0.3, outer_cone: 0.6 },
+            kind: LightKind::Spot {
+                inner_cone: 0.3,
+                outer_cone: 0.6,
+            },
             color: Vec3::ONE,
             position: pos,
             direction: dir,
@@ -271,23 +359,45 @@ mod tests {
     fn spot_axis_projects_to_the_map_centre_and_scales_invariantly() {
         for s in [1e-3f32, 1.0, 1e3] {
             let l = spot(Vec3::new(0.0, 2.0, 0.0) * s, -Vec3::Y);
-            let b = Aabb { min: Vec3::splat(-1.0) * s, max: Vec3::splat(1.0) * s };
+            let b = Aabb {
+                min: Vec3::splat(-1.0) * s,
+                max: Vec3::splat(1.0) * s,
+            };
             let v = LightView::new(&l, &b, 512);
             let c = v.texel_coords(Vec3::ZERO).unwrap();
             assert!((c - glam::Vec2::splat(256.0)).length() < 1e-2, "{c}");
             let p = Vec3::new(0.3, 0.0, -0.2) * s;
             let c = v.texel_coords(p).unwrap();
-            let v1 = LightView::new(&spot(Vec3::new(0.0, 2.0, 0.0), -Vec3::Y), &Aabb { min: Vec3::splat(-1.0), max: Vec3::ONE }, 512);
+            let v1 = LightView::new(
+                &spot(Vec3::new(0.0, 2.0, 0.0), -Vec3::Y),
+                &Aabb {
+                    min: Vec3::splat(-1.0),
+                    max: Vec3::ONE,
+                },
+                512,
+            );
             let c1 = v1.texel_coords(p / s).unwrap();
             assert!((c - c1).length() < 1e-2, "{c} {c1}");
-            assert!((v.footprint(p) / s - v1.footprint(p / s)).abs() < 1e-6 * v1.footprint(p / s).max(1.0));
+            assert!(
+                (v.footprint(p) / s - v1.footprint(p / s)).abs()
+                    < 1e-6 * v1.footprint(p / s).max(1.0)
+            );
         }
     }
 
     #[test]
     fn directional_fit_contains_the_bounds() {
-        let l = Light { name: "d".into(), kind: LightKind::Directional, color: Vec3::ONE, position: Vec3::ZERO, direction: Vec3::new(0.3, -1.0, 0.2).normalize() };
-        let b = Aabb { min: Vec3::new(-5.0, 0.0, -3.0), max: Vec3::new(4.0, 2.0, 6.0) };
+        let l = Light {
+            name: "d".into(),
+            kind: LightKind::Directional,
+            color: Vec3::ONE,
+            position: Vec3::ZERO,
+            direction: Vec3::new(0.3, -1.0, 0.2).normalize(),
+        };
+        let b = Aabb {
+            min: Vec3::new(-5.0, 0.0, -3.0),
+            max: Vec3::new(4.0, 2.0, 6.0),
+        };
         let v = LightView::new(&l, &b, 256);
         for i in 0..8 {
             let c = v.texel_coords(corner(&b, i)).unwrap();

@@ -42,15 +42,18 @@ pub struct GpuDrawData {
     pub normal_matrix: [[f32; 4]; 4],
     /// rgb baseColorFactor, w = 1 if textured.
     pub albedo: [f32; 4],
+    /// x: base vertex (for vertex pulling), y: first index, z: triangle count, w: unused.
+    pub extra: [u32; 4],
 }
 
 impl GpuDrawData {
-    fn new(model: Mat4, albedo: glam::Vec3, textured: bool) -> Self {
+    fn new(model: Mat4, albedo: glam::Vec3, textured: bool, extra: [u32; 4]) -> Self {
         let n = Mat4::from_mat3(glam::Mat3::from_mat4(model).inverse().transpose());
         GpuDrawData {
             model: model.to_cols_array_2d(),
             normal_matrix: n.to_cols_array_2d(),
             albedo: albedo.extend(if textured { 1.0 } else { 0.0 }).to_array(),
+            extra,
         }
     }
 }
@@ -104,22 +107,40 @@ impl SceneGpu {
             let uvs = mesh.uvs.as_deref();
             for (i, (p, n)) in mesh.positions.iter().zip(&mesh.normals).enumerate() {
                 let uv = uvs.map(|u| u[i].to_array()).unwrap_or([0.0; 2]);
-                vertices.push(GpuVertex { position: p.to_array(), normal: n.to_array(), uv });
+                vertices.push(GpuVertex {
+                    position: p.to_array(),
+                    normal: n.to_array(),
+                    uv,
+                });
             }
             let start = indices.len() as u32;
             indices.extend_from_slice(&mesh.indices);
             let m = &scene.materials[mesh.material];
             let textured = m.texture.is_some() && mesh.uvs.is_some();
             let id = draw_data.len() as u32;
-            draw_data.push(GpuDrawData::new(model, m.base_color, textured));
+            let tris = (indices.len() as u32 - start) / 3;
+            draw_data.push(GpuDrawData::new(
+                model,
+                m.base_color,
+                textured,
+                [base_vertex as u32, start, tris, 0],
+            ));
             let d = Draw {
                 indices: start..indices.len() as u32,
                 base_vertex,
                 id,
-                material: if textured { mesh.material } else { scene.materials.len() },
+                material: if textured {
+                    mesh.material
+                } else {
+                    scene.materials.len()
+                },
                 object,
             };
-            if object.is_some() { dynamic_draws.push(d) } else { static_draws.push(d) }
+            if object.is_some() {
+                dynamic_draws.push(d)
+            } else {
+                static_draws.push(d)
+            }
         };
         for m in &scene.static_meshes {
             push(m, Mat4::IDENTITY, None);
@@ -131,23 +152,32 @@ impl SceneGpu {
             }
         }
         if vertices.is_empty() {
-            vertices.push(GpuVertex { position: [0.0; 3], normal: [0.0, 1.0, 0.0], uv: [0.0; 2] });
+            vertices.push(GpuVertex {
+                position: [0.0; 3],
+                normal: [0.0, 1.0, 0.0],
+                uv: [0.0; 2],
+            });
         }
         if indices.is_empty() {
             indices.extend_from_slice(&[0, 0, 0]);
         }
         if draw_data.is_empty() {
-            draw_data.push(GpuDrawData::new(Mat4::IDENTITY, glam::Vec3::ONE, false));
+            draw_data.push(GpuDrawData::new(
+                Mat4::IDENTITY,
+                glam::Vec3::ONE,
+                false,
+                [0; 4],
+            ));
         }
         let vb = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("scene vertices"),
             contents: bytemuck::cast_slice(&vertices),
-            usage: wgpu::BufferUsages::VERTEX,
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE,
         });
         let ib = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("scene indices"),
             contents: bytemuck::cast_slice(&indices),
-            usage: wgpu::BufferUsages::INDEX,
+            usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE,
         });
         let db = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("draw data"),
@@ -188,7 +218,11 @@ impl SceneGpu {
                 queue,
                 &wgpu::TextureDescriptor {
                     label: Some("albedo texture"),
-                    size: wgpu::Extent3d { width: tex.width.max(1), height: tex.height.max(1), depth_or_array_layers: 1 },
+                    size: wgpu::Extent3d {
+                        width: tex.width.max(1),
+                        height: tex.height.max(1),
+                        depth_or_array_layers: 1,
+                    },
                     mip_level_count: 1,
                     sample_count: 1,
                     dimension: wgpu::TextureDimension::D2,
@@ -204,13 +238,23 @@ impl SceneGpu {
                 label: Some("material"),
                 layout: &material_layout,
                 entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
-                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&sampler) },
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::TextureView(&view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::Sampler(&sampler),
+                    },
                 ],
             })
         };
         // Group per material (untextured ones reuse the white texture at the end).
-        let white = gibake_scene::Texture { width: 1, height: 1, rgba8_srgb: vec![255; 4] };
+        let white = gibake_scene::Texture {
+            width: 1,
+            height: 1,
+            rgba8_srgb: vec![255; 4],
+        };
         let mut material_groups = Vec::with_capacity(scene.materials.len() + 1);
         for m in &scene.materials {
             match m.texture {
@@ -233,20 +277,27 @@ impl SceneGpu {
 
     /// Rewrites the world matrices of the dynamic draws for time `time`.
     pub fn update_dynamic(&mut self, queue: &wgpu::Queue, scene: &Scene, time: f32) {
-        let transforms: Vec<Mat4> = (0..scene.dynamic_objects.len()).map(|i| scene.dynamic_transform(i, time)).collect();
+        let transforms: Vec<Mat4> = (0..scene.dynamic_objects.len())
+            .map(|i| scene.dynamic_transform(i, time))
+            .collect();
         self.set_dynamic_transforms(queue, &transforms);
     }
 
     /// Rewrites the world matrices of the dynamic draws from one matrix per
     /// dynamic object (the game-facing way to move objects).
     pub fn set_dynamic_transforms(&mut self, queue: &wgpu::Queue, transforms: &[Mat4]) {
-        let Some(first) = self.dynamic_draws.first().map(|d| d.id as usize) else { return };
+        let Some(first) = self.dynamic_draws.first().map(|d| d.id as usize) else {
+            return;
+        };
         for d in &self.dynamic_draws {
             let o = d.object.expect("dynamic draw has an object");
-            let Some(&model) = transforms.get(o) else { continue };
+            let Some(&model) = transforms.get(o) else {
+                continue;
+            };
             let old = self.cpu_draw_data[d.id as usize];
             let albedo = glam::Vec4::from_array(old.albedo);
-            self.cpu_draw_data[d.id as usize] = GpuDrawData::new(model, albedo.truncate(), albedo.w > 0.5);
+            self.cpu_draw_data[d.id as usize] =
+                GpuDrawData::new(model, albedo.truncate(), albedo.w > 0.5, old.extra);
         }
         let range = &self.cpu_draw_data[first..];
         queue.write_buffer(

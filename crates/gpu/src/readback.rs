@@ -33,7 +33,10 @@ fn map_and_read(ctx: &GpuContext, staging: &wgpu::Buffer) -> Result<Vec<u8>, Gpu
     rx.recv()
         .map_err(|e| GpuError::Operation(format!("map callback lost: {e}")))?
         .map_err(|e| GpuError::Operation(format!("buffer map: {e}")))?;
-    let data = slice.get_mapped_range().map_err(|e| GpuError::Operation(format!("mapped range: {e:?}")))?.to_vec();
+    let data = slice
+        .get_mapped_range()
+        .map_err(|e| GpuError::Operation(format!("mapped range: {e:?}")))?
+        .to_vec();
     staging.unmap();
     Ok(data)
 }
@@ -60,14 +63,26 @@ pub fn read_texture(
         wgpu::TexelCopyTextureInfo {
             texture,
             mip_level: 0,
-            origin: wgpu::Origin3d { x: 0, y: 0, z: layer },
+            origin: wgpu::Origin3d {
+                x: 0,
+                y: 0,
+                z: layer,
+            },
             aspect: wgpu::TextureAspect::All,
         },
         wgpu::TexelCopyBufferInfo {
             buffer: &staging,
-            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded), rows_per_image: Some(h) },
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(h),
+            },
         },
-        wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        wgpu::Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: 1,
+        },
     );
     ctx.queue.submit([enc.finish()]);
     let data = map_and_read(ctx, &staging)?;

@@ -13,8 +13,11 @@ pub const LIGHT: &str = include_str!("wgsl/light.wgsl");
 /// Light-view projection and shadow lookup (needs [`COMMON`]).
 pub const PROJECTION: &str = include_str!("wgsl/projection.wgsl");
 
+/// VPL hemisphere-map projection (needs [`COMMON`]).
+pub const HEMISPHERE: &str = include_str!("wgsl/hemisphere.wgsl");
+
 /// The shared parts in dependency order, for [`compose`].
-pub const SHARED: &[&str] = &[COMMON, LIGHT, PROJECTION];
+pub const SHARED: &[&str] = &[COMMON, LIGHT, PROJECTION, HEMISPHERE];
 
 /// Concatenates the shared WGSL with a pass's own source.
 pub fn compose(own: &str) -> String {
@@ -39,7 +42,10 @@ pub fn module(device: &wgpu::Device, label: &str, own: &str) -> wgpu::ShaderModu
 /// shader tests; returns the error text on failure).
 pub fn validate(source: &str) -> Result<naga::Module, String> {
     let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
-    let mut v = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all());
+    let mut v = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    );
     v.validate(&module).map_err(|e| e.emit_to_string(source))?;
     Ok(module)
 }
@@ -47,6 +53,19 @@ pub fn validate(source: &str) -> Result<naga::Module, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pass_shaders_validate() {
+        for (name, own) in [
+            ("shadow.wgsl", include_str!("passes/shadow.wgsl")),
+            ("hemi_raster.wgsl", include_str!("passes/hemi_raster.wgsl")),
+        ] {
+            let src = format!("{}\n{own}", crate::mesh::MESH_WGSL);
+            if let Err(e) = validate(&compose(&src)) {
+                panic!("{name} does not validate:\n{e}");
+            }
+        }
+    }
 
     #[test]
     fn shared_wgsl_validates() {
@@ -62,6 +81,8 @@ fn main() {
     let inc = light_incident(pl, p);
     out[0] = lv_visibility(lv, map, p, vec3<f32>(0.0, 1.0, 0.0), inc.wi) + inc.irradiance.x;
     out[1] = oct_decode(oct_encode(normalize(p))).x;
+    out[2] = hemi_texel_coords(normalize(p), hemi_decode(vec2<f32>(0.1, 0.2)), 128.0).x;
+    out[3] = vpl_origin(p, normalize(p), 2.0).x;
 }
 "#;
         if let Err(e) = validate(&compose(probe)) {

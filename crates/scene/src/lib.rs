@@ -23,11 +23,13 @@
 
 mod animation;
 mod error;
+mod hash;
 mod import;
 mod mesh;
 
 pub use animation::{Animator, Trs};
 pub use error::SceneError;
+pub use hash::static_scene_hash;
 pub use import::{LoadOptions, load, load_from_slice};
 pub use mesh::{Aabb, compute_normals};
 

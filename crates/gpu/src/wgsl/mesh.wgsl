@@ -12,4 +12,5 @@ struct DrawData {
     model: mat4x4<f32>,
     normal_matrix: mat4x4<f32>,
     albedo: vec4<f32>,   // rgb baseColorFactor, w = 1 if textured
+    extra: vec4<u32>,    // x base vertex, y first index, z triangle count
 }

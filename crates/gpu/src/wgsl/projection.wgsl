@@ -70,3 +70,13 @@ fn lv_visibility(v: LightView, map: texture_2d<f32>, p: vec3<f32>, ng: vec3<f32>
     }
     return mix(mix(lit.x, lit.y, f.x), mix(lit.z, lit.w, f.x), f.y);
 }
+
+// Solid angle (spot) or perpendicular area (directional) of the texel whose
+// ray has unit direction dir. CPU twin: LightView::texel_measure.
+fn lv_texel_measure(v: LightView, dir: vec3<f32>) -> f32 {
+    if (v.origin.w > 0.5) {
+        return v.params.z;
+    }
+    let c = max(dot(dir, v.direction.xyz), 0.0);
+    return v.params.z * c * c * c;
+}

@@ -1,10 +1,11 @@
-//! Primary-light shadow map: every mesh drawn from the light's view
+//! Primary-light shadow map (the bake's static map and the runtime's merged
+//! one): every mesh drawn from the light's view
 //! ([`gibake_gpu::LightView`]), storing the projection's metric in an
 //! `R32Float` texture (the depth buffer only orders fragments). Surfaces are
 //! two-sided, so nothing is culled.
 
-use gibake_gpu::mesh::{Draw, GpuVertex, MESH_WGSL, SceneGpu};
-use gibake_gpu::{LightView, shaders};
+use crate::mesh::{Draw, GpuVertex, MESH_WGSL, SceneGpu};
+use crate::{LightView, shaders};
 use wgpu::util::DeviceExt;
 
 /// Format of metric maps.
@@ -66,8 +67,14 @@ impl ShadowPass {
             label: Some("shadow"),
             layout: &layout,
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: scene_gpu.draw_data.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: uniform_buf.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: scene_gpu.draw_data.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: uniform_buf.as_entire_binding(),
+                },
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -84,7 +91,10 @@ impl ShadowPass {
                 compilation_options: Default::default(),
                 buffers: &[Some(GpuVertex::LAYOUT)],
             },
-            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            primitive: wgpu::PrimitiveState {
+                cull_mode: None,
+                ..Default::default()
+            },
             depth_stencil: Some(wgpu::DepthStencilState {
                 format: DEPTH_FORMAT,
                 depth_write_enabled: Some(true),
@@ -102,7 +112,11 @@ impl ShadowPass {
             multiview_mask: None,
             cache: None,
         });
-        let size = wgpu::Extent3d { width: view.size, height: view.size, depth_or_array_layers: 1 };
+        let size = wgpu::Extent3d {
+            width: view.size,
+            height: view.size,
+            depth_or_array_layers: 1,
+        };
         let metric = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("shadow metric"),
             size,
@@ -137,7 +151,13 @@ impl ShadowPass {
     }
 
     /// Records the pass: clears to "infinitely far" and draws `draws`.
-    pub fn encode(&self, encoder: &mut wgpu::CommandEncoder, scene_gpu: &SceneGpu, draws: &[&[Draw]]) {
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        scene_gpu: &SceneGpu,
+        draws: &[&[Draw]],
+        ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("shadow"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -145,16 +165,24 @@ impl ShadowPass {
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color { r: f32::MAX as f64, g: 0.0, b: 0.0, a: 0.0 }),
+                    load: wgpu::LoadOp::Clear(wgpu::Color {
+                        r: f32::MAX as f64,
+                        g: 0.0,
+                        b: 0.0,
+                        a: 0.0,
+                    }),
                     store: wgpu::StoreOp::Store,
                 },
             })],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &self.depth_view,
-                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(0.0),
+                    store: wgpu::StoreOp::Store,
+                }),
                 stencil_ops: None,
             }),
-            timestamp_writes: None,
+            timestamp_writes: ts,
             occlusion_query_set: None,
             multiview_mask: None,
         });

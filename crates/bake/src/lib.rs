@@ -1,0 +1,21 @@
+//! gibake's offline bake (design brief, steps 1–3).
+//!
+//! 1. [`rsm`]: the reflective shadow map of the static geometry from the
+//!    primary light (one ray per texel against a BVH).
+//! 2. [`cluster`]: scale-invariant quadtree clustering of RSM texels into VPLs.
+//! 3. [`vplmap`]: a hemisphere distance map per VPL (one ray per texel).
+//!
+//! plus the static primary shadow map (GPU, the runtime's own pass) and the
+//! static-scene hash ([`gibake_scene::static_scene_hash`]). [`bake()`] runs them all and returns a
+//! [`gibake_asset::Asset`].
+
+pub mod bake;
+pub mod cluster;
+pub mod rsm;
+pub mod vplmap;
+
+pub use bake::{
+    BakeError, BakeOptions, BakeOutput, BakeProgress, NoProgress, StageTime, bake, light_view_of,
+    static_only,
+};
+pub use gibake_scene::static_scene_hash;

@@ -1,0 +1,105 @@
+//! The reflective shadow map (RSM) of the static geometry, as read back to
+//! the CPU for clustering.
+
+use gibake_gpu::LightView;
+use gibake_reference::RayScene;
+use gibake_scene::Light;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// A reflective shadow map: one entry per texel, row-major, row 0 at the
+/// top (texel `(x, y)` is at index `y * size + x`). A texel with no surface
+/// has `metric = f32::INFINITY` and zeros elsewhere.
+#[derive(Clone, Debug)]
+pub struct Rsm {
+    /// Width and height in texels.
+    pub size: u32,
+    /// The light view it was rendered with.
+    pub view: LightView,
+    /// The projection's metric (distance to a spot light; depth along a
+    /// directional light), `INFINITY` where no surface.
+    pub metric: Vec<f32>,
+    /// World position of the surface seen by the texel.
+    pub position: Vec<Vec3>,
+    /// Unit geometric normal of that surface, facing the light.
+    pub normal: Vec<Vec3>,
+    /// Reflected flux (W, linear RGB): spot `albedo · I(ω) · Ω_texel`,
+    /// directional `albedo · E · A_texel`.
+    pub flux: Vec<Vec3>,
+    /// Surface area the texel covers (world units²).
+    pub area: Vec<f32>,
+}
+
+impl Rsm {
+    /// Whether texel `i` sees a surface.
+    pub fn is_valid(&self, i: usize) -> bool {
+        self.metric[i].is_finite()
+    }
+
+    /// World size of one texel at texel `i`'s surface (see
+    /// [`LightView::footprint`]).
+    pub fn footprint(&self, i: usize) -> f32 {
+        self.view.footprint(self.position[i])
+    }
+}
+
+/// Smallest cosine between a surface and the light used for the area a
+/// texel covers (dimensionless, so scale-invariant): grazing texels would
+/// otherwise claim unbounded area.
+pub const MIN_AREA_COSINE: f32 = 0.05;
+
+/// Renders the RSM of the static geometry in `rays` by casting one ray per
+/// texel centre (exact and deterministic on every machine). Radiometry:
+/// spot `Φ = albedo · I(ω) · Ω_texel`, directional `Φ = albedo · E · A_texel`;
+/// area `= Ω·d²/cos θ` (spot) or `A_texel/cos θ` (directional), with
+/// `cos θ ≥` [`MIN_AREA_COSINE`].
+pub fn render_rsm(rays: &RayScene<'_>, light: &Light, view: &LightView) -> Rsm {
+    let size = view.size;
+    let n = (size * size) as usize;
+    let rows: Vec<Vec<(f32, Vec3, Vec3, Vec3, f32)>> = (0..size)
+        .into_par_iter()
+        .map(|y| {
+            (0..size)
+                .map(|x| {
+                    let (o, d) = view.texel_ray(x, y);
+                    let Some(hit) = rays.intersect(o, d, f32::INFINITY) else {
+                        return (f32::INFINITY, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0);
+                    };
+                    let p = hit.position;
+                    let ns = hit.shading_normal;
+                    let cos_s = hit.geometric_normal.dot(-d).max(MIN_AREA_COSINE);
+                    let measure = view.texel_measure(d);
+                    let (flux, area) = if view.directional {
+                        (hit.albedo * light.color * measure, measure / cos_s)
+                    } else {
+                        let dist = (p - light.position).length();
+                        let i = light.color * light.spot_attenuation(d);
+                        (hit.albedo * i * measure, measure * dist * dist / cos_s)
+                    };
+                    let flux = if flux.is_finite() { flux } else { Vec3::ZERO };
+                    let area = if area.is_finite() { area } else { 0.0 };
+                    (view.metric(p), p, ns, flux, area)
+                })
+                .collect()
+        })
+        .collect();
+    let mut rsm = Rsm {
+        size,
+        view: *view,
+        metric: Vec::with_capacity(n),
+        position: Vec::with_capacity(n),
+        normal: Vec::with_capacity(n),
+        flux: Vec::with_capacity(n),
+        area: Vec::with_capacity(n),
+    };
+    for row in rows {
+        for (m, p, nn, f, a) in row {
+            rsm.metric.push(m);
+            rsm.position.push(p);
+            rsm.normal.push(nn);
+            rsm.flux.push(f);
+            rsm.area.push(a);
+        }
+    }
+    rsm
+}

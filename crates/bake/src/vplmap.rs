@@ -1,0 +1,62 @@
+//! Hemisphere shadow maps of static VPLs, by ray casting one ray per texel
+//! against the static geometry's BVH (exact for any triangle size — no
+//! projection bends an edge — bit-identical on every machine, and
+//! logarithmic in scene size). The projection is the hemi-octahedral map of
+//! `gibake_gpu::hemisphere`, which the runtime's WGSL shares.
+
+use gibake_asset::{NO_MAP, VplRecord};
+use gibake_gpu::hemisphere;
+use gibake_reference::RayScene;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Renders the maps of `vpls` (`size²` distances each, +inf = no surface).
+/// A map that sees no surface at all is not stored: its VPL gets
+/// [`NO_MAP`]. Returns the stored maps, layer-major; sets `vpl.map`.
+/// `progress` is called once per finished VPL.
+pub fn render_vpl_maps(
+    rays: &RayScene<'_>,
+    vpls: &mut [VplRecord],
+    size: u32,
+    progress: &(dyn Fn() + Sync),
+) -> Vec<f32> {
+    let texels = (size * size) as usize;
+    let maps: Vec<Option<Vec<f32>>> = vpls
+        .par_iter()
+        .map(|v| {
+            let n = Vec3::from_array(v.normal);
+            let origin = hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
+            let origin = rays.offset_point(origin, n);
+            let mut map = Vec::with_capacity(texels);
+            let mut any = false;
+            for y in 0..size {
+                for x in 0..size {
+                    let d = hemisphere::texel_direction(n, x, y, size);
+                    let dist = match rays.intersect(origin, d, f32::INFINITY) {
+                        Some(h) => {
+                            any = true;
+                            (h.position - origin).length()
+                        }
+                        None => f32::INFINITY,
+                    };
+                    map.push(dist);
+                }
+            }
+            progress();
+            any.then_some(map)
+        })
+        .collect();
+    let mut out = Vec::new();
+    let mut next = 0u32;
+    for (v, m) in vpls.iter_mut().zip(maps) {
+        match m {
+            Some(m) => {
+                v.map = next;
+                next += 1;
+                out.extend_from_slice(&m);
+            }
+            None => v.map = NO_MAP,
+        }
+    }
+    out
+}

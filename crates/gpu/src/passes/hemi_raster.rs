@@ -1,0 +1,384 @@
+//! Exact rasterization of meshes into VPL hemisphere maps (see
+//! `hemi_raster.wgsl` for why it is exact): the runtime merges moving
+//! objects into the affected static VPL maps with it, and `naive` mode
+//! re-renders every map from all geometry with it.
+//!
+//! Maps are tiles of one `R32Float` atlas (distance from the VPL origin;
+//! `f32::MAX` = nothing), ordered by a `Depth32Float` atlas. One instanced
+//! draw per mesh covers every job (VPL) and the four octahedron faces.
+
+use crate::mesh::{Draw, MESH_WGSL, SceneGpu};
+use crate::shaders;
+
+/// Marks a job with no static layer to z-min against.
+pub const NO_LAYER: u32 = u32::MAX;
+
+/// One VPL to draw into. Must match `Job` in `hemi_raster.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuHemiJob {
+    /// xyz map origin (`hemisphere::vpl_origin`).
+    pub origin: [f32; 4],
+    /// xyz VPL normal.
+    pub normal: [f32; 4],
+    /// xy tile offset in texels, z static layer or [`NO_LAYER`].
+    pub tile: [u32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct GpuRasterParams {
+    atlas_size: [f32; 2],
+    tile_size: f32,
+    depth_scale: f32,
+    stride: u32,
+    pad: [u32; 3],
+}
+
+/// A tile atlas of hemisphere maps.
+pub struct HemiAtlas {
+    /// `R32Float` distances.
+    pub texture: wgpu::Texture,
+    /// Its view.
+    pub view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+    /// Tile size in texels.
+    pub tile_size: u32,
+    /// Tiles per row.
+    pub cols: u32,
+    /// Number of tiles.
+    pub capacity: u32,
+}
+
+impl HemiAtlas {
+    /// An atlas with room for `capacity` tiles of `tile_size²`.
+    pub fn new(device: &wgpu::Device, tile_size: u32, capacity: u32) -> HemiAtlas {
+        let capacity = capacity.max(1);
+        let max = device.limits().max_texture_dimension_2d;
+        let cols = ((capacity as f64).sqrt().ceil() as u32).clamp(1, (max / tile_size).max(1));
+        let rows = capacity.div_ceil(cols);
+        let size = wgpu::Extent3d {
+            width: cols * tile_size,
+            height: rows * tile_size,
+            depth_or_array_layers: 1,
+        };
+        let make = |format, usage, label| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let texture = make(
+            wgpu::TextureFormat::R32Float,
+            wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_DST
+                | wgpu::TextureUsages::COPY_SRC,
+            "hemisphere atlas",
+        );
+        let depth = make(
+            wgpu::TextureFormat::Depth32Float,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+            "hemisphere depth",
+        );
+        HemiAtlas {
+            view: texture.create_view(&Default::default()),
+            texture,
+            depth_view: depth.create_view(&Default::default()),
+            tile_size,
+            cols,
+            capacity: cols * rows,
+        }
+    }
+
+    /// Texel offset of tile `i`.
+    pub fn tile_origin(&self, i: u32) -> [u32; 2] {
+        [
+            (i % self.cols) * self.tile_size,
+            (i / self.cols) * self.tile_size,
+        ]
+    }
+}
+
+/// The rasterization pass.
+pub struct HemiRasterPass {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    bind_group: wgpu::BindGroup,
+    params_buf: wgpu::Buffer,
+    jobs_buf: wgpu::Buffer,
+    jobs_capacity: u32,
+    n_jobs: u32,
+    depth_scale: f32,
+}
+
+fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+impl HemiRasterPass {
+    /// Creates the pass. `static_maps` is the baked map array (z-min
+    /// source); `depth_scale` = 1 / the largest distance to order (e.g. the
+    /// inverse of twice the scene diagonal).
+    pub fn new(
+        device: &wgpu::Device,
+        scene_gpu: &SceneGpu,
+        static_maps: &wgpu::TextureView,
+        depth_scale: f32,
+    ) -> HemiRasterPass {
+        let src = format!("{MESH_WGSL}\n{}", include_str!("hemi_raster.wgsl"));
+        let module = shaders::module(device, "hemi_raster.wgsl", &src);
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("hemi raster"),
+            entries: &[
+                storage_entry(0),
+                storage_entry(1),
+                storage_entry(2),
+                storage_entry(3),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 4,
+                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 5,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("hemi raster"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("hemi raster"),
+            layout: Some(&pl),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState {
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: wgpu::TextureFormat::Depth32Float,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::TextureFormat::R32Float.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let params_buf = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hemi raster params"),
+            size: std::mem::size_of::<GpuRasterParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let jobs_capacity = 1;
+        let jobs_buf = Self::jobs_buffer(device, jobs_capacity);
+        let bind_group = Self::bind(
+            device,
+            &layout,
+            scene_gpu,
+            &jobs_buf,
+            &params_buf,
+            static_maps,
+        );
+        HemiRasterPass {
+            pipeline,
+            layout,
+            bind_group,
+            params_buf,
+            jobs_buf,
+            jobs_capacity,
+            n_jobs: 0,
+            depth_scale,
+        }
+    }
+
+    fn jobs_buffer(device: &wgpu::Device, n: u32) -> wgpu::Buffer {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("hemi jobs"),
+            size: (n.max(1) as u64) * std::mem::size_of::<GpuHemiJob>() as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    fn bind(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        scene_gpu: &SceneGpu,
+        jobs: &wgpu::Buffer,
+        params: &wgpu::Buffer,
+        static_maps: &wgpu::TextureView,
+    ) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("hemi raster"),
+            layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: scene_gpu.draw_data.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: scene_gpu.vertices.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: scene_gpu.indices.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: jobs.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: wgpu::BindingResource::TextureView(static_maps),
+                },
+            ],
+        })
+    }
+
+    /// Uploads this frame's jobs (growing the buffer if needed).
+    pub fn set_jobs(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene_gpu: &SceneGpu,
+        static_maps: &wgpu::TextureView,
+        atlas: &HemiAtlas,
+        jobs: &[GpuHemiJob],
+    ) {
+        if jobs.len() as u32 > self.jobs_capacity {
+            self.jobs_capacity = (jobs.len() as u32).next_power_of_two();
+            self.jobs_buf = Self::jobs_buffer(device, self.jobs_capacity);
+            self.bind_group = Self::bind(
+                device,
+                &self.layout,
+                scene_gpu,
+                &self.jobs_buf,
+                &self.params_buf,
+                static_maps,
+            );
+        }
+        if !jobs.is_empty() {
+            queue.write_buffer(&self.jobs_buf, 0, bytemuck::cast_slice(jobs));
+        }
+        self.n_jobs = jobs.len() as u32;
+        let size = atlas.texture.size();
+        let params = GpuRasterParams {
+            atlas_size: [size.width as f32, size.height as f32],
+            tile_size: atlas.tile_size as f32,
+            depth_scale: self.depth_scale,
+            stride: (self.n_jobs * 4).max(1),
+            pad: [0; 3],
+        };
+        queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&params));
+    }
+
+    /// Draws `draws` into every job's tile. `clear`: start the atlas at
+    /// "nothing" (naive mode); otherwise keep its contents (static maps
+    /// copied in). Returns the number of draw calls.
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        atlas: &HemiAtlas,
+        draws: &[&[Draw]],
+        clear: bool,
+        ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) -> u32 {
+        if self.n_jobs == 0 {
+            return 0;
+        }
+        let load = if clear {
+            wgpu::LoadOp::Clear(wgpu::Color {
+                r: f32::MAX as f64,
+                g: 0.0,
+                b: 0.0,
+                a: 0.0,
+            })
+        } else {
+            wgpu::LoadOp::Load
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("hemi raster"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &atlas.view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &atlas.depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: ts,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        let stride = self.n_jobs * 4;
+        let mut calls = 0;
+        for list in draws {
+            for d in *list {
+                let first = d.id * stride;
+                pass.draw(d.indices.clone(), first..first + stride);
+                calls += 1;
+            }
+        }
+        calls
+    }
+}

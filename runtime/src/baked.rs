@@ -1,0 +1,195 @@
+//! A loaded `.gibake` asset on the GPU: static VPL records, the baked
+//! hemisphere maps (one `R32Float` array layer per stored map), the static
+//! primary shadow map and, only for scenes with moving objects, the static
+//! RSM metric plus each texel's share of its VPL's flux (for partial
+//! occlusion).
+
+use gibake_asset::{Asset, NO_MAP, VplRecord};
+use gibake_gpu::LightView;
+use glam::{Mat4, Vec3};
+use wgpu::util::DeviceExt;
+
+use crate::RuntimeError;
+
+/// RSM data for the dynamic merge.
+pub struct RsmGpu {
+    /// Static metric per texel (`R32Float`).
+    pub static_metric: wgpu::TextureView,
+    /// `(vpl, share)` per texel; share is fixed point (2^24 = the whole VPL).
+    pub texel_info: wgpu::Buffer,
+    /// The light view at the RSM resolution.
+    pub view: LightView,
+}
+
+/// The asset's GPU resources.
+pub struct BakedGpu {
+    /// VPL records (CPU copy, for choosing the affected maps).
+    pub vpls: Vec<VplRecord>,
+    /// VPL records (`VplRecord` layout, storage).
+    pub vpl_buf: wgpu::Buffer,
+    /// Baked hemisphere maps (array; one dummy layer when none is stored).
+    pub static_maps: wgpu::TextureView,
+    /// Hemisphere map size.
+    pub map_size: u32,
+    /// Static primary shadow map.
+    pub primary: wgpu::TextureView,
+    /// The light view at the primary map's resolution.
+    pub view: LightView,
+    /// Present only when the asset holds RSM data (scene with moving objects).
+    pub rsm: Option<RsmGpu>,
+    /// Bytes uploaded.
+    pub bytes: u64,
+}
+
+/// The light view stored in a manifest, at `size`.
+pub fn light_view(asset: &Asset, size: u32) -> LightView {
+    let r = &asset.manifest.light_view;
+    let base = LightView {
+        directional: r.directional,
+        view_proj: Mat4::from_cols_array(&r.view_proj),
+        origin: Vec3::from_array(r.origin),
+        direction: Vec3::from_array(r.direction),
+        texel_scale: r.texel_scale,
+        size: asset.manifest.settings.shadow_map_size,
+        texel_area: r.texel_area,
+    };
+    base.resized(size)
+}
+
+fn r32_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    label: &str,
+    size: u32,
+    layers: u32,
+    data: &[f32],
+) -> wgpu::Texture {
+    device.create_texture_with_data(
+        queue,
+        &wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d {
+                width: size,
+                height: size,
+                depth_or_array_layers: layers,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::R32Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        },
+        wgpu::util::TextureDataOrder::LayerMajor,
+        bytemuck::cast_slice(data),
+    )
+}
+
+impl BakedGpu {
+    /// Uploads `asset`.
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        asset: &Asset,
+    ) -> Result<BakedGpu, RuntimeError> {
+        let m = &asset.manifest;
+        let limits = device.limits();
+        let map_count = m.map_count.max(1);
+        if map_count > limits.max_texture_array_layers {
+            return Err(RuntimeError::InvalidSetting(format!(
+                "the asset stores {} VPL maps; this device allows {} texture array layers (bake fewer VPLs)",
+                m.map_count, limits.max_texture_array_layers
+            )));
+        }
+        let s = m.settings.vpl_map_size;
+        let inf = vec![f32::INFINITY; (s * s) as usize];
+        let map_data: &[f32] = if m.map_count == 0 {
+            &inf
+        } else {
+            &asset.vpl_maps
+        };
+        let maps = r32_texture(device, queue, "baked VPL maps", s, map_count, map_data);
+        let static_maps = maps.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let pd = &asset.primary_depth;
+        let primary = r32_texture(
+            device,
+            queue,
+            "baked primary shadow map",
+            pd.size,
+            1,
+            &pd.data,
+        )
+        .create_view(&Default::default());
+        let mut vpls = asset.vpls.clone();
+        // A VPL record with no stored map must say so.
+        for v in &mut vpls {
+            if v.map >= m.map_count {
+                v.map = NO_MAP;
+            }
+        }
+        let vpl_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("static VPLs"),
+            contents: if vpls.is_empty() {
+                &[0u8; 48]
+            } else {
+                bytemuck::cast_slice(&vpls)
+            },
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let mut bytes = (map_data.len() * 4 + pd.data.len() * 4 + vpls.len() * 48) as u64;
+        let rsm = match &asset.rsm {
+            Some(r) => {
+                let metric = r32_texture(device, queue, "baked RSM metric", r.size, 1, &r.metric)
+                    .create_view(&Default::default());
+                // Each texel's share of its VPL's flux (sum of RGB), fixed point.
+                let mut total = vec![0.0f64; vpls.len()];
+                for (f, &v) in r.flux.iter().zip(&r.vpl) {
+                    if (v as usize) < total.len() {
+                        total[v as usize] += (f[0] + f[1] + f[2]) as f64;
+                    }
+                }
+                let info: Vec<[u32; 2]> = r
+                    .flux
+                    .iter()
+                    .zip(&r.vpl)
+                    .map(|(f, &v)| {
+                        if (v as usize) < total.len() && total[v as usize] > 0.0 {
+                            let share = (f[0] + f[1] + f[2]) as f64 / total[v as usize];
+                            [
+                                v,
+                                (share * 16_777_216.0).round().clamp(0.0, 16_777_216.0) as u32,
+                            ]
+                        } else {
+                            [u32::MAX, 0]
+                        }
+                    })
+                    .collect();
+                let texel_info = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("RSM texel shares"),
+                    contents: bytemuck::cast_slice(&info),
+                    usage: wgpu::BufferUsages::STORAGE,
+                });
+                bytes += (r.metric.len() * 4 + info.len() * 8) as u64;
+                Some(RsmGpu {
+                    static_metric: metric,
+                    texel_info,
+                    view: light_view(asset, r.size),
+                })
+            }
+            None => None,
+        };
+        Ok(BakedGpu {
+            vpls,
+            vpl_buf,
+            static_maps,
+            map_size: s,
+            primary,
+            view: light_view(asset, pd.size),
+            rsm,
+            bytes,
+        })
+    }
+}

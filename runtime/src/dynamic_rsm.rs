@@ -1,0 +1,302 @@
+//! Moving objects drawn from the primary light at the RSM resolution
+//! (`dynamic_rsm.wgsl`), and the partial-occlusion pass that reads it
+//! (`occlusion.wgsl`). Only built when the scene has moving objects.
+
+use gibake_gpu::mesh::{GpuVertex, MESH_WGSL, SceneGpu};
+use gibake_gpu::{LightView, shaders};
+use wgpu::util::DeviceExt;
+
+/// Target formats of the dynamic RSM.
+pub const DYN_RSM_FORMATS: [wgpu::TextureFormat; 3] = [
+    wgpu::TextureFormat::Rgba32Float,
+    wgpu::TextureFormat::Rgba16Float,
+    wgpu::TextureFormat::Rgba16Float,
+];
+
+/// The dynamic RSM pass and its targets.
+pub struct DynamicRsmPass {
+    pipeline: wgpu::RenderPipeline,
+    bind_group: wgpu::BindGroup,
+    /// Targets in [`DYN_RSM_FORMATS`] order.
+    pub textures: Vec<wgpu::Texture>,
+    /// Their views.
+    pub views: Vec<wgpu::TextureView>,
+    depth_view: wgpu::TextureView,
+    /// The light view (RSM size) uniform.
+    pub view_buf: wgpu::Buffer,
+    /// Size.
+    pub size: u32,
+}
+
+impl DynamicRsmPass {
+    /// Creates the pass for `view` (RSM resolution).
+    pub fn new(device: &wgpu::Device, scene_gpu: &SceneGpu, view: &LightView) -> DynamicRsmPass {
+        let src = format!("{MESH_WGSL}\n{}", include_str!("dynamic_rsm.wgsl"));
+        let module = shaders::module(device, "dynamic_rsm.wgsl", &src);
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("dynamic rsm"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let view_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("rsm light view"),
+            contents: bytemuck::bytes_of(&view.to_gpu()),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("dynamic rsm"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: scene_gpu.draw_data.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: view_buf.as_entire_binding(),
+                },
+            ],
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("dynamic rsm"),
+            bind_group_layouts: &[Some(&layout), Some(&scene_gpu.material_layout)],
+            immediate_size: 0,
+        });
+        let targets: Vec<Option<wgpu::ColorTargetState>> =
+            DYN_RSM_FORMATS.iter().map(|f| Some((*f).into())).collect();
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("dynamic rsm"),
+            layout: Some(&pl),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(GpuVertex::LAYOUT)],
+            },
+            primitive: wgpu::PrimitiveState {
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: wgpu::TextureFormat::Depth32Float,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Greater),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let size = view.size;
+        let extent = wgpu::Extent3d {
+            width: size,
+            height: size,
+            depth_or_array_layers: 1,
+        };
+        let make = |format, usage, label| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: extent,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC;
+        let textures: Vec<_> = DYN_RSM_FORMATS
+            .iter()
+            .map(|f| make(*f, usage, "dynamic rsm"))
+            .collect();
+        let views = textures
+            .iter()
+            .map(|t| t.create_view(&Default::default()))
+            .collect();
+        let depth = make(
+            wgpu::TextureFormat::Depth32Float,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+            "dynamic rsm depth",
+        );
+        DynamicRsmPass {
+            pipeline,
+            bind_group,
+            textures,
+            views,
+            depth_view: depth.create_view(&Default::default()),
+            view_buf,
+            size,
+        }
+    }
+
+    /// Records the pass (moving objects only).
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        scene_gpu: &SceneGpu,
+        ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) -> u32 {
+        let clears = [
+            wgpu::Color {
+                r: 0.0,
+                g: 0.0,
+                b: 0.0,
+                a: 3.0e38,
+            },
+            wgpu::Color::TRANSPARENT,
+            wgpu::Color::TRANSPARENT,
+        ];
+        let attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = self
+            .views
+            .iter()
+            .zip(clears)
+            .map(|(v, c)| {
+                Some(wgpu::RenderPassColorAttachment {
+                    view: v,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(c),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })
+            })
+            .collect();
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("dynamic rsm"),
+            color_attachments: &attachments,
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &self.depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(0.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: ts,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        scene_gpu.draw(&mut pass, &scene_gpu.dynamic_draws, true);
+        scene_gpu.dynamic_draws.len() as u32
+    }
+}
+
+/// The partial-occlusion pass.
+pub struct OcclusionPass {
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    /// Per static VPL occluded share (u32, fixed point 2^24).
+    pub occluded: wgpu::Buffer,
+    size: u32,
+}
+
+impl OcclusionPass {
+    /// Creates the pass. `texel_info` holds `(vpl, share)` per RSM texel.
+    pub fn new(
+        device: &wgpu::Device,
+        static_metric: &wgpu::TextureView,
+        rsm: &DynamicRsmPass,
+        texel_info: &wgpu::Buffer,
+        vpl_count: u32,
+    ) -> OcclusionPass {
+        let module = shaders::module(device, "occlusion.wgsl", include_str!("occlusion.wgsl"));
+        let occluded = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("occluded shares"),
+            size: 4 * vpl_count.max(1) as u64,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("occlusion"),
+            layout: None,
+            module: &module,
+            entry_point: Some("cs_main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let layout = pipeline.get_bind_group_layout(0);
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("occlusion"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(static_metric),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&rsm.views[0]),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: texel_info.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: occluded.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: rsm.view_buf.as_entire_binding(),
+                },
+            ],
+        });
+        OcclusionPass {
+            pipeline,
+            bind_group,
+            occluded,
+            size: rsm.size,
+        }
+    }
+
+    /// Records: clear the sums, then one invocation per texel.
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        ts: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        encoder.clear_buffer(&self.occluded, 0, None);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("occlusion"),
+            timestamp_writes: ts,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.dispatch_workgroups(self.size.div_ceil(8), self.size.div_ceil(8), 1);
+    }
+}

@@ -1,0 +1,66 @@
+// dynamic_rsm.wgsl — the moving objects' reflective shadow map (needs
+// common.wgsl, projection.wgsl, mesh.wgsl). Drawn from the primary light at
+// the bake's RSM resolution into cleared targets; a texel counts as a moving
+// surface only where it is nearer the light than the baked static RSM
+// (tested where it is read), which is the paper's "depth buffer starts as
+// the static depth" without copying the static depth each frame.
+// Targets: 0 world position + metric (w = 3e38 where empty), 1 albedo,
+// 2 oct(normal facing the light).
+
+@group(0) @binding(0) var<storage, read> draws: array<DrawData>;
+@group(0) @binding(1) var<uniform> view: LightView;
+@group(1) @binding(0) var albedo_tex: texture_2d<f32>;
+@group(1) @binding(1) var albedo_smp: sampler;
+
+struct VsOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(3) @interpolate(flat) draw: u32,
+}
+
+@vertex
+fn vs_main(v: VertexIn) -> VsOut {
+    let d = draws[v.draw];
+    let world = (d.model * vec4<f32>(v.position, 1.0)).xyz;
+    var o: VsOut;
+    o.clip = view.view_proj * vec4<f32>(world, 1.0);
+    o.world = world;
+    o.normal = (d.normal_matrix * vec4<f32>(v.normal, 0.0)).xyz;
+    o.uv = v.uv;
+    o.draw = v.draw;
+    return o;
+}
+
+struct FsOut {
+    @location(0) position: vec4<f32>,
+    @location(1) albedo: vec4<f32>,
+    @location(2) normal: vec4<f32>,
+}
+
+@fragment
+fn fs_main(i: VsOut, @builtin(front_facing) front: bool) -> FsOut {
+    let d = draws[i.draw];
+    var albedo = d.albedo.rgb;
+    let t = textureSample(albedo_tex, albedo_smp, i.uv).rgb;
+    if (d.albedo.w > 0.5) {
+        albedo = albedo * t;
+    }
+    var n = normalize(i.normal);
+    if (!front) {
+        n = -n;
+    }
+    var to_light = -view.direction.xyz;
+    if (view.origin.w < 0.5) {
+        to_light = normalize(view.origin.xyz - i.world);
+    }
+    if (dot(n, to_light) < 0.0) {
+        n = -n;
+    }
+    var o: FsOut;
+    o.position = vec4<f32>(i.world, lv_metric(view, i.world));
+    o.albedo = vec4<f32>(albedo, 1.0);
+    o.normal = vec4<f32>(oct_encode(n), 0.0, 0.0);
+    return o;
+}
