@@ -7,7 +7,10 @@ use gibake_gpu::{GpuContext, GpuOptions};
 
 /// The repository root.
 pub fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("bake-cli has a parent").to_owned()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("bake-cli has a parent")
+        .to_owned()
 }
 
 /// A bundled scene in data/.

@@ -65,13 +65,24 @@ pub struct Image {
 impl Image {
     /// A black image.
     pub fn new(width: u32, height: u32) -> Self {
-        Image { width, height, pixels: vec![Vec3::ZERO; width as usize * height as usize] }
+        Image {
+            width,
+            height,
+            pixels: vec![Vec3::ZERO; width as usize * height as usize],
+        }
     }
 
     /// Builds an image from tightly packed RGBA f32 texels (as read back from a GPU).
     pub fn from_rgba_f32(width: u32, height: u32, rgba: &[f32]) -> Self {
-        let pixels = rgba.chunks_exact(4).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
-        Image { width, height, pixels }
+        let pixels = rgba
+            .chunks_exact(4)
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect();
+        Image {
+            width,
+            height,
+            pixels,
+        }
     }
 
     /// Pixel at `(x, y)`.
@@ -92,8 +103,17 @@ impl Image {
 
     /// Pixel-wise `self − other` (same size required).
     pub fn sub(&self, other: &Image) -> Image {
-        let pixels = self.pixels.iter().zip(&other.pixels).map(|(a, b)| *a - *b).collect();
-        Image { width: self.width, height: self.height, pixels }
+        let pixels = self
+            .pixels
+            .iter()
+            .zip(&other.pixels)
+            .map(|(a, b)| *a - *b)
+            .collect();
+        Image {
+            width: self.width,
+            height: self.height,
+            pixels,
+        }
     }
 
     /// Writes an EXR with 32-bit float `R`, `G`, `B` channels (linear, no tone map).
@@ -107,7 +127,10 @@ impl Image {
                 (p.x, p.y, p.z)
             }),
         );
-        img.write().to_file(path).map_err(|source| ImageError::Exr { path: path.to_owned(), source })
+        img.write().to_file(path).map_err(|source| ImageError::Exr {
+            path: path.to_owned(),
+            source,
+        })
     }
 
     /// Reads an EXR's `R`, `G`, `B` channels (any sample type) as f32.
@@ -119,13 +142,22 @@ impl Image {
                 let (w, h) = (res.width(), res.height());
                 (w, h, vec![Vec3::ZERO; w * h])
             },
-            |(w, _h, px): &mut (usize, usize, Vec<Vec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            |(w, _h, px): &mut (usize, usize, Vec<Vec3>),
+             pos,
+             (r, g, b, _a): (f32, f32, f32, f32)| {
                 px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b);
             },
         )
-        .map_err(|source| ImageError::Exr { path: path.to_owned(), source })?;
+        .map_err(|source| ImageError::Exr {
+            path: path.to_owned(),
+            source,
+        })?;
         let (w, h, pixels) = img.layer_data.channel_data.pixels;
-        Ok(self::Image { width: w as u32, height: h as u32, pixels })
+        Ok(self::Image {
+            width: w as u32,
+            height: h as u32,
+            pixels,
+        })
     }
 
     /// Writes a tone-mapped sRGB PNG preview. `exposure` scales radiance
@@ -140,17 +172,31 @@ impl Image {
                 bytes.push((linear_to_srgb(v) * 255.0 + 0.5) as u8);
             }
         }
-        let file = std::fs::File::create(path).map_err(|source| ImageError::Io { path: path.to_owned(), source })?;
+        let file = std::fs::File::create(path).map_err(|source| ImageError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
         let mut enc = png::Encoder::new(std::io::BufWriter::new(file), self.width, self.height);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
-        let mut w = enc.write_header().map_err(|source| ImageError::Png { path: path.to_owned(), source })?;
-        w.write_image_data(&bytes).map_err(|source| ImageError::Png { path: path.to_owned(), source })
+        let mut w = enc.write_header().map_err(|source| ImageError::Png {
+            path: path.to_owned(),
+            source,
+        })?;
+        w.write_image_data(&bytes)
+            .map_err(|source| ImageError::Png {
+                path: path.to_owned(),
+                source,
+            })
     }
 
     /// Writes EXR or PNG depending on the extension (`.png` → preview, anything else → EXR).
     pub fn write(&self, path: &Path) -> Result<(), ImageError> {
-        match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()) {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+        {
             Some(e) if e == "png" => self.write_png(path, None),
             _ => self.write_exr(path),
         }
@@ -185,13 +231,21 @@ fn aces(x: f32) -> f32 {
 }
 
 fn linear_to_srgb(c: f32) -> f32 {
-    if c <= 0.0031308 { c * 12.92 } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
+    if c <= 0.0031308 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
 }
 
 /// Relative mean squared error of `x` against reference `r`: per pixel and
 /// channel `(x−r)²/(r²+0.01)`, averaged. Panics if the sizes differ.
 pub fn rel_mse(x: &Image, r: &Image) -> f64 {
-    assert_eq!((x.width, x.height), (r.width, r.height), "rel_mse: image sizes differ");
+    assert_eq!(
+        (x.width, x.height),
+        (r.width, r.height),
+        "rel_mse: image sizes differ"
+    );
     let mut s = 0.0f64;
     for (a, b) in x.pixels.iter().zip(&r.pixels) {
         for c in 0..3 {
@@ -254,7 +308,11 @@ mod tests {
 
     #[test]
     fn rel_mse_is_zero_on_equal_and_positive_otherwise() {
-        let a = Image { width: 2, height: 1, pixels: vec![Vec3::ONE, Vec3::ZERO] };
+        let a = Image {
+            width: 2,
+            height: 1,
+            pixels: vec![Vec3::ONE, Vec3::ZERO],
+        };
         let mut b = a.clone();
         assert_eq!(rel_mse(&a, &b), 0.0);
         b.pixels[1] = Vec3::splat(0.1);
