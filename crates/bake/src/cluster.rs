@@ -13,121 +13,156 @@
 //! regular grid of `m_d × m_d` nodes, whose per-axis texel ranges come from
 //! recursively halving `[0, size)`.
 //!
+//! # Lit texels
+//!
+//! A texel is **lit** iff it sees a surface (finite metric) and reflects
+//! light: `flux.r + flux.g + flux.b > 0` (finite; summed in `f64`). Every
+//! other texel — no surface, or a surface outside the spot cone, black, or
+//! facing away — counts as *empty*: it reflects nothing, belongs to no VPL
+//! and maps to [`NO_VPL`].
+//!
 //! # Per-node statistics (bottom-up)
 //!
-//! Each node stores, over its texels (a texel is *valid* iff its metric is
-//! finite), with **unit weight per texel**:
+//! Each node stores, over its texels, with **unit weight per texel**:
 //!
 //! | field           | meaning                                               |
 //! |-----------------|-------------------------------------------------------|
 //! | `total`         | number of texels                                      |
-//! | `valid`         | number of valid texels                                |
-//! | `mean_metric`   | mean metric over valid texels                         |
-//! | `m2_metric`     | `Σ (metric − mean)²` over valid texels                |
-//! | `sum_normal`    | `Σ normal` (vec3) over valid texels                   |
-//! | `sum_footprint` | `Σ footprint` over valid texels ([`Rsm::footprint`])  |
-//! | `sum_flux`      | `Σ (r + g + b)` of flux over valid texels             |
+//! | `lit`           | number of lit texels                                  |
+//! | `mean_metric`   | mean metric over lit texels                           |
+//! | `m2_metric`     | `Σ (metric − mean)²` over lit texels                  |
+//! | `sum_normal`    | `Σ normal` (vec3) over lit texels                     |
+//! | `sum_footprint` | `Σ footprint` over lit texels ([`Rsm::footprint`])    |
+//! | `sum_flux`      | `Σ (r + g + b)` of flux over lit texels               |
 //!
-//! A texel is `total = 1`, `valid = 0|1`, `mean = metric`, `m2 = 0`. A
+//! A texel is `total = 1`, `lit = 0|1`, `mean = metric`, `m2 = 0`. A
 //! parent folds its children in Morton order with the pairwise merge of
 //! Chan, Golub & LeVeque: `n = na + nb`, `δ = mean_b − mean_a`,
 //! `mean = mean_a + δ·nb/n`, `m2 = m2_a + m2_b + δ²·na·nb/n` (a side with
-//! no valid texel is taken as is); the other fields add. This is `Σ1`,
+//! no lit texel is taken as is); the other fields add. This is `Σ1`,
 //! `Σmetric`, `Σmetric²` in a form that keeps its precision in `f32`, so a
 //! compute shader can build the same pyramid level by level (one 2×2 or 1×2
-//! reduction per node). The CPU evaluates everything in `f64`.
+//! reduction per node; the runtime's dynamic VPLs do). The CPU evaluates
+//! everything in `f64`.
 //!
 //! # The split criterion (dimensionless)
 //!
-//! With `N = valid`, `Var = m2_metric / N`, `F = sum_footprint / N`:
+//! A node with one texel, or with no lit texel, never splits. Otherwise,
+//! with `N = lit`, `Var = m2_metric / N`, `F = sum_footprint / N`:
 //!
-//! - **mixed** node (`0 < valid < total`): score `+∞`, it always splits, so
-//!   the surface/void boundary is resolved down to single texels;
-//! - **empty** node (`valid = 0`) or single texel: never splits, yields no
-//!   VPL (empty) or a one-texel VPL;
-//! - **full** node: `score = max(D, Nn)` with the depth term
-//!   `D = Var / (size · F)²` and the normal term `Nn = 1 − |sum_normal| / N`
-//!   (clamped to `≥ 0`; `≈ half the angular variance of the normals`).
+//! ```text
+//! S = max(D, Nn, M) · share
+//!   D     = Var / (size · F)²             depth spread
+//!   Nn    = max(0, 1 − |sum_normal| / N)  normal spread (≈ half the
+//!                                         angular variance of the normals)
+//!   M     = 1 if the node also holds non-lit texels, else 0
+//!   share = sum_flux / Σflux(whole map)   the node's part of the light
+//! ```
 //!
-//! The node splits iff `score ≥ threshold`; below the threshold it becomes
-//! one VPL. This is the paper's rule ("variance of depth and of normal at or
-//! above a threshold") with the depth variance measured in units of
-//! `size · F`, the world-space width of the whole light view at the node's
-//! depth (for a spot light `2·tan(half angle)·distance`; for a directional
-//! light the map's width): depth is measured relative to the view, as a
-//! normalised projection depth would be, never in scene units.
+//! (`f64`, rounded to `f32`; NaN counts as `+∞`.) Under
+//! `Threshold(t)` the node splits iff its *capped* score (below) is `≥ t`;
+//! otherwise, if it has lit texels, it becomes one VPL.
+//!
+//! **Why this rule.** The previous rule split every *mixed* node (surface
+//! and void) unconditionally, down to single texels, and compared
+//! `max(D, Nn)` alone with the threshold. On the bundled
+//! `data/corner_bunny.glb` (spot light, RSM 512²) `--vpls 664` then gave
+//! **1488 VPLs, median 4 texels per VPL**: the forced splits alone
+//! overshot the budget, which went to the bunny's silhouette against empty
+//! space and to the rim of the spot cone, where the texels carry little or
+//! no light, while the walls that light the scene stayed coarse.
+//!
+//! `S` is an estimate of the error a node makes when it is replaced by one
+//! VPL: `max(D, Nn, M)` says how badly one point with one normal represents
+//! the node's texels (depth spread, normal spread, or coverage — a node that
+//! is partly empty puts its light at a centroid that may lie off its
+//! surface), and `share` weighs that by how much of the reflected light the
+//! error affects. A silhouette of a node carrying `10⁻⁵` of the flux costs
+//! at most `10⁻⁵`, a bright smooth wall is refined as soon as its spread
+//! times its light exceeds that. Mixed nodes are no longer special: their
+//! term is bounded (`M = 1`), like `Nn ≤ 1`.
+//!
+//! The depth spread is measured in units of `size · F`, the world-space width
+//! of the whole light view at the node's depth (for a spot light
+//! `2·tan(half angle)·distance`; for a directional light the map's width):
+//! relative to the view, as a normalised projection depth would be, never in
+//! scene units.
 //!
 //! **Scale invariance.** Scaling the scene by `s` scales metric by `s`,
-//! `Var` by `s²` and footprints by `s`; normals are unchanged. Both terms,
-//! hence every score and every split, are unchanged: the same scene in
-//! millimetres or kilometres gives the same VPLs. The depth term is also
-//! independent of the map resolution (`size · F` does not depend on
-//! `size`), so a threshold means the same at every RSM size.
+//! `Var` by `s²` and footprints by `s`; normals, flux and hence `share` are
+//! unchanged. Every term, hence every score and every split, is unchanged:
+//! the same scene in millimetres or kilometres gives the same VPLs. `D` is
+//! also independent of the map resolution (`size · F` does not depend on
+//! `size`), and so is `share` (a ratio of fluxes), so a threshold means about
+//! the same at every RSM size.
 //!
-//! Why not normalise by the node's own width (`(x1 − x0) · F`)? Then a flat
-//! tilted plane scores `tan²θ / 12` at every node size: it would be split
-//! either not at all or down to single texels. Normalising by the view width
-//! makes both terms fall like `(node width)²` on smooth surfaces (a plane
-//! tilted by `θ`: `D ≈ tan²θ · (w/W)² / 12`; a surface of curvature radius
-//! `R`: `Nn ≈ (w/R)² / 24` per curved axis), so refinement converges and is
-//! balanced between flat-but-tilted and curved regions.
-//!
-//! **Discontinuities.** A depth step of height `h` scores about
-//! `p(1−p)·h² / (size·F)²` and a crease between faces whose normals differ
-//! by `φ` up to `1 − cos(φ/2)`, whatever the node size (`p`: the fraction
-//! on one side). So, as in the paper, once the threshold falls below such a
-//! score the whole edge refines to single texels at once, and with small
-//! budgets most VPLs lie along silhouettes and creases while smooth regions
-//! stay coarse.
+//! **How it refines.** For a node `w` texels wide with evenly spread light,
+//! `share ∝ w²`. On smooth surfaces `D` and `Nn` fall like `w²` too (a plane
+//! tilted by `θ`: `D ≈ tan²θ · (w/W)² / 12`; curvature radius `R`:
+//! `Nn ≈ (w/R)² / 24` per curved axis), so `S ∝ w⁴`. Across a depth step of
+//! height `h` (`D ≈ p(1−p)·h²/(size·F)²`, `p` the fraction on one side), a
+//! crease (`Nn` up to `1 − cos(φ/2)`) or a coverage edge (`M = 1`) the first
+//! factor does not shrink, so `S ∝ w²`: edges still refine before smooth
+//! regions, as in the paper, but only down to the node size at which the
+//! node's light falls below the threshold, and bright edges first.
 //!
 //! # VPLs
 //!
-//! A leaf with valid texels becomes one [`Cluster`]: flux-weighted (weight
+//! A leaf with lit texels becomes one [`Cluster`]: flux-weighted (weight
 //! `r + g + b` of the texel's flux) mean position and normal (normalised),
-//! summed flux and area, texel count; all accumulated in `f64` over the
-//! leaf's texels in row-major order. Zero-flux leaves are dropped, so a
-//! kept leaf's weights sum to a positive value (area weighting is only the
-//! fallback should that sum overflow); if the weighted normals cancel, the
-//! normal is the area-weighted one, else the first texel's. Texels of
-//! dropped leaves map to [`NO_VPL`], as do empty texels. VPLs are emitted in
+//! summed flux and area, count of its lit texels; all accumulated in `f64`
+//! over the leaf's lit texels in row-major order. The weights of a leaf sum
+//! to a positive value (area weighting is only the fallback should that sum
+//! overflow); if the weighted normals cancel, the normal is the
+//! area-weighted one, else the first lit texel's. Lit texels map to their
+//! leaf's VPL, all others to [`NO_VPL`]. [`cluster`] emits VPLs in
 //! depth-first (Morton) order of the leaves, so identical input gives
 //! bit-identical output. Everything is sequential.
 //!
 //! # Budget (`ClusterTarget::Count(n)`): greedy priority refinement
 //!
-//! Each node gets the *capped* score `e(node) = min(score(node),
-//! e(parent))` (`e(root) = score(root)`). A node splits under
-//! `Threshold(t)` iff it and all its ancestors score `≥ t`, i.e. iff
-//! `e(node) ≥ t`: thresholding is exactly "split all nodes with `e ≥ t`".
-//! `Count(n)` keeps a max-heap of splittable leaves keyed by `e` (ties:
-//! shallower node first, then the smaller Morton code of its grid cell), so
-//! nodes are split in non-increasing `e`. It first splits every `+∞`
-//! (mixed) node, then pops the top leaf while fewer than `n` leaves carry
-//! flux, except that a split that would overshoot `n` by at least as much as
-//! the current count falls short is not made (a split adds at most three
-//! VPLs, so the result is within one VPL of `n`). If the forced splits of
-//! mixed nodes alone give more than `n` VPLs, that is the result; if the map
-//! has fewer than `n` texels with flux, every texel becomes a VPL.
+//! Each node gets the *capped* score `e(node) = min(S(node), e(parent))`
+//! (`e(root) = S(root)`). A node splits under `Threshold(t)` iff it and all
+//! its ancestors score `≥ t`, i.e. iff `e(node) ≥ t`: thresholding is
+//! exactly "split all nodes with `e ≥ t`". `Count(n)` keeps a max-heap of
+//! splittable leaves keyed by `e` (ties: shallower node first, then the
+//! smaller Morton code of its grid cell), so nodes are split in
+//! non-increasing `e`. It pops the top leaf while fewer than `n` leaves
+//! have lit texels, except that a split that would overshoot `n` by at least
+//! as much as the current count falls short is not made (a split adds at
+//! most three VPLs, so the result is within one VPL of `n`). If the map has
+//! fewer than `n` lit texels, every lit texel becomes a VPL.
 //!
 //! The reported [`Clustering::threshold`] is `e_last`, the capped score of
 //! the last split, or the next `f32` above it, whichever makes
 //! `Threshold(t)` give the VPL count nearer to the one returned (the two
 //! differ only when the refinement stopped inside a run of equal `e`). If it
 //! stopped at the end of such a run, `Threshold(t)` reproduces the result
-//! exactly. With no finite split, it is the next `f32` above the largest
-//! unsplit `e` (`+∞` if none).
+//! exactly. With no split, it is the next `f32` above the largest unsplit
+//! `e` (`+∞` if none).
+//!
+//! # Slot order and [`cluster_cut`] (the GPU twin)
+//!
+//! For a power-of-two map, depth `d` is a `2^d × 2^d` grid. The node at
+//! column `ix`, row `iy` of depth `d` has the **slot**
+//! `(4^d − 1)/3 + morton(ix, iy)` (`morton`: the bits of `ix` in the even
+//! positions, of `iy` in the odd ones): all nodes of depth 0, then all of
+//! depth 1, …, each level in Morton order. [`cluster_cut`] is `Threshold(t)`
+//! with a depth limit (a node at depth `max_depth` never splits) and
+//! returns the VPLs sorted by slot. The runtime's dynamic VPLs
+//! (`runtime/src/dynamic_vpl.rs`) evaluate the same cut on the GPU, one
+//! invocation per slot, with `f32` sums: a slot holds a VPL iff all its
+//! ancestors split, it does not split (or is at `max_depth`), and it has lit
+//! texels.
 //!
 //! # Porting to a GPU
 //!
-//! Build the moment pyramid bottom-up as above, compute `score` per node
-//! from its moments, then traverse top-down: a node is split iff it is mixed
-//! or (`total > 1`, full and `score ≥ threshold`); a non-split node with
-//! `valid > 0` and `sum_flux > 0` is a VPL. (The CPU rounds the `f64` score
-//! to `f32` before comparing; an `f32` GPU pyramid agrees except for nodes
-//! whose score is within rounding of the threshold.) Leaf order and the VPL
-//! sums (flux-weighted position and normal, flux, area, count) can come from
-//! the same pyramid with extra fields (`Σ w·p`, `Σ w·n`, `Σ flux`,
-//! `Σ area`).
+//! Build the moment pyramid bottom-up as above, plus `Σ w·p`, `Σ w·n`,
+//! `Σ flux` (rgb) and `Σ area` over lit texels for the VPLs; take the total
+//! flux from the root; compute `S` per node; a node is split iff it and all
+//! its ancestors have `S ≥ t`. (The CPU rounds the `f64` score to `f32`
+//! before comparing; an `f32` GPU pyramid agrees except for nodes whose
+//! score is within rounding of the threshold.)
 
 mod pyramid;
 
@@ -137,7 +172,7 @@ use std::collections::BinaryHeap;
 use glam::Vec3;
 
 use crate::rsm::Rsm;
-use pyramid::{Moments, Node, Pyramid, morton, vec3};
+use pyramid::{Moments, Node, Pyramid, is_lit, morton, texel_weight, vec3};
 
 /// One VPL made from a quadtree node.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -150,16 +185,17 @@ pub struct Cluster {
     pub flux: Vec3,
     /// Summed surface area of its texels.
     pub area: f32,
-    /// Number of texels.
+    /// Number of (lit) texels.
     pub texels: u32,
 }
 
 /// The result of clustering.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Clustering {
-    /// VPLs in quadtree (Morton) order; zero-flux clusters are dropped.
+    /// VPLs in depth-first quadtree (Morton) order of their leaves.
     pub vpls: Vec<Cluster>,
-    /// Per RSM texel: index into `vpls`, or [`NO_VPL`].
+    /// Per RSM texel: index into `vpls`, or [`NO_VPL`] (texels that are
+    /// not lit).
     pub texel_vpl: Vec<u32>,
     /// The threshold used (for `--vpls N`: the one that was found).
     pub threshold: f32,
@@ -171,7 +207,7 @@ pub const NO_VPL: u32 = u32::MAX;
 /// How to ask for VPLs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ClusterTarget {
-    /// Split while the (dimensionless) variance score is ≥ this.
+    /// Split while the (dimensionless) capped score `S` is ≥ this.
     Threshold(f32),
     /// About this many VPLs (±2%).
     Count(u32),
@@ -202,12 +238,8 @@ pub fn cluster(rsm: &Rsm, target: ClusterTarget) -> Clustering {
     let pyramid = Pyramid::new(rsm);
     match target {
         ClusterTarget::Threshold(t) => {
-            let size = pyramid.size();
             let (vpls, texel_vpl) = emit(rsm, &pyramid, |node| {
-                pyramid
-                    .moments(rsm, node)
-                    .score(size)
-                    .is_some_and(|s| s == f32::INFINITY || s >= t)
+                pyramid.score(rsm, node).is_some_and(|s| s >= t)
             });
             Clustering {
                 vpls,
@@ -239,7 +271,7 @@ fn emit(rsm: &Rsm, pyramid: &Pyramid, split: impl Fn(Node) -> bool) -> (Vec<Clus
             for y in y0..y1 {
                 for x in x0..x1 {
                     let i = (y * rsm.size + x) as usize;
-                    if rsm.is_valid(i) {
+                    if is_lit(rsm, i) {
                         texel_vpl[i] = index;
                     }
                 }
@@ -250,8 +282,8 @@ fn emit(rsm: &Rsm, pyramid: &Pyramid, split: impl Fn(Node) -> bool) -> (Vec<Clus
     (vpls, texel_vpl)
 }
 
-/// The VPL of a leaf rectangle, or `None` if it has no valid texel or no
-/// flux.
+/// The VPL of a leaf rectangle (over its lit texels), or `None` if it has
+/// no lit texel.
 fn leaf_vpl(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Option<Cluster> {
     let mut count = 0u32;
     let mut flux = [0.0f64; 3];
@@ -265,7 +297,7 @@ fn leaf_vpl(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Option<Cluster
     for y in y0..y1 {
         for x in x0..x1 {
             let i = (y * rsm.size + x) as usize;
-            if !rsm.is_valid(i) {
+            if !is_lit(rsm, i) {
                 continue;
             }
             count += 1;
@@ -273,7 +305,7 @@ fn leaf_vpl(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Option<Cluster
             let p = rsm.position[i].to_array().map(f64::from);
             let n = rsm.normal[i].to_array().map(f64::from);
             let a = f64::from(rsm.area[i]);
-            let w = f[0] + f[1] + f[2];
+            let w = texel_weight(rsm, i);
             first_normal.get_or_insert(rsm.normal[i]);
             w_sum += w;
             area += a;
@@ -351,7 +383,7 @@ struct Greedy<'a> {
     /// `split[level][iy * m + ix]` for levels above the texels.
     split: Vec<Vec<bool>>,
     heap: BinaryHeap<Entry>,
-    /// Leaves that carry flux (= VPLs).
+    /// Leaves with lit texels (= VPLs).
     count: u64,
 }
 
@@ -361,7 +393,7 @@ impl Greedy<'_> {
     }
 
     fn push(&mut self, node: Node, parent_e: f32) {
-        if let Some(s) = self.moments(node).score(self.pyramid.size()) {
+        if let Some(s) = self.pyramid.score(self.rsm, node) {
             self.heap.push(Entry {
                 e: s.min(parent_e),
                 node,
@@ -414,16 +446,7 @@ fn cluster_count(rsm: &Rsm, pyramid: &Pyramid, n: u32) -> Clustering {
     };
     g.push(pyramid.root(), f32::INFINITY);
 
-    // Forced splits of mixed nodes.
-    while let Some(&top) = g.heap.peek() {
-        if top.e != f32::INFINITY {
-            break;
-        }
-        g.heap.pop();
-        g.split(top);
-    }
-
-    // Budget splits, in non-increasing capped score.
+    // Splits in non-increasing capped score.
     let mut last_e: Option<f32> = None;
     let mut group_start = g.count;
     while g.count < n {
@@ -469,4 +492,57 @@ fn cluster_count(rsm: &Rsm, pyramid: &Pyramid, n: u32) -> Clustering {
         texel_vpl,
         threshold,
     }
+}
+
+/// The slot of `node` in a power-of-two quadtree: `(4^level − 1)/3 +
+/// morton(ix, iy)` (see the module docs).
+fn slot(node: Node) -> u64 {
+    ((1u64 << (2 * node.level)) - 1) / 3 + morton(node.ix, node.iy)
+}
+
+/// The cut of `Threshold(threshold)` with a depth limit, in slot order: the
+/// CPU twin of the runtime's GPU clustering of dynamic VPLs.
+///
+/// A node splits iff its depth is below `max_depth` (the root has depth 0;
+/// `max_depth` beyond the single-texel level changes nothing), it has at
+/// least two texels and a lit one, and it and all its ancestors score
+/// `S ≥ threshold`. Each non-split node that is reached (all ancestors split)
+/// and has lit texels is a VPL, made as in [`cluster`].
+///
+/// **Slots.** The nodes of depth `0..=max_depth` are numbered level by
+/// level, level 0 first, and within a level by the Morton code of the node's
+/// cell (`ix` bits in the even positions, `iy` in the odd ones; row 0 at
+/// the top): node `(d, ix, iy)` has slot `(4^d − 1)/3 + morton(ix, iy)`. The
+/// result holds one [`Cluster`] per slot that is a VPL, in increasing slot
+/// order, skipping the slots that are not.
+///
+/// Only power-of-two sizes are supported: any other size (or 0) gives an
+/// empty result.
+pub fn cluster_cut(rsm: &Rsm, threshold: f32, max_depth: u32) -> Vec<Cluster> {
+    if !rsm.size.is_power_of_two() {
+        return Vec::new();
+    }
+    let texels = (rsm.size as usize) * (rsm.size as usize);
+    assert!(
+        rsm.metric.len() == texels
+            && rsm.position.len() == texels
+            && rsm.normal.len() == texels
+            && rsm.flux.len() == texels
+            && rsm.area.len() == texels,
+        "RSM arrays must hold size² texels"
+    );
+    let pyramid = Pyramid::new(rsm);
+    let limit = max_depth.min(pyramid.texel_level());
+    let mut out: Vec<(u64, Cluster)> = Vec::new();
+    let mut stack = vec![pyramid.root()];
+    while let Some(node) = stack.pop() {
+        let split = node.level < limit && pyramid.score(rsm, node).is_some_and(|s| s >= threshold);
+        if split {
+            stack.extend(pyramid.children(node));
+        } else if let Some(vpl) = leaf_vpl(rsm, pyramid.rect(node)) {
+            out.push((slot(node), vpl));
+        }
+    }
+    out.sort_by_key(|&(slot, _)| slot);
+    out.into_iter().map(|(_, vpl)| vpl).collect()
 }

@@ -2,7 +2,7 @@
 
 use std::time::Instant;
 
-use gibake_bake::cluster::{Cluster, ClusterTarget, Clustering, NO_VPL, cluster};
+use gibake_bake::cluster::{Cluster, ClusterTarget, Clustering, NO_VPL, cluster, cluster_cut};
 use gibake_bake::rsm::Rsm;
 use gibake_gpu::LightView;
 use gibake_scene::{Aabb, Light, LightKind};
@@ -258,6 +258,10 @@ fn check_consistency(rsm: &Rsm, c: &Clustering) {
             assert_eq!(v, NO_VPL, "empty texel {i} maps to a VPL");
             continue;
         }
+        if rsm.flux[i] == Vec3::ZERO {
+            assert_eq!(v, NO_VPL, "zero-flux texel {i} maps to a VPL");
+            continue;
+        }
         if v == NO_VPL {
             assert_eq!(
                 rsm.flux[i],
@@ -342,22 +346,63 @@ fn cluster_half_plane_gives_one_vpl_per_maximal_node() {
 }
 
 #[test]
-fn cluster_mixed_nodes_always_split() {
-    // One hole at (5, 2) in an 8×8 flat floor: even with an enormous
-    // threshold, every node holding the hole splits down to single texels.
+fn cluster_hole_splits_by_its_share_of_the_light() {
+    // One hole at (5, 2) in an 8×8 flat floor (63 lit texels of equal
+    // flux): the nodes holding it score M · share = lit texels / 63 (root 1,
+    // its quadrant 15/63, its 2×2 node 3/63); every other node scores 0.
     let rsm = floor_rsm(8, |x, y| (!(x == 5 && y == 2)).then_some(0.0));
+    let texels = |t: f32| {
+        let c = cluster(&rsm, ClusterTarget::Threshold(t));
+        check_consistency(&rsm, &c);
+        assert_eq!(c.texel_vpl[2 * 8 + 5], NO_VPL);
+        c.vpls.iter().map(|v| v.texels).collect::<Vec<u32>>()
+    };
+    assert_eq!(texels(1.5), [63]);
+    assert_eq!(texels(0.5), [16, 15, 16, 16]);
+    assert_eq!(texels(0.1), [16, 4, 4, 3, 4, 16, 16]);
+    assert_eq!(texels(0.01), [16, 4, 4, 1, 1, 1, 4, 16, 16]);
+    // The one-VPL case: centroid of the 63 lit texels, all their flux.
     let c = cluster(&rsm, ClusterTarget::Threshold(1e30));
-    check_consistency(&rsm, &c);
-    let texels: Vec<u32> = c.vpls.iter().map(|v| v.texels).collect();
-    assert_eq!(texels, [16, 4, 4, 1, 1, 1, 4, 16, 16]);
-    assert_eq!(c.texel_vpl[2 * 8 + 5], NO_VPL);
+    assert_eq!(count(&c), 1);
+    assert_eq!(c.vpls[0].texels, 63);
+}
+
+#[test]
+fn cluster_zero_flux_texels_count_as_empty() {
+    // A floor whose right half is black: the same VPLs as a floor whose
+    // right half is missing (the black texels reflect nothing).
+    let bounds = Aabb {
+        min: Vec3::new(-1.0, 0.0, -1.0),
+        max: Vec3::new(1.0, 0.5, 1.0),
+    };
+    let black = build_rsm(&sun(Vec3::NEG_Y), &bounds, 64, |x, _, o, dir| {
+        let t = plane(o, dir, DVec3::Y, 0.0)?;
+        Some(Hit {
+            t,
+            normal: DVec3::Y,
+            albedo: Vec3::splat(if x < 32 { 0.5 } else { 0.0 }),
+        })
+    });
+    let missing = floor_rsm(64, |x, _| (x < 32).then_some(0.0));
+    for t in [1e-6f32, 0.3, 0.6] {
+        let a = cluster(&black, ClusterTarget::Threshold(t));
+        let b = cluster(&missing, ClusterTarget::Threshold(t));
+        check_consistency(&black, &a);
+        assert_eq!(a, b, "threshold {t}");
+    }
+    // The root (M = 1, share 1) splits at 0.6; its lit quadrants are
+    // uniform (S = 0).
+    assert_eq!(count(&cluster(&black, ClusterTarget::Threshold(0.6))), 2);
+    assert_eq!(count(&cluster(&black, ClusterTarget::Threshold(1.5))), 1);
 }
 
 #[test]
 fn cluster_depth_step_splits_along_the_step() {
     for step in [256u32, 201] {
         let rsm = floor_rsm(512, |x, _| Some(if x < step { 0.0 } else { 0.3 }));
-        let c = cluster(&rsm, ClusterTarget::Threshold(1e-6));
+        // A 2×2 node across the step (p = 1/2) scores
+        // D · share ≈ 0.25 · (0.3 / 2.04)² · 4/512² ≈ 8e-8.
+        let c = cluster(&rsm, ClusterTarget::Threshold(1e-8));
         check_consistency(&rsm, &c);
         // No VPL straddles the step.
         let mut side = vec![None; count(&c)];
@@ -608,5 +653,81 @@ fn cluster_timing_512() {
     );
     if !cfg!(debug_assertions) {
         assert!(t_threshold < 0.5 && t_count < 0.5);
+    }
+}
+
+#[test]
+fn cluster_cut_is_the_threshold_cut_in_slot_order() {
+    // The 8×8 floor with a hole at (5, 2) (see the hole test): slots are
+    // level by level, Morton order within a level. At 0.1 the leaves are the
+    // quadrants TL, BL, BR (slots 1, 3, 4) and the four 2×2 nodes of the
+    // TR quadrant (slots 9..=12, the hole in slot 11).
+    let rsm = floor_rsm(8, |x, y| (!(x == 5 && y == 2)).then_some(0.0));
+    let texels = |t: f32, depth: u32| -> Vec<u32> {
+        cluster_cut(&rsm, t, depth)
+            .iter()
+            .map(|v| v.texels)
+            .collect()
+    };
+    assert_eq!(texels(0.1, 3), [16, 16, 16, 4, 4, 3, 4]);
+    assert_eq!(texels(0.01, 3), [16, 16, 16, 4, 4, 4, 1, 1, 1]);
+    assert_eq!(texels(0.01, 99), [16, 16, 16, 4, 4, 4, 1, 1, 1]);
+    assert_eq!(texels(0.01, 2), [16, 16, 16, 4, 4, 3, 4]);
+    assert_eq!(texels(0.01, 1), [16, 15, 16, 16]);
+    assert_eq!(texels(0.01, 0), [63]);
+    assert_eq!(texels(1.5, 3), [63]);
+    // Only powers of two.
+    assert!(cluster_cut(&corner_rsm(37), 0.0, 4).is_empty());
+
+    // Without a depth limit: the same VPLs as `cluster` (another order).
+    let rsm = corner_rsm(128);
+    let total = total_flux(&rsm, |_| true);
+    for t in [1e-3f32, 1e-4, 1e-5] {
+        let full = cluster(&rsm, ClusterTarget::Threshold(t));
+        let cut = cluster_cut(&rsm, t, 7);
+        assert_eq!(cut.len(), full.vpls.len(), "threshold {t}");
+        let mut used = vec![false; cut.len()];
+        for v in &full.vpls {
+            let j = cut
+                .iter()
+                .enumerate()
+                .position(|(j, c)| !used[j] && c == v)
+                .expect("every VPL of the threshold cut is in cluster_cut");
+            used[j] = true;
+        }
+        // With a depth limit: at most 4^d VPLs, all the flux.
+        for depth in [0u32, 1, 2, 3] {
+            let cut = cluster_cut(&rsm, t, depth);
+            assert!(cut.len() <= 1 << (2 * depth) && !cut.is_empty());
+            assert_close3(vpl_flux(&cut), total, 1e-5, "cut flux");
+            let texels: u32 = cut.iter().map(|v| v.texels).sum();
+            let lit = rsm.flux.iter().filter(|f| f.max_element() > 0.0).count();
+            assert_eq!(texels as usize, lit);
+        }
+    }
+}
+
+#[test]
+fn cluster_budget_goes_where_the_light_is() {
+    // The corner's spot cone ends inside the view: its rim is a boundary
+    // between lit and zero-flux texels, the sphere's outline a depth step.
+    // Neither may take the budget: few VPLs are single texels, and the
+    // VPLs are not much smaller than budget/lit texels on the median.
+    let rsm = corner_rsm(512);
+    let lit = rsm.flux.iter().filter(|f| f.max_element() > 0.0).count();
+    for n in [250u32, 664] {
+        let c = cluster(&rsm, ClusterTarget::Count(n));
+        check_consistency(&rsm, &c);
+        let mut texels: Vec<u32> = c.vpls.iter().map(|v| v.texels).collect();
+        texels.sort_unstable();
+        let median = texels[texels.len() / 2];
+        let singles = texels.iter().filter(|&&t| t == 1).count();
+        let even = lit / n as usize;
+        eprintln!(
+            "Count({n}): {} VPLs, median {median} texels/VPL (even split {even}), {singles} single-texel VPLs",
+            count(&c)
+        );
+        assert!(median as usize * 8 >= even, "median {median} vs {even}");
+        assert!(singles * 20 <= count(&c), "{singles} single-texel VPLs");
     }
 }

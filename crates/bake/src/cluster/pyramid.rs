@@ -12,47 +12,61 @@ use glam::Vec3;
 
 use crate::rsm::Rsm;
 
+/// Whether texel `i` is *lit*: it sees a surface (finite metric) and
+/// reflects light (`flux.r + flux.g + flux.b` positive and finite, summed in
+/// `f64`). Every other texel counts as empty: it reflects nothing.
+pub(crate) fn is_lit(rsm: &Rsm, i: usize) -> bool {
+    rsm.is_valid(i) && {
+        let w = texel_weight(rsm, i);
+        w > 0.0 && w.is_finite()
+    }
+}
+
+/// `flux.r + flux.g + flux.b` of texel `i`, in `f64`: the texel's weight.
+pub(crate) fn texel_weight(rsm: &Rsm, i: usize) -> f64 {
+    let f = rsm.flux[i];
+    f64::from(f.x) + f64::from(f.y) + f64::from(f.z)
+}
+
 /// Statistics of one node's texels, merged bottom-up. Every split statistic
-/// is unweighted (weight = texel count) and covers the node's *valid*
-/// texels only.
+/// is unweighted (weight = texel count) and covers the node's *lit* texels
+/// only ([`is_lit`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct Moments {
     /// Texels in the node.
     pub total: u32,
-    /// Texels that see a surface.
-    pub valid: u32,
-    /// Mean of the metric over valid texels.
+    /// Lit texels.
+    pub lit: u32,
+    /// Mean of the metric over lit texels.
     pub mean_metric: f64,
-    /// `Σ (metric − mean)²` over valid texels (Chan et al.'s `M2`).
+    /// `Σ (metric − mean)²` over lit texels (Chan et al.'s `M2`).
     pub m2_metric: f64,
-    /// `Σ normal` over valid texels.
+    /// `Σ normal` over lit texels.
     pub sum_normal: [f64; 3],
-    /// `Σ footprint` (world size of one texel) over valid texels.
+    /// `Σ footprint` (world size of one texel) over lit texels.
     pub sum_footprint: f64,
-    /// `Σ (flux.r + flux.g + flux.b)` over valid texels; only its sign is
-    /// used (the node yields a VPL iff it is positive).
+    /// `Σ (flux.r + flux.g + flux.b)` over lit texels.
     pub sum_flux: f64,
 }
 
 impl Moments {
     /// The moments of the single texel `i`.
     pub fn texel(rsm: &Rsm, i: usize) -> Moments {
-        if !rsm.is_valid(i) {
+        if !is_lit(rsm, i) {
             return Moments {
                 total: 1,
                 ..Moments::default()
             };
         }
         let n = rsm.normal[i];
-        let f = rsm.flux[i];
         Moments {
             total: 1,
-            valid: 1,
+            lit: 1,
             mean_metric: f64::from(rsm.metric[i]),
             m2_metric: 0.0,
             sum_normal: [f64::from(n.x), f64::from(n.y), f64::from(n.z)],
             sum_footprint: f64::from(rsm.footprint(i)),
-            sum_flux: f64::from(f.x) + f64::from(f.y) + f64::from(f.z),
+            sum_flux: texel_weight(rsm, i),
         }
     }
 
@@ -60,7 +74,7 @@ impl Moments {
     /// of Chan, Golub & LeVeque, which stays accurate in `f32` too).
     pub fn merge(self, o: Moments) -> Moments {
         let total = self.total + o.total;
-        let (mean_metric, m2_metric) = match (self.valid, o.valid) {
+        let (mean_metric, m2_metric) = match (self.lit, o.lit) {
             (0, _) => (o.mean_metric, o.m2_metric),
             (_, 0) => (self.mean_metric, self.m2_metric),
             (na, nb) => {
@@ -75,7 +89,7 @@ impl Moments {
         };
         Moments {
             total,
-            valid: self.valid + o.valid,
+            lit: self.lit + o.lit,
             mean_metric,
             m2_metric,
             sum_normal: [
@@ -88,28 +102,26 @@ impl Moments {
         }
     }
 
-    /// Whether the node holds a texel with non-zero flux (so, as a leaf,
-    /// yields a VPL).
+    /// Whether the node holds a lit texel (so, as a leaf, yields a VPL).
     pub fn has_flux(&self) -> bool {
-        self.sum_flux > 0.0
+        self.lit > 0
     }
 
     /// The node's split score, or `None` if it can never be split (a single
-    /// texel, or no surface at all). Mixed nodes (some texels valid, some
-    /// empty) score `+∞`. Otherwise `max(depth term, normal term)`:
+    /// texel, or no lit texel). `S = max(D, Nn, M) · share` with
     ///
-    /// - depth term `Var(metric) / (map_size · mean footprint)²`,
-    /// - normal term `1 − |Σ normal| / valid`,
+    /// - depth term `D = Var(metric) / (map_size · mean footprint)²`,
+    /// - normal term `Nn = 1 − |Σ normal| / lit`,
+    /// - mixed term `M = 1` if the node also holds texels that are not lit,
+    /// - `share = sum_flux / total_flux` (`total_flux`: the whole map's),
     ///
-    /// evaluated in `f64` and rounded to `f32` (NaN counts as `+∞`).
-    pub fn score(&self, map_size: u32) -> Option<f32> {
-        if self.total <= 1 || self.valid == 0 {
+    /// all over lit texels, evaluated in `f64` and rounded to `f32` (NaN
+    /// counts as `+∞`).
+    pub fn score(&self, map_size: u32, total_flux: f64) -> Option<f32> {
+        if self.total <= 1 || self.lit == 0 {
             return None;
         }
-        if self.valid < self.total {
-            return Some(f32::INFINITY);
-        }
-        let n = f64::from(self.valid);
+        let n = f64::from(self.lit);
         let var = (self.m2_metric / n).max(0.0);
         let width = f64::from(map_size) * (self.sum_footprint / n);
         let depth = if width > 0.0 {
@@ -121,7 +133,9 @@ impl Moments {
         };
         let [x, y, z] = self.sum_normal;
         let normal = (1.0 - (x * x + y * y + z * z).sqrt() / n).max(0.0);
-        let s = depth.max(normal);
+        let mixed = if self.lit < self.total { 1.0 } else { 0.0 };
+        let share = self.sum_flux / total_flux;
+        let s = depth.max(normal).max(mixed) * share;
         Some(if s.is_nan() { f32::INFINITY } else { s as f32 })
     }
 }
@@ -151,6 +165,8 @@ pub(crate) struct Pyramid {
     /// `moments[d]`: row-major `m_d × m_d` grid, for `d` above the texel
     /// level (texel moments are read from the RSM on demand).
     moments: Vec<Vec<Moments>>,
+    /// `Σ (flux.r + flux.g + flux.b)` over all lit texels (the root's).
+    total_flux: f64,
 }
 
 impl Pyramid {
@@ -187,6 +203,7 @@ impl Pyramid {
             intervals,
             children,
             moments: Vec::new(),
+            total_flux: 0.0,
         };
         let texel_level = pyramid.texel_level();
         let mut moments: Vec<Vec<Moments>> = vec![Vec::new(); texel_level as usize];
@@ -215,12 +232,14 @@ impl Pyramid {
             moments[level as usize] = grid;
         }
         pyramid.moments = moments;
+        pyramid.total_flux = pyramid.moments(rsm, pyramid.root()).sum_flux;
         pyramid
     }
 
-    /// The map size.
-    pub fn size(&self) -> u32 {
-        self.size
+    /// The split score of `node` ([`Moments::score`] with this map's size
+    /// and total flux).
+    pub fn score(&self, rsm: &Rsm, node: Node) -> Option<f32> {
+        self.moments(rsm, node).score(self.size, self.total_flux)
     }
 
     /// Number of columns (= rows) of the grid at `level`.
