@@ -1,0 +1,361 @@
+//! Dynamic VPLs: the moving objects' part of the dynamic RSM clustered into
+//! VPLs on the GPU, every frame, with no read-back (design brief, step 5,
+//! "step 5 clusters on the GPU").
+//!
+//! The rule is the bake's (the docs of `gibake_bake::cluster`; its CPU twin
+//! is `gibake_bake::cluster::cluster_cut`), applied to the texels of the
+//! dynamic RSM ([`DynamicRsmPass`]) where a moving surface is nearer the
+//! light than the static one:
+//!
+//! - a texel is **valid** iff the dynamic RSM has a surface there
+//!   (metric below its `3e38` clear value) and `dyn_metric < static_metric −
+//!   0.5 · footprint` (`moving_in_front` of `occlusion.wgsl`); it is **lit**
+//!   iff valid with `flux.r + flux.g + flux.b > 0` (finite);
+//! - its flux and area follow `gibake_bake::rsm::render_rsm`:
+//!   `flux = albedo · color · spot_attenuation(dir) · lv_texel_measure(dir)`,
+//!   `area = measure · d² / max(cos, 0.05)` (spot; `d` the distance to the
+//!   light) or `measure / max(cos, 0.05)` (directional), with `dir` the
+//!   light → texel direction and `cos = normal · (−dir)`;
+//! - a node splits iff it has ≥ 2 texels and a lit one, its depth is below
+//!   `max_depth`, and it and all its ancestors score
+//!   `S = max(D, Nn, M) · share ≥ threshold` (`share`: the node's `Σ flux`
+//!   over the root's).
+//!
+//! # Passes (one compute pass, "dynamic vpls")
+//!
+//! 1. `cs_reduce`, once per level `d = L−1 … 0` (`2^L`: the RSM size rounded
+//!    up to a power of two; texels beyond the RSM are empty): node `i` of
+//!    level `d` merges its four children `4i … 4i+3` (Morton order) in that
+//!    order — Chan's mean/`M2` of the metric, and sums of lit count, normal,
+//!    footprint, flux, `w·position`, `w·normal`, area (`w = r + g + b`).
+//!    The texel level is not stored: it is computed from the RSM textures
+//!    where it is read.
+//! 2. `cs_slots`, one invocation per **slot**: every node of depth
+//!    `0..=max_depth`, level by level, Morton order within a level (node
+//!    `(d, i)` is slot `(4^d − 1)/3 + i`). The slot holds a VPL iff all its
+//!    ancestors split, the node does not (or `d = max_depth`) and it has lit
+//!    texels: position `Σ w·p / Σ w`, normal `normalize(Σ w·n)`, flux `Σ
+//!    flux`, area `Σ area`, `normal.w = 1`. Otherwise the slot is zeroed.
+//!
+//! `max_depth = ceil(log4(max_vpls))` (at most `L`), so there are at most
+//! `4^max_depth ≥ max_vpls` VPLs among [`DynamicVplPass::slots`] slots.
+//! Everything is `f32` with a fixed reduction order and no atomics: the
+//! output is bit-identical from run to run.
+
+use gibake_gpu::shaders;
+use wgpu::util::DeviceExt;
+
+use crate::dynamic_rsm::DynamicRsmPass;
+
+/// One dynamic VPL slot. Must match `DynVpl` in `shade.wgsl` and
+/// `dynamic_vpl.wgsl` (48 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuDynVpl {
+    /// xyz position (flux-weighted mean), w = area.
+    pub position: [f32; 4],
+    /// xyz unit normal, w = 1 if this slot holds a VPL, else 0 (and the
+    /// whole slot is zero).
+    pub normal: [f32; 4],
+    /// rgb flux, w = 0.
+    pub flux: [f32; 4],
+}
+
+/// Bytes of one node of the moment pyramid (`Node` in the WGSL).
+const NODE_BYTES: u64 = 80;
+/// Stride of the per-dispatch parameter blocks (dynamic uniform offsets).
+const PARAMS_STRIDE: u64 = 256;
+/// Workgroup size of both entry points.
+const WORKGROUP: u32 = 64;
+/// Most workgroups along x in one dispatch (the rest go along y).
+const MAX_GROUPS_X: u32 = 32768;
+
+/// `Params` in the WGSL.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct GpuParams {
+    level: u32,
+    levels: u32,
+    size: u32,
+    max_depth: u32,
+    slots: u32,
+    threshold: f32,
+    pad: [u32; 2],
+}
+
+/// The slot-pyramid depth for `max_vpls` VPLs: `ceil(log4(max_vpls))`.
+pub fn depth_for(max_vpls: u32) -> u32 {
+    let mut d = 0;
+    while d < 16 && (1u64 << (2 * d)) < u64::from(max_vpls) {
+        d += 1;
+    }
+    d
+}
+
+/// Number of slots of depths `0..=max_depth`: `(4^(max_depth+1) − 1) / 3`.
+pub fn slot_count(max_depth: u32) -> u32 {
+    (((1u64 << (2 * (max_depth + 1))) - 1) / 3) as u32
+}
+
+/// The GPU clustering of the dynamic RSM into VPL slots.
+pub struct DynamicVplPass {
+    reduce: wgpu::ComputePipeline,
+    slots_pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    _nodes: wgpu::Buffer,
+    _params: wgpu::Buffer,
+    /// [`DynamicVplPass::slots`] × [`GpuDynVpl`], in slot order (see the
+    /// module docs). `STORAGE | COPY_SRC`.
+    pub vpls: wgpu::Buffer,
+    levels: u32,
+    max_depth: u32,
+    slots: u32,
+}
+
+fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+fn buffer_entry(
+    binding: u32,
+    ty: wgpu::BufferBindingType,
+    dynamic: bool,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty,
+            has_dynamic_offset: dynamic,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// Workgroups for `n` invocations, as `(x, y)`.
+fn groups(n: u32) -> (u32, u32) {
+    let g = n.div_ceil(WORKGROUP).max(1);
+    if g <= MAX_GROUPS_X {
+        (g, 1)
+    } else {
+        (MAX_GROUPS_X, g.div_ceil(MAX_GROUPS_X))
+    }
+}
+
+impl DynamicVplPass {
+    /// Creates the pass over `rsm`'s targets. `static_metric` is the baked
+    /// static RSM metric (`R32Float`, same size), `light_buf` the
+    /// `GpuPrimaryLight` uniform, `threshold` the bake's effective threshold
+    /// (`manifest.settings.threshold`), `max_vpls` the most VPLs wanted
+    /// (rounded up to a power of 4).
+    pub fn new(
+        device: &wgpu::Device,
+        rsm: &DynamicRsmPass,
+        static_metric: &wgpu::TextureView,
+        light_buf: &wgpu::Buffer,
+        threshold: f32,
+        max_vpls: u32,
+    ) -> DynamicVplPass {
+        let size = rsm.size.max(1);
+        let levels = size.next_power_of_two().trailing_zeros();
+        let max_depth = depth_for(max_vpls).min(levels);
+        let slots = slot_count(max_depth);
+        // Stored levels 0..levels (the texel level is read from the RSM).
+        let stored = u64::from(slot_count(levels.max(1) - 1)) * u64::from(levels > 0);
+        let nodes = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("dynamic VPL pyramid"),
+            size: NODE_BYTES * stored.max(1),
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let vpls = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("dynamic VPLs"),
+            size: std::mem::size_of::<GpuDynVpl>() as u64 * u64::from(slots),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        // Block d (< levels): cs_reduce writing level d; block `levels`: cs_slots.
+        let mut blocks = vec![0u8; (PARAMS_STRIDE * u64::from(levels + 1)) as usize];
+        for level in 0..=levels {
+            let p = GpuParams {
+                level,
+                levels,
+                size,
+                max_depth,
+                slots,
+                threshold,
+                pad: [0; 2],
+            };
+            let at = (PARAMS_STRIDE * u64::from(level)) as usize;
+            blocks[at..at + std::mem::size_of::<GpuParams>()]
+                .copy_from_slice(bytemuck::bytes_of(&p));
+        }
+        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("dynamic VPL params"),
+            contents: &blocks,
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let storage = wgpu::BufferBindingType::Storage { read_only: false };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("dynamic vpls"),
+            entries: &[
+                texture_entry(0),
+                texture_entry(1),
+                texture_entry(2),
+                texture_entry(3),
+                buffer_entry(4, wgpu::BufferBindingType::Uniform, false),
+                buffer_entry(5, wgpu::BufferBindingType::Uniform, false),
+                buffer_entry(6, storage, false),
+                buffer_entry(7, storage, false),
+                buffer_entry(8, wgpu::BufferBindingType::Uniform, true),
+            ],
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("dynamic vpls"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&rsm.views[0]),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&rsm.views[1]),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&rsm.views[2]),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::TextureView(static_metric),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: rsm.view_buf.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: light_buf.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: nodes.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 7,
+                    resource: vpls.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 8,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &params,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(std::mem::size_of::<GpuParams>() as u64),
+                    }),
+                },
+            ],
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("dynamic vpls"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let module = shaders::module(device, "dynamic_vpl.wgsl", include_str!("dynamic_vpl.wgsl"));
+        let pipeline = |entry: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("dynamic vpls"),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        DynamicVplPass {
+            reduce: pipeline("cs_reduce"),
+            slots_pipeline: pipeline("cs_slots"),
+            bind_group,
+            _nodes: nodes,
+            _params: params,
+            vpls,
+            levels,
+            max_depth,
+            slots,
+        }
+    }
+
+    /// Number of slots in [`DynamicVplPass::vpls`] (`(4^(max_depth+1) − 1)/3`).
+    pub fn slots(&self) -> u32 {
+        self.slots
+    }
+
+    /// The deepest slot level (`ceil(log4(max_vpls))`, at most log2 of the
+    /// RSM size rounded up to a power of two).
+    pub fn max_depth(&self) -> u32 {
+        self.max_depth
+    }
+
+    /// Records the clustering (after the dynamic RSM pass of the same frame).
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: Option<&mut crate::timer::Timer>,
+    ) {
+        let ts = timer.and_then(|t| t.compute("dynamic vpls"));
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("dynamic vpls"),
+            timestamp_writes: ts,
+        });
+        let offset = |block: u32| (PARAMS_STRIDE * u64::from(block)) as u32;
+        pass.set_pipeline(&self.reduce);
+        for level in (0..self.levels).rev() {
+            pass.set_bind_group(0, &self.bind_group, &[offset(level)]);
+            let (x, y) = groups(1u32 << (2 * level));
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        pass.set_pipeline(&self.slots_pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[offset(self.levels)]);
+        let (x, y) = groups(self.slots);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dynamic_vpl_shader_validates() {
+        use gibake_gpu::shaders::{compose, validate};
+        if let Err(e) = validate(&compose(include_str!("dynamic_vpl.wgsl"))) {
+            panic!("dynamic_vpl.wgsl does not validate:\n{e}");
+        }
+    }
+
+    #[test]
+    fn slot_arithmetic() {
+        assert_eq!(depth_for(0), 0);
+        assert_eq!(depth_for(1), 0);
+        assert_eq!(depth_for(2), 1);
+        assert_eq!(depth_for(4), 1);
+        assert_eq!(depth_for(5), 2);
+        assert_eq!(depth_for(64), 3);
+        assert_eq!(depth_for(65), 4);
+        assert_eq!(slot_count(0), 1);
+        assert_eq!(slot_count(1), 5);
+        assert_eq!(slot_count(3), 85);
+        assert_eq!(std::mem::size_of::<GpuDynVpl>(), 48);
+        assert_eq!(std::mem::size_of::<GpuParams>(), 32);
+    }
+}

@@ -1,0 +1,293 @@
+// dynamic_vpl.wgsl — the moving objects' VPLs, clustered on the GPU with
+// the bake's quadtree rule (needs common.wgsl, light.wgsl, projection.wgsl).
+// CPU twin: gibake_bake::cluster::cluster_cut (see crates/bake/src/cluster.rs
+// for the rule, the moments and the slot order).
+//
+// The quadtree of a P × P map (P = 2^L ≥ the RSM size; texels past the RSM
+// are empty) is stored level by level in `nodes`, level d (0 = root) at
+// offset (4^d − 1)/3, in Morton order within the level, for d < L; level L
+// (single texels) is computed from the RSM where it is read.
+//   cs_reduce: node i of level params.level from its four children 4i..4i+3
+//              (one dispatch per level, bottom-up; fixed merge order).
+//   cs_slots:  one invocation per slot (every node of depth 0..=max_depth):
+//              is it a leaf of the cut? Writes the VPL or an empty slot.
+// No atomics: every value is a fixed-order f32 reduction, so the result is
+// bit-identical from run to run.
+
+struct Params {
+    level: u32,       // cs_reduce: the level written
+    levels: u32,      // L: P = 2^L
+    size: u32,        // RSM size (texels at x or y ≥ size are empty)
+    max_depth: u32,   // deepest slot level (≤ L)
+    slots: u32,       // (4^(max_depth + 1) − 1) / 3
+    threshold: f32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+// Moments of a node over its lit texels (see cluster.rs, "Per-node
+// statistics"); the VPL sums ride along. 80 bytes.
+struct Node {
+    lit: u32,             // lit texels
+    mean: f32,            // mean metric
+    m2: f32,              // Σ (metric − mean)²
+    footprint: f32,       // Σ footprint
+    normal: vec3<f32>,    // Σ normal
+    area: f32,            // Σ area
+    flux: vec3<f32>,      // Σ flux
+    w: f32,               // Σ (flux.r + flux.g + flux.b)
+    wp: vec3<f32>,        // Σ w · position
+    wn: vec3<f32>,        // Σ w · normal
+}
+
+struct DynVpl {           // must match GpuDynVpl in dynamic_vpl.rs
+    position: vec4<f32>,  // xyz, w = area
+    normal: vec4<f32>,    // xyz, w = 1 if the slot holds a VPL
+    flux: vec4<f32>,
+}
+
+@group(0) @binding(0) var dyn_position: texture_2d<f32>;
+@group(0) @binding(1) var dyn_albedo: texture_2d<f32>;
+@group(0) @binding(2) var dyn_normal: texture_2d<f32>;
+@group(0) @binding(3) var static_metric: texture_2d<f32>;
+@group(0) @binding(4) var<uniform> view: LightView;
+@group(0) @binding(5) var<uniform> light: PrimaryLight;
+@group(0) @binding(6) var<storage, read_write> nodes: array<Node>;
+@group(0) @binding(7) var<storage, read_write> vpls: array<DynVpl>;
+@group(0) @binding(8) var<uniform> params: Params;
+
+// Depth margin in texel footprints (scale-invariant). As occlusion.wgsl.
+const OCCLUSION_BIAS: f32 = 0.5;
+// As gibake_bake::rsm::MIN_AREA_COSINE.
+const MIN_AREA_COSINE: f32 = 0.05;
+// The dynamic RSM's clear value of the metric is 3e38: no moving surface.
+const EMPTY_METRIC: f32 = 1.0e38;
+
+// Whether the moving surface at texel c is in front of the static one
+// (copied from occlusion.wgsl).
+fn moving_in_front(c: vec2<i32>) -> bool {
+    let dm = textureLoad(dyn_position, c, 0).w;
+    let sm = textureLoad(static_metric, c, 0).r;
+    var w = view.direction.w;
+    if (view.origin.w < 0.5) {
+        w = min(dm, sm) * view.direction.w;
+    }
+    return dm < sm - OCCLUSION_BIAS * w;
+}
+
+fn empty_node() -> Node {
+    var n: Node;
+    n.lit = 0u;
+    n.mean = 0.0;
+    n.m2 = 0.0;
+    n.footprint = 0.0;
+    n.normal = vec3<f32>(0.0);
+    n.area = 0.0;
+    n.flux = vec3<f32>(0.0);
+    n.w = 0.0;
+    n.wp = vec3<f32>(0.0);
+    n.wn = vec3<f32>(0.0);
+    return n;
+}
+
+// The node of texel (x, y), with the bake's RSM radiometry
+// (gibake_bake::rsm::render_rsm): flux = albedo · color · att · measure,
+// area = measure · d² / cos (spot) or measure / cos (directional).
+fn texel_node(x: u32, y: u32) -> Node {
+    if (x >= params.size || y >= params.size) {
+        return empty_node();
+    }
+    let c = vec2<i32>(i32(x), i32(y));
+    let pm = textureLoad(dyn_position, c, 0);
+    if (!(pm.w < EMPTY_METRIC) || !moving_in_front(c)) {
+        return empty_node();
+    }
+    let p = pm.xyz;
+    let albedo = textureLoad(dyn_albedo, c, 0).rgb;
+    let nrm = oct_decode(textureLoad(dyn_normal, c, 0).xy);
+    var dir = light.direction.xyz;
+    var att = 1.0;
+    let directional = light.position.w > 0.5;
+    if (!directional) {
+        dir = normalize(p - light.position.xyz);
+        att = spot_attenuation(light, dir);
+    }
+    let measure = lv_texel_measure(view, dir);
+    let cos_s = max(dot(nrm, -dir), MIN_AREA_COSINE);
+    var flux = albedo * light.color.rgb * (att * measure);
+    var area = measure / cos_s;
+    if (!directional) {
+        let d = length(p - light.position.xyz);
+        area = measure * d * d / cos_s;
+    }
+    flux = finite_or_zero3(flux);
+    if (!is_finite_f32(area)) {
+        area = 0.0;
+    }
+    let w = flux.r + flux.g + flux.b;
+    if (!(w > 0.0) || !is_finite_f32(w)) {
+        return empty_node();
+    }
+    var n: Node;
+    n.lit = 1u;
+    n.mean = pm.w;
+    n.m2 = 0.0;
+    n.footprint = lv_footprint(view, p);
+    n.normal = nrm;
+    n.area = area;
+    n.flux = flux;
+    n.w = w;
+    n.wp = w * p;
+    n.wn = w * nrm;
+    return n;
+}
+
+// Chan, Golub & LeVeque's pairwise merge (as Moments::merge).
+fn merge(a: Node, b: Node) -> Node {
+    var r: Node;
+    r.lit = a.lit + b.lit;
+    if (a.lit == 0u) {
+        r.mean = b.mean;
+        r.m2 = b.m2;
+    } else if (b.lit == 0u) {
+        r.mean = a.mean;
+        r.m2 = a.m2;
+    } else {
+        let na = f32(a.lit);
+        let nb = f32(b.lit);
+        let n = na + nb;
+        let delta = b.mean - a.mean;
+        r.mean = a.mean + delta * (nb / n);
+        r.m2 = a.m2 + b.m2 + delta * delta * (na * nb / n);
+    }
+    r.footprint = a.footprint + b.footprint;
+    r.normal = a.normal + b.normal;
+    r.area = a.area + b.area;
+    r.flux = a.flux + b.flux;
+    r.w = a.w + b.w;
+    r.wp = a.wp + b.wp;
+    r.wn = a.wn + b.wn;
+    return r;
+}
+
+fn level_offset(d: u32) -> u32 {
+    return ((1u << (2u * d)) - 1u) / 3u;
+}
+
+// The even bits of v, packed (inverse Morton).
+fn compact1(v: u32) -> u32 {
+    var x = v & 0x55555555u;
+    x = (x | (x >> 1u)) & 0x33333333u;
+    x = (x | (x >> 2u)) & 0x0f0f0f0fu;
+    x = (x | (x >> 4u)) & 0x00ff00ffu;
+    x = (x | (x >> 8u)) & 0x0000ffffu;
+    return x;
+}
+
+// Node i (Morton index) of level d.
+fn load_node(d: u32, i: u32) -> Node {
+    if (d >= params.levels) {
+        return texel_node(compact1(i), compact1(i >> 1u));
+    }
+    return nodes[level_offset(d) + i];
+}
+
+// The split score S = max(D, Nn, M) · share of a node of level d with at
+// least one lit texel (Moments::score, in f32). +∞ and NaN give F32_MAX,
+// which `splits` compares with min(threshold, F32_MAX): the CPU's "+∞ ≥ t".
+fn score(n: Node, d: u32, total_w: f32) -> f32 {
+    let cnt = f32(n.lit);
+    let v = max(n.m2 / cnt, 0.0);
+    let width = f32(params.size) * (n.footprint / cnt);
+    var depth = 0.0;
+    if (width > 0.0) {
+        depth = v / (width * width);
+    } else if (v > 0.0) {
+        depth = F32_MAX;
+    }
+    let nn = max(1.0 - length(n.normal) / cnt, 0.0);
+    // Texels in the node: 4^(L − d) (may not fit a u32 count: compare as
+    // "fewer lit than texels").
+    let texels_log4 = params.levels - d;
+    var mixed = 0.0;
+    if (texels_log4 >= 16u || n.lit < (1u << (2u * texels_log4))) {
+        mixed = 1.0;
+    }
+    let s = max(max(depth, nn), mixed) * (n.w / total_w);
+    if (!(s <= F32_MAX)) {
+        return F32_MAX;
+    }
+    return s;
+}
+
+// Whether a node of level d splits (its ancestors aside).
+fn splits(n: Node, d: u32, total_w: f32) -> bool {
+    return d < params.levels && n.lit > 0u && score(n, d, total_w) >= min(params.threshold, F32_MAX);
+}
+
+fn flat_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return gid.x + gid.y * groups.x * 64u;
+}
+
+@compute @workgroup_size(64)
+fn cs_reduce(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = flat_index(gid, groups);
+    let d = params.level;
+    if (i >= (1u << (2u * d))) {
+        return;
+    }
+    var acc = load_node(d + 1u, 4u * i);
+    for (var k = 1u; k < 4u; k++) {
+        acc = merge(acc, load_node(d + 1u, 4u * i + k));
+    }
+    nodes[level_offset(d) + i] = acc;
+}
+
+@compute @workgroup_size(64)
+fn cs_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let s = flat_index(gid, groups);
+    if (s >= params.slots) {
+        return;
+    }
+    var d = 0u;
+    while (d < params.max_depth && level_offset(d + 1u) <= s) {
+        d++;
+    }
+    let i = s - level_offset(d);
+    let total_w = load_node(0u, 0u).w;
+    var reached = true;
+    for (var k = 0u; k < d; k++) {
+        let a = load_node(k, i >> (2u * (d - k)));
+        if (!splits(a, k, total_w)) {
+            reached = false;
+            break;
+        }
+    }
+    let n = load_node(d, i);
+    var out: DynVpl;
+    out.position = vec4<f32>(0.0);
+    out.normal = vec4<f32>(0.0);
+    out.flux = vec4<f32>(0.0);
+    let leaf = reached && n.lit > 0u && n.w > 0.0 && (d == params.max_depth || !splits(n, d, total_w));
+    if (leaf) {
+        var normal = n.wn;
+        if (dot(normal, normal) > 0.0) {
+            normal = normalize(normal);
+        } else {
+            normal = normalize(n.normal);
+        }
+        let position = n.wp / n.w;
+        let ok = is_finite_f32(position.x) && is_finite_f32(position.y) && is_finite_f32(position.z)
+            && is_finite_f32(normal.x) && is_finite_f32(normal.y) && is_finite_f32(normal.z);
+        if (ok) {
+            var area = n.area;
+            if (!is_finite_f32(area)) {
+                area = 0.0;
+            }
+            out.position = vec4<f32>(position, area);
+            out.normal = vec4<f32>(normal, 1.0);
+            out.flux = vec4<f32>(finite_or_zero3(n.flux), 0.0);
+        }
+    }
+    vpls[s] = out;
+}

@@ -1,0 +1,403 @@
+//! The GPU clustering of dynamic VPLs against its CPU twin
+//! (`gibake_bake::cluster::cluster_cut`) on the bundled corner scene with
+//! its moving balls, and with the balls out of the light's reach.
+
+use gibake_asset::Asset;
+use gibake_bake::cluster::{Cluster, ClusterTarget, cluster_cut};
+use gibake_bake::rsm::{MIN_AREA_COSINE, Rsm};
+use gibake_gpu::mesh::SceneGpu;
+use gibake_gpu::{GpuContext, GpuPrimaryLight, LightView, readback};
+use gibake_runtime::baked::BakedGpu;
+use gibake_runtime::dynamic_rsm::DynamicRsmPass;
+use gibake_runtime::timer::Timer;
+use gibake_scene::{LightKind, LoadOptions, Scene};
+use glam::{Mat4, Vec2, Vec3};
+use wgpu::util::DeviceExt;
+
+// The pass is compiled here from its source, against the crate's public
+// `dynamic_rsm` and `timer` modules, so that this test does not depend on
+// `pub mod dynamic_vpl;` in the crate root.
+mod dynamic_rsm {
+    pub use gibake_runtime::dynamic_rsm::*;
+}
+mod timer {
+    pub use gibake_runtime::timer::*;
+}
+#[allow(dead_code)]
+#[path = "../src/dynamic_vpl.rs"]
+mod dynamic_vpl;
+
+use dynamic_vpl::{DynamicVplPass, GpuDynVpl};
+
+const MAX_VPLS: u32 = 64;
+
+fn gpu() -> GpuContext {
+    GpuContext::new(&Default::default()).unwrap_or_else(|e| {
+        panic!(
+            "this test needs a GPU adapter ({e}); on Debian/Ubuntu `apt-get install mesa-vulkan-drivers` \
+             gives the lavapipe software GPU"
+        )
+    })
+}
+
+fn scene() -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/corner_bunny.glb");
+    gibake_scene::load(&path, &LoadOptions::default()).expect("load corner_bunny.glb")
+}
+
+fn bake(ctx: &GpuContext, scene: &Scene) -> Asset {
+    let opts = gibake_bake::BakeOptions {
+        rsm_size: 128,
+        vpl_map_size: 16,
+        shadow_map_size: 256,
+        target: ClusterTarget::Count(64),
+    };
+    gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "test")
+        .expect("bake")
+        .asset
+}
+
+/// Everything one frame of the dynamic VPLs needs.
+struct Frame {
+    baked: BakedGpu,
+    light_buf: wgpu::Buffer,
+    scene_gpu: SceneGpu,
+    rsm: DynamicRsmPass,
+    pass: DynamicVplPass,
+    view: LightView,
+    static_metric: Vec<f32>,
+    threshold: f32,
+}
+
+impl Frame {
+    /// Another clustering pass over this frame's RSM.
+    fn pass(&self, ctx: &GpuContext, threshold: f32, max_vpls: u32) -> DynamicVplPass {
+        let r = self.baked.rsm.as_ref().expect("RSM data");
+        DynamicVplPass::new(
+            &ctx.device,
+            &self.rsm,
+            &r.static_metric,
+            &self.light_buf,
+            threshold,
+            max_vpls,
+        )
+    }
+}
+
+fn frame(ctx: &GpuContext, scene: &Scene, asset: &Asset, time: f32) -> Frame {
+    let baked = BakedGpu::new(&ctx.device, &ctx.queue, asset).expect("upload the asset");
+    let r = baked
+        .rsm
+        .as_ref()
+        .expect("a scene with moving objects stores its RSM");
+    let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, scene, time);
+    let rsm = DynamicRsmPass::new(&ctx.device, &scene_gpu, &r.view);
+    let light_buf = ctx
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("primary light"),
+            contents: bytemuck::bytes_of(&GpuPrimaryLight::new(&scene.light)),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+    let threshold = asset.manifest.settings.threshold;
+    let pass = DynamicVplPass::new(
+        &ctx.device,
+        &rsm,
+        &r.static_metric,
+        &light_buf,
+        threshold,
+        MAX_VPLS,
+    );
+    let static_metric = asset.rsm.as_ref().expect("RSM data").metric.clone();
+    let view = r.view;
+    Frame {
+        baked,
+        light_buf,
+        scene_gpu,
+        rsm,
+        pass,
+        view,
+        static_metric,
+        threshold,
+    }
+}
+
+/// Runs the dynamic RSM and the clustering `pass`; returns the slots.
+fn run_pass(
+    ctx: &GpuContext,
+    f: &Frame,
+    pass: &DynamicVplPass,
+    mut timer: Option<&mut Timer>,
+) -> Vec<GpuDynVpl> {
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    f.rsm.encode(&mut enc, &f.scene_gpu, None);
+    if let Some(t) = timer.as_deref_mut() {
+        t.reset();
+    }
+    pass.encode(&mut enc, timer.as_deref_mut());
+    if let Some(t) = timer.as_deref() {
+        t.resolve(&mut enc);
+    }
+    ctx.queue.submit([enc.finish()]);
+    let bytes = readback::read_buffer(ctx, &pass.vpls).expect("read the slots");
+    assert_eq!(bytes.len(), 48 * pass.slots() as usize);
+    bytemuck::pod_collect_to_vec(&bytes)
+}
+
+fn run(ctx: &GpuContext, f: &Frame, timer: Option<&mut Timer>) -> Vec<GpuDynVpl> {
+    run_pass(ctx, f, &f.pass, timer)
+}
+
+fn f16_to_f32(h: u16) -> f32 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = i32::from((h >> 10) & 0x1f);
+    let man = f32::from(h & 0x3ff);
+    match exp {
+        0 => sign * man * 2f32.powi(-24),
+        31 if man == 0.0 => sign * f32::INFINITY,
+        31 => f32::NAN,
+        _ => sign * (1.0 + man / 1024.0) * 2f32.powi(exp - 15),
+    }
+}
+
+/// CPU twin of `oct_decode` in common.wgsl.
+fn oct_decode(e: Vec2) -> Vec3 {
+    let mut n = Vec3::new(e.x, e.y, 1.0 - e.x.abs() - e.y.abs());
+    let t = (-n.z).max(0.0);
+    n.x += if n.x >= 0.0 { -t } else { t };
+    n.y += if n.y >= 0.0 { -t } else { t };
+    n.normalize()
+}
+
+/// The dynamic RSM read back as a CPU [`Rsm`] of the valid moving texels
+/// (the rest: infinite metric, zero flux), with the bake's radiometry.
+fn cpu_rsm(ctx: &GpuContext, scene: &Scene, f: &Frame) -> Rsm {
+    let size = f.rsm.size;
+    let pos = readback::read_texture_f32(ctx, &f.rsm.textures[0], 0, 4).expect("read positions");
+    let half = |t: &wgpu::Texture| -> Vec<f32> {
+        let b = readback::read_texture(ctx, t, 0, 8).expect("read a half-float target");
+        b.chunks_exact(2)
+            .map(|c| f16_to_f32(u16::from_le_bytes([c[0], c[1]])))
+            .collect()
+    };
+    let albedo = half(&f.rsm.textures[1]);
+    let normal = half(&f.rsm.textures[2]);
+    let light = &scene.light;
+    let directional = matches!(light.kind, LightKind::Directional);
+    let view = f.view;
+    let n = (size * size) as usize;
+    let mut rsm = Rsm {
+        size,
+        view,
+        metric: vec![f32::INFINITY; n],
+        position: vec![Vec3::ZERO; n],
+        normal: vec![Vec3::ZERO; n],
+        flux: vec![Vec3::ZERO; n],
+        area: vec![0.0; n],
+    };
+    for i in 0..n {
+        let dm = pos[4 * i + 3];
+        let sm = f.static_metric[i];
+        // moving_in_front (occlusion.wgsl), in f32.
+        let w = if directional {
+            view.texel_scale
+        } else {
+            dm.min(sm) * view.texel_scale
+        };
+        if !(dm < 1.0e38 && dm < sm - 0.5 * w) {
+            continue;
+        }
+        let p = Vec3::new(pos[4 * i], pos[4 * i + 1], pos[4 * i + 2]);
+        let a = Vec3::new(albedo[4 * i], albedo[4 * i + 1], albedo[4 * i + 2]);
+        let nrm = oct_decode(Vec2::new(normal[4 * i], normal[4 * i + 1]));
+        let (dir, att) = if directional {
+            (light.direction.normalize(), 1.0)
+        } else {
+            let d = (p - light.position).normalize();
+            (d, light.spot_attenuation(d))
+        };
+        let measure = view.texel_measure(dir);
+        let cos = nrm.dot(-dir).max(MIN_AREA_COSINE);
+        let flux = a * light.color * (att * measure);
+        let area = if directional {
+            measure / cos
+        } else {
+            let d = (p - light.position).length();
+            measure * d * d / cos
+        };
+        rsm.metric[i] = dm;
+        rsm.position[i] = p;
+        rsm.normal[i] = nrm;
+        rsm.flux[i] = if flux.is_finite() { flux } else { Vec3::ZERO };
+        rsm.area[i] = if area.is_finite() { area } else { 0.0 };
+    }
+    rsm
+}
+
+fn assert_all_finite(slots: &[GpuDynVpl]) {
+    for (s, v) in slots.iter().enumerate() {
+        for x in v.position.iter().chain(&v.normal).chain(&v.flux) {
+            assert!(x.is_finite(), "slot {s}: {v:?}");
+        }
+    }
+}
+
+fn rel_close(a: f32, b: f32, rel: f32) -> bool {
+    (a - b).abs() <= rel * a.abs().max(b.abs()) + 1e-30
+}
+
+fn compare(gpu: &[GpuDynVpl], cpu: &[Cluster], diagonal: f32) {
+    let used: Vec<&GpuDynVpl> = gpu.iter().filter(|v| v.normal[3] > 0.5).collect();
+    assert_eq!(
+        used.len(),
+        cpu.len(),
+        "GPU and CPU cuts differ in VPL count"
+    );
+    let cos_1deg = 1f32.to_radians().cos();
+    for (k, (g, c)) in used.iter().zip(cpu).enumerate() {
+        let gp = Vec3::from_slice(&g.position[..3]);
+        let gn = Vec3::from_slice(&g.normal[..3]);
+        let gf = Vec3::from_slice(&g.flux[..3]);
+        assert!(
+            (gp - c.position).length() <= 1e-3 * diagonal,
+            "VPL {k}: position {gp} vs {}",
+            c.position
+        );
+        assert!(
+            gn.dot(c.normal) >= cos_1deg,
+            "VPL {k}: normal {gn} vs {}",
+            c.normal
+        );
+        for ch in 0..3 {
+            assert!(
+                rel_close(gf[ch], c.flux[ch], 1e-3),
+                "VPL {k}: flux {gf} vs {}",
+                c.flux
+            );
+        }
+        assert!(
+            rel_close(g.position[3], c.area, 1e-3),
+            "VPL {k}: area {} vs {}",
+            g.position[3],
+            c.area
+        );
+    }
+}
+
+#[test]
+fn dynamic_vpls_match_the_cpu_cut() {
+    let ctx = gpu();
+    let scene = scene();
+    assert!(!scene.dynamic_objects.is_empty());
+    let asset = bake(&ctx, &scene);
+    let f = frame(&ctx, &scene, &asset, 0.0);
+    assert_eq!(f.pass.max_depth(), 3);
+    assert_eq!(f.pass.slots(), 85);
+
+    let mut timer = Timer::new(&ctx.device, &ctx.queue, 2);
+    let slots = run(&ctx, &f, timer.as_mut());
+    assert_all_finite(&slots);
+    if let Some(t) = &timer {
+        let times = t.read(&ctx.device);
+        assert_eq!(times.len(), 1);
+        assert_eq!(times[0].0, "dynamic vpls");
+        eprintln!("dynamic vpls: {:.3} ms (GPU timestamps)", times[0].1);
+    }
+    // Empty slots are all zero.
+    for v in slots.iter().filter(|v| v.normal[3] <= 0.5) {
+        assert_eq!(*v, GpuDynVpl::default());
+    }
+
+    let rsm = cpu_rsm(&ctx, &scene, &f);
+    let lit = (0..rsm.flux.len())
+        .filter(|&i| rsm.metric[i].is_finite() && rsm.flux[i].max_element() > 0.0)
+        .count();
+    let cpu = cluster_cut(&rsm, f.threshold, f.pass.max_depth());
+    let used = slots.iter().filter(|v| v.normal[3] > 0.5).count();
+    eprintln!(
+        "threshold {:e}: {lit} lit moving texels of {}², {used} dynamic VPLs in {} slots (CPU: {})",
+        f.threshold,
+        rsm.size,
+        slots.len(),
+        cpu.len()
+    );
+    assert!(lit > 0, "the balls reach the light at t = 0");
+    assert!(used >= 2, "the balls make several VPLs");
+    compare(&slots, &cpu, scene.full_bounds().diagonal());
+
+    // All the moving flux is in the VPLs.
+    let total: Vec3 = (0..rsm.flux.len())
+        .filter(|&i| rsm.metric[i].is_finite())
+        .map(|i| rsm.flux[i])
+        .sum();
+    let got: Vec3 = slots.iter().map(|v| Vec3::from_slice(&v.flux[..3])).sum();
+    for ch in 0..3 {
+        assert!(rel_close(got[ch], total[ch], 1e-3), "{got} vs {total}");
+    }
+
+    // Deterministic: the same bytes again.
+    assert_eq!(run(&ctx, &f, timer.as_mut()), slots);
+    if let Some(t) = &timer {
+        eprintln!("dynamic vpls, again: {:.3} ms", t.read(&ctx.device)[0].1);
+    }
+}
+
+#[test]
+fn dynamic_vpls_match_the_cpu_cut_at_every_depth() {
+    // Other times, thresholds and slot depths, down to single texels
+    // (16384 = 4^7 slots of the last level: the whole 128² map).
+    let ctx = gpu();
+    let scene = scene();
+    let asset = bake(&ctx, &scene);
+    let diagonal = scene.full_bounds().diagonal();
+    for time in [0.9f32, 2.6] {
+        let f = frame(&ctx, &scene, &asset, time);
+        run(&ctx, &f, None);
+        let rsm = cpu_rsm(&ctx, &scene, &f);
+        for max_vpls in [1u32, 16, 1000, 16384] {
+            for t in [0.0f32, 1e-5, 1e-3, f.threshold, 0.1, 0.5, f32::INFINITY] {
+                let pass = f.pass(&ctx, t, max_vpls);
+                let slots = run_pass(&ctx, &f, &pass, None);
+                assert_all_finite(&slots);
+                let cpu = cluster_cut(&rsm, t, pass.max_depth());
+                eprintln!(
+                    "t = {time}: threshold {t:e}, max depth {}: {} VPLs",
+                    pass.max_depth(),
+                    cpu.len()
+                );
+                compare(&slots, &cpu, diagonal);
+            }
+        }
+    }
+}
+
+#[test]
+fn dynamic_vpls_are_empty_without_moving_surfaces_in_view() {
+    let ctx = gpu();
+    let scene = scene();
+    let asset = bake(&ctx, &scene);
+    let mut f = frame(&ctx, &scene, &asset, 0.0);
+    let n = scene.dynamic_objects.len();
+    let base: Vec<Mat4> = (0..n).map(|i| scene.dynamic_transform(i, 0.0)).collect();
+    // Far outside the light view; then just under the floor (behind the
+    // static surface, as seen from the light).
+    for offset in [Vec3::splat(1.0e3), Vec3::new(0.0, -1.5, 0.0)] {
+        let moved: Vec<Mat4> = base
+            .iter()
+            .map(|m| Mat4::from_translation(offset) * *m)
+            .collect();
+        f.scene_gpu.set_dynamic_transforms(&ctx.queue, &moved);
+        let slots = run(&ctx, &f, None);
+        assert_all_finite(&slots);
+        assert!(
+            slots.iter().all(|v| *v == GpuDynVpl::default()),
+            "offset {offset}: a slot holds a VPL"
+        );
+        assert!(
+            cpu_rsm(&ctx, &scene, &f)
+                .metric
+                .iter()
+                .all(|m| m.is_infinite())
+        );
+    }
+}
