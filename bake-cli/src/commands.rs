@@ -64,8 +64,10 @@ fn check_output_dir(path: &Path) -> anyhow::Result<()> {
 }
 
 fn check_size(width: u32, height: u32) -> anyhow::Result<()> {
-    if width == 0 || height == 0 || width > 16384 || height > 16384 {
-        bail!("image size {width}×{height} is out of range (1..=16384 per side)");
+    for (flag, v) in [("--width", width), ("--height", height)] {
+        if v == 0 || v > 16384 {
+            bail!("{flag} {v} is out of range (1..=16384)");
+        }
     }
     Ok(())
 }
@@ -129,6 +131,9 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         bail!("--frames must be at least 1");
     }
     check_output_dir(&a.output)?;
+    if let Some(stats) = &a.stats {
+        check_output_dir(stats)?;
+    }
     let mode = mode_of(a.mode);
     let asset = match (&a.bake, mode) {
         (Some(p), _) => Some(gibake_asset::load(p)?),
@@ -207,8 +212,7 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
             "asset_upload_bytes": renderer.asset_bytes(),
             "frames": frames,
         });
-        std::fs::write(stats, serde_json::to_string_pretty(&json)?)
-            .with_context(|| format!("{}", stats.display()))?;
+        crate::output::write_atomic(stats, serde_json::to_string_pretty(&json)?.as_bytes())?;
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -34,6 +34,16 @@ pub fn write_image_atomic(img: &Image, path: &Path) -> anyhow::Result<()> {
     })
 }
 
+/// Writes bytes through a temporary sibling and a rename.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let tmp = temp_sibling(path);
+    if let Err(e) = std::fs::write(&tmp, bytes) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e).with_context(|| format!("{}: cannot write", path.display()));
+    }
+    std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot move the finished file into place", path.display()))
+}
+
 fn temp_sibling(path: &Path) -> PathBuf {
     let name = path
         .file_name()

@@ -34,7 +34,7 @@ use std::time::Instant;
 
 use gibake_asset::Asset;
 use gibake_gpu::mesh::SceneGpu;
-use gibake_gpu::passes::hemi_raster::{GpuHemiJob, HemiAtlas, HemiRasterPass, NO_LAYER};
+use gibake_gpu::passes::hemi_raster::{GpuHemiJob, HemiAtlas, HemiRasterPass, NO_LAYER, face_mask};
 use gibake_gpu::passes::shadow::ShadowPass;
 use gibake_gpu::{GpuContext, GpuError, GpuPrimaryLight, LightView, hemisphere};
 use gibake_image::Image;
@@ -165,7 +165,6 @@ pub struct Renderer {
     dummy_buf: wgpu::Buffer,
     dyn_vpl_buf: wgpu::Buffer,
     camera: CameraMatrices,
-    local_bounds: Vec<Aabb>,
     transforms: Vec<Mat4>,
     timer: Option<timer::Timer>,
     stats: FrameStats,
@@ -388,11 +387,6 @@ impl Renderer {
             bytemuck::bytes_of(&camera.to_gpu()),
         );
 
-        let local_bounds = scene
-            .dynamic_objects
-            .iter()
-            .map(|o| o.local_bounds)
-            .collect();
         let transforms = (0..scene.dynamic_objects.len())
             .map(|i| scene.dynamic_transform(i, time))
             .collect();
@@ -416,7 +410,6 @@ impl Renderer {
             dummy_buf,
             dyn_vpl_buf,
             camera,
-            local_bounds,
             transforms,
             timer: timer::Timer::new(device, queue, 8),
             stats: FrameStats::default(),
@@ -505,34 +498,6 @@ impl Renderer {
         );
     }
 
-    /// The VPLs whose hemisphere a moving object's bounds enter.
-    fn affected_vpls(&self) -> Vec<u32> {
-        let Some(b) = &self.baked else {
-            return Vec::new();
-        };
-        let boxes: Vec<Aabb> = self
-            .local_bounds
-            .iter()
-            .zip(&self.transforms)
-            .map(|(l, m)| l.transformed(*m))
-            .collect();
-        let mut out = Vec::new();
-        for (i, v) in b.vpls.iter().enumerate() {
-            let n = Vec3::from_array(v.normal);
-            let o = hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
-            let hit = boxes.iter().any(|bx| {
-                // The box enters the open half-space in front of the VPL.
-                let c = bx.center();
-                let e = (bx.max - bx.min) * 0.5;
-                (c - o).dot(n) + e.dot(n.abs()) > 0.0
-            });
-            if hit {
-                out.push(i as u32);
-            }
-        }
-        out
-    }
-
     /// Records one frame. Needs the device to grow the merge atlas when
     /// more VPL maps are affected than ever before.
     pub fn encode(
@@ -568,23 +533,40 @@ impl Renderer {
             let ts = self.timer.as_mut().and_then(|t| t.compute("occlusion"));
             o.encode(encoder, ts);
         }
-        // 3. VPL maps.
+        // 3. VPL maps: per (draw, VPL, octahedron face) instances, only where
+        // the draw's bounds can reach.
         if self.hemi.is_some() {
             let naive = self.settings.mode == Mode::Naive;
-            let chosen: Vec<u32> = if naive {
-                (0..self.params.n_static).collect()
+            let b = self.baked.as_ref().expect("hemi implies baked");
+            let draws: Vec<&gibake_gpu::mesh::Draw> = if naive {
+                self.scene_gpu.static_draws.iter().chain(&self.scene_gpu.dynamic_draws).collect()
             } else {
-                self.affected_vpls()
+                self.scene_gpu.dynamic_draws.iter().collect()
             };
-            let grow = {
-                let h = self.hemi.as_ref().expect("checked");
-                chosen.len() as u32 > h.atlas.capacity
-            };
-            if grow {
-                let b = self.baked.as_ref().expect("hemi implies baked");
-                let cap = (chosen.len() as u32)
-                    .next_power_of_two()
-                    .min(b.vpls.len() as u32);
+            let boxes: Vec<Aabb> = draws
+                .iter()
+                .map(|d| match d.object {
+                    Some(o) => d.bounds.transformed(self.transforms[o]),
+                    None => d.bounds,
+                })
+                .collect();
+            // masks[v][k]: faces of VPL v's map that draw k can touch.
+            let frames: Vec<(Vec3, Vec3)> = b
+                .vpls
+                .iter()
+                .map(|v| {
+                    let n = Vec3::from_array(v.normal);
+                    (hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area), n)
+                })
+                .collect();
+            let masks: Vec<Vec<u32>> =
+                frames.iter().map(|(o, n)| boxes.iter().map(|bx| face_mask(bx, *o, *n)).collect()).collect();
+            // Full: only VPLs some moving object reaches get a tile.
+            let chosen: Vec<u32> = (0..b.vpls.len() as u32)
+                .filter(|&v| naive || masks[v as usize].iter().any(|&m| m != 0))
+                .collect();
+            if chosen.len() as u32 > self.hemi.as_ref().expect("checked").atlas.capacity {
+                let cap = (chosen.len() as u32).next_power_of_two().min(b.vpls.len() as u32);
                 let h = self.hemi.as_mut().expect("checked");
                 h.atlas = HemiAtlas::new(device, b.map_size, cap);
                 self.params.atlas_cols = h.atlas.cols;
@@ -595,36 +577,36 @@ impl Renderer {
             let h = self.hemi.as_mut().expect("checked");
             h.jobs.clear();
             h.tiles.iter_mut().for_each(|t| *t = u32::MAX);
-            for (slot, &i) in chosen.iter().enumerate() {
-                let v = &b.vpls[i as usize];
-                let n = Vec3::from_array(v.normal);
-                let o = hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
+            for (slot, &v) in chosen.iter().enumerate() {
+                let (o, n) = frames[v as usize];
                 let t = h.atlas.tile_origin(slot as u32);
                 h.jobs.push(GpuHemiJob {
                     origin: o.extend(0.0).to_array(),
                     normal: n.extend(0.0).to_array(),
                     tile: [t[0], t[1], NO_LAYER, 0],
                 });
-                h.tiles[i as usize] = slot as u32;
+                h.tiles[v as usize] = slot as u32;
+            }
+            let mut instances: Vec<[u32; 4]> = Vec::new();
+            let mut ranges = Vec::with_capacity(draws.len());
+            for (k, d) in draws.iter().enumerate() {
+                let start = instances.len() as u32;
+                for (slot, &v) in chosen.iter().enumerate() {
+                    let m = masks[v as usize][k];
+                    for face in 0..4 {
+                        if m & (1 << face) != 0 {
+                            instances.push([d.id, slot as u32, face, 0]);
+                        }
+                    }
+                }
+                ranges.push((*d, start..instances.len() as u32));
             }
             queue.write_buffer(&h.tile_buf, 0, bytemuck::cast_slice(&h.tiles));
-            h.pass.set_jobs(
-                device,
-                queue,
-                &self.scene_gpu,
-                &b.static_maps,
-                &h.atlas,
-                &h.jobs,
-            );
+            h.pass.set_work(device, queue, &self.scene_gpu, &b.static_maps, &h.atlas, &h.jobs, &instances);
             stats.affected_maps = chosen.len() as u32;
             if !chosen.is_empty() {
                 let ts = self.timer.as_mut().and_then(|t| t.render("vpl maps"));
-                let draws: Vec<&[gibake_gpu::mesh::Draw]> = if naive {
-                    vec![&self.scene_gpu.static_draws, &self.scene_gpu.dynamic_draws]
-                } else {
-                    vec![&self.scene_gpu.dynamic_draws]
-                };
-                calls += h.pass.encode(encoder, &h.atlas, &draws, true, ts);
+                calls += h.pass.encode(encoder, &h.atlas, &ranges, true, ts);
             }
         }
         stats.update_draw_calls = calls;

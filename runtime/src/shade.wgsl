@@ -5,7 +5,9 @@
 //   lit fraction of its own RSM texels,
 // + every dynamic VPL, unshadowed.
 // VPL transport has no singularity: a VPL is a small disk of its texels'
-// area A, E = Φ/π · cosθ_v cosθ_r / (d² + A/π) (exact on the disk's axis).
+// area A, E = Φ/π · cosθ_v cosθ_r / sqrt(d⁴ + (A/π)²): at contact this is
+// the disk's exitance Φ/A, beyond the disk's radius R it is the point
+// light's 1/d² to within (R/d)⁴/2 (1/(d² + A/π) would be 25% low at 2R).
 // Accumulates in f32; writes linear radiance.
 
 struct ShadeParams {
@@ -32,6 +34,7 @@ const OCCL_ONE: f32 = 16777216.0;     // 2^24: fixed-point 1.0 of occlusion sums
 // Hemisphere-map biases, in texel footprints at the receiver.
 const VPL_NORMAL_OFFSET: f32 = 1.0;
 const VPL_DEPTH_BIAS: f32 = 1.0;
+const VPL_MAX_SLOPE: f32 = 10.0;
 
 struct Vpl {              // must match gibake_asset::VplRecord (48 bytes)
     position: vec3<f32>,
@@ -146,7 +149,10 @@ fn vpl_visibility(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ng: vec3<f32>
     let tc = hemi_texel_coords(v.normal, dq / d, n) - vec2<f32>(0.5);
     let i0 = vec2<i32>(floor(tc));
     let f = tc - floor(tc);
-    let bias = w * VPL_DEPTH_BIAS;
+    // Slope-scaled: a receiver seen at a grazing angle changes its stored
+    // distance by w·tanθ from one texel to the next.
+    let tan_t = min(sin_t / max(cos_t, 1e-3), VPL_MAX_SLOPE);
+    let bias = w * (VPL_DEPTH_BIAS + tan_t);
     var lit = vec4<f32>(0.0);
     let offs = array<vec2<i32>, 4>(vec2<i32>(0, 0), vec2<i32>(1, 0), vec2<i32>(0, 1), vec2<i32>(1, 1));
     let size = i32(params.map_size);
@@ -170,7 +176,10 @@ fn vpl_irradiance(origin: vec3<f32>, nv: vec3<f32>, a: f32, phi: vec3<f32>, x: v
     if (cos_v <= 0.0 || cos_r <= 0.0 || dot(ng, -dir) <= 0.0) {
         return vec3<f32>(0.0);
     }
-    return finite_or_zero3(phi * (INV_PI * cos_v * cos_r / (d2 + a * INV_PI)));
+    // sqrt(d⁴ + (A/π)²): equals the disk's irradiance at contact (Φ/A),
+    // and 1/d² within (A/π)²/(2d⁴) beyond the disk's radius.
+    let r2 = a * INV_PI;
+    return finite_or_zero3(phi * (INV_PI * cos_v * cos_r * inverseSqrt(d2 * d2 + r2 * r2)));
 }
 
 @compute @workgroup_size(8, 8)

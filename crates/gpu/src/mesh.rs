@@ -71,6 +71,8 @@ pub struct Draw {
     pub material: usize,
     /// Dynamic object index, `None` for static draws.
     pub object: Option<usize>,
+    /// Bounds of the mesh: world space for static draws, local for dynamic.
+    pub bounds: gibake_scene::Aabb,
 }
 
 /// All scene geometry on the GPU.
@@ -125,6 +127,10 @@ impl SceneGpu {
                 textured,
                 [base_vertex as u32, start, tris, 0],
             ));
+            let mut bounds = gibake_scene::Aabb::EMPTY;
+            for p in &mesh.positions {
+                bounds.grow(*p);
+            }
             let d = Draw {
                 indices: start..indices.len() as u32,
                 base_vertex,
@@ -135,6 +141,7 @@ impl SceneGpu {
                     scene.materials.len()
                 },
                 object,
+                bounds,
             };
             if object.is_some() {
                 dynamic_draws.push(d)

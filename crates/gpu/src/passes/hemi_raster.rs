@@ -7,8 +7,46 @@
 //! `f32::MAX` = nothing), ordered by a `Depth32Float` atlas. One instanced
 //! draw per mesh covers every job (VPL) and the four octahedron faces.
 
+use std::ops::Range;
+
+use gibake_scene::Aabb;
+use glam::Vec3;
+
 use crate::mesh::{Draw, MESH_WGSL, SceneGpu};
-use crate::shaders;
+use crate::{hemisphere, shaders};
+
+/// Which of the four octahedron faces (bit `sx + 2·sy`, `s = 1` for +)
+/// of the hemisphere map around `normal` at `origin` the box can touch.
+/// 0 when the box lies entirely behind the VPL's plane. Conservative.
+pub fn face_mask(b: &Aabb, origin: Vec3, normal: Vec3) -> u32 {
+    if b.is_empty() {
+        return 0;
+    }
+    let mut l = [Vec3::ZERO; 8];
+    for (i, c) in l.iter_mut().enumerate() {
+        let p = Vec3::new(
+            if i & 1 == 0 { b.min.x } else { b.max.x },
+            if i & 2 == 0 { b.min.y } else { b.max.y },
+            if i & 4 == 0 { b.min.z } else { b.max.z },
+        );
+        *c = hemisphere::to_local(normal, p - origin);
+    }
+    if l.iter().all(|c| c.z < 0.0) {
+        return 0;
+    }
+    let mut mask = 0;
+    for face in 0..4u32 {
+        let sx = if face & 1 != 0 { 1.0 } else { -1.0 };
+        let sy = if face & 2 != 0 { 1.0 } else { -1.0 };
+        let out = l.iter().all(|c| sx * c.x < 0.0)
+            || l.iter().all(|c| sy * c.y < 0.0)
+            || l.iter().all(|c| sx * c.x + sy * c.y + c.z <= 0.0);
+        if !out {
+            mask |= 1 << face;
+        }
+    }
+    mask
+}
 
 /// Marks a job with no static layer to z-min against.
 pub const NO_LAYER: u32 = u32::MAX;
@@ -31,8 +69,7 @@ struct GpuRasterParams {
     atlas_size: [f32; 2],
     tile_size: f32,
     depth_scale: f32,
-    stride: u32,
-    pad: [u32; 3],
+    pad: [u32; 4],
 }
 
 /// A tile atlas of hemisphere maps.
@@ -114,6 +151,8 @@ pub struct HemiRasterPass {
     params_buf: wgpu::Buffer,
     jobs_buf: wgpu::Buffer,
     jobs_capacity: u32,
+    inst_buf: wgpu::Buffer,
+    inst_capacity: u32,
     n_jobs: u32,
     depth_scale: f32,
 }
@@ -170,6 +209,7 @@ impl HemiRasterPass {
                     },
                     count: None,
                 },
+                storage_entry(6),
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -214,7 +254,9 @@ impl HemiRasterPass {
             mapped_at_creation: false,
         });
         let jobs_capacity = 1;
-        let jobs_buf = Self::jobs_buffer(device, jobs_capacity);
+        let jobs_buf = Self::buffer(device, "hemi jobs", jobs_capacity as u64 * 48);
+        let inst_capacity = 1;
+        let inst_buf = Self::buffer(device, "hemi instances", inst_capacity as u64 * 16);
         let bind_group = Self::bind(
             device,
             &layout,
@@ -222,6 +264,7 @@ impl HemiRasterPass {
             &jobs_buf,
             &params_buf,
             static_maps,
+            &inst_buf,
         );
         HemiRasterPass {
             pipeline,
@@ -230,15 +273,17 @@ impl HemiRasterPass {
             params_buf,
             jobs_buf,
             jobs_capacity,
+            inst_buf,
+            inst_capacity,
             n_jobs: 0,
             depth_scale,
         }
     }
 
-    fn jobs_buffer(device: &wgpu::Device, n: u32) -> wgpu::Buffer {
+    fn buffer(device: &wgpu::Device, label: &str, bytes: u64) -> wgpu::Buffer {
         device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("hemi jobs"),
-            size: (n.max(1) as u64) * std::mem::size_of::<GpuHemiJob>() as u64,
+            label: Some(label),
+            size: bytes.max(16),
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         })
@@ -251,6 +296,7 @@ impl HemiRasterPass {
         jobs: &wgpu::Buffer,
         params: &wgpu::Buffer,
         static_maps: &wgpu::TextureView,
+        instances: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("hemi raster"),
@@ -280,12 +326,18 @@ impl HemiRasterPass {
                     binding: 5,
                     resource: wgpu::BindingResource::TextureView(static_maps),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: instances.as_entire_binding(),
+                },
             ],
         })
     }
 
-    /// Uploads this frame's jobs (growing the buffer if needed).
-    pub fn set_jobs(
+    /// Uploads this frame's jobs and instance table `(draw, job, face, 0)`
+    /// (growing the buffers if needed).
+    #[allow(clippy::too_many_arguments)]
+    pub fn set_work(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
@@ -293,21 +345,28 @@ impl HemiRasterPass {
         static_maps: &wgpu::TextureView,
         atlas: &HemiAtlas,
         jobs: &[GpuHemiJob],
+        instances: &[[u32; 4]],
     ) {
+        let mut rebind = false;
         if jobs.len() as u32 > self.jobs_capacity {
             self.jobs_capacity = (jobs.len() as u32).next_power_of_two();
-            self.jobs_buf = Self::jobs_buffer(device, self.jobs_capacity);
-            self.bind_group = Self::bind(
-                device,
-                &self.layout,
-                scene_gpu,
-                &self.jobs_buf,
-                &self.params_buf,
-                static_maps,
-            );
+            self.jobs_buf = Self::buffer(device, "hemi jobs", self.jobs_capacity as u64 * 48);
+            rebind = true;
+        }
+        if instances.len() as u32 > self.inst_capacity {
+            self.inst_capacity = (instances.len() as u32).next_power_of_two();
+            self.inst_buf = Self::buffer(device, "hemi instances", self.inst_capacity as u64 * 16);
+            rebind = true;
+        }
+        if rebind {
+            self.bind_group =
+                Self::bind(device, &self.layout, scene_gpu, &self.jobs_buf, &self.params_buf, static_maps, &self.inst_buf);
         }
         if !jobs.is_empty() {
             queue.write_buffer(&self.jobs_buf, 0, bytemuck::cast_slice(jobs));
+        }
+        if !instances.is_empty() {
+            queue.write_buffer(&self.inst_buf, 0, bytemuck::cast_slice(instances));
         }
         self.n_jobs = jobs.len() as u32;
         let size = atlas.texture.size();
@@ -315,20 +374,20 @@ impl HemiRasterPass {
             atlas_size: [size.width as f32, size.height as f32],
             tile_size: atlas.tile_size as f32,
             depth_scale: self.depth_scale,
-            stride: (self.n_jobs * 4).max(1),
-            pad: [0; 3],
+            pad: [0; 4],
         };
         queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&params));
     }
 
-    /// Draws `draws` into every job's tile. `clear`: start the atlas at
-    /// "nothing" (naive mode); otherwise keep its contents (static maps
-    /// copied in). Returns the number of draw calls.
+    /// Draws each `(draw, instance range)` pair (ranges index the table given
+    /// to [`HemiRasterPass::set_work`]). `clear`: start every tile at
+    /// "nothing"; otherwise keep the atlas contents. Returns the number of
+    /// draw calls.
     pub fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         atlas: &HemiAtlas,
-        draws: &[&[Draw]],
+        draws: &[(&Draw, Range<u32>)],
         clear: bool,
         ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) -> u32 {
@@ -370,12 +429,10 @@ impl HemiRasterPass {
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
-        let stride = self.n_jobs * 4;
         let mut calls = 0;
-        for list in draws {
-            for d in *list {
-                let first = d.id * stride;
-                pass.draw(d.indices.clone(), first..first + stride);
+        for (d, range) in draws {
+            if !range.is_empty() {
+                pass.draw(d.indices.clone(), range.clone());
                 calls += 1;
             }
         }

@@ -11,9 +11,10 @@
 // position is the exact point of the triangle on the texel's ray, so the
 // stored distance equals a ray cast through the texel centre.
 //
-// Instances: instance_index = draw_id · stride + job · 4 + face. Vertices
-// are pulled from storage so each invocation sees its whole triangle and can
-// reject faces the triangle does not touch.
+// Instances: one entry of `instances` (draw, job, face) per instance, built
+// on the CPU only for the faces a draw's bounds touch. Vertices are pulled
+// from storage so each invocation sees its whole triangle and can reject a
+// triangle that misses the face.
 
 struct Job {
     origin: vec4<f32>,     // xyz VPL map origin
@@ -25,7 +26,7 @@ struct RasterParams {
     atlas_size: vec2<f32>,
     tile_size: f32,
     depth_scale: f32,      // 1 / (largest distance stored); frag_depth = d · depth_scale
-    stride: u32,
+    _pad3: u32,
     _pad0: u32,
     _pad1: u32,
     _pad2: u32,
@@ -37,6 +38,7 @@ struct RasterParams {
 @group(0) @binding(3) var<storage, read> jobs: array<Job>;
 @group(0) @binding(4) var<uniform> params: RasterParams;
 @group(0) @binding(5) var static_maps: texture_2d_array<f32>;
+@group(0) @binding(6) var<storage, read> instances: array<vec4<u32>>;   // draw, job, face
 
 const NO_LAYER: u32 = 0xffffffffu;
 
@@ -54,10 +56,10 @@ fn vertex_world(d: DrawData, vi: u32) -> vec3<f32> {
 
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) inst: u32) -> VsOut {
-    let draw_id = inst / params.stride;
-    let local_inst = inst % params.stride;
-    let job_i = local_inst / 4u;
-    let face = local_inst % 4u;
+    let entry = instances[inst];
+    let draw_id = entry.x;
+    let job_i = entry.y;
+    let face = entry.z;
     let d = draws[draw_id];
     let job = jobs[job_i];
     let sx = select(-1.0, 1.0, (face & 1u) != 0u);
