@@ -18,6 +18,7 @@ fn gpu_direct_matches_reference_direct_on_bundled_scenes() {
                 height: 256,
                 shadow_map_size: 2048,
                 mode: gibake_runtime::Mode::Direct,
+                ..Default::default()
             };
             let gpu = gibake_runtime::render_image(&ctx, &scene, None, &settings, time, 2).unwrap();
             let reference = gibake_reference::render(

@@ -23,19 +23,46 @@ fn bake(ctx: &GpuContext, scene: &Scene, vpls: u32, map: u32) -> Asset {
         shadow_map_size: 2048,
         target: ClusterTarget::Count(vpls),
     };
-    gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "test").unwrap().asset
+    gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "test")
+        .unwrap()
+        .asset
 }
 
-fn render(ctx: &GpuContext, scene: &Scene, asset: &Asset, mode: Mode, size: u32, time: f32, ssaa: u32) -> Image {
-    let s = RenderSettings { width: size, height: size, shadow_map_size: 2048, mode };
+fn render(
+    ctx: &GpuContext,
+    scene: &Scene,
+    asset: &Asset,
+    mode: Mode,
+    size: u32,
+    time: f32,
+    ssaa: u32,
+) -> Image {
+    let s = RenderSettings {
+        width: size,
+        height: size,
+        shadow_map_size: 2048,
+        mode,
+        ..Default::default()
+    };
     let img = gibake_runtime::render_image(ctx, scene, Some(asset), &s, time, ssaa).unwrap();
     assert!(img.all_finite(), "{mode:?}: non-finite pixels");
     img
 }
 
 fn reference(scene: &Scene, size: u32, spp: u32, time: f32, direct_only: bool) -> Image {
-    let depth = if direct_only { gibake_reference::Depth::Direct } else { gibake_reference::Depth::OneBounce };
-    let s = gibake_reference::Settings { width: size, height: size, spp, time, depth, seed: 11 };
+    let depth = if direct_only {
+        gibake_reference::Depth::Direct
+    } else {
+        gibake_reference::Depth::OneBounce
+    };
+    let s = gibake_reference::Settings {
+        width: size,
+        height: size,
+        spp,
+        time,
+        depth,
+        seed: 11,
+    };
     gibake_reference::render(scene, &s, &|_| {}).unwrap()
 }
 
@@ -77,7 +104,9 @@ fn full_matches_the_reference_and_beats_rsm_on_occluded() {
             let ref_indirect = refr.sub(&ref_direct);
             let e_full = rel_mse(&indirect, &ref_indirect);
             let e_rsm = rel_mse(&rsm, &ref_indirect);
-            report.push(format!("{name}: indirect rel MSE full {e_full:.4}, rsm {e_rsm:.4}"));
+            report.push(format!(
+                "{name}: indirect rel MSE full {e_full:.4}, rsm {e_rsm:.4}"
+            ));
             assert!(e_full <= 0.5 * e_rsm, "{}", report.join("\n"));
         }
         assert!(e <= 0.05, "{}", report.join("\n"));
@@ -103,12 +132,15 @@ fn gpu_vpl_visibility_matches_cpu_ray_casts() {
     for y in 0..size {
         for x in 0..size {
             let (o, d, t0) = view.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
-            let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else { continue };
+            let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
+                continue;
+            };
             // Dynamic objects receive too, but the check is about static receivers.
             let mut e = Vec3::ZERO;
             for v in &asset.vpls {
                 let n = Vec3::from_array(v.normal);
-                let org = gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
+                let org =
+                    gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
                 let dv = h.position - org;
                 let d2 = dv.length_squared();
                 let dir = dv / d2.sqrt();
@@ -120,7 +152,8 @@ fn gpu_vpl_visibility_matches_cpu_ray_casts() {
                     continue;
                 }
                 let r2 = v.area / std::f32::consts::PI;
-                e += Vec3::from_array(v.flux) * (cv * cr / std::f32::consts::PI / (d2 * d2 + r2 * r2).sqrt());
+                e += Vec3::from_array(v.flux)
+                    * (cv * cr / std::f32::consts::PI / (d2 * d2 + r2 * r2).sqrt());
             }
             cpu.set(x, y, h.albedo / std::f32::consts::PI * e);
         }
@@ -147,28 +180,39 @@ fn debug_lost_energy_per_vpl() {
     for y in 0..size {
         for x in 0..size {
             let (o, d, t0) = view.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
-            let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else { continue };
+            let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
+                continue;
+            };
             for (i, v) in asset.vpls.iter().enumerate() {
                 let n = Vec3::from_array(v.normal);
-                let org = gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
+                let org =
+                    gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
                 let dv = h.position - org;
                 let d2 = dv.length_squared();
                 let dir = dv / d2.sqrt();
                 let (cv, cr) = (n.dot(dir), h.shading_normal.dot(-dir));
-                if cv <= 0.0 || cr <= 0.0 { continue; }
+                if cv <= 0.0 || cr <= 0.0 {
+                    continue;
+                }
                 let r2 = v.area / std::f32::consts::PI;
                 let c = (v.flux[0] * cv * cr / (d2 * d2 + r2 * r2).sqrt()) as f64;
                 total[i] += c;
-                if !rays.visible(org, n, h.position, h.geometric_normal) { lost[i] += c; }
+                if !rays.visible(org, n, h.position, h.geometric_normal) {
+                    lost[i] += c;
+                }
             }
         }
     }
     let mut idx: Vec<usize> = (0..lost.len()).collect();
     idx.sort_by(|a, b| lost[*b].partial_cmp(&lost[*a]).unwrap());
-    let tl: f64 = lost.iter().sum(); let tt: f64 = total.iter().sum();
+    let tl: f64 = lost.iter().sum();
+    let tt: f64 = total.iter().sum();
     eprintln!("lost {tl:.3} of {tt:.3}");
     for &i in idx.iter().take(15) {
         let v = &asset.vpls[i];
-        eprintln!("vpl {i}: lost {:.3}/{:.3} pos {:?} n {:?} area {:.3} texels {}", lost[i], total[i], v.position, v.normal, v.area, v.texels);
+        eprintln!(
+            "vpl {i}: lost {:.3}/{:.3} pos {:?} n {:?} area {:.3} texels {}",
+            lost[i], total[i], v.position, v.normal, v.area, v.texels
+        );
     }
 }

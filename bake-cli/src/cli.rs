@@ -137,6 +137,10 @@ pub struct RenderArgs {
     /// Primary shadow map resolution.
     #[arg(long, default_value_t = 2048)]
     pub shadow_map_size: u32,
+    /// Most dynamic VPLs (moving surfaces bouncing light) per frame, rounded
+    /// up to a power of 4; 0 turns them off.
+    #[arg(long, default_value_t = 64, value_name = "N")]
+    pub max_dynamic_vpls: u32,
     /// GPU adapter to use (substring of its name; default: GIBAKE_ADAPTER or the first real GPU).
     #[arg(long)]
     pub adapter: Option<String>,

@@ -154,6 +154,7 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         height: a.height * a.ssaa,
         shadow_map_size: a.shadow_map_size,
         mode,
+        max_dynamic_vpls: a.max_dynamic_vpls,
     };
     let t0 = Instant::now();
     let mut renderer = gibake_runtime::Renderer::new(
@@ -278,6 +279,7 @@ fn demo(a: DemoArgs) -> anyhow::Result<ExitCode> {
         height: a.height,
         shadow_map_size: 2048,
         mode: gibake_runtime::Mode::Direct,
+        ..Default::default()
     };
     let t0 = Instant::now();
     let gpu = gibake_runtime::render_image(&ctx, &scene, None, &settings, 0.0, 2)?;

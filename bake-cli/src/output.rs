@@ -41,7 +41,12 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
         let _ = std::fs::remove_file(&tmp);
         return Err(e).with_context(|| format!("{}: cannot write", path.display()));
     }
-    std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot move the finished file into place", path.display()))
+    std::fs::rename(&tmp, path).with_context(|| {
+        format!(
+            "{}: cannot move the finished file into place",
+            path.display()
+        )
+    })
 }
 
 fn temp_sibling(path: &Path) -> PathBuf {

@@ -26,6 +26,7 @@
 pub mod baked;
 pub mod camera;
 pub mod dynamic_rsm;
+pub mod dynamic_vpl;
 pub mod gbuffer;
 pub mod shade;
 pub mod timer;
@@ -73,11 +74,14 @@ pub struct RenderSettings {
     pub shadow_map_size: u32,
     /// What to render.
     pub mode: Mode,
+    /// Most dynamic VPLs per frame (rounded up to a power of 4; 0: none).
+    pub max_dynamic_vpls: u32,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
+            max_dynamic_vpls: 64,
             width: 640,
             height: 480,
             shadow_map_size: 2048,
@@ -164,6 +168,7 @@ pub struct Renderer {
     _light_buf: wgpu::Buffer,
     dummy_buf: wgpu::Buffer,
     dyn_vpl_buf: wgpu::Buffer,
+    dyn_vpls: Option<dynamic_vpl::DynamicVplPass>,
     camera: CameraMatrices,
     transforms: Vec<Mat4>,
     timer: Option<timer::Timer>,
@@ -348,11 +353,28 @@ impl Renderer {
             mapped_at_creation: false,
         });
         let dyn_vpl_buf = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("dynamic VPLs"),
+            label: Some("no dynamic VPLs"),
             size: 48,
             usage: wgpu::BufferUsages::STORAGE,
             mapped_at_creation: false,
         });
+        // Dynamic VPLs: moving surfaces of the dynamic RSM, clustered on the
+        // GPU with the bake's rule and threshold.
+        let dyn_vpls = match (&dyn_rsm, &baked, asset) {
+            (Some(r), Some(b), Some(a)) if settings.max_dynamic_vpls > 0 => {
+                b.rsm.as_ref().map(|rg| {
+                    dynamic_vpl::DynamicVplPass::new(
+                        device,
+                        r,
+                        &rg.static_metric,
+                        &light_buf,
+                        a.manifest.settings.threshold,
+                        settings.max_dynamic_vpls,
+                    )
+                })
+            }
+            _ => None,
+        };
 
         let mut flags = match mode {
             Mode::Direct => shade::FLAG_DIRECT,
@@ -371,13 +393,16 @@ impl Renderer {
         if occlusion.is_some() {
             flags |= shade::FLAG_OCCLUSION;
         }
+        if dyn_vpls.is_some() && mode != Mode::Direct {
+            flags |= shade::FLAG_DYNAMIC_VPL;
+        }
         let params = shade::GpuShadeParams {
             size: [settings.width, settings.height],
             flags,
             n_static: baked.as_ref().map(|b| b.vpls.len() as u32).unwrap_or(0),
             map_size: baked.as_ref().map(|b| b.map_size).unwrap_or(1),
             atlas_cols: hemi.as_ref().map(|h| h.atlas.cols).unwrap_or(1),
-            n_dynamic: 0,
+            n_dynamic: dyn_vpls.as_ref().map(|d| d.slots()).unwrap_or(0),
             pad: 0,
         };
         queue.write_buffer(&shade.uniform_buf, 0, bytemuck::bytes_of(&params));
@@ -409,6 +434,7 @@ impl Renderer {
             _light_buf: light_buf,
             dummy_buf,
             dyn_vpl_buf,
+            dyn_vpls,
             camera,
             transforms,
             timer: timer::Timer::new(device, queue, 8),
@@ -456,7 +482,11 @@ impl Renderer {
                     .unwrap_or(&self.dummy_buf),
                 static_maps,
                 atlas,
-                dyn_vpls: &self.dyn_vpl_buf,
+                dyn_vpls: self
+                    .dyn_vpls
+                    .as_ref()
+                    .map(|d| &d.vpls)
+                    .unwrap_or(&self.dyn_vpl_buf),
             },
         )
     }
@@ -532,6 +562,9 @@ impl Renderer {
             calls += r.encode(encoder, &self.scene_gpu, ts);
             let ts = self.timer.as_mut().and_then(|t| t.compute("occlusion"));
             o.encode(encoder, ts);
+            if let Some(d) = &self.dyn_vpls {
+                d.encode(encoder, self.timer.as_mut());
+            }
         }
         // 3. VPL maps: per (draw, VPL, octahedron face) instances, only where
         // the draw's bounds can reach.
@@ -539,7 +572,11 @@ impl Renderer {
             let naive = self.settings.mode == Mode::Naive;
             let b = self.baked.as_ref().expect("hemi implies baked");
             let draws: Vec<&gibake_gpu::mesh::Draw> = if naive {
-                self.scene_gpu.static_draws.iter().chain(&self.scene_gpu.dynamic_draws).collect()
+                self.scene_gpu
+                    .static_draws
+                    .iter()
+                    .chain(&self.scene_gpu.dynamic_draws)
+                    .collect()
             } else {
                 self.scene_gpu.dynamic_draws.iter().collect()
             };
@@ -556,17 +593,24 @@ impl Renderer {
                 .iter()
                 .map(|v| {
                     let n = Vec3::from_array(v.normal);
-                    (hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area), n)
+                    (
+                        hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area),
+                        n,
+                    )
                 })
                 .collect();
-            let masks: Vec<Vec<u32>> =
-                frames.iter().map(|(o, n)| boxes.iter().map(|bx| face_mask(bx, *o, *n)).collect()).collect();
+            let masks: Vec<Vec<u32>> = frames
+                .iter()
+                .map(|(o, n)| boxes.iter().map(|bx| face_mask(bx, *o, *n)).collect())
+                .collect();
             // Full: only VPLs some moving object reaches get a tile.
             let chosen: Vec<u32> = (0..b.vpls.len() as u32)
                 .filter(|&v| naive || masks[v as usize].iter().any(|&m| m != 0))
                 .collect();
             if chosen.len() as u32 > self.hemi.as_ref().expect("checked").atlas.capacity {
-                let cap = (chosen.len() as u32).next_power_of_two().min(b.vpls.len() as u32);
+                let cap = (chosen.len() as u32)
+                    .next_power_of_two()
+                    .min(b.vpls.len() as u32);
                 let h = self.hemi.as_mut().expect("checked");
                 h.atlas = HemiAtlas::new(device, b.map_size, cap);
                 self.params.atlas_cols = h.atlas.cols;
@@ -602,7 +646,15 @@ impl Renderer {
                 ranges.push((*d, start..instances.len() as u32));
             }
             queue.write_buffer(&h.tile_buf, 0, bytemuck::cast_slice(&h.tiles));
-            h.pass.set_work(device, queue, &self.scene_gpu, &b.static_maps, &h.atlas, &h.jobs, &instances);
+            h.pass.set_work(
+                device,
+                queue,
+                &self.scene_gpu,
+                &b.static_maps,
+                &h.atlas,
+                &h.jobs,
+                &instances,
+            );
             stats.affected_maps = chosen.len() as u32;
             if !chosen.is_empty() {
                 let ts = self.timer.as_mut().and_then(|t| t.render("vpl maps"));

@@ -14,20 +14,7 @@ use gibake_scene::{LightKind, LoadOptions, Scene};
 use glam::{Mat4, Vec2, Vec3};
 use wgpu::util::DeviceExt;
 
-// The pass is compiled here from its source, against the crate's public
-// `dynamic_rsm` and `timer` modules, so that this test does not depend on
-// `pub mod dynamic_vpl;` in the crate root.
-mod dynamic_rsm {
-    pub use gibake_runtime::dynamic_rsm::*;
-}
-mod timer {
-    pub use gibake_runtime::timer::*;
-}
-#[allow(dead_code)]
-#[path = "../src/dynamic_vpl.rs"]
-mod dynamic_vpl;
-
-use dynamic_vpl::{DynamicVplPass, GpuDynVpl};
+use gibake_runtime::dynamic_vpl::{DynamicVplPass, GpuDynVpl};
 
 const MAX_VPLS: u32 = 64;
 
