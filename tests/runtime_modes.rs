@@ -85,7 +85,7 @@ fn full_and_naive_give_the_same_image() {
 }
 
 #[test]
-fn full_matches_the_reference_and_beats_rsm_on_occluded() {
+fn full_matches_the_reference_on_every_bundled_scene() {
     let ctx = common::gpu();
     let mut report = Vec::new();
     for name in ["corner_bunny.glb", "occluded.glb", "sun.glb"] {
@@ -95,23 +95,31 @@ fn full_matches_the_reference_and_beats_rsm_on_occluded() {
         let full = render(&ctx, &scene, &asset, Mode::Full, 256, time, 2);
         let refr = reference(&scene, 256, 512, time, false);
         let e = rel_mse(&full, &refr);
-        report.push(format!("{name}: rel MSE(full, reference) = {e:.4}"));
-        if name == "occluded.glb" {
-            let direct = render(&ctx, &scene, &asset, Mode::Direct, 256, time, 2);
-            let indirect = render(&ctx, &scene, &asset, Mode::Indirect, 256, time, 2);
-            let rsm = render(&ctx, &scene, &asset, Mode::Rsm, 256, time, 2).sub(&direct);
-            let ref_direct = reference(&scene, 256, 512, time, true);
-            let ref_indirect = refr.sub(&ref_direct);
-            let e_full = rel_mse(&indirect, &ref_indirect);
-            let e_rsm = rel_mse(&rsm, &ref_indirect);
-            report.push(format!(
-                "{name}: indirect rel MSE full {e_full:.4}, rsm {e_rsm:.4}"
-            ));
-            assert!(e_full <= 0.5 * e_rsm, "{}", report.join("\n"));
-        }
+        report.push(format!("{name}: rel MSE(full, reference 512 spp) = {e:.4}"));
         assert!(e <= 0.05, "{}", report.join("\n"));
     }
     eprintln!("{}", report.join("\n"));
+}
+
+/// The paper's Fig. 10: on `occluded`, VPLs hidden behind the wall leak
+/// their colour without visibility (`rsm`); with it (`full`) the indirect
+/// light's error is at most half. The reference's indirect part is the
+/// one-bounce image minus the direct-only one, at 2048 spp so that its own
+/// noise does not blur the comparison.
+#[test]
+fn visibility_halves_the_indirect_error_on_occluded() {
+    let ctx = common::gpu();
+    let scene = load("occluded.glb");
+    let asset = bake(&ctx, &scene, 664, 128);
+    let (time, size) = (0.5, 256);
+    let direct = render(&ctx, &scene, &asset, Mode::Direct, size, time, 2);
+    let indirect = render(&ctx, &scene, &asset, Mode::Indirect, size, time, 2);
+    let rsm = render(&ctx, &scene, &asset, Mode::Rsm, size, time, 2).sub(&direct);
+    let ref_indirect = reference(&scene, size, 2048, time, false).sub(&reference(&scene, size, 512, time, true));
+    let e_full = rel_mse(&indirect, &ref_indirect);
+    let e_rsm = rel_mse(&rsm, &ref_indirect);
+    eprintln!("occluded indirect rel MSE: full {e_full:.5}, rsm {e_rsm:.5} (ratio {:.2})", e_full / e_rsm);
+    assert!(e_full <= 0.5 * e_rsm, "full {e_full} vs rsm {e_rsm}");
 }
 
 /// The GPU's indirect light (static VPLs with their merged maps) agrees,

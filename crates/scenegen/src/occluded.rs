@@ -1,5 +1,5 @@
-//! `occluded`: the paper's Fig. 10 situation. A spot light high above a tall
-//! wall lights a floor on both sides of it. Behind the wall (z < 0), a
+//! `occluded`: the paper's Fig. 10 situation. A spot light high behind a tall
+//! wall lights mostly what lies behind it, and a strip of floor in front. Behind the wall (z < 0), a
 //! saturated blue and a saturated yellow panel lean toward the wall: lit, and
 //! facing the receivers in front of the wall, but hidden from them by it — a
 //! renderer whose VPLs have no visibility leaks blue and yellow onto the
@@ -91,17 +91,19 @@ pub(crate) fn build(p: &Params) -> Vec<u8> {
         b.dynamic_mesh(&name, mesh, &times, &path);
     }
 
-    // Spot light 6 m up, just behind the wall, aimed down and slightly forward;
-    // its 45° cone covers the whole floor. 120 W/sr: ~3 W/m² on the floor.
-    let light = DVec3::new(0.0, 6.0, -0.5);
+    // Spot light 6 m up, 2 m behind the wall, aimed at the hidden panels: most
+    // of its flux lands behind the wall (the hidden VPLs of Fig. 10); its
+    // 35° cone also reaches a strip of the visible floor in front of the
+    // wall and part of the red panel. 120 W/sr: ~3 W/m² under it.
+    let light = DVec3::new(0.0, 6.0, -2.0);
     b.spot(
         "spot",
         light,
-        DVec3::new(0.0, 0.0, 0.5) - light,
+        DVec3::new(0.0, 0.0, -1.0) - light,
         [1.0, 1.0, 1.0],
         120.0,
+        25f64.to_radians(),
         35f64.to_radians(),
-        45f64.to_radians(),
     );
 
     // Camera in front, below the wall's top (2.5 m): the hidden panels are out of sight.
