@@ -45,7 +45,9 @@ pub enum Command {
     Inspect(InspectArgs),
     /// Measure error against run time for every mode and quality (not built yet).
     Bench(BenchArgs),
-    /// Render the bundled corner_bunny scene (direct light) and its reference.
+    /// The embedded default: bake the bundled paper scene (corner + bunny +
+    /// 13 moving balls), render a short animation, print per-pass times and
+    /// the error against the CPU reference.
     Demo(DemoArgs),
 }
 
@@ -235,7 +237,7 @@ pub struct BenchArgs {}
 /// `gibake demo`.
 #[derive(Args, Debug)]
 pub struct DemoArgs {
-    /// Output directory.
+    /// Output directory (created; replaced files only).
     #[arg(short, long, default_value = "gibake-demo")]
     pub output: PathBuf,
     /// Image width.
@@ -244,7 +246,13 @@ pub struct DemoArgs {
     /// Image height.
     #[arg(long, default_value_t = 256)]
     pub height: u32,
-    /// Reference samples per pixel.
+    /// Frames of animation to render (1/15 s apart).
+    #[arg(long, default_value_t = 16)]
+    pub frames: u32,
+    /// Static VPLs to bake.
+    #[arg(long, default_value_t = 250)]
+    pub vpls: u32,
+    /// Reference samples per pixel (one bounce, first frame).
     #[arg(long, default_value_t = 64)]
     pub spp: u32,
 }

@@ -9,20 +9,20 @@ use gibake_gpu::{GpuContext, GpuOptions};
 use gibake_scene::{LoadOptions, Scene};
 
 use crate::cli::{
-    BakeArgs, Cli, Command, DemoArgs, DiffArgs, InspectArgs, ModeArg, ReferenceArgs, RenderArgs,
-    SceneArgs, TolerancePreset,
+    BakeArgs, Cli, Command, DiffArgs, InspectArgs, ModeArg, ReferenceArgs, RenderArgs, SceneArgs,
+    TolerancePreset,
 };
 use crate::output::{bar, write_image_atomic};
 
 /// The bundled paper scene, embedded for `gibake demo`.
-const CORNER_BUNNY: &[u8] = include_bytes!("../../data/corner_bunny.glb");
+pub(crate) const CORNER_BUNNY: &[u8] = include_bytes!("../../data/corner_bunny.glb");
 
 /// Runs the parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Render(a) => render(a),
         Command::Reference(a) => reference(a),
-        Command::Demo(a) => demo(a),
+        Command::Demo(a) => crate::demo::run(a),
         Command::Bake(a) => bake(a),
         Command::Diff(a) => diff(a),
         Command::Inspect(a) => inspect(a),
@@ -63,7 +63,7 @@ fn check_output_dir(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn check_size(width: u32, height: u32) -> anyhow::Result<()> {
+pub(crate) fn check_size(width: u32, height: u32) -> anyhow::Result<()> {
     for (flag, v) in [("--width", width), ("--height", height)] {
         if v == 0 || v > 16384 {
             bail!("{flag} {v} is out of range (1..=16384)");
@@ -250,7 +250,7 @@ fn reference(a: ReferenceArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn run_reference(
+pub(crate) fn run_reference(
     scene: &Scene,
     settings: &gibake_reference::Settings,
 ) -> anyhow::Result<gibake_image::Image> {
@@ -261,61 +261,10 @@ fn run_reference(
     Ok(img)
 }
 
-fn demo(a: DemoArgs) -> anyhow::Result<ExitCode> {
-    check_size(a.width, a.height)?;
-    std::fs::create_dir_all(&a.output)
-        .with_context(|| format!("creating {}", a.output.display()))?;
-    let path = PathBuf::from("corner_bunny.glb (embedded)");
-    let scene = gibake_scene::load_from_slice(CORNER_BUNNY, &path, &LoadOptions::default())?;
-    let (st, dt) = scene.triangle_counts();
-    eprintln!(
-        "scene: corner_bunny — {st} static triangles, {} moving objects ({dt} triangles)",
-        scene.dynamic_objects.len()
-    );
-    let ctx = GpuContext::new(&GpuOptions::default())?;
-    eprintln!("GPU: {}", ctx.record);
-    let settings = gibake_runtime::RenderSettings {
-        width: a.width,
-        height: a.height,
-        shadow_map_size: 2048,
-        mode: gibake_runtime::Mode::Direct,
-        ..Default::default()
-    };
-    let t0 = Instant::now();
-    let gpu = gibake_runtime::render_image(&ctx, &scene, None, &settings, 0.0, 2)?;
-    let gpu_s = t0.elapsed().as_secs_f64();
-    write_image_atomic(&gpu, &a.output.join("direct.exr"))?;
-    write_image_atomic(&gpu, &a.output.join("direct.png"))?;
-    let settings_ref = gibake_reference::Settings {
-        width: a.width,
-        height: a.height,
-        spp: a.spp,
-        time: 0.0,
-        depth: gibake_reference::Depth::Direct,
-        seed: 0,
-    };
-    let t1 = Instant::now();
-    let reference = run_reference(&scene, &settings_ref)?;
-    let ref_s = t1.elapsed().as_secs_f64();
-    write_image_atomic(&reference, &a.output.join("reference_direct.exr"))?;
-    write_image_atomic(&reference, &a.output.join("reference_direct.png"))?;
-    let err = gibake_image::rel_mse(&gpu, &reference);
-    println!("{:<28} {:>10} {:>12}", "image", "time (s)", "rel MSE");
-    println!("{:<28} {:>10.3} {:>12.5}", "GPU direct (wgpu)", gpu_s, err);
-    println!(
-        "{:<28} {:>10.3} {:>12}",
-        format!("CPU reference ({} spp)", a.spp),
-        ref_s,
-        "—"
-    );
-    println!("images in {}", a.output.display());
-    Ok(ExitCode::SUCCESS)
-}
-
 /// indicatif progress for the bake's stages.
-struct BarProgress {
-    bar: std::sync::Mutex<Option<indicatif::ProgressBar>>,
-    quiet: bool,
+pub(crate) struct BarProgress {
+    pub(crate) bar: std::sync::Mutex<Option<indicatif::ProgressBar>>,
+    pub(crate) quiet: bool,
 }
 
 impl gibake_bake::BakeProgress for BarProgress {
