@@ -717,6 +717,17 @@ impl Renderer {
         &self.output
     }
 
+    /// Whether any resource for moving objects exists (merge maps, dynamic
+    /// RSM, occlusion sums, merge atlas, dynamic VPLs). False for a scene
+    /// without moving objects: nothing is allocated for them.
+    pub fn has_dynamic_resources(&self) -> bool {
+        self.dyn_primary.is_some()
+            || self.dyn_rsm.is_some()
+            || self.occlusion.is_some()
+            || self.hemi.is_some()
+            || self.dyn_vpls.is_some()
+    }
+
     /// GPU bytes uploaded from the asset.
     pub fn asset_bytes(&self) -> u64 {
         self.baked.as_ref().map(|b| b.bytes).unwrap_or(0)

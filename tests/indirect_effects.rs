@@ -1,0 +1,306 @@
+//! Moving objects change indirect light where they must (issue 4):
+//! - a ball outside the light's cone, between a lit floor and an unlit wall,
+//!   casts an indirect shadow on the wall (static VPLs, merged maps);
+//! - a red ball inside the cone tints the floor around it (dynamic VPLs).
+//! Pixels are classified by CPU ray casts from the same camera.
+
+mod common;
+
+use gibake_asset::Asset;
+use gibake_gpu::GpuContext;
+use gibake_image::Image;
+use gibake_runtime::{Mode, RenderSettings, Renderer};
+use gibake_scene::{LoadOptions, Scene};
+use gibake_scenegen::{geom, gltf::Builder};
+use glam::{DVec3, Mat4, Vec3};
+
+const SIZE: u32 = 96;
+
+/// Floor (y = 0) and back wall (z = −1); a spot lights the floor's front
+/// half only; one dynamic ball of radius 0.15 with albedo `ball_rgb`.
+fn scene(ball_rgb: [f32; 3]) -> Scene {
+    let mut b = Builder::new(1.0, "ball");
+    let floor = geom::quad_facing(
+        DVec3::new(-2.0, 0.0, -1.0),
+        DVec3::X * 4.0,
+        DVec3::Z * 3.5,
+        1,
+        DVec3::Y,
+    );
+    b.static_mesh("floor", &floor, [0.8, 0.8, 0.8]);
+    let wall = geom::quad_facing(
+        DVec3::new(-2.0, 0.0, -1.0),
+        DVec3::X * 4.0,
+        DVec3::Y * 2.0,
+        1,
+        DVec3::Z,
+    );
+    b.static_mesh("wall", &wall, [0.8, 0.8, 0.8]);
+    let g = b.geometry(&geom::uv_sphere(DVec3::ZERO, 0.15, 24, 16));
+    let mat = b.material("ball", ball_rgb);
+    let mesh = b.mesh("ball", g, mat);
+    let p = DVec3::new(0.0, 0.5, -0.7);
+    b.dynamic_mesh(
+        "ball",
+        mesh,
+        &[0.0, 1.0],
+        &[p, p + DVec3::new(0.6, -0.2, 1.3)],
+    );
+    let light = DVec3::new(0.0, 3.0, 1.2);
+    b.spot(
+        "spot",
+        light,
+        DVec3::new(0.0, 0.0, 1.0) - light,
+        [1.0; 3],
+        40.0,
+        20f64.to_radians(),
+        25f64.to_radians(),
+    );
+    b.perspective(
+        "camera",
+        DVec3::new(1.8, 1.2, 2.6),
+        DVec3::new(-0.3, 0.4, -1.0),
+        50f64.to_radians(),
+        0.05,
+        50.0,
+    );
+    let bytes = b.finish();
+    gibake_scene::load_from_slice(
+        &bytes,
+        std::path::Path::new("wall_ball.glb"),
+        &LoadOptions::default(),
+    )
+    .unwrap()
+}
+
+fn bake(ctx: &GpuContext, scene: &Scene) -> Asset {
+    let opts = gibake_bake::BakeOptions {
+        rsm_size: 256,
+        vpl_map_size: 64,
+        shadow_map_size: 1024,
+        target: gibake_bake::cluster::ClusterTarget::Count(200),
+    };
+    gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "test")
+        .unwrap()
+        .asset
+}
+
+fn frame(
+    ctx: &GpuContext,
+    scene: &Scene,
+    asset: &Asset,
+    mode: Mode,
+    dyn_vpls: u32,
+    ball: Vec3,
+) -> Image {
+    let s = RenderSettings {
+        width: SIZE,
+        height: SIZE,
+        mode,
+        max_dynamic_vpls: dyn_vpls,
+        ..Default::default()
+    };
+    let mut r = Renderer::new(&ctx.device, &ctx.queue, scene, Some(asset), &s, 0.0).unwrap();
+    r.set_dynamic_transforms(&ctx.queue, &[Mat4::from_translation(ball)]);
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    r.encode(&ctx.device, &ctx.queue, &mut enc);
+    ctx.queue.submit([enc.finish()]);
+    let img = gibake_runtime::read_output(ctx, &r, 1).unwrap();
+    assert!(img.all_finite());
+    img
+}
+
+/// What the camera sees at each pixel centre: (mesh name, world point), or
+/// None for the background; the ball is placed at `ball`.
+fn classify(scene: &Scene, ball: Vec3) -> Vec<Option<(String, Vec3)>> {
+    let mut s = scene.clone();
+    // Bake the ball's position into a static copy for the CPU ray cast.
+    let m = s.dynamic_meshes[0].clone();
+    let mut moved = m.clone();
+    for p in &mut moved.positions {
+        *p += ball;
+    }
+    moved.name = "ball".into();
+    s.dynamic_objects.clear();
+    s.dynamic_meshes.clear();
+    s.static_meshes.push(moved);
+    let rays = gibake_reference::RayScene::build(&s, 0.0);
+    let view = gibake_reference::View::from_scene(&s, 0.0).unwrap();
+    let mut out = Vec::new();
+    for y in 0..SIZE {
+        for x in 0..SIZE {
+            let (o, d, t0) = view.primary_ray(SIZE, SIZE, x as f32 + 0.5, y as f32 + 0.5);
+            out.push(rays.intersect_range(o, d, t0, f32::INFINITY).map(|h| {
+                let name = s.static_meshes[h.mesh as usize].name.clone();
+                (name, h.position)
+            }));
+        }
+    }
+    out
+}
+
+fn mean_where(img: &Image, mask: &[bool]) -> Vec3 {
+    let (mut s, mut n) = (Vec3::ZERO, 0);
+    for (p, m) in img.pixels.iter().zip(mask) {
+        if *m {
+            s += *p;
+            n += 1;
+        }
+    }
+    assert!(n >= 10, "too few pixels in the region ({n})");
+    s / n as f32
+}
+
+#[test]
+fn a_ball_casts_an_indirect_shadow_from_static_vpls() {
+    let ctx = common::gpu();
+    let scene = scene([0.8, 0.8, 0.8]);
+    let asset = bake(&ctx, &scene);
+    let near = Vec3::new(0.0, 0.35, -0.75);
+    let away = Vec3::new(0.0, -20.0, 0.0);
+    let with = frame(&ctx, &scene, &asset, Mode::Indirect, 0, near);
+    let without = frame(&ctx, &scene, &asset, Mode::Indirect, 0, away);
+    let naive = frame(&ctx, &scene, &asset, Mode::Naive, 0, near);
+    let direct_with = frame(&ctx, &scene, &asset, Mode::Direct, 0, near);
+    let direct_without = frame(&ctx, &scene, &asset, Mode::Direct, 0, away);
+    let px = classify(&scene, near);
+    // Wall points right behind the ball, and wall points far from it.
+    let behind: Vec<bool> = px
+        .iter()
+        .map(|p| matches!(p, Some((n, q)) if n.contains("wall") && (q.x.powi(2) + (q.y - 0.3).powi(2)).sqrt() < 0.25))
+        .collect();
+    let far: Vec<bool> = px
+        .iter()
+        .map(|p| matches!(p, Some((n, q)) if n.contains("wall") && q.x.abs() > 1.2))
+        .collect();
+    let (a, b) = (mean_where(&with, &behind), mean_where(&without, &behind));
+    let (fa, fb) = (mean_where(&with, &far), mean_where(&without, &far));
+    eprintln!("behind the ball: {a} with, {b} without; far: {fa} / {fb}");
+    // No direct light is involved: the ball is outside the cone.
+    assert_eq!(
+        direct_with
+            .pixels
+            .iter()
+            .zip(&direct_without.pixels)
+            .zip(&behind)
+            .filter(|((x, y), m)| **m && x != y)
+            .count(),
+        0
+    );
+    assert!(
+        b.x > 0.0,
+        "the wall behind the ball must receive indirect light"
+    );
+    assert!(a.x < 0.8 * b.x, "no indirect shadow: {a} vs {b}");
+    assert!(
+        (fa.x - fb.x).abs() < 0.05 * fb.x,
+        "far wall changed: {fa} vs {fb}"
+    );
+    // And naive (maps re-rendered from all geometry) sees the same shadow.
+    let n = mean_where(&naive, &behind);
+    assert!(
+        (n.x - a.x).abs() < 0.02 * a.x.max(1e-6),
+        "naive {n} vs full {a}"
+    );
+}
+
+#[test]
+fn a_red_ball_tints_the_floor_with_dynamic_vpls() {
+    let ctx = common::gpu();
+    let scene = scene([0.9, 0.05, 0.05]);
+    let asset = bake(&ctx, &scene);
+    let ball = Vec3::new(0.4, 0.2, 0.9);
+    let on = frame(&ctx, &scene, &asset, Mode::Indirect, 64, ball);
+    let off = frame(&ctx, &scene, &asset, Mode::Indirect, 0, ball);
+    let px = classify(&scene, ball);
+    // Floor points around the ball (not under it, where its shadow is).
+    let ring: Vec<bool> = px
+        .iter()
+        .map(|p| match p {
+            Some((n, q)) if n.contains("floor") => {
+                let r = ((q.x - ball.x).powi(2) + (q.z - ball.z).powi(2)).sqrt();
+                r > 0.2 && r < 0.45
+            }
+            _ => false,
+        })
+        .collect();
+    let (a, b) = (mean_where(&on, &ring), mean_where(&off, &ring));
+    eprintln!("floor around the ball: {a} with dynamic VPLs, {b} without");
+    assert!(a.x > b.x * 1.05, "no red bounce: {a} vs {b}");
+    // The added light is red: mostly in R.
+    let add = a - b;
+    assert!(
+        add.x > 5.0 * add.y.abs() && add.x > 5.0 * add.z.abs(),
+        "added light is not red: {add}"
+    );
+    // Moving the ball moves the tint: the ring is no longer tinted.
+    let moved = frame(
+        &ctx,
+        &scene,
+        &asset,
+        Mode::Indirect,
+        64,
+        Vec3::new(-0.8, 0.2, 1.4),
+    );
+    let m = mean_where(&moved, &ring);
+    assert!(
+        m.x - b.x < 0.3 * add.x,
+        "tint did not move with the ball: {m} vs {a}"
+    );
+}
+
+/// A scene with no moving objects bakes no RSM data and runs no merge pass:
+/// the frame is G-buffer + shading only, and nothing for moving objects is
+/// allocated.
+#[test]
+fn a_scene_without_moving_objects_runs_no_dynamic_pass() {
+    let ctx = common::gpu();
+    let full =
+        gibake_scene::load(&common::data("corner_bunny.glb"), &LoadOptions::default()).unwrap();
+    let scene = gibake_bake::static_only(&full);
+    let asset = bake(&ctx, &scene);
+    assert!(
+        !asset.manifest.has_dynamic && asset.rsm.is_none(),
+        "RSM data stored for a static scene"
+    );
+    for mode in [Mode::Full, Mode::Indirect, Mode::Rsm, Mode::Direct] {
+        let s = RenderSettings {
+            width: 32,
+            height: 32,
+            mode,
+            ..Default::default()
+        };
+        let mut r = Renderer::new(&ctx.device, &ctx.queue, &scene, Some(&asset), &s, 0.0).unwrap();
+        assert!(
+            !r.has_dynamic_resources(),
+            "{mode:?}: dynamic resources allocated"
+        );
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        r.encode(&ctx.device, &ctx.queue, &mut enc);
+        ctx.queue.submit([enc.finish()]);
+        let stats = r.stats(&ctx.device);
+        assert_eq!(
+            (
+                stats.affected_maps,
+                stats.update_draw_calls,
+                stats.dynamic_vpl_slots
+            ),
+            (0, 0, 0),
+            "{mode:?}"
+        );
+        if stats.timing == "gpu timestamps" {
+            let names: Vec<&str> = stats.passes.iter().map(|(n, _)| n.as_str()).collect();
+            assert_eq!(names, ["gbuffer", "shade"], "{mode:?}");
+        }
+        assert_eq!(stats.update_ms(), 0.0);
+    }
+    // The same scene with its balls does run them.
+    let asset = bake(&ctx, &full);
+    let s = RenderSettings {
+        width: 32,
+        height: 32,
+        ..Default::default()
+    };
+    let r = Renderer::new(&ctx.device, &ctx.queue, &full, Some(&asset), &s, 0.0).unwrap();
+    assert!(r.has_dynamic_resources());
+}
