@@ -140,6 +140,36 @@ impl FrameStats {
     }
 }
 
+/// What the frame bind group needs besides the G-buffer.
+struct FrameViews {
+    primary_static: wgpu::TextureView,
+    primary_dynamic: wgpu::TextureView,
+    light_view_buf: wgpu::Buffer,
+    output: wgpu::TextureView,
+}
+
+impl FrameViews {
+    fn group(
+        &self,
+        device: &wgpu::Device,
+        shade: &shade::ShadePass,
+        gbuffer: [&wgpu::TextureView; 3],
+        light: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        shade.frame_group(
+            device,
+            &shade::FrameInputs {
+                gbuffer,
+                primary_static: &self.primary_static,
+                primary_dynamic: &self.primary_dynamic,
+                light,
+                light_view: &self.light_view_buf,
+                output: &self.output,
+            },
+        )
+    }
+}
+
 struct HemiState {
     pass: HemiRasterPass,
     atlas: HemiAtlas,
@@ -162,7 +192,10 @@ pub struct Renderer {
     gbuffer_pass: gbuffer::GBufferPass,
     shade: shade::ShadePass,
     frame_group: wgpu::BindGroup,
-    gi_group: wgpu::BindGroup,
+    /// Built right after construction (it needs the renderer's resources).
+    gi_group: Option<wgpu::BindGroup>,
+    frame_views: FrameViews,
+    external_gbuffer: bool,
     params: shade::GpuShadeParams,
     output: wgpu::Texture,
     _light_buf: wgpu::Buffer,
@@ -335,16 +368,17 @@ impl Renderer {
             .as_ref()
             .map(|p| p.metric_view.clone())
             .unwrap_or_else(|| primary_static.clone());
-        let frame_group = shade.frame_group(
+        let frame_views = FrameViews {
+            primary_static,
+            primary_dynamic: dyn_primary_view,
+            light_view_buf,
+            output: out_view,
+        };
+        let frame_group = frame_views.group(
             device,
-            &shade::FrameInputs {
-                gbuffer: &gbuffer,
-                primary_static: &primary_static,
-                primary_dynamic: &dyn_primary_view,
-                light: &light_buf,
-                light_view: &light_view_buf,
-                output: &out_view,
-            },
+            &shade,
+            [&gbuffer.views[0], &gbuffer.views[1], &gbuffer.views[2]],
+            &light_buf,
         );
         let dummy_buf = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("dummy"),
@@ -428,7 +462,9 @@ impl Renderer {
             gbuffer_pass,
             shade,
             frame_group,
-            gi_group: dummy_group_placeholder(device),
+            gi_group: None,
+            frame_views,
+            external_gbuffer: false,
             params,
             output,
             _light_buf: light_buf,
@@ -441,7 +477,7 @@ impl Renderer {
             stats: FrameStats::default(),
             wall_start: None,
         };
-        r.gi_group = r.make_gi_group(device);
+        r.gi_group = Some(r.make_gi_group(device));
         Ok(r)
     }
 
@@ -615,7 +651,7 @@ impl Renderer {
                 h.atlas = HemiAtlas::new(device, b.map_size, cap);
                 self.params.atlas_cols = h.atlas.cols;
                 queue.write_buffer(&self.shade.uniform_buf, 0, bytemuck::bytes_of(&self.params));
-                self.gi_group = self.make_gi_group(device);
+                self.gi_group = Some(self.make_gi_group(device));
             }
             let b = self.baked.as_ref().expect("hemi implies baked");
             let h = self.hemi.as_mut().expect("checked");
@@ -667,15 +703,17 @@ impl Renderer {
             &self.scene_gpu.static_draws[..],
             &self.scene_gpu.dynamic_draws[..],
         ];
-        let ts = self.timer.as_mut().and_then(|t| t.render("gbuffer"));
-        self.gbuffer_pass
-            .encode(encoder, &self.gbuffer, &self.scene_gpu, &all, ts);
-        calls += (all[0].len() + all[1].len()) as u32;
+        if !self.external_gbuffer {
+            let ts = self.timer.as_mut().and_then(|t| t.render("gbuffer"));
+            self.gbuffer_pass
+                .encode(encoder, &self.gbuffer, &self.scene_gpu, &all, ts);
+            calls += (all[0].len() + all[1].len()) as u32;
+        }
         let ts = self.timer.as_mut().and_then(|t| t.compute("shade"));
         self.shade.encode(
             encoder,
             &self.frame_group,
-            &self.gi_group,
+            self.gi_group.as_ref().expect("built in Renderer::new"),
             [self.settings.width, self.settings.height],
             ts,
         );
@@ -712,9 +750,29 @@ impl Renderer {
         s
     }
 
+    /// The renderer's own G-buffer (what a game replaces with
+    /// [`Renderer::use_external_gbuffer`]).
+    pub fn gbuffer(&self) -> &gbuffer::GBuffer {
+        &self.gbuffer
+    }
+
     /// The frame's linear radiance (`Rgba32Float`, row 0 at the top).
     pub fn output(&self) -> &wgpu::Texture {
         &self.output
+    }
+
+    /// Shades the game's own G-buffer instead of rendering one: three views
+    /// of `width × height` textures in [`gbuffer::GBUFFER_FORMATS`] with
+    /// `TEXTURE_BINDING` usage — 0: world position (xyz) and coverage (w = 1
+    /// where a surface is, 0 elsewhere), 1: octahedral-encoded shading
+    /// normal (xy) and geometric normal (zw), both facing the viewer (see
+    /// `oct_encode` in the shared `common.wgsl`), 2: linear albedo (rgb).
+    /// After this call [`Renderer::encode`] skips its G-buffer pass.
+    pub fn use_external_gbuffer(&mut self, device: &wgpu::Device, views: [&wgpu::TextureView; 3]) {
+        self.frame_group = self
+            .frame_views
+            .group(device, &self.shade, views, &self._light_buf);
+        self.external_gbuffer = true;
     }
 
     /// Whether any resource for moving objects exists (merge maps, dynamic
@@ -756,18 +814,6 @@ fn tiny_texture(device: &wgpu::Device, array: bool) -> wgpu::TextureView {
             wgpu::TextureViewDimension::D2
         }),
         ..Default::default()
-    })
-}
-
-fn dummy_group_placeholder(device: &wgpu::Device) -> wgpu::BindGroup {
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("empty"),
-        entries: &[],
-    });
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("empty"),
-        layout: &layout,
-        entries: &[],
     })
 }
 

@@ -4,8 +4,6 @@
 
 use gibake_gpu::shaders;
 
-use crate::gbuffer::GBuffer;
-
 /// Output format of shading.
 pub const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
@@ -96,8 +94,8 @@ fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
 
 /// Frame inputs (group 0).
 pub struct FrameInputs<'a> {
-    /// The camera G-buffer.
-    pub gbuffer: &'a GBuffer,
+    /// The camera G-buffer's three views (see [`crate::gbuffer::GBUFFER_FORMATS`]).
+    pub gbuffer: [&'a wgpu::TextureView; 3],
     /// Static primary shadow map (metric).
     pub primary_static: &'a wgpu::TextureView,
     /// Moving objects' primary shadow map (or any R32Float view when none).
@@ -194,7 +192,7 @@ impl ShadePass {
 
     /// Bind group 0.
     pub fn frame_group(&self, device: &wgpu::Device, i: &FrameInputs<'_>) -> wgpu::BindGroup {
-        let g = &i.gbuffer.views;
+        let g = i.gbuffer;
         let tv = wgpu::BindingResource::TextureView;
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shade frame"),
@@ -202,15 +200,15 @@ impl ShadePass {
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
-                    resource: tv(&g[0]),
+                    resource: tv(g[0]),
                 },
                 wgpu::BindGroupEntry {
                     binding: 1,
-                    resource: tv(&g[1]),
+                    resource: tv(g[1]),
                 },
                 wgpu::BindGroupEntry {
                     binding: 2,
-                    resource: tv(&g[2]),
+                    resource: tv(g[2]),
                 },
                 wgpu::BindGroupEntry {
                     binding: 3,
