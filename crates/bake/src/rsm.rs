@@ -43,6 +43,9 @@ impl Rsm {
     }
 }
 
+/// One RSM texel: metric, position, normal, flux, area.
+type TexelSample = (f32, Vec3, Vec3, Vec3, f32);
+
 /// Smallest cosine between a surface and the light used for the area a
 /// texel covers (dimensionless, so scale-invariant): grazing texels would
 /// otherwise claim unbounded area.
@@ -56,7 +59,7 @@ pub const MIN_AREA_COSINE: f32 = 0.05;
 pub fn render_rsm(rays: &RayScene<'_>, light: &Light, view: &LightView) -> Rsm {
     let size = view.size;
     let n = (size * size) as usize;
-    let rows: Vec<Vec<(f32, Vec3, Vec3, Vec3, f32)>> = (0..size)
+    let rows: Vec<Vec<TexelSample>> = (0..size)
         .into_par_iter()
         .map(|y| {
             (0..size)

@@ -46,7 +46,8 @@ pub struct LightView {
 /// and valid for every direction (Duff et al. 2017, "Building an Orthonormal
 /// Basis, Revisited"). No fixed up vector, so nothing degenerates.
 pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
-    let sign = 1.0f32.copysign(n.z);
+    // `n.z >= 0` (not copysign): -0.0 must pick +1, as `select` does in WGSL.
+    let sign = if n.z >= 0.0 { 1.0f32 } else { -1.0 };
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
     let t = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
@@ -318,6 +319,14 @@ impl GpuPrimaryLight {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn basis_of_negative_zero_z_matches_wgsl() {
+        // WGSL's `select(-1.0, 1.0, n.z >= 0.0)` gives +1 for -0.0.
+        let (t, b) = orthonormal_basis(Vec3::new(1.0, 0.0, -0.0));
+        let (t2, b2) = orthonormal_basis(Vec3::new(1.0, 0.0, 0.0));
+        assert_eq!((t, b), (t2, b2));
+    }
 
     #[test]
     fn basis_is_orthonormal_for_every_axis_and_near_poles() {
