@@ -115,10 +115,14 @@ fn visibility_halves_the_indirect_error_on_occluded() {
     let direct = render(&ctx, &scene, &asset, Mode::Direct, size, time, 2);
     let indirect = render(&ctx, &scene, &asset, Mode::Indirect, size, time, 2);
     let rsm = render(&ctx, &scene, &asset, Mode::Rsm, size, time, 2).sub(&direct);
-    let ref_indirect = reference(&scene, size, 2048, time, false).sub(&reference(&scene, size, 512, time, true));
+    let ref_indirect =
+        reference(&scene, size, 2048, time, false).sub(&reference(&scene, size, 512, time, true));
     let e_full = rel_mse(&indirect, &ref_indirect);
     let e_rsm = rel_mse(&rsm, &ref_indirect);
-    eprintln!("occluded indirect rel MSE: full {e_full:.5}, rsm {e_rsm:.5} (ratio {:.2})", e_full / e_rsm);
+    eprintln!(
+        "occluded indirect rel MSE: full {e_full:.5}, rsm {e_rsm:.5} (ratio {:.2})",
+        e_full / e_rsm
+    );
     assert!(e_full <= 0.5 * e_rsm, "full {e_full} vs rsm {e_rsm}");
 }
 

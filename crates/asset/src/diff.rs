@@ -361,7 +361,11 @@ fn angle_deg(a: [f32; 3], b: [f32; 3]) -> f64 {
     }
     // atan2(|a×b|, a·b) is exact for equal vectors (acos of a rounded
     // cosine is not) and accurate for small angles.
-    let cross = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let cross = [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ];
     let dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     dist(cross, [0.0; 3]).atan2(dot).to_degrees()
 }

@@ -359,8 +359,15 @@ impl HemiRasterPass {
             rebind = true;
         }
         if rebind {
-            self.bind_group =
-                Self::bind(device, &self.layout, scene_gpu, &self.jobs_buf, &self.params_buf, static_maps, &self.inst_buf);
+            self.bind_group = Self::bind(
+                device,
+                &self.layout,
+                scene_gpu,
+                &self.jobs_buf,
+                &self.params_buf,
+                static_maps,
+                &self.inst_buf,
+            );
         }
         if !jobs.is_empty() {
             queue.write_buffer(&self.jobs_buf, 0, bytemuck::cast_slice(jobs));
