@@ -667,19 +667,42 @@ impl Renderer {
                 });
                 h.tiles[v as usize] = slot as u32;
             }
+            // Moving meshes use the level of detail matched to their size in
+            // each map; instances are grouped per (draw, level).
+            let map_size = b.map_size;
             let mut instances: Vec<[u32; 4]> = Vec::new();
             let mut ranges = Vec::with_capacity(draws.len());
             for (k, d) in draws.iter().enumerate() {
-                let start = instances.len() as u32;
-                for (slot, &v) in chosen.iter().enumerate() {
-                    let m = masks[v as usize][k];
-                    for face in 0..4 {
-                        if m & (1 << face) != 0 {
-                            instances.push([d.id, slot as u32, face, 0]);
+                let levels: Vec<usize> = chosen
+                    .iter()
+                    .map(|&v| {
+                        if d.object.is_some() {
+                            gibake_gpu::mesh::lod_for(
+                                &boxes[k],
+                                frames[v as usize].0,
+                                map_size,
+                                d.lods.len(),
+                            )
+                        } else {
+                            0
+                        }
+                    })
+                    .collect();
+                for (level, lod) in d.lods.iter().enumerate() {
+                    let start = instances.len() as u32;
+                    for (slot, &v) in chosen.iter().enumerate() {
+                        let m = masks[v as usize][k];
+                        if levels[slot] != level || m == 0 {
+                            continue;
+                        }
+                        for face in 0..4 {
+                            if m & (1 << face) != 0 {
+                                instances.push([d.id, slot as u32, face, 0]);
+                            }
                         }
                     }
+                    ranges.push((lod.clone(), start..instances.len() as u32));
                 }
-                ranges.push((*d, start..instances.len() as u32));
             }
             queue.write_buffer(&h.tile_buf, 0, bytemuck::cast_slice(&h.tiles));
             h.pass.set_work(

@@ -73,6 +73,65 @@ pub struct Draw {
     pub object: Option<usize>,
     /// Bounds of the mesh: world space for static draws, local for dynamic.
     pub bounds: gibake_scene::Aabb,
+    /// Index ranges of the levels of detail, finest first (`lods[0] ==
+    /// indices`). Only moving meshes get coarser levels: they are drawn
+    /// into low-resolution VPL maps every frame (see [`lod_for`]).
+    pub lods: Vec<Range<u32>>,
+}
+
+/// Coarser index lists of a moving mesh (meshoptimizer's simplifier, same
+/// vertices): about 1/4 and 1/16 of the triangles, each kept only if it
+/// really is coarser. Deterministic.
+fn simplified_lods(mesh: &gibake_scene::Mesh) -> Vec<Vec<u32>> {
+    let tris = mesh.indices.len() / 3;
+    if tris < 64 || mesh.positions.is_empty() {
+        return Vec::new();
+    }
+    let pos: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
+    let bytes: &[u8] = bytemuck::cast_slice(&pos);
+    let Ok(adapter) = meshopt::VertexDataAdapter::new(bytes, 12, 0) else {
+        return Vec::new();
+    };
+    let mut out: Vec<Vec<u32>> = Vec::new();
+    let mut prev = mesh.indices.len();
+    for ratio in [4usize, 16] {
+        let target = ((tris / ratio).max(16)) * 3;
+        let lod = meshopt::simplify(
+            &mesh.indices,
+            &adapter,
+            target,
+            0.25,
+            meshopt::SimplifyOptions::None,
+            None,
+        );
+        if !lod.is_empty() && lod.len() < prev * 3 / 4 {
+            prev = lod.len();
+            out.push(lod);
+        }
+    }
+    out
+}
+
+/// The level of detail to draw a mesh with world bounds `b` into a
+/// `map_size²` hemisphere map seen from `origin`: its angular size in map
+/// texels (the map spans about π radians over `map_size` texels) picks
+/// level 0 from 24 texels across, level 1 from 6, else level 2 (clamped to
+/// the levels the mesh has).
+pub fn lod_for(b: &gibake_scene::Aabb, origin: glam::Vec3, map_size: u32, levels: usize) -> usize {
+    let r = (b.max - b.min).length() * 0.5;
+    let d = (b.center() - origin).length();
+    if levels <= 1 || d <= r {
+        return 0;
+    }
+    let texels = 2.0 * (r / d).atan() * map_size as f32 / std::f32::consts::PI;
+    let level = if texels >= 24.0 {
+        0
+    } else if texels >= 6.0 {
+        1
+    } else {
+        2
+    };
+    level.min(levels - 1)
 }
 
 /// All scene geometry on the GPU.
@@ -131,8 +190,18 @@ impl SceneGpu {
             for p in &mesh.positions {
                 bounds.grow(*p);
             }
+            let lod0 = start..indices.len() as u32;
+            let mut lods = vec![lod0.clone()];
+            if object.is_some() {
+                for level in simplified_lods(mesh) {
+                    let s = indices.len() as u32;
+                    indices.extend_from_slice(&level);
+                    lods.push(s..indices.len() as u32);
+                }
+            }
             let d = Draw {
-                indices: start..indices.len() as u32,
+                indices: lod0,
+                lods,
                 base_vertex,
                 id,
                 material: if textured {

@@ -12,7 +12,7 @@ use std::ops::Range;
 use gibake_scene::Aabb;
 use glam::Vec3;
 
-use crate::mesh::{Draw, MESH_WGSL, SceneGpu};
+use crate::mesh::{MESH_WGSL, SceneGpu};
 use crate::{hemisphere, shaders};
 
 /// Which of the four octahedron faces (bit `sx + 2·sy`, `s = 1` for +)
@@ -386,15 +386,16 @@ impl HemiRasterPass {
         queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&params));
     }
 
-    /// Draws each `(draw, instance range)` pair (ranges index the table given
-    /// to [`HemiRasterPass::set_work`]). `clear`: start every tile at
+    /// Draws each `(index range, instance range)` pair: a mesh's indices (a
+    /// level of detail of a [`Draw`]) for the instances of the table given
+    /// to [`HemiRasterPass::set_work`]. `clear`: start every tile at
     /// "nothing"; otherwise keep the atlas contents. Returns the number of
     /// draw calls.
     pub fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         atlas: &HemiAtlas,
-        draws: &[(&Draw, Range<u32>)],
+        draws: &[(Range<u32>, Range<u32>)],
         clear: bool,
         ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) -> u32 {
@@ -437,9 +438,9 @@ impl HemiRasterPass {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
         let mut calls = 0;
-        for (d, range) in draws {
+        for (indices, range) in draws {
             if !range.is_empty() {
-                pass.draw(d.indices.clone(), range.clone());
+                pass.draw(indices.clone(), range.clone());
                 calls += 1;
             }
         }
