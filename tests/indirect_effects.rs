@@ -2,6 +2,7 @@
 //! - a ball outside the light's cone, between a lit floor and an unlit wall,
 //!   casts an indirect shadow on the wall (static VPLs, merged maps);
 //! - a red ball inside the cone tints the floor around it (dynamic VPLs).
+//!
 //! Pixels are classified by CPU ray casts from the same camera.
 
 mod common;

@@ -171,6 +171,8 @@ impl FrameViews {
 }
 
 struct HemiState {
+    /// Per static VPL: (map origin, normal), computed once.
+    frames: std::sync::Arc<[(Vec3, Vec3)]>,
     pass: HemiRasterPass,
     atlas: HemiAtlas,
     tile_buf: wgpu::Buffer,
@@ -328,7 +330,19 @@ impl Renderer {
                     usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 });
+                let frames = b
+                    .vpls
+                    .iter()
+                    .map(|v| {
+                        let n = Vec3::from_array(v.normal);
+                        (
+                            hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area),
+                            n,
+                        )
+                    })
+                    .collect();
                 Some(HemiState {
+                    frames,
                     pass,
                     atlas,
                     tile_buf,
@@ -604,9 +618,10 @@ impl Renderer {
         }
         // 3. VPL maps: per (draw, VPL, octahedron face) instances, only where
         // the draw's bounds can reach.
-        if self.hemi.is_some() {
+        if let (Some(b), Some(capacity)) =
+            (&self.baked, self.hemi.as_ref().map(|h| h.atlas.capacity))
+        {
             let naive = self.settings.mode == Mode::Naive;
-            let b = self.baked.as_ref().expect("hemi implies baked");
             let draws: Vec<&gibake_gpu::mesh::Draw> = if naive {
                 self.scene_gpu
                     .static_draws
@@ -624,17 +639,11 @@ impl Renderer {
                 })
                 .collect();
             // masks[v][k]: faces of VPL v's map that draw k can touch.
-            let frames: Vec<(Vec3, Vec3)> = b
-                .vpls
-                .iter()
-                .map(|v| {
-                    let n = Vec3::from_array(v.normal);
-                    (
-                        hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area),
-                        n,
-                    )
-                })
-                .collect();
+            let frames = self
+                .hemi
+                .as_ref()
+                .map(|h| h.frames.clone())
+                .unwrap_or_default();
             let masks: Vec<Vec<u32>> = frames
                 .iter()
                 .map(|(o, n)| boxes.iter().map(|bx| face_mask(bx, *o, *n)).collect())
@@ -643,18 +652,21 @@ impl Renderer {
             let chosen: Vec<u32> = (0..b.vpls.len() as u32)
                 .filter(|&v| naive || masks[v as usize].iter().any(|&m| m != 0))
                 .collect();
-            if chosen.len() as u32 > self.hemi.as_ref().expect("checked").atlas.capacity {
+            let map_size = b.map_size;
+            if chosen.len() as u32 > capacity {
                 let cap = (chosen.len() as u32)
                     .next_power_of_two()
                     .min(b.vpls.len() as u32);
-                let h = self.hemi.as_mut().expect("checked");
-                h.atlas = HemiAtlas::new(device, b.map_size, cap);
-                self.params.atlas_cols = h.atlas.cols;
+                if let Some(h) = self.hemi.as_mut() {
+                    h.atlas = HemiAtlas::new(device, map_size, cap);
+                    self.params.atlas_cols = h.atlas.cols;
+                }
                 queue.write_buffer(&self.shade.uniform_buf, 0, bytemuck::bytes_of(&self.params));
                 self.gi_group = Some(self.make_gi_group(device));
             }
-            let b = self.baked.as_ref().expect("hemi implies baked");
-            let h = self.hemi.as_mut().expect("checked");
+            let (Some(b), Some(h)) = (&self.baked, self.hemi.as_mut()) else {
+                unreachable!("checked above")
+            };
             h.jobs.clear();
             h.tiles.iter_mut().for_each(|t| *t = u32::MAX);
             for (slot, &v) in chosen.iter().enumerate() {
@@ -669,7 +681,6 @@ impl Renderer {
             }
             // Moving meshes use the level of detail matched to their size in
             // each map; instances are grouped per (draw, level).
-            let map_size = b.map_size;
             let mut instances: Vec<[u32; 4]> = Vec::new();
             let mut ranges = Vec::with_capacity(draws.len());
             for (k, d) in draws.iter().enumerate() {
