@@ -232,7 +232,63 @@ pub struct InspectArgs {
 
 /// `gibake bench`.
 #[derive(Args, Debug)]
-pub struct BenchArgs {}
+pub struct BenchArgs {
+    /// Which benchmark: `bake` (bake time per stage), `runtime` (per-frame
+    /// update of full against naive, the paper's Table 1, asset load),
+    /// `quality` (error against run time for every mode), or `all`.
+    #[arg(value_enum, default_value_t = BenchWhich::All)]
+    pub which: BenchWhich,
+    /// Directory for the Markdown report, the JSON and the SVG plots.
+    #[arg(long, default_value = "bench-out", value_name = "DIR")]
+    pub out: PathBuf,
+    /// Frames measured per runtime configuration, after one warm-up frame
+    /// (naive: at most 3; Table 1: at most 2; --quick: at most 2).
+    #[arg(long, default_value_t = 8, value_name = "N")]
+    pub frames: u32,
+    /// A fast smoke run: fewer runs, frames, qualities and samples (seconds, not minutes).
+    #[arg(long)]
+    pub quick: bool,
+    /// Scene of the bake benchmark (default: the bundled corner_bunny, embedded).
+    #[arg(long, value_name = "SCENE")]
+    pub scene: Option<PathBuf>,
+    /// Scenes of the quality benchmark (comma-separated).
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [BenchScene::CornerBunny, BenchScene::Occluded, BenchScene::Sun])]
+    pub scenes: Vec<BenchScene>,
+    /// Samples per pixel of the quality benchmark's reference (default 1024; 256 with --quick).
+    #[arg(long, value_name = "N")]
+    pub ref_spp: Option<u32>,
+    /// Static-detail multiplier of the runtime benchmark's heavy corner_bunny variant.
+    #[arg(long, default_value_t = 20, value_name = "N")]
+    pub heavy: u32,
+    /// GPU adapter to use (substring of its name).
+    #[arg(long)]
+    pub adapter: Option<String>,
+}
+
+/// The sub-benchmarks of `gibake bench`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BenchWhich {
+    /// Bake time per stage (250 and 664 VPLs, median of 3).
+    Bake,
+    /// Per-frame update, full against naive; Table 1; asset load.
+    Runtime,
+    /// Error against run time for every mode and several qualities.
+    Quality,
+    /// All three.
+    All,
+}
+
+/// The bundled scenes the quality benchmark can use.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BenchScene {
+    /// The paper's corner with the bunny and 13 balls (spot light).
+    #[value(name = "corner_bunny")]
+    CornerBunny,
+    /// Coloured panels hidden behind a wall (the paper's Fig. 10).
+    Occluded,
+    /// A directional light over blocks.
+    Sun,
+}
 
 /// `gibake demo`.
 #[derive(Args, Debug)]

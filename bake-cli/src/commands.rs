@@ -26,13 +26,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Bake(a) => bake(a),
         Command::Diff(a) => diff(a),
         Command::Inspect(a) => inspect(a),
-        Command::Bench(_) => not_built("bench", "issues 3 and 4"),
+        Command::Bench(a) => crate::bench::bench(a),
     }
-}
-
-fn not_built(cmd: &str, issue: &str) -> anyhow::Result<ExitCode> {
-    eprintln!("gibake {cmd}: not built yet ({issue}).");
-    Ok(ExitCode::from(2))
 }
 
 fn load_scene(a: &SceneArgs) -> anyhow::Result<Scene> {

@@ -3,6 +3,7 @@
 //! `gibake-reference`, ...). Exit codes: 0 success, 1 `diff` found a
 //! difference, 2 bad input or usage (every error message names the file).
 
+mod bench;
 mod cli;
 mod commands;
 mod demo;
