@@ -43,7 +43,8 @@ pub enum Command {
     Diff(DiffArgs),
     /// Describe a baked asset: counts, sizes, settings, provenance, VPL flux.
     Inspect(InspectArgs),
-    /// Measure error against run time for every mode and quality (not built yet).
+    /// Measure: bake time per stage, per-frame update of full vs naive,
+    /// Table 1, and error against run time for every mode and quality.
     Bench(BenchArgs),
     /// The embedded default: bake the bundled paper scene (corner + bunny +
     /// 13 moving balls), render a short animation, print per-pass times and
