@@ -555,10 +555,10 @@ fn render_flag_rejected(extra: &[&str], needles: &[&str]) {
 
 #[test]
 fn render_width_zero() {
-    // The message names the size and says it is out of range.
+    // The message names the flag and says it is out of range.
     render_flag_rejected(
         &["--mode", "direct", "--width", "0", "--height", "16"],
-        &["0×16", "out of range"],
+        &["--width 0", "out of range"],
     );
 }
 
@@ -566,7 +566,7 @@ fn render_width_zero() {
 fn render_height_zero() {
     render_flag_rejected(
         &["--mode", "direct", "--width", "16", "--height", "0"],
-        &["16×0", "out of range"],
+        &["--height 0", "out of range"],
     );
 }
 
