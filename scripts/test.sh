@@ -9,4 +9,17 @@ bash scripts/ensure-deps.sh --node
 echo "== glTF validator on data/*.glb"
 (cd data/validate && npm ci --silent --no-audit --no-fund && node validate.mjs ../*.glb)
 echo "== cargo test"
-cargo test --workspace --release 2>&1
+log=$(mktemp)
+set +e
+cargo test --workspace --release --no-fail-fast 2>&1 | tee "$log"
+status=${PIPESTATUS[0]}
+set -e
+# One closing line over every test binary (cargo's last line is often a
+# doc-test run with nothing in it).
+totals=$(awk '/^test result:/ { for (i = 1; i < NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } } END { printf "%d %d", p, f }' "$log")
+passed=${totals% *}
+failed=${totals#* }
+rm -f "$log"
+echo
+echo "tests: ${passed:-0} passed, ${failed:-0} failed"
+exit "$status"
