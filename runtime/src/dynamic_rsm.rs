@@ -2,7 +2,10 @@
 //! (`dynamic_rsm.wgsl`), and the partial-occlusion pass that reads it
 //! (`occlusion.wgsl`). Only built when the scene has moving objects.
 
-use gibake_gpu::mesh::{GpuVertex, MESH_WGSL, SceneGpu};
+use gibake_gpu::mesh::{MESH_WGSL, SceneGpu};
+use gibake_gpu::util::{
+    cleared_attachments, cleared_depth, mesh_pipeline, storage_entry, texture_2d, uniform_entry,
+};
 use gibake_gpu::{LightView, shaders};
 use wgpu::util::DeviceExt;
 
@@ -33,30 +36,10 @@ impl DynamicRsmPass {
     pub fn new(device: &wgpu::Device, scene_gpu: &SceneGpu, view: &LightView) -> DynamicRsmPass {
         let src = format!("{MESH_WGSL}\n{}", include_str!("dynamic_rsm.wgsl"));
         let module = shaders::module(device, "dynamic_rsm.wgsl", &src);
+        let stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("dynamic rsm"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Storage { read_only: true },
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-            ],
+            entries: &[storage_entry(0, stages, true), uniform_entry(1, stages)],
         });
         let view_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("rsm light view"),
@@ -77,76 +60,35 @@ impl DynamicRsmPass {
                 },
             ],
         });
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("dynamic rsm"),
-            bind_group_layouts: &[Some(&layout), Some(&scene_gpu.material_layout)],
-            immediate_size: 0,
-        });
         let targets: Vec<Option<wgpu::ColorTargetState>> =
             DYN_RSM_FORMATS.iter().map(|f| Some((*f).into())).collect();
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("dynamic rsm"),
-            layout: Some(&pl),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(GpuVertex::LAYOUT)],
-            },
-            primitive: wgpu::PrimitiveState {
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: wgpu::TextureFormat::Depth32Float,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Greater),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let pipeline = mesh_pipeline(
+            device,
+            "dynamic rsm",
+            &module,
+            &[&layout, &scene_gpu.material_layout],
+            &targets,
+            wgpu::CompareFunction::Greater,
+        );
         let size = view.size;
-        let extent = wgpu::Extent3d {
-            width: size,
-            height: size,
-            depth_or_array_layers: 1,
-        };
-        let make = |format, usage, label| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: extent,
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
             | wgpu::TextureUsages::COPY_SRC;
         let textures: Vec<_> = DYN_RSM_FORMATS
             .iter()
-            .map(|f| make(*f, usage, "dynamic rsm"))
+            .map(|f| texture_2d(device, "dynamic rsm", size, size, *f, usage))
             .collect();
         let views = textures
             .iter()
             .map(|t| t.create_view(&Default::default()))
             .collect();
-        let depth = make(
+        let depth = texture_2d(
+            device,
+            "dynamic rsm depth",
+            size,
+            size,
             wgpu::TextureFormat::Depth32Float,
             wgpu::TextureUsages::RENDER_ATTACHMENT,
-            "dynamic rsm depth",
         );
         DynamicRsmPass {
             pipeline,
@@ -176,33 +118,10 @@ impl DynamicRsmPass {
             wgpu::Color::TRANSPARENT,
             wgpu::Color::TRANSPARENT,
         ];
-        let attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = self
-            .views
-            .iter()
-            .zip(clears)
-            .map(|(v, c)| {
-                Some(wgpu::RenderPassColorAttachment {
-                    view: v,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(c),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })
-            })
-            .collect();
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("dynamic rsm"),
-            color_attachments: &attachments,
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &self.depth_view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(0.0),
-                    store: wgpu::StoreOp::Discard,
-                }),
-                stencil_ops: None,
-            }),
+            color_attachments: &cleared_attachments(self.views.iter().zip(clears)),
+            depth_stencil_attachment: Some(cleared_depth(&self.depth_view, 0.0)),
             timestamp_writes: ts,
             occlusion_query_set: None,
             multiview_mask: None,

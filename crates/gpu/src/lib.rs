@@ -16,6 +16,7 @@ pub mod mesh;
 pub mod passes;
 pub mod readback;
 pub mod shaders;
+pub mod util;
 
 pub use context::{AdapterRecord, GpuContext, GpuError, GpuOptions};
 pub use light_view::{

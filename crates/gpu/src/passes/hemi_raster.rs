@@ -13,6 +13,7 @@ use gibake_scene::Aabb;
 use glam::Vec3;
 
 use crate::mesh::{MESH_WGSL, SceneGpu};
+use crate::util::texture_2d;
 use crate::{hemisphere, shaders};
 
 /// Which of the four octahedron faces (bit `sx + 2·sy`, `s = 1` for +)
@@ -94,35 +95,26 @@ impl HemiAtlas {
         let max = device.limits().max_texture_dimension_2d;
         let cols = ((capacity as f64).sqrt().ceil() as u32).clamp(1, (max / tile_size).max(1));
         let rows = capacity.div_ceil(cols);
-        let size = wgpu::Extent3d {
-            width: cols * tile_size,
-            height: rows * tile_size,
-            depth_or_array_layers: 1,
-        };
-        let make = |format, usage, label| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size,
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
-        let texture = make(
-            wgpu::TextureFormat::R32Float,
-            wgpu::TextureUsages::RENDER_ATTACHMENT
-                | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_DST
-                | wgpu::TextureUsages::COPY_SRC,
+        let (w, h) = (cols * tile_size, rows * tile_size);
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_DST
+            | wgpu::TextureUsages::COPY_SRC;
+        let texture = texture_2d(
+            device,
             "hemisphere atlas",
+            w,
+            h,
+            wgpu::TextureFormat::R32Float,
+            usage,
         );
-        let depth = make(
+        let depth = texture_2d(
+            device,
+            "hemisphere depth",
+            w,
+            h,
             wgpu::TextureFormat::Depth32Float,
             wgpu::TextureUsages::RENDER_ATTACHMENT,
-            "hemisphere depth",
         );
         HemiAtlas {
             view: texture.create_view(&Default::default()),
@@ -158,16 +150,7 @@ pub struct HemiRasterPass {
 }
 
 fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: true },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
+    crate::util::storage_entry(binding, wgpu::ShaderStages::VERTEX_FRAGMENT, true)
 }
 
 impl HemiRasterPass {
@@ -189,26 +172,12 @@ impl HemiRasterPass {
                 storage_entry(1),
                 storage_entry(2),
                 storage_entry(3),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 4,
-                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 5,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2Array,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
+                crate::util::uniform_entry(4, wgpu::ShaderStages::VERTEX_FRAGMENT),
+                crate::util::texture_entry(
+                    5,
+                    wgpu::ShaderStages::FRAGMENT,
+                    wgpu::TextureViewDimension::D2Array,
+                ),
                 storage_entry(6),
             ],
         });

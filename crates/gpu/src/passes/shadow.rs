@@ -1,12 +1,16 @@
-//! Primary-light shadow map (the bake's static map and the runtime's merged
-//! one): every mesh drawn from the light's view
-//! ([`gibake_gpu::LightView`]), storing the projection's metric in an
-//! `R32Float` texture (the depth buffer only orders fragments). Surfaces are
+//! Primary-light shadow map (the bake's static map and the runtime's map of
+//! moving objects): meshes drawn from the light's view
+//! ([`crate::LightView`]), storing the projection's metric in an `R32Float`
+//! texture (the depth buffer only orders fragments). Surfaces are
 //! two-sided, so nothing is culled.
 
-use crate::mesh::{Draw, GpuVertex, MESH_WGSL, SceneGpu};
-use crate::{LightView, shaders};
 use wgpu::util::DeviceExt;
+
+use crate::mesh::{Draw, MESH_WGSL, SceneGpu};
+use crate::util::{
+    cleared_attachments, cleared_depth, mesh_pipeline, storage_entry, texture_2d, uniform_entry,
+};
+use crate::{LightView, shaders};
 
 /// Format of metric maps.
 pub const METRIC_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
@@ -33,30 +37,10 @@ impl ShadowPass {
     pub fn new(device: &wgpu::Device, scene_gpu: &SceneGpu, view: LightView) -> ShadowPass {
         let src = format!("{MESH_WGSL}\n{}", include_str!("shadow.wgsl"));
         let module = shaders::module(device, "shadow.wgsl", &src);
+        let stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shadow"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::VERTEX,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Storage { read_only: true },
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-            ],
+            entries: &[storage_entry(0, stages, true), uniform_entry(1, stages)],
         });
         let uniform_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("light view"),
@@ -77,68 +61,33 @@ impl ShadowPass {
                 },
             ],
         });
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("shadow"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("shadow"),
-            layout: Some(&pl),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(GpuVertex::LAYOUT)],
-            },
-            primitive: wgpu::PrimitiveState {
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Greater),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[Some(METRIC_FORMAT.into())],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
-        let size = wgpu::Extent3d {
-            width: view.size,
-            height: view.size,
-            depth_or_array_layers: 1,
-        };
-        let metric = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("shadow metric"),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: METRIC_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
-        let depth = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("shadow depth"),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: DEPTH_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-            view_formats: &[],
-        });
+        let pipeline = mesh_pipeline(
+            device,
+            "shadow",
+            &module,
+            &[&layout],
+            &[Some(METRIC_FORMAT.into())],
+            wgpu::CompareFunction::Greater,
+        );
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC;
+        let metric = texture_2d(
+            device,
+            "shadow metric",
+            view.size,
+            view.size,
+            METRIC_FORMAT,
+            usage,
+        );
+        let depth = texture_2d(
+            device,
+            "shadow depth",
+            view.size,
+            view.size,
+            DEPTH_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        );
         ShadowPass {
             pipeline,
             bind_group,
@@ -158,30 +107,16 @@ impl ShadowPass {
         draws: &[&[Draw]],
         ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
+        let far = wgpu::Color {
+            r: f32::MAX as f64,
+            g: 0.0,
+            b: 0.0,
+            a: 0.0,
+        };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("shadow"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &self.metric_view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color {
-                        r: f32::MAX as f64,
-                        g: 0.0,
-                        b: 0.0,
-                        a: 0.0,
-                    }),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &self.depth_view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(0.0),
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: None,
-            }),
+            color_attachments: &cleared_attachments([(&self.metric_view, far)]),
+            depth_stencil_attachment: Some(cleared_depth(&self.depth_view, 0.0)),
             timestamp_writes: ts,
             occlusion_query_set: None,
             multiview_mask: None,
