@@ -13,25 +13,9 @@ struct Camera {
 @group(1) @binding(0) var albedo_tex: texture_2d<f32>;
 @group(1) @binding(1) var albedo_smp: sampler;
 
-struct VsOut {
-    @builtin(position) clip: vec4<f32>,
-    @location(0) world: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-    @location(3) @interpolate(flat) draw: u32,
-}
-
 @vertex
-fn vs_main(v: VertexIn) -> VsOut {
-    let d = draws[v.draw];
-    let world = (d.model * vec4<f32>(v.position, 1.0)).xyz;
-    var o: VsOut;
-    o.clip = camera.view_proj * vec4<f32>(world, 1.0);
-    o.world = world;
-    o.normal = (d.normal_matrix * vec4<f32>(v.normal, 0.0)).xyz;
-    o.uv = v.uv;
-    o.draw = v.draw;
-    return o;
+fn vs_main(v: VertexIn) -> MeshVarying {
+    return mesh_vertex(v, draws[v.draw], camera.view_proj);
 }
 
 struct FsOut {
@@ -41,14 +25,9 @@ struct FsOut {
 }
 
 @fragment
-fn fs_main(i: VsOut, @builtin(front_facing) front: bool) -> FsOut {
+fn fs_main(i: MeshVarying, @builtin(front_facing) front: bool) -> FsOut {
     let d = draws[i.draw];
-    var albedo = d.albedo.rgb;
-    // Sample unconditionally (uniform control flow), use only if textured.
-    let t = textureSample(albedo_tex, albedo_smp, i.uv).rgb;
-    if (d.albedo.w > 0.5) {
-        albedo = albedo * t;
-    }
+    let albedo = draw_albedo(d, textureSample(albedo_tex, albedo_smp, i.uv).rgb);
     var to_eye = camera.position.xyz - i.world;
     if (camera.position.w > 0.5) {
         to_eye = -camera.forward.xyz;

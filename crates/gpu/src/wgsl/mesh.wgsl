@@ -14,3 +14,32 @@ struct DrawData {
     albedo: vec4<f32>,   // rgb baseColorFactor, w = 1 if textured
     extra: vec4<u32>,    // x base vertex, y first index, z triangle count
 }
+
+// Varyings of passes that shade scene meshes (G-buffer, dynamic RSM).
+struct MeshVarying {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(3) @interpolate(flat) draw: u32,
+}
+
+fn mesh_vertex(v: VertexIn, d: DrawData, view_proj: mat4x4<f32>) -> MeshVarying {
+    let world = (d.model * vec4<f32>(v.position, 1.0)).xyz;
+    var o: MeshVarying;
+    o.clip = view_proj * vec4<f32>(world, 1.0);
+    o.world = world;
+    o.normal = (d.normal_matrix * vec4<f32>(v.normal, 0.0)).xyz;
+    o.uv = v.uv;
+    o.draw = v.draw;
+    return o;
+}
+
+// baseColorFactor × baseColorTexture (the texel is sampled by the caller, in
+// uniform control flow; it is used only if the draw is textured).
+fn draw_albedo(d: DrawData, texel: vec3<f32>) -> vec3<f32> {
+    if (d.albedo.w > 0.5) {
+        return d.albedo.rgb * texel;
+    }
+    return d.albedo.rgb;
+}
