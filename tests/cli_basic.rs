@@ -632,3 +632,42 @@ fn bake_with_threshold() {
     let r = gibake!("inspect", &asset);
     assert_ok(&r);
 }
+
+/// Every mode renders through `--bake`; the asset is refused with exit 2
+/// for another scene, and a missing `--bake` is a clear usage error.
+#[test]
+fn render_every_mode_with_a_bake_and_refuse_a_foreign_asset() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::data("corner_bunny.glb");
+    let (asset, _) = bake(&scene, dir.path(), "cb.gibake", 64, &[]);
+    for mode in ["full", "indirect", "rsm", "naive", "direct"] {
+        let out = dir.path().join(format!("{mode}.exr"));
+        let stats = dir.path().join(format!("{mode}.json"));
+        let r = gibake!(
+            "render", &scene, "--bake", &asset, "--mode", mode, "--width", "24", "--height", "24",
+            "--ssaa", "1", "-o", &out, "--stats", &stats
+        );
+        assert_ok(&r);
+        assert_sane(&read_exr(&out), mode);
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+        assert_eq!(json["mode"], mode);
+    }
+    let other = common::data("occluded.glb");
+    let out = dir.path().join("foreign.exr");
+    let r = gibake!(
+        "render", &other, "--bake", &asset, "--mode", "full", "--width", "16", "--height", "16",
+        "-o", &out
+    );
+    assert_eq!(r.code, Some(2), "{r}");
+    assert!(
+        r.stderr.contains("cb.gibake") && r.stderr.contains("occluded.glb"),
+        "{r}"
+    );
+    assert!(!out.exists());
+    let r = gibake!(
+        "render", &scene, "--mode", "full", "--width", "16", "--height", "16", "-o", &out
+    );
+    assert_eq!(r.code, Some(2), "{r}");
+    assert!(r.stderr.contains("gibake bake"), "{r}");
+}

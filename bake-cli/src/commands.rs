@@ -140,6 +140,10 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         ),
     };
     let scene = load_scene(&a.scene)?;
+    if let (Some(dir), Some(asset)) = (&a.bake, &asset) {
+        let hash = gibake_scene::static_scene_hash(&scene);
+        gibake_asset::check_scene_hash_for(dir, &asset.manifest, &hash, &a.scene.scene)?;
+    }
     let ctx = GpuContext::new(&GpuOptions {
         adapter: a.adapter.clone(),
     })?;
