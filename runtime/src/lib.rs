@@ -35,7 +35,7 @@ use std::time::Instant;
 
 use gibake_asset::Asset;
 use gibake_gpu::mesh::SceneGpu;
-use gibake_gpu::passes::hemi_raster::{GpuHemiJob, HemiAtlas, HemiRasterPass, NO_LAYER, face_mask};
+use gibake_gpu::passes::hemi_raster::{GpuHemiJob, HemiAtlas, HemiRasterPass, face_mask};
 use gibake_gpu::passes::shadow::ShadowPass;
 use gibake_gpu::{GpuContext, GpuError, GpuPrimaryLight, LightView, hemisphere};
 use gibake_image::Image;
@@ -322,8 +322,7 @@ impl Renderer {
                 let capacity = if mode == Mode::Naive { n } else { n.min(64) };
                 let atlas = HemiAtlas::new(device, b.map_size, capacity);
                 let diag = scene.full_bounds().diagonal().max(f32::MIN_POSITIVE);
-                let pass =
-                    HemiRasterPass::new(device, &scene_gpu, &b.static_maps, 1.0 / (4.0 * diag));
+                let pass = HemiRasterPass::new(device, &scene_gpu, 1.0 / (4.0 * diag));
                 let tile_buf = device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("VPL tiles"),
                     size: 4 * n.max(1) as u64,
@@ -664,7 +663,7 @@ impl Renderer {
                 queue.write_buffer(&self.shade.uniform_buf, 0, bytemuck::bytes_of(&self.params));
                 self.gi_group = Some(self.make_gi_group(device));
             }
-            let (Some(b), Some(h)) = (&self.baked, self.hemi.as_mut()) else {
+            let Some(h) = self.hemi.as_mut() else {
                 unreachable!("checked above")
             };
             h.jobs.clear();
@@ -675,7 +674,7 @@ impl Renderer {
                 h.jobs.push(GpuHemiJob {
                     origin: o.extend(0.0).to_array(),
                     normal: n.extend(0.0).to_array(),
-                    tile: [t[0], t[1], NO_LAYER, 0],
+                    tile: [t[0], t[1], 0, 0],
                 });
                 h.tiles[v as usize] = slot as u32;
             }
@@ -720,7 +719,6 @@ impl Renderer {
                 device,
                 queue,
                 &self.scene_gpu,
-                &b.static_maps,
                 &h.atlas,
                 &h.jobs,
                 &instances,

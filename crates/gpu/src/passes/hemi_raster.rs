@@ -49,9 +49,6 @@ pub fn face_mask(b: &Aabb, origin: Vec3, normal: Vec3) -> u32 {
     mask
 }
 
-/// Marks a job with no static layer to z-min against.
-pub const NO_LAYER: u32 = u32::MAX;
-
 /// One VPL to draw into. Must match `Job` in `hemi_raster.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
@@ -60,7 +57,7 @@ pub struct GpuHemiJob {
     pub origin: [f32; 4],
     /// xyz VPL normal.
     pub normal: [f32; 4],
-    /// xy tile offset in texels, z static layer or [`NO_LAYER`].
+    /// xy tile offset in texels (zw unused).
     pub tile: [u32; 4],
 }
 
@@ -154,15 +151,11 @@ fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
 }
 
 impl HemiRasterPass {
-    /// Creates the pass. `static_maps` is the baked map array (z-min
-    /// source); `depth_scale` = 1 / the largest distance to order (e.g. the
-    /// inverse of twice the scene diagonal).
-    pub fn new(
-        device: &wgpu::Device,
-        scene_gpu: &SceneGpu,
-        static_maps: &wgpu::TextureView,
-        depth_scale: f32,
-    ) -> HemiRasterPass {
+    /// Creates the pass. `depth_scale` = 1 / the largest distance to order
+    /// (e.g. the inverse of four times the scene diagonal). Tiles hold the
+    /// drawn geometry only; the runtime takes the minimum with the baked
+    /// maps where it reads them.
+    pub fn new(device: &wgpu::Device, scene_gpu: &SceneGpu, depth_scale: f32) -> HemiRasterPass {
         let src = format!("{MESH_WGSL}\n{}", include_str!("hemi_raster.wgsl"));
         let module = shaders::module(device, "hemi_raster.wgsl", &src);
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -173,12 +166,7 @@ impl HemiRasterPass {
                 storage_entry(2),
                 storage_entry(3),
                 crate::util::uniform_entry(4, wgpu::ShaderStages::VERTEX_FRAGMENT),
-                crate::util::texture_entry(
-                    5,
-                    wgpu::ShaderStages::FRAGMENT,
-                    wgpu::TextureViewDimension::D2Array,
-                ),
-                storage_entry(6),
+                storage_entry(5),
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -232,7 +220,6 @@ impl HemiRasterPass {
             scene_gpu,
             &jobs_buf,
             &params_buf,
-            static_maps,
             &inst_buf,
         );
         HemiRasterPass {
@@ -264,7 +251,6 @@ impl HemiRasterPass {
         scene_gpu: &SceneGpu,
         jobs: &wgpu::Buffer,
         params: &wgpu::Buffer,
-        static_maps: &wgpu::TextureView,
         instances: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
         device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -293,10 +279,6 @@ impl HemiRasterPass {
                 },
                 wgpu::BindGroupEntry {
                     binding: 5,
-                    resource: wgpu::BindingResource::TextureView(static_maps),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 6,
                     resource: instances.as_entire_binding(),
                 },
             ],
@@ -311,7 +293,6 @@ impl HemiRasterPass {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         scene_gpu: &SceneGpu,
-        static_maps: &wgpu::TextureView,
         atlas: &HemiAtlas,
         jobs: &[GpuHemiJob],
         instances: &[[u32; 4]],
@@ -334,7 +315,6 @@ impl HemiRasterPass {
                 scene_gpu,
                 &self.jobs_buf,
                 &self.params_buf,
-                static_maps,
                 &self.inst_buf,
             );
         }

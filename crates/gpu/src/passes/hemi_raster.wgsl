@@ -19,7 +19,7 @@
 struct Job {
     origin: vec4<f32>,     // xyz VPL map origin
     normal: vec4<f32>,     // xyz VPL normal
-    tile: vec4<u32>,       // xy tile offset in texels, z static layer (0xffffffff: none)
+    tile: vec4<u32>,       // xy tile offset in texels
 }
 
 struct RasterParams {
@@ -37,10 +37,7 @@ struct RasterParams {
 @group(0) @binding(2) var<storage, read> indices: array<u32>;
 @group(0) @binding(3) var<storage, read> jobs: array<Job>;
 @group(0) @binding(4) var<uniform> params: RasterParams;
-@group(0) @binding(5) var static_maps: texture_2d_array<f32>;
-@group(0) @binding(6) var<storage, read> instances: array<vec4<u32>>;   // draw, job, face
-
-const NO_LAYER: u32 = 0xffffffffu;
+@group(0) @binding(5) var<storage, read> instances: array<vec4<u32>>;   // draw, job, face
 
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
@@ -116,15 +113,6 @@ fn fs_main(i: VsOut) -> FsOut {
         discard;
     }
     let dist = length(i.local);
-    let job = jobs[i.job_face / 4u];
-    if (job.tile.z != NO_LAYER) {
-        // z-min against the static map: a static surface nearer wins.
-        let texel = vec2<i32>(floor(i.clip.xy)) - vec2<i32>(job.tile.xy);
-        let s = textureLoad(static_maps, texel, i32(job.tile.z), 0).r;
-        if (dist >= s) {
-            discard;
-        }
-    }
     var o: FsOut;
     o.dist = vec4<f32>(dist, 0.0, 0.0, 0.0);
     o.depth = clamp(dist * params.depth_scale, 0.0, 1.0);
