@@ -27,8 +27,10 @@ pub struct BakedGpu {
     pub vpls: Vec<VplRecord>,
     /// VPL records (`VplRecord` layout, storage).
     pub vpl_buf: wgpu::Buffer,
-    /// Baked hemisphere maps (array; one dummy layer when none is stored).
+    /// Baked hemisphere maps, one 2D atlas (one +inf tile when none is stored).
     pub static_maps: wgpu::TextureView,
+    /// Tiles per row of [`BakedGpu::static_maps`].
+    pub static_cols: u32,
     /// Hemisphere map size.
     pub map_size: u32,
     /// Static primary shadow map.
@@ -60,8 +62,8 @@ fn r32_texture(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     label: &str,
-    size: u32,
-    layers: u32,
+    width: u32,
+    height: u32,
     data: &[f32],
 ) -> wgpu::Texture {
     device.create_texture_with_data(
@@ -69,9 +71,9 @@ fn r32_texture(
         &wgpu::TextureDescriptor {
             label: Some(label),
             size: wgpu::Extent3d {
-                width: size,
-                height: size,
-                depth_or_array_layers: layers,
+                width,
+                height,
+                depth_or_array_layers: 1,
             },
             mip_level_count: 1,
             sample_count: 1,
@@ -93,33 +95,43 @@ impl BakedGpu {
         asset: &Asset,
     ) -> Result<BakedGpu, RuntimeError> {
         let m = &asset.manifest;
-        let limits = device.limits();
-        let map_count = m.map_count.max(1);
-        if map_count > limits.max_texture_array_layers {
+        let max = device.limits().max_texture_dimension_2d;
+        // The baked maps as one 2D atlas (tile k at column k % cols, row
+        // k / cols), which holds far more maps than texture-array layers.
+        let s = m.settings.vpl_map_size;
+        let n = m.map_count.max(1);
+        let cols = ((n as f64).sqrt().ceil() as u32).clamp(1, (max / s.max(1)).max(1));
+        let rows = n.div_ceil(cols);
+        if rows * s > max {
             return Err(RuntimeError::InvalidSetting(format!(
-                "the asset stores {} VPL maps; this device allows {} texture array layers (bake fewer VPLs)",
-                m.map_count, limits.max_texture_array_layers
+                "the asset stores {} VPL maps of {s}²; this device's largest texture ({max}²) holds {} \
+                 (bake fewer VPLs or smaller maps)",
+                m.map_count,
+                (max / s) * (max / s)
             )));
         }
-        let s = m.settings.vpl_map_size;
-        let inf = vec![f32::INFINITY; (s * s) as usize];
-        let map_data: &[f32] = if m.map_count == 0 {
-            &inf
-        } else {
-            &asset.vpl_maps
-        };
-        let maps = r32_texture(device, queue, "baked VPL maps", s, map_count, map_data);
-        let static_maps = maps.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
+        let (w, h) = ((cols * s) as usize, (rows * s) as usize);
+        let mut atlas = vec![f32::INFINITY; w * h];
+        let tile = (s * s) as usize;
+        for (k, map) in asset.vpl_maps.chunks_exact(tile.max(1)).enumerate() {
+            let (x0, y0) = (
+                (k as u32 % cols * s) as usize,
+                (k as u32 / cols * s) as usize,
+            );
+            for (y, row) in map.chunks_exact(s as usize).enumerate() {
+                let o = (y0 + y) * w + x0;
+                atlas[o..o + s as usize].copy_from_slice(row);
+            }
+        }
+        let static_maps = r32_texture(device, queue, "baked VPL maps", w as u32, h as u32, &atlas)
+            .create_view(&Default::default());
         let pd = &asset.primary_depth;
         let primary = r32_texture(
             device,
             queue,
             "baked primary shadow map",
             pd.size,
-            1,
+            pd.size,
             &pd.data,
         )
         .create_view(&Default::default());
@@ -139,11 +151,12 @@ impl BakedGpu {
             },
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let mut bytes = (map_data.len() * 4 + pd.data.len() * 4 + vpls.len() * 48) as u64;
+        let mut bytes = (atlas.len() * 4 + pd.data.len() * 4 + vpls.len() * 48) as u64;
         let rsm = match &asset.rsm {
             Some(r) => {
-                let metric = r32_texture(device, queue, "baked RSM metric", r.size, 1, &r.metric)
-                    .create_view(&Default::default());
+                let metric =
+                    r32_texture(device, queue, "baked RSM metric", r.size, r.size, &r.metric)
+                        .create_view(&Default::default());
                 // Each texel's share of its VPL's flux (sum of RGB), fixed point.
                 let mut total = vec![0.0f64; vpls.len()];
                 for (f, &v) in r.flux.iter().zip(&r.vpl) {
@@ -185,6 +198,7 @@ impl BakedGpu {
             vpls,
             vpl_buf,
             static_maps,
+            static_cols: cols,
             map_size: s,
             primary,
             view: light_view(asset, pd.size),

@@ -450,7 +450,7 @@ impl Renderer {
             map_size: baked.as_ref().map(|b| b.map_size).unwrap_or(1),
             atlas_cols: hemi.as_ref().map(|h| h.atlas.cols).unwrap_or(1),
             n_dynamic: dyn_vpls.as_ref().map(|d| d.slots()).unwrap_or(0),
-            pad: 0,
+            static_cols: baked.as_ref().map(|b| b.static_cols).unwrap_or(1),
         };
         queue.write_buffer(&shade.uniform_buf, 0, bytemuck::bytes_of(&params));
         queue.write_buffer(
@@ -499,7 +499,7 @@ impl Renderer {
         let static_maps = match &self.baked {
             Some(b) => &b.static_maps,
             None => {
-                fallback_maps = tiny_texture(device, true);
+                fallback_maps = tiny_texture(device);
                 &fallback_maps
             }
         };
@@ -507,7 +507,7 @@ impl Renderer {
         let atlas = match &self.hemi {
             Some(h) => &h.atlas.view,
             None => {
-                fallback_atlas = tiny_texture(device, false);
+                fallback_atlas = tiny_texture(device);
                 &fallback_atlas
             }
         };
@@ -824,29 +824,17 @@ impl Renderer {
     }
 }
 
-fn tiny_texture(device: &wgpu::Device, array: bool) -> wgpu::TextureView {
-    let t = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("unused"),
-        size: wgpu::Extent3d {
-            width: 1,
-            height: 1,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: wgpu::TextureFormat::R32Float,
-        usage: wgpu::TextureUsages::TEXTURE_BINDING,
-        view_formats: &[],
-    });
-    t.create_view(&wgpu::TextureViewDescriptor {
-        dimension: Some(if array {
-            wgpu::TextureViewDimension::D2Array
-        } else {
-            wgpu::TextureViewDimension::D2
-        }),
-        ..Default::default()
-    })
+/// A 1×1 `R32Float` texture bound where a feature is absent.
+fn tiny_texture(device: &wgpu::Device) -> wgpu::TextureView {
+    gibake_gpu::util::texture_2d(
+        device,
+        "unused",
+        1,
+        1,
+        wgpu::TextureFormat::R32Float,
+        wgpu::TextureUsages::TEXTURE_BINDING,
+    )
+    .create_view(&Default::default())
 }
 
 /// Renders one frame at `time` on `ctx` and reads it back. `ssaa` renders at

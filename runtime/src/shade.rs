@@ -23,8 +23,8 @@ pub struct GpuShadeParams {
     pub atlas_cols: u32,
     /// Number of dynamic VPL slots.
     pub n_dynamic: u32,
-    /// Padding.
-    pub pad: u32,
+    /// Tiles per row of the baked map atlas.
+    pub static_cols: u32,
 }
 
 /// Direct light.
@@ -91,7 +91,7 @@ pub struct GiInputs<'a> {
     pub occlusion: &'a wgpu::Buffer,
     /// Per static VPL atlas tile or `u32::MAX`.
     pub vpl_tile: &'a wgpu::Buffer,
-    /// Baked maps (array).
+    /// Baked maps (2D atlas).
     pub static_maps: &'a wgpu::TextureView,
     /// Atlas of merged/re-rendered maps.
     pub atlas: &'a wgpu::TextureView,
@@ -103,7 +103,7 @@ impl ShadePass {
     /// Creates the pass.
     pub fn new(device: &wgpu::Device) -> ShadePass {
         let module = shaders::module(device, "shade.wgsl", include_str!("shade.wgsl"));
-        use wgpu::TextureViewDimension::{D2, D2Array};
+        use wgpu::TextureViewDimension::D2;
         let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shade frame"),
             entries: &[
@@ -133,7 +133,7 @@ impl ShadePass {
                 storage_entry(0),
                 storage_entry(1),
                 storage_entry(2),
-                tex_entry(3, D2Array),
+                tex_entry(3, D2),
                 tex_entry(4, D2),
                 storage_entry(5),
             ],

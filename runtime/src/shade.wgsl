@@ -17,7 +17,7 @@ struct ShadeParams {
     map_size: u32,
     atlas_cols: u32,
     n_dynamic: u32,
-    _pad: u32,
+    static_cols: u32,   // tiles per row of the baked map atlas
 }
 
 const FLAG_DIRECT: u32 = 1u;
@@ -64,7 +64,7 @@ struct DynVpl {           // must match GpuDynVpl in dynamic_vpl.rs
 @group(1) @binding(0) var<storage, read> vpls: array<Vpl>;
 @group(1) @binding(1) var<storage, read> occlusion: array<u32>;
 @group(1) @binding(2) var<storage, read> vpl_tile: array<u32>;
-@group(1) @binding(3) var static_maps: texture_2d_array<f32>;
+@group(1) @binding(3) var static_maps: texture_2d<f32>;
 @group(1) @binding(4) var atlas: texture_2d<f32>;
 @group(1) @binding(5) var<storage, read> dyn_vpls: array<DynVpl>;
 
@@ -117,11 +117,13 @@ fn direct_radiance(p: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>, albedo: vec3<f32>
 // its moving-object tile; +inf when neither exists).
 fn vpl_map_distance(i: u32, map: u32, tile: u32, c: vec2<i32>) -> f32 {
     var s = 3.0e38;
+    let n = i32(params.map_size);
     if (map != NONE && !has(FLAG_ATLAS_ONLY)) {
-        s = textureLoad(static_maps, c, i32(map), 0).r;
+        let scols = i32(params.static_cols);
+        let origin = vec2<i32>(i32(map) % scols, i32(map) / scols) * n;
+        s = textureLoad(static_maps, origin + c, 0).r;
     }
     if (tile != NONE) {
-        let n = i32(params.map_size);
         let cols = i32(params.atlas_cols);
         let origin = vec2<i32>(i32(tile) % cols, i32(tile) / cols) * n;
         s = min(s, textureLoad(atlas, origin + c, 0).r);
