@@ -175,3 +175,44 @@ fn gpu_vpl_visibility_matches_cpu_ray_casts() {
     eprintln!("GPU vs CPU-visibility indirect: rel MSE {err:.2e}, means {mg} vs {mc}");
     assert!(err < 2e-3, "rel MSE {err}; means {mg} vs {mc}");
 }
+
+/// The whole method is scale-invariant: corner_bunny in millimetres and in
+/// kilometres bakes and renders (full mode) the same image; very bright and
+/// very dim lights give finite images that scale with the light.
+#[test]
+fn full_mode_is_scale_invariant_and_finite_for_extreme_lights() {
+    let ctx = common::gpu();
+    let load_bytes = |bytes: Vec<u8>| {
+        gibake_scene::load_from_slice(
+            &bytes,
+            std::path::Path::new("scaled.glb"),
+            &LoadOptions::default(),
+        )
+        .unwrap()
+    };
+    let base = load_bytes(gibake_scenegen::scaled("corner_bunny", 1.0).unwrap());
+    let asset = bake(&ctx, &base, 128, 64);
+    let reference_img = render(&ctx, &base, &asset, Mode::Full, 64, 0.7, 1);
+    for s in [1e-3f32, 1e3] {
+        let scene = load_bytes(gibake_scenegen::scaled("corner_bunny", s).unwrap());
+        let a = bake(&ctx, &scene, 128, 64);
+        assert_eq!(a.vpls.len(), asset.vpls.len(), "scale {s}: VPL count");
+        let img = render(&ctx, &scene, &a, Mode::Full, 64, 0.7, 1);
+        let e = rel_mse(&img, &reference_img);
+        eprintln!("scale {s}: rel MSE against scale 1 = {e:.2e}");
+        assert!(e < 1e-3, "scale {s}: rel MSE {e}");
+    }
+    for k in [1e-20f32, 1e20] {
+        let mut scene = base.clone();
+        scene.light.color *= k;
+        let a = bake(&ctx, &scene, 128, 64);
+        let img = render(&ctx, &scene, &a, Mode::Full, 64, 0.7, 1);
+        let ratio = img.mean().x / reference_img.mean().x;
+        eprintln!("light × {k:e}: mean ratio {ratio}");
+
+        assert!(
+            (ratio / k - 1.0).abs() < 1e-3,
+            "light × {k}: mean ratio {ratio}"
+        );
+    }
+}

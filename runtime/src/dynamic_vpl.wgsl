@@ -270,7 +270,9 @@ fn cs_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     out.flux = vec4<f32>(0.0);
     let leaf = reached && n.lit > 0u && n.w > 0.0 && (d == params.max_depth || !splits(n, d, total_w));
     if (leaf) {
-        var normal = n.wn;
+        // Divide by the weight first: dot(Σw·n, Σw·n) overflows f32 for
+        // very bright lights (w ~ 1e20), and normalize() would give zero.
+        var normal = n.wn / n.w;
         if (dot(normal, normal) > 0.0) {
             normal = normalize(normal);
         } else {
