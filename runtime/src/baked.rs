@@ -25,7 +25,8 @@ pub struct RsmGpu {
 pub struct BakedGpu {
     /// VPL records (CPU copy, for choosing the affected maps).
     pub vpls: Vec<VplRecord>,
-    /// VPL records (`VplRecord` layout, storage).
+    /// VPL records (`VplRecord` layout, storage), `position` replaced by the
+    /// map origin.
     pub vpl_buf: wgpu::Buffer,
     /// Baked hemisphere maps, one 2D atlas (one +inf tile when none is stored).
     pub static_maps: wgpu::TextureView,
@@ -142,12 +143,26 @@ impl BakedGpu {
                 v.map = NO_MAP;
             }
         }
+        // On the GPU a VPL's position is its map origin (position lifted
+        // along the normal, `hemisphere::vpl_origin`), computed once here
+        // rather than per pixel and VPL in the shader.
+        let gpu_vpls: Vec<VplRecord> = vpls
+            .iter()
+            .map(|v| {
+                let n = Vec3::from_array(v.normal);
+                let o = gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
+                VplRecord {
+                    position: o.to_array(),
+                    ..*v
+                }
+            })
+            .collect();
         let vpl_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("static VPLs"),
-            contents: if vpls.is_empty() {
+            contents: if gpu_vpls.is_empty() {
                 &[0u8; 48]
             } else {
-                bytemuck::cast_slice(&vpls)
+                bytemuck::cast_slice(&gpu_vpls)
             },
             usage: wgpu::BufferUsages::STORAGE,
         });

@@ -37,7 +37,7 @@ const VPL_DEPTH_BIAS: f32 = 1.0;
 const VPL_MAX_SLOPE: f32 = 10.0;
 
 struct Vpl {              // must match gibake_asset::VplRecord (48 bytes)
-    position: vec3<f32>,
+    position: vec3<f32>,  // the VPL's map origin (hemisphere::vpl_origin)
     area: f32,
     normal: vec3<f32>,
     texels: u32,
@@ -205,7 +205,7 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (has(FLAG_STATIC_VPL)) {
             for (var i = 0u; i < params.n_static; i++) {
                 let v = vpls[i];
-                let origin = vpl_origin(v.position, v.normal, v.area);
+                let origin = v.position;   // the map origin, lifted at load (baked.rs)
                 var phi = v.flux;
                 if (has(FLAG_OCCLUSION)) {
                     phi = phi * max(1.0 - f32(occlusion[i]) / OCCL_ONE, 0.0);
