@@ -5,6 +5,8 @@
 
 mod common;
 
+use common::{Run, run_command};
+
 use std::path::{Path, PathBuf};
 
 /// Small settings so every GPU call takes well under a second on lavapipe.
@@ -30,24 +32,6 @@ const TINY_BAKE: [&str; 8] = [
     "--shadow-map-size",
     "256",
 ];
-
-/// The result of one `gibake` run.
-struct Run {
-    code: Option<i32>,
-    stdout: String,
-    stderr: String,
-    cmd: String,
-}
-
-impl std::fmt::Display for Run {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "`{}` exited with {:?}\n--- stdout ---\n{}\n--- stderr ---\n{}",
-            self.cmd, self.code, self.stdout, self.stderr
-        )
-    }
-}
 
 /// Runs `gibake` with the given arguments (anything `AsRef<OsStr>`).
 macro_rules! gibake {
@@ -305,23 +289,6 @@ fn every_command_rejects(scene: &Path, what: &[&str]) {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n\n"));
-}
-
-fn run_command(mut c: std::process::Command) -> Run {
-    let cmd = format!(
-        "gibake {}",
-        c.get_args()
-            .map(|a| a.to_string_lossy().into_owned())
-            .collect::<Vec<_>>()
-            .join(" ")
-    );
-    let o = c.output().expect("cannot start the gibake binary");
-    Run {
-        code: o.status.code(),
-        stdout: String::from_utf8_lossy(&o.stdout).into_owned(),
-        stderr: String::from_utf8_lossy(&o.stderr).into_owned(),
-        cmd,
-    }
 }
 
 /// `gibake render SCENE [tiny settings] -o OUT` with extra arguments.

@@ -30,3 +30,43 @@ pub fn gpu() -> GpuContext {
 pub fn gibake() -> std::process::Command {
     std::process::Command::new(env!("CARGO_BIN_EXE_gibake"))
 }
+
+/// The result of one `gibake` run.
+pub struct Run {
+    /// Exit code (`None` if killed by a signal).
+    pub code: Option<i32>,
+    /// Standard output.
+    pub stdout: String,
+    /// Standard error.
+    pub stderr: String,
+    /// The command line, for messages.
+    pub cmd: String,
+}
+
+impl std::fmt::Display for Run {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "`{}` exited with {:?}\n--- stdout ---\n{}\n--- stderr ---\n{}",
+            self.cmd, self.code, self.stdout, self.stderr
+        )
+    }
+}
+
+/// Runs a `gibake` command and captures its output.
+pub fn run_command(mut c: std::process::Command) -> Run {
+    let cmd = format!(
+        "gibake {}",
+        c.get_args()
+            .map(|a| a.to_string_lossy().into_owned())
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    let o = c.output().expect("cannot start the gibake binary");
+    Run {
+        code: o.status.code(),
+        stdout: String::from_utf8_lossy(&o.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&o.stderr).into_owned(),
+        cmd,
+    }
+}
