@@ -216,3 +216,43 @@ fn full_mode_is_scale_invariant_and_finite_for_extreme_lights() {
         );
     }
 }
+
+/// A game can feed its own G-buffer: shading another renderer's G-buffer
+/// through `use_external_gbuffer` gives the same frame, and the G-buffer
+/// pass is skipped.
+#[test]
+fn an_external_gbuffer_is_shaded_like_the_own_one() {
+    let ctx = common::gpu();
+    let scene = load("corner_bunny.glb");
+    let asset = bake(&ctx, &scene, 64, 32);
+    let s = RenderSettings {
+        width: 48,
+        height: 48,
+        mode: Mode::Full,
+        ..Default::default()
+    };
+    let mut own =
+        gibake_runtime::Renderer::new(&ctx.device, &ctx.queue, &scene, Some(&asset), &s, 0.4)
+            .unwrap();
+    let mut ext =
+        gibake_runtime::Renderer::new(&ctx.device, &ctx.queue, &scene, Some(&asset), &s, 0.4)
+            .unwrap();
+    let views = &own.gbuffer().views;
+    ext.use_external_gbuffer(&ctx.device, [&views[0], &views[1], &views[2]]);
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    own.encode(&ctx.device, &ctx.queue, &mut enc);
+    ext.encode(&ctx.device, &ctx.queue, &mut enc);
+    ctx.queue.submit([enc.finish()]);
+    let stats = ext.stats(&ctx.device);
+    if stats.timing == "gpu timestamps" {
+        assert!(
+            stats.passes.iter().all(|(n, _)| n != "gbuffer"),
+            "{:?}",
+            stats.passes
+        );
+    }
+    let a = gibake_runtime::read_output(&ctx, &own, 1).unwrap();
+    let b = gibake_runtime::read_output(&ctx, &ext, 1).unwrap();
+    assert!(a.mean().x > 0.0);
+    assert_eq!(a, b);
+}
