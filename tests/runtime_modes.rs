@@ -131,9 +131,15 @@ fn visibility_halves_the_indirect_error_on_occluded() {
 /// visibility: the hemisphere maps and their lookup are right.
 #[test]
 fn gpu_vpl_visibility_matches_cpu_ray_casts() {
+    for name in ["occluded.glb", "sun.glb"] {
+        vpl_visibility_check(name);
+    }
+}
+
+fn vpl_visibility_check(name: &str) {
     use glam::Vec3;
     let ctx = common::gpu();
-    let scene = load("occluded.glb");
+    let scene = load(name);
     let asset = bake(&ctx, &scene, 256, 128);
     let time = 0.5;
     let size = 64;
@@ -172,8 +178,8 @@ fn gpu_vpl_visibility_matches_cpu_ray_casts() {
     }
     let err = rel_mse(&gpu, &cpu);
     let (mg, mc) = (gpu.mean(), cpu.mean());
-    eprintln!("GPU vs CPU-visibility indirect: rel MSE {err:.2e}, means {mg} vs {mc}");
-    assert!(err < 2e-3, "rel MSE {err}; means {mg} vs {mc}");
+    eprintln!("{name}: GPU vs CPU-visibility indirect: rel MSE {err:.2e}, means {mg} vs {mc}");
+    assert!(err < 2e-3, "{name}: rel MSE {err}; means {mg} vs {mc}");
 }
 
 /// The whole method is scale-invariant: corner_bunny in millimetres and in
