@@ -4,7 +4,7 @@
 
 use gibake_gpu::mesh::{MESH_WGSL, SceneGpu};
 use gibake_gpu::util::{
-    cleared_attachments, cleared_depth, mesh_pipeline, storage_entry, texture_2d, uniform_entry,
+    cleared_attachments, cleared_depth, draws_and_uniform_group, mesh_pipeline, texture_2d,
 };
 use gibake_gpu::{LightView, shaders};
 use wgpu::util::DeviceExt;
@@ -36,30 +36,13 @@ impl DynamicRsmPass {
     pub fn new(device: &wgpu::Device, scene_gpu: &SceneGpu, view: &LightView) -> DynamicRsmPass {
         let src = format!("{MESH_WGSL}\n{}", include_str!("dynamic_rsm.wgsl"));
         let module = shaders::module(device, "dynamic_rsm.wgsl", &src);
-        let stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("dynamic rsm"),
-            entries: &[storage_entry(0, stages, true), uniform_entry(1, stages)],
-        });
         let view_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("rsm light view"),
             contents: bytemuck::bytes_of(&view.to_gpu()),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("dynamic rsm"),
-            layout: &layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: scene_gpu.draw_data.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: view_buf.as_entire_binding(),
-                },
-            ],
-        });
+        let (layout, bind_group) =
+            draws_and_uniform_group(device, "dynamic rsm", &scene_gpu.draw_data, &view_buf);
         let targets: Vec<Option<wgpu::ColorTargetState>> =
             DYN_RSM_FORMATS.iter().map(|f| Some((*f).into())).collect();
         let pipeline = mesh_pipeline(

@@ -4,7 +4,7 @@
 use gibake_gpu::mesh::{Draw, MESH_WGSL, SceneGpu};
 use gibake_gpu::shaders;
 use gibake_gpu::util::{
-    cleared_attachments, cleared_depth, mesh_pipeline, storage_entry, texture_2d, uniform_entry,
+    cleared_attachments, cleared_depth, draws_and_uniform_group, mesh_pipeline, texture_2d,
 };
 use wgpu::util::DeviceExt;
 
@@ -76,30 +76,13 @@ impl GBufferPass {
     pub fn new(device: &wgpu::Device, scene_gpu: &SceneGpu) -> GBufferPass {
         let src = format!("{MESH_WGSL}\n{}", include_str!("gbuffer.wgsl"));
         let module = shaders::module(device, "gbuffer.wgsl", &src);
-        let stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("gbuffer"),
-            entries: &[storage_entry(0, stages, true), uniform_entry(1, stages)],
-        });
         let uniform_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("camera"),
             contents: bytemuck::bytes_of(&<GpuCamera as bytemuck::Zeroable>::zeroed()),
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("gbuffer"),
-            layout: &layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: scene_gpu.draw_data.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: uniform_buf.as_entire_binding(),
-                },
-            ],
-        });
+        let (layout, bind_group) =
+            draws_and_uniform_group(device, "gbuffer", &scene_gpu.draw_data, &uniform_buf);
         let targets: Vec<Option<wgpu::ColorTargetState>> =
             GBUFFER_FORMATS.iter().map(|f| Some((*f).into())).collect();
         let pipeline = mesh_pipeline(

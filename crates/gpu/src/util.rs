@@ -160,3 +160,33 @@ pub fn cleared_depth(
         stencil_ops: None,
     }
 }
+
+/// Group 0 of a mesh pass: the scene's per-draw data (binding 0, storage)
+/// and the pass's uniform (binding 1), visible to both stages.
+pub fn draws_and_uniform_group(
+    device: &wgpu::Device,
+    label: &str,
+    draw_data: &wgpu::Buffer,
+    uniform: &wgpu::Buffer,
+) -> (wgpu::BindGroupLayout, wgpu::BindGroup) {
+    let stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &[storage_entry(0, stages, true), uniform_entry(1, stages)],
+    });
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout: &layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: draw_data.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: uniform.as_entire_binding(),
+            },
+        ],
+    });
+    (layout, group)
+}

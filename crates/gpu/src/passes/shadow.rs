@@ -8,7 +8,7 @@ use wgpu::util::DeviceExt;
 
 use crate::mesh::{Draw, MESH_WGSL, SceneGpu};
 use crate::util::{
-    cleared_attachments, cleared_depth, mesh_pipeline, storage_entry, texture_2d, uniform_entry,
+    cleared_attachments, cleared_depth, draws_and_uniform_group, mesh_pipeline, texture_2d,
 };
 use crate::{LightView, shaders};
 
@@ -37,30 +37,13 @@ impl ShadowPass {
     pub fn new(device: &wgpu::Device, scene_gpu: &SceneGpu, view: LightView) -> ShadowPass {
         let src = format!("{MESH_WGSL}\n{}", include_str!("shadow.wgsl"));
         let module = shaders::module(device, "shadow.wgsl", &src);
-        let stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("shadow"),
-            entries: &[storage_entry(0, stages, true), uniform_entry(1, stages)],
-        });
         let uniform_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("light view"),
             contents: bytemuck::bytes_of(&view.to_gpu()),
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("shadow"),
-            layout: &layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: scene_gpu.draw_data.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: uniform_buf.as_entire_binding(),
-                },
-            ],
-        });
+        let (layout, bind_group) =
+            draws_and_uniform_group(device, "shadow", &scene_gpu.draw_data, &uniform_buf);
         let pipeline = mesh_pipeline(
             device,
             "shadow",
