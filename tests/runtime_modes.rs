@@ -155,23 +155,24 @@ fn vpl_visibility_check(name: &str) {
             };
             // Dynamic objects receive too, but the check is about static receivers.
             let mut e = Vec3::ZERO;
-            for v in &asset.vpls {
+            for (i, v) in asset.vpls.iter().enumerate() {
                 let n = Vec3::from_array(v.normal);
                 let org =
                     gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
-                let dv = h.position - org;
-                let d2 = dv.length_squared();
-                let dir = dv / d2.sqrt();
-                let (cv, cr) = (n.dot(dir), h.shading_normal.dot(-dir));
-                if cv <= 0.0 || cr <= 0.0 || h.geometric_normal.dot(-dir) <= 0.0 {
+                let nodes = &asset.vpl_nodes
+                    [i * gibake_asset::NODES_PER_VPL..(i + 1) * gibake_asset::NODES_PER_VPL];
+                let ei = gibake_runtime::transport::static_vpl_irradiance(
+                    v,
+                    org,
+                    nodes,
+                    h.position,
+                    h.shading_normal,
+                    h.geometric_normal,
+                );
+                if ei == Vec3::ZERO || !rays.visible(org, n, h.position, h.geometric_normal) {
                     continue;
                 }
-                if !rays.visible(org, n, h.position, h.geometric_normal) {
-                    continue;
-                }
-                let r2 = v.area / std::f32::consts::PI;
-                e += Vec3::from_array(v.flux)
-                    * (cv * cr / std::f32::consts::PI / (d2 * d2 + r2 * r2).sqrt());
+                e += ei;
             }
             cpu.set(x, y, h.albedo / std::f32::consts::PI * e);
         }

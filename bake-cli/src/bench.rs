@@ -22,6 +22,8 @@ use gibake_runtime::{FrameStats, Mode, RenderSettings, Renderer};
 use gibake_scene::{LoadOptions, Scene};
 use serde_json::{Value, json};
 
+mod accuracy;
+
 use crate::cli::{BenchArgs, BenchScene, BenchWhich};
 use crate::output::{bar, write_atomic};
 
@@ -153,6 +155,9 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<ExitCode> {
         if matches!(a.which, BenchWhich::Quality | BenchWhich::All) {
             let spp = a.ref_spp.unwrap_or(if a.quick { 256 } else { 1024 });
             bench_quality(&mut b, &a.scenes, spp)?;
+        }
+        if matches!(a.which, BenchWhich::Accuracy | BenchWhich::All) {
+            accuracy::bench_accuracy(&mut b, a.seeds)?;
         }
         anyhow::Ok(())
     })();

@@ -28,6 +28,8 @@ pub struct BakedGpu {
     /// VPL records (`VplRecord` layout, storage), `position` replaced by the
     /// map origin.
     pub vpl_buf: wgpu::Buffer,
+    /// Near-field trees (`VplRecord` layout, `NODES_PER_VPL` per VPL).
+    pub node_buf: wgpu::Buffer,
     /// Baked hemisphere maps, one 2D atlas (one +inf tile when none is stored).
     pub static_maps: wgpu::TextureView,
     /// Tiles per row of [`BakedGpu::static_maps`].
@@ -166,7 +168,26 @@ impl BakedGpu {
             },
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let mut bytes = (atlas.len() * 4 + pd.data.len() * 4 + vpls.len() * 48) as u64;
+        // Near-field trees, as stored (NODES_PER_VPL records per VPL).
+        let node_bytes = (asset.vpl_nodes.len() * 48) as u64;
+        let max_binding = device.limits().max_storage_buffer_binding_size;
+        if node_bytes > max_binding {
+            return Err(RuntimeError::InvalidSetting(format!(
+                "the asset's {} VPLs need {node_bytes} bytes of near-field nodes; this device binds \
+                 at most {max_binding} bytes in one storage buffer (bake fewer VPLs)",
+                vpls.len()
+            )));
+        }
+        let node_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("static VPL near-field nodes"),
+            contents: if asset.vpl_nodes.is_empty() {
+                &[0u8; 48]
+            } else {
+                bytemuck::cast_slice(&asset.vpl_nodes)
+            },
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let mut bytes = (atlas.len() * 4 + pd.data.len() * 4 + vpls.len() * 48) as u64 + node_bytes;
         let rsm = match &asset.rsm {
             Some(r) => {
                 let metric =
@@ -212,6 +233,7 @@ impl BakedGpu {
         Ok(BakedGpu {
             vpls,
             vpl_buf,
+            node_buf,
             static_maps,
             static_cols: cols,
             map_size: s,

@@ -192,7 +192,7 @@ fn load_node(d: u32, i: u32) -> Node {
     return nodes[level_offset(d) + i];
 }
 
-// The split score S = max(D, Nn, M) · share of a node of level d with at
+// The split score S = max(D, Nn, M) · share² of a node of level d with at
 // least one lit texel (Moments::score, in f32). +∞ and NaN give F32_MAX,
 // which `splits` compares with min(threshold, F32_MAX): the CPU's "+∞ ≥ t".
 fn score(n: Node, d: u32, total_w: f32) -> f32 {
@@ -213,7 +213,8 @@ fn score(n: Node, d: u32, total_w: f32) -> f32 {
     if (texels_log4 >= 16u || n.lit < (1u << (2u * texels_log4))) {
         mixed = 1.0;
     }
-    let s = max(max(depth, nn), mixed) * (n.w / total_w);
+    let share = n.w / total_w;
+    let s = max(max(depth, nn), mixed) * share * share;
     if (!(s <= F32_MAX)) {
         return F32_MAX;
     }

@@ -30,6 +30,7 @@ pub mod dynamic_vpl;
 pub mod gbuffer;
 pub mod shade;
 pub mod timer;
+pub mod transport;
 
 use std::time::Instant;
 
@@ -81,7 +82,7 @@ pub struct RenderSettings {
 impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
-            max_dynamic_vpls: 64,
+            max_dynamic_vpls: 256,
             width: 640,
             height: 480,
             shadow_map_size: 2048,
@@ -440,6 +441,11 @@ impl Renderer {
         if occlusion.is_some() {
             flags |= shade::FLAG_OCCLUSION;
         }
+        // Without a merge atlas there is no tile buffer: every VPL uses its
+        // baked map alone (a static scene, or rsm mode).
+        if hemi.is_some() {
+            flags |= shade::FLAG_TILES;
+        }
         if dyn_vpls.is_some() && mode != Mode::Direct {
             flags |= shade::FLAG_DYNAMIC_VPL;
         }
@@ -536,6 +542,11 @@ impl Renderer {
                     .as_ref()
                     .map(|d| &d.vpls)
                     .unwrap_or(&self.dyn_vpl_buf),
+                vpl_nodes: self
+                    .baked
+                    .as_ref()
+                    .map(|b| &b.node_buf)
+                    .unwrap_or(&self.dummy_buf),
             },
         )
     }

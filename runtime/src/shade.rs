@@ -41,6 +41,8 @@ pub const FLAG_ATLAS_ONLY: u32 = 16;
 pub const FLAG_DYN_PRIMARY: u32 = 32;
 /// Partial occlusion of static VPLs.
 pub const FLAG_OCCLUSION: u32 = 64;
+/// Moving objects are merged into VPL map tiles (`vpl_tile` is bound).
+pub const FLAG_TILES: u32 = 128;
 
 /// The shading pass: pipeline, bind group layouts, uniform.
 pub struct ShadePass {
@@ -97,6 +99,8 @@ pub struct GiInputs<'a> {
     pub atlas: &'a wgpu::TextureView,
     /// Dynamic VPL slots.
     pub dyn_vpls: &'a wgpu::Buffer,
+    /// Near-field trees of the static VPLs.
+    pub vpl_nodes: &'a wgpu::Buffer,
 }
 
 impl ShadePass {
@@ -136,6 +140,7 @@ impl ShadePass {
                 tex_entry(3, D2),
                 tex_entry(4, D2),
                 storage_entry(5),
+                storage_entry(6),
             ],
         });
         let uniform_buf = device.create_buffer(&wgpu::BufferDescriptor {
@@ -234,6 +239,10 @@ impl ShadePass {
                 wgpu::BindGroupEntry {
                     binding: 3,
                     resource: wgpu::BindingResource::TextureView(i.static_maps),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: i.vpl_nodes.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 4,

@@ -27,6 +27,7 @@ const FLAG_VISIBILITY: u32 = 8u;      // use hemisphere maps (off: RSM mode)
 const FLAG_ATLAS_ONLY: u32 = 16u;     // naive: every map is an atlas tile
 const FLAG_DYN_PRIMARY: u32 = 32u;    // moving objects in the primary map
 const FLAG_OCCLUSION: u32 = 64u;      // partial occlusion of static VPLs
+const FLAG_TILES: u32 = 128u;         // moving objects merged into map tiles
 
 const NONE: u32 = 0xffffffffu;
 const OCCL_ONE: f32 = 16777216.0;     // 2^24: fixed-point 1.0 of occlusion sums
@@ -67,6 +68,15 @@ struct DynVpl {           // must match GpuDynVpl in dynamic_vpl.rs
 @group(1) @binding(3) var static_maps: texture_2d<f32>;
 @group(1) @binding(4) var atlas: texture_2d<f32>;
 @group(1) @binding(5) var<storage, read> dyn_vpls: array<DynVpl>;
+@group(1) @binding(6) var<storage, read> vpl_nodes: array<Vpl>;   // near-field trees
+
+// Near field (gibake_bake::near_field): a VPL, or a node of its tree, whose
+// receiver is nearer than NEAR_FIELD_RATIO × its disk radius √(A/π) is
+// replaced by its four children, down to level 3 (8×8 nodes). Dimensionless:
+// the descent is the same at every scene scale. Must match
+// gibake_runtime::transport::NEAR_FIELD_RATIO.
+const NEAR_FIELD_RATIO: f32 = 4.0;
+const NODES_PER_VPL: u32 = 84u;
 
 fn has(f: u32) -> bool {
     return (params.flags & f) != 0u;
@@ -133,7 +143,10 @@ fn vpl_map_distance(i: u32, map: u32, tile: u32, c: vec2<i32>) -> f32 {
 
 // Fraction of VPL i's light that reaches x (2×2 PCF of its hemisphere map).
 fn vpl_visibility(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ng: vec3<f32>) -> f32 {
-    let tile = vpl_tile[i];
+    var tile = NONE;
+    if (has(FLAG_TILES)) {
+        tile = vpl_tile[i];
+    }
     if ((v.map == NONE || has(FLAG_ATLAS_ONLY)) && tile == NONE) {
         return 1.0;
     }
@@ -184,6 +197,59 @@ fn vpl_irradiance(origin: vec3<f32>, nv: vec3<f32>, a: f32, phi: vec3<f32>, x: v
     return finite_or_zero3(phi * (INV_PI * cos_v * cos_r * inverseSqrt(d2 * d2 + r2 * r2)));
 }
 
+fn is_near(x: vec3<f32>, p: vec3<f32>, a: f32) -> bool {
+    let d = x - p;
+    return dot(d, d) < NEAR_FIELD_RATIO * NEAR_FIELD_RATIO * a * INV_PI;
+}
+
+fn node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
+    if (n.texels == 0u) {
+        return vec3<f32>(0.0);
+    }
+    return vpl_irradiance(n.position, n.normal, n.area, n.flux, x, ns, ng);
+}
+
+// Unshadowed irradiance at x from static VPL i (record v, at `origin`):
+// one disk from afar, its near-field tree up close. CPU twin:
+// gibake_runtime::transport::static_vpl_irradiance.
+fn static_vpl_irradiance(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
+    if (!is_near(x, origin, v.area)) {
+        return vpl_irradiance(origin, v.normal, v.area, v.flux, x, ns, ng);
+    }
+    let base = i * NODES_PER_VPL;
+    var e = vec3<f32>(0.0);
+    for (var c1 = 0u; c1 < 4u; c1++) {
+        let i1 = c1 % 2u;
+        let j1 = c1 / 2u;
+        let n1 = vpl_nodes[base + j1 * 2u + i1];
+        if (n1.texels == 0u) {
+            continue;
+        }
+        if (!is_near(x, n1.position, n1.area)) {
+            e += node_irradiance(n1, x, ns, ng);
+            continue;
+        }
+        for (var c2 = 0u; c2 < 4u; c2++) {
+            let i2 = 2u * i1 + c2 % 2u;
+            let j2 = 2u * j1 + c2 / 2u;
+            let n2 = vpl_nodes[base + 4u + j2 * 4u + i2];
+            if (n2.texels == 0u) {
+                continue;
+            }
+            if (!is_near(x, n2.position, n2.area)) {
+                e += node_irradiance(n2, x, ns, ng);
+                continue;
+            }
+            for (var c3 = 0u; c3 < 4u; c3++) {
+                let i3 = 2u * i2 + c3 % 2u;
+                let j3 = 2u * j2 + c3 / 2u;
+                e += node_irradiance(vpl_nodes[base + 20u + j3 * 8u + i3], x, ns, ng);
+            }
+        }
+    }
+    return e;
+}
+
 @compute @workgroup_size(8, 8)
 fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (any(gid.xy >= params.size)) {
@@ -206,13 +272,12 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
             for (var i = 0u; i < params.n_static; i++) {
                 let v = vpls[i];
                 let origin = v.position;   // the map origin, lifted at load (baked.rs)
-                var phi = v.flux;
-                if (has(FLAG_OCCLUSION)) {
-                    phi = phi * max(1.0 - f32(occlusion[i]) / OCCL_ONE, 0.0);
-                }
-                let ei = vpl_irradiance(origin, v.normal, v.area, phi, x, ns, ng);
+                var ei = static_vpl_irradiance(i, v, origin, x, ns, ng);
                 if (all(ei == vec3<f32>(0.0))) {
                     continue;
+                }
+                if (has(FLAG_OCCLUSION)) {
+                    ei = ei * max(1.0 - f32(occlusion[i]) / OCCL_ONE, 0.0);
                 }
                 var vis = 1.0;
                 if (has(FLAG_VISIBILITY)) {

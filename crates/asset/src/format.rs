@@ -9,13 +9,15 @@ use std::path::{Path, PathBuf};
 use crate::exrio::{self, Kind, Samples};
 use crate::{
     Asset, AssetError, FORMAT_MAJOR, FORMAT_MINOR, FileEntry, MAGIC, Manifest, Map, NO_MAP,
-    RsmData, VplRecord,
+    NODES_PER_VPL, RsmData, VplRecord,
 };
 
 /// The manifest file name.
 pub const FILE_MANIFEST: &str = "manifest.bin";
 /// The VPL record array file name.
 pub const FILE_VPLS: &str = "vpls.bin";
+/// Near-field trees of the VPLs (`NODES_PER_VPL` records each).
+pub const FILE_VPL_NODES: &str = "vpl_nodes.bin";
 /// The primary shadow map file name.
 pub const FILE_PRIMARY_DEPTH: &str = "primary_depth.exr";
 /// The hemisphere map atlas file name (only when `map_count > 0`).
@@ -171,7 +173,7 @@ fn is_plain_name(name: &str) -> bool {
 /// The files a manifest with these counts must list, in the order they are
 /// written.
 fn required_files(m: &Manifest) -> Vec<&'static str> {
-    let mut v = vec![FILE_VPLS, FILE_PRIMARY_DEPTH];
+    let mut v = vec![FILE_VPLS, FILE_VPL_NODES, FILE_PRIMARY_DEPTH];
     if m.map_count > 0 {
         v.push(FILE_VPL_MAPS);
     }
@@ -248,6 +250,7 @@ fn validate_manifest(
         }
         let known = [
             FILE_VPLS,
+            FILE_VPL_NODES,
             FILE_PRIMARY_DEPTH,
             FILE_VPL_MAPS,
             FILE_RSM,
@@ -274,6 +277,15 @@ fn validate_manifest(
         if f.size != vpls_size {
             return bad(format!(
                 "`{FILE_VPLS}` is listed with {} bytes but vpl_count {} needs {vpls_size}",
+                f.size, m.vpl_count
+            ));
+        }
+    }
+    let nodes_size = vpls_size * NODES_PER_VPL as u64;
+    if let Some(f) = m.files.iter().find(|f| f.name == FILE_VPL_NODES) {
+        if f.size != nodes_size {
+            return bad(format!(
+                "`{FILE_VPL_NODES}` is listed with {} bytes but vpl_count {} needs {nodes_size}",
                 f.size, m.vpl_count
             ));
         }
@@ -521,6 +533,8 @@ pub fn load(dir: &Path) -> Result<Asset, AssetError> {
 
     let path = dir.join(FILE_VPLS);
     let vpls = decode_vpls(take(FILE_VPLS), &path, manifest.map_count)?;
+    let path = dir.join(FILE_VPL_NODES);
+    let vpl_nodes = decode_vpls(take(FILE_VPL_NODES), &path, 0)?;
 
     let path = dir.join(FILE_PRIMARY_DEPTH);
     let n = s.shadow_map_size as usize;
@@ -611,6 +625,7 @@ pub fn load(dir: &Path) -> Result<Asset, AssetError> {
     Ok(Asset {
         manifest,
         vpls,
+        vpl_nodes,
         primary_depth,
         vpl_maps,
         rsm,
@@ -687,6 +702,17 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
     for (i, r) in asset.vpls.iter().enumerate() {
         check_vpl(r, i, map_count)
             .map_err(|e| AssetError::invalid(dir, format!("cannot write: {e}")))?;
+    }
+    if asset.vpl_nodes.len() != asset.vpls.len() * NODES_PER_VPL {
+        return bad(format!(
+            "vpl_nodes holds {} records but {} VPLs need {}",
+            asset.vpl_nodes.len(),
+            asset.vpls.len(),
+            asset.vpls.len() * NODES_PER_VPL
+        ));
+    }
+    for (i, r) in asset.vpl_nodes.iter().enumerate() {
+        check_vpl(r, i, 0).map_err(|e| AssetError::invalid(dir, format!("cannot write: {e}")))?;
     }
     validate_manifest(&m, FORMAT_MINOR, dir, false).map_err(|e| match e {
         AssetError::Invalid { message, .. } => {
@@ -794,6 +820,7 @@ fn write_into(
             |e: exr::error::Error| AssetError::invalid(&path, format!("cannot encode EXR: {e}"));
         let bytes = match name {
             FILE_VPLS => encode_vpls(&asset.vpls),
+            FILE_VPL_NODES => encode_vpls(&asset.vpl_nodes),
             FILE_PRIMARY_DEPTH => {
                 let n = s.shadow_map_size as usize;
                 let d = asset.primary_depth.data.clone();

@@ -27,16 +27,16 @@ pub use error::AssetError;
 #[doc(hidden)]
 pub use format::testing;
 pub use format::{
-    FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM, FILE_VPL_MAPS, FILE_VPLS, MAX_MAP_SIZE,
-    VPL_RECORD_BYTES, atlas_grid, check_scene_hash, check_scene_hash_for, load, load_manifest,
-    write,
+    FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM, FILE_VPL_MAPS, FILE_VPL_NODES, FILE_VPLS,
+    MAX_MAP_SIZE, VPL_RECORD_BYTES, atlas_grid, check_scene_hash, check_scene_hash_for, load,
+    load_manifest, write,
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
 
 /// Magic bytes at the start of `manifest.bin`.
 pub const MAGIC: [u8; 8] = *b"GIBAKE\0\x01";
 /// Format major version: readers reject any other major.
-pub const FORMAT_MAJOR: u16 = 1;
+pub const FORMAT_MAJOR: u16 = 2;
 /// Format minor version: additive changes only.
 pub const FORMAT_MINOR: u16 = 0;
 
@@ -64,6 +64,14 @@ pub struct VplRecord {
 
 /// [`VplRecord::map`] of a VPL whose map is not stored.
 pub const NO_MAP: u32 = u32::MAX;
+
+/// Levels of each VPL's near-field tree in `vpl_nodes.bin` (below the VPL
+/// itself, which is level 0).
+pub const NEAR_FIELD_LEVELS: u32 = 3;
+/// Node records per VPL in `vpl_nodes.bin`: 4 + 16 + 64 (levels 1–3 of a
+/// quadtree over the VPL's RSM texel rectangle, level by level, each level
+/// row-major).
+pub const NODES_PER_VPL: usize = 84;
 
 /// Bake settings, as given (or resolved) at bake time.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -176,6 +184,10 @@ pub struct Asset {
     pub manifest: Manifest,
     /// VPLs.
     pub vpls: Vec<VplRecord>,
+    /// Near-field trees: [`NODES_PER_VPL`] records per VPL, in VPL order
+    /// (`map` is [`NO_MAP`]; a node without lit texels is all zeros but
+    /// `map`). See docs/asset-format.md.
+    pub vpl_nodes: Vec<VplRecord>,
     /// Static primary shadow map (metric, shadow_map_size²).
     pub primary_depth: Map,
     /// Hemisphere maps, `map_count` layers of `vpl_map_size²` distances

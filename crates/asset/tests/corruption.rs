@@ -263,6 +263,7 @@ fn hostile_counts_are_refused_without_huge_allocations() {
             Box::new(|m| {
                 m.vpl_count = u32::MAX;
                 m.files[0].size = u32::MAX as u64 * 48;
+                m.files[1].size = u32::MAX as u64 * 48 * 84;
             }),
         ),
         ("map_count", Box::new(|m| m.map_count = m.vpl_count + 1)),
@@ -296,7 +297,10 @@ fn hostile_counts_are_refused_without_huge_allocations() {
         ),
         (
             "primary_depth.exr",
-            Box::new(|m| m.files[1].size = u64::MAX),
+            Box::new(|m| {
+                let f = m.files.iter_mut().find(|f| f.name == "primary_depth.exr");
+                f.expect("listed").size = u64::MAX;
+            }),
         ),
     ];
     let orig = std::fs::read(dir.join("manifest.bin")).unwrap();

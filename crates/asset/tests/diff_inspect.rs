@@ -299,7 +299,7 @@ fn inspect_reports_counts_sizes_and_statistics() {
         .map(|n| std::fs::metadata(dir.join(n)).unwrap().len())
         .sum();
     assert_eq!(i.total_bytes, on_disk);
-    assert_eq!(i.files.len(), 5);
+    assert_eq!(i.files.len(), 6);
     assert_eq!(i.files[0].name, "manifest.bin");
     assert_eq!(
         i.files[0].bytes,

@@ -20,6 +20,7 @@ fn round_trip_static_and_dynamic() {
             "manifest.bin",
             "primary_depth.exr",
             "vpl_maps.exr",
+            "vpl_nodes.bin",
             "vpls.bin",
         ];
         if dynamic {
@@ -49,7 +50,13 @@ fn counts_are_filled_in_from_the_data() {
     let names: Vec<&str> = m.files.iter().map(|f| f.name.as_str()).collect();
     assert_eq!(
         names,
-        ["vpls.bin", "primary_depth.exr", "vpl_maps.exr", "rsm.exr"]
+        [
+            "vpls.bin",
+            "vpl_nodes.bin",
+            "primary_depth.exr",
+            "vpl_maps.exr",
+            "rsm.exr"
+        ]
     );
     for f in &m.files {
         let bytes = std::fs::read(dir.join(&f.name)).unwrap();
@@ -69,7 +76,12 @@ fn nothing_stored_that_is_not_needed() {
     let dir = written(tmp.path(), &asset);
     assert_eq!(
         file_names(&dir),
-        ["manifest.bin", "primary_depth.exr", "vpls.bin"]
+        [
+            "manifest.bin",
+            "primary_depth.exr",
+            "vpl_nodes.bin",
+            "vpls.bin"
+        ]
     );
     let loaded = load(&dir).unwrap();
     assert_eq!(loaded.manifest.map_count, 0);
@@ -81,6 +93,7 @@ fn empty_vpl_set_round_trips() {
     let tmp = tempfile::tempdir().unwrap();
     let mut asset = sample_asset(false);
     asset.vpls.clear();
+    asset.vpl_nodes.clear();
     asset.vpl_maps.clear();
     let dir = written(tmp.path(), &asset);
     let loaded = load(&dir).unwrap();
@@ -262,8 +275,7 @@ fn manifest_bin_has_the_documented_layout() {
     assert_eq!(&p[1..6], b"0.1.0");
     assert_eq!(p[6] as usize, "corner.gltf".len());
     assert_eq!(&p[7..18], b"corner.gltf");
-    // ... and it ends with the file list: varint count 3, then the last
-    // entry's 32-byte hash.
+    // ... and it ends with the file list, then the last entry's 32-byte hash.
     let m = load_manifest(&dir).unwrap();
-    assert_eq!(&p[len - 32..], &m.files[2].blake3);
+    assert_eq!(&p[len - 32..], &m.files.last().unwrap().blake3);
 }

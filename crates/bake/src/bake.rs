@@ -190,13 +190,21 @@ pub fn bake(
         .vpls
         .iter()
         .map(|c| VplRecord {
-            position: c.position.to_array(),
+            // On the cluster's own surface (see Cluster::anchor).
+            position: c.anchor.to_array(),
             area: c.area,
             normal: c.normal.to_array(),
             texels: c.texels,
             flux: c.flux.to_array(),
             map: NO_MAP,
         })
+        .collect();
+
+    // Near-field trees (one per VPL, from its node's texels).
+    let vpl_nodes: Vec<VplRecord> = clusters
+        .rects
+        .iter()
+        .flat_map(|&r| crate::near_field::vpl_nodes(&rsm, r))
         .collect();
 
     // Hemisphere maps by ray casting.
@@ -258,6 +266,7 @@ pub fn bake(
     let asset = Asset {
         manifest,
         vpls,
+        vpl_nodes,
         primary_depth: Map {
             size: opts.shadow_map_size,
             data: primary,

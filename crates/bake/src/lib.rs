@@ -3,7 +3,9 @@
 //! 1. [`rsm`]: the reflective shadow map of the static geometry from the
 //!    primary light (one ray per texel against a BVH).
 //! 2. [`cluster`]: scale-invariant quadtree clustering of RSM texels into VPLs.
-//! 3. [`vplmap`]: a hemisphere distance map per VPL (one ray per texel).
+//! 3. [`near_field`]: each VPL's near-field tree (sub-clusters that shading
+//!    uses for receivers close to the VPL).
+//! 4. [`vplmap`]: a hemisphere distance map per VPL (one ray per texel).
 //!
 //! plus the static primary shadow map (GPU, the runtime's own pass) and the
 //! static-scene hash ([`gibake_scene::static_scene_hash`]). [`bake()`] runs them all and returns a
@@ -11,6 +13,7 @@
 
 pub mod bake;
 pub mod cluster;
+pub mod near_field;
 pub mod rsm;
 pub mod vplmap;
 

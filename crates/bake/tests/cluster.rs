@@ -348,8 +348,9 @@ fn cluster_half_plane_gives_one_vpl_per_maximal_node() {
 #[test]
 fn cluster_hole_splits_by_its_share_of_the_light() {
     // One hole at (5, 2) in an 8×8 flat floor (63 lit texels of equal
-    // flux): the nodes holding it score M · share = lit texels / 63 (root 1,
-    // its quadrant 15/63, its 2×2 node 3/63); every other node scores 0.
+    // flux): the nodes holding it score M · share² = (lit texels / 63)²
+    // (root 1, its quadrant (15/63)² ≈ 0.057, its 2×2 node (3/63)² ≈
+    // 0.0023); every other node scores 0.
     let rsm = floor_rsm(8, |x, y| (!(x == 5 && y == 2)).then_some(0.0));
     let texels = |t: f32| {
         let c = cluster(&rsm, ClusterTarget::Threshold(t));
@@ -359,8 +360,8 @@ fn cluster_hole_splits_by_its_share_of_the_light() {
     };
     assert_eq!(texels(1.5), [63]);
     assert_eq!(texels(0.5), [16, 15, 16, 16]);
-    assert_eq!(texels(0.1), [16, 4, 4, 3, 4, 16, 16]);
-    assert_eq!(texels(0.01), [16, 4, 4, 1, 1, 1, 4, 16, 16]);
+    assert_eq!(texels(0.01), [16, 4, 4, 3, 4, 16, 16]);
+    assert_eq!(texels(1e-4), [16, 4, 4, 1, 1, 1, 4, 16, 16]);
     // The one-VPL case: centroid of the 63 lit texels, all their flux.
     let c = cluster(&rsm, ClusterTarget::Threshold(1e30));
     assert_eq!(count(&c), 1);
@@ -401,8 +402,8 @@ fn cluster_depth_step_splits_along_the_step() {
     for step in [256u32, 201] {
         let rsm = floor_rsm(512, |x, _| Some(if x < step { 0.0 } else { 0.3 }));
         // A 2×2 node across the step (p = 1/2) scores
-        // D · share ≈ 0.25 · (0.3 / 2.04)² · 4/512² ≈ 8e-8.
-        let c = cluster(&rsm, ClusterTarget::Threshold(1e-8));
+        // D · share² ≈ 0.25 · (0.3 / 2.04)² · (4/512²)² ≈ 1.3e-12.
+        let c = cluster(&rsm, ClusterTarget::Threshold(1e-13));
         check_consistency(&rsm, &c);
         // No VPL straddles the step.
         let mut side = vec![None; count(&c)];
@@ -661,7 +662,8 @@ fn cluster_cut_is_the_threshold_cut_in_slot_order() {
     // The 8×8 floor with a hole at (5, 2) (see the hole test): slots are
     // level by level, Morton order within a level. At 0.1 the leaves are the
     // quadrants TL, BL, BR (slots 1, 3, 4) and the four 2×2 nodes of the
-    // TR quadrant (slots 9..=12, the hole in slot 11).
+    // TR quadrant (slots 9..=12, the hole in slot 11). (Scores are
+    // share², so the thresholds are the squares of the hole test's.)
     let rsm = floor_rsm(8, |x, y| (!(x == 5 && y == 2)).then_some(0.0));
     let texels = |t: f32, depth: u32| -> Vec<u32> {
         cluster_cut(&rsm, t, depth)
@@ -669,12 +671,12 @@ fn cluster_cut_is_the_threshold_cut_in_slot_order() {
             .map(|v| v.texels)
             .collect()
     };
-    assert_eq!(texels(0.1, 3), [16, 16, 16, 4, 4, 3, 4]);
-    assert_eq!(texels(0.01, 3), [16, 16, 16, 4, 4, 4, 1, 1, 1]);
-    assert_eq!(texels(0.01, 99), [16, 16, 16, 4, 4, 4, 1, 1, 1]);
-    assert_eq!(texels(0.01, 2), [16, 16, 16, 4, 4, 3, 4]);
-    assert_eq!(texels(0.01, 1), [16, 15, 16, 16]);
-    assert_eq!(texels(0.01, 0), [63]);
+    assert_eq!(texels(0.01, 3), [16, 16, 16, 4, 4, 3, 4]);
+    assert_eq!(texels(1e-4, 3), [16, 16, 16, 4, 4, 4, 1, 1, 1]);
+    assert_eq!(texels(1e-4, 99), [16, 16, 16, 4, 4, 4, 1, 1, 1]);
+    assert_eq!(texels(1e-4, 2), [16, 16, 16, 4, 4, 3, 4]);
+    assert_eq!(texels(1e-4, 1), [16, 15, 16, 16]);
+    assert_eq!(texels(1e-4, 0), [63]);
     assert_eq!(texels(1.5, 3), [63]);
     // Only powers of two.
     assert!(cluster_cut(&corner_rsm(37), 0.0, 4).is_empty());

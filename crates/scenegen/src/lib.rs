@@ -23,7 +23,10 @@ pub mod geom;
 pub mod gltf;
 pub mod inspect;
 mod occluded;
+pub mod random;
 mod sun;
+
+pub use random::{RandomInfo, random};
 
 /// Period of every bundled scene's animation loop, in seconds.
 pub const LOOP_SECONDS: f64 = 4.0;

@@ -58,6 +58,31 @@ pub fn sample_asset(dynamic: bool) -> Asset {
             map,
         });
     }
+    // Near-field nodes: the VPL split in four on level 1, zeros below.
+    let vpl_nodes: Vec<VplRecord> = vpls
+        .iter()
+        .flat_map(|v| {
+            (0..gibake_asset::NODES_PER_VPL).map(move |k| {
+                let mut r = VplRecord {
+                    position: [0.0; 3],
+                    area: 0.0,
+                    normal: [0.0; 3],
+                    texels: 0,
+                    flux: [0.0; 3],
+                    map: NO_MAP,
+                };
+                if k < 4 {
+                    r.position = v.position;
+                    r.position[0] += k as f32 * 0.01;
+                    r.area = v.area / 4.0;
+                    r.normal = v.normal;
+                    r.texels = 1;
+                    r.flux = v.flux.map(|f| f / 4.0);
+                }
+                r
+            })
+        })
+        .collect();
     let map_count = layer as usize;
     let texels = (VPL_MAP * VPL_MAP) as usize;
     let vpl_maps: Vec<f32> = (0..map_count * texels)
@@ -134,6 +159,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
             files: vec![],
         },
         vpls,
+        vpl_nodes,
         primary_depth: Map {
             size: SHADOW,
             data: primary,

@@ -135,7 +135,8 @@ impl Moments {
         let normal = (1.0 - (x * x + y * y + z * z).sqrt() / n).max(0.0);
         let mixed = if self.lit < self.total { 1.0 } else { 0.0 };
         let share = self.sum_flux / total_flux;
-        let s = depth.max(normal).max(mixed) * share;
+        // share², not share: see "Why share squared" in cluster.rs.
+        let s = depth.max(normal).max(mixed) * share * share;
         Some(if s.is_nan() { f32::INFINITY } else { s as f32 })
     }
 }

@@ -1,0 +1,181 @@
+//! Near-field trees: how a VPL keeps the light of its texels near its
+//! receivers.
+//!
+//! A VPL stands for every lit texel of its quadtree node. Seen from far away
+//! (distance `d` well beyond its disk radius `R = √(A/π)`) one point with the
+//! summed flux is an accurate stand-in. Near it — a floor beside a lit wall,
+//! the ground at the foot of a lit box, a crease — it is not: the cosine
+//! towards the receiver and the distance vary over the cluster, and one
+//! point gives too little light (a wall cluster next to the floor sends its
+//! light almost parallel to the floor from its centre, while its lower
+//! texels face the floor at a steep angle and are close). Measured on random
+//! scenes at 664 VPLs, this *transport* error, not visibility, was the main
+//! reason the indirect light was too dark (docs/method.md, "Near field").
+//!
+//! So each VPL also stores a small tree: its node's texel rectangle is
+//! halved recursively (the quadtree's own rule: floor midpoints) for
+//! [`NEAR_FIELD_LEVELS`] more levels, and each sub-node holds the same
+//! aggregate as a VPL (flux-weighted centroid and normal, summed flux and
+//! area, lit texel count). Shading (`shade.wgsl`) descends into a node's
+//! children only where the receiver is nearer than
+//! `NEAR_FIELD_RATIO × R_node`; all nodes use the VPL's one hemisphere map
+//! for visibility, so the cost of visibility does not change. The ratio is
+//! dimensionless: the tree and the descent are scale-invariant.
+//!
+//! Layout ([`NODES_PER_VPL`] records per VPL): level 1 (2×2 nodes), level 2
+//! (4×4), level 3 (8×8), each level row-major (`j · 2^l + i`); node
+//! `(l, i, j)` has the children `(l + 1, 2i + a, 2j + b)`, `a, b ∈ {0, 1}`.
+//! A node without lit texels is all zeros (and `map = NO_MAP`).
+
+use gibake_asset::{NEAR_FIELD_LEVELS, NO_MAP, NODES_PER_VPL, VplRecord};
+use glam::{DVec3, Vec3};
+
+use crate::rsm::Rsm;
+
+/// Offset of level `l` (1-based) in a VPL's node block.
+pub const fn level_offset(l: u32) -> usize {
+    // 4 + 16 + … + 4^(l−1)
+    ((1usize << (2 * l)) - 4) / 3
+}
+
+/// Cell index (0..2^levels) of coordinate `x` in `[lo, hi)` after `levels`
+/// recursive halvings at the floor midpoint (the quadtree's rule; a range
+/// one texel wide sends its texel to the upper half).
+fn cell(x: u32, mut lo: u32, mut hi: u32, levels: u32) -> usize {
+    let mut idx = 0usize;
+    for _ in 0..levels {
+        let mid = lo + (hi - lo) / 2;
+        if x < mid {
+            hi = mid;
+            idx *= 2;
+        } else {
+            lo = mid;
+            idx = 2 * idx + 1;
+        }
+    }
+    idx
+}
+
+#[derive(Clone, Copy, Default)]
+struct Sums {
+    w: f64,
+    wp: DVec3,
+    wn: DVec3,
+    flux: DVec3,
+    area: f64,
+    count: u32,
+}
+
+impl Sums {
+    fn add(&mut self, o: &Sums) {
+        self.w += o.w;
+        self.wp += o.wp;
+        self.wn += o.wn;
+        self.flux += o.flux;
+        self.area += o.area;
+        self.count += o.count;
+    }
+
+    fn record(&self) -> VplRecord {
+        let empty = VplRecord {
+            position: [0.0; 3],
+            area: 0.0,
+            normal: [0.0; 3],
+            texels: 0,
+            flux: [0.0; 3],
+            map: NO_MAP,
+        };
+        if self.count == 0 || !(self.w > 0.0 && self.w.is_finite()) {
+            return empty;
+        }
+        let p = (self.wp / self.w).as_vec3();
+        let n = self.wn.as_vec3().normalize_or_zero();
+        let flux = self.flux.as_vec3();
+        if !(p.is_finite() && flux.is_finite() && (self.area as f32).is_finite()) {
+            return empty;
+        }
+        VplRecord {
+            position: p.to_array(),
+            area: self.area as f32,
+            normal: n.to_array(),
+            texels: self.count,
+            flux: flux.to_array(),
+            map: NO_MAP,
+        }
+    }
+}
+
+/// The near-field tree of the VPL made of the lit texels of `rect`
+/// (`(x0, x1, y0, y1)`, half-open): [`NODES_PER_VPL`] records. Sums are in
+/// `f64` in row-major texel order (deterministic).
+pub fn vpl_nodes(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Vec<VplRecord> {
+    let levels = NEAR_FIELD_LEVELS;
+    let side = 1usize << levels;
+    let mut leaf = vec![Sums::default(); side * side];
+    for y in y0..y1 {
+        let j = cell(y, y0, y1, levels);
+        for x in x0..x1 {
+            let t = (y * rsm.size + x) as usize;
+            let f = rsm.flux[t];
+            let w = f64::from(f.x) + f64::from(f.y) + f64::from(f.z);
+            if !(rsm.metric[t].is_finite() && w > 0.0 && w.is_finite()) {
+                continue;
+            }
+            let i = cell(x, x0, x1, levels);
+            let s = &mut leaf[j * side + i];
+            s.w += w;
+            s.wp += rsm.position[t].as_dvec3() * w;
+            s.wn += rsm.normal[t].as_dvec3() * w;
+            s.flux += f.as_dvec3();
+            s.area += f64::from(rsm.area[t]);
+            s.count += 1;
+        }
+    }
+    let mut out = vec![Sums::default().record(); NODES_PER_VPL];
+    let mut cur = leaf;
+    for l in (1..=levels).rev() {
+        let n = 1usize << l;
+        for (k, s) in cur.iter().enumerate() {
+            out[level_offset(l) + k] = s.record();
+        }
+        if l > 1 {
+            let m = n / 2;
+            let mut up = vec![Sums::default(); m * m];
+            for j in 0..n {
+                for i in 0..n {
+                    up[(j / 2) * m + i / 2].add(&cur[j * n + i]);
+                }
+            }
+            cur = up;
+        }
+    }
+    out
+}
+
+/// Sum of the flux of a VPL's level-`l` nodes (a check: every level holds
+/// the VPL's whole flux).
+pub fn level_flux(nodes: &[VplRecord], l: u32) -> Vec3 {
+    let n = 1usize << (2 * l);
+    nodes[level_offset(l)..level_offset(l) + n]
+        .iter()
+        .fold(Vec3::ZERO, |a, r| a + Vec3::from_array(r.flux))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn offsets_and_cells() {
+        assert_eq!(level_offset(1), 0);
+        assert_eq!(level_offset(2), 4);
+        assert_eq!(level_offset(3), 20);
+        assert_eq!(level_offset(4), NODES_PER_VPL);
+        // [0, 8) halved three times: one texel per cell.
+        for x in 0..8 {
+            assert_eq!(cell(x, 0, 8, 3), x as usize);
+        }
+        // A one-texel range goes to the last cell.
+        assert_eq!(cell(5, 5, 6, 3), 7);
+    }
+}

@@ -1,0 +1,356 @@
+//! The judge of the method's indirect light: for a scene, bake it, render
+//! `full`, `rsm`, `naive` and `direct`, render the independent CPU
+//! reference (one bounce and direct only), and compare the indirect parts.
+//!
+//! Figures, per scene ([`IndirectEval`]):
+//! - **mean indirect bias** per channel: `mean(ours) / mean(reference) − 1`
+//!   over the image, where the indirect part is `full − direct` (`rsm −
+//!   direct`) and the reference's is `one bounce − direct only`;
+//! - **indirect error**: RMSE of the two indirect images after a box blur
+//!   (radius [`EvalSettings::blur`]), so that the reference's own noise does
+//!   not dominate, divided by the reference's mean indirect radiance
+//!   (dimensionless);
+//! - on scenes without moving objects, `naive` against `full` (they must
+//!   agree) and whether every mode has indirect light.
+//!
+//! Used by the tests (`tests/indirect_accuracy.rs`, 20 random seeds at a
+//! small size) and by `gibake bench accuracy` (more seeds, full size).
+
+use gibake_asset::Asset;
+use gibake_gpu::GpuContext;
+use gibake_image::Image;
+use gibake_runtime::{Mode, RenderSettings};
+use gibake_scene::Scene;
+use glam::Vec3;
+
+/// What to measure with.
+#[derive(Clone, Debug)]
+pub struct EvalSettings {
+    /// Image width and height.
+    pub size: u32,
+    /// Reference samples per pixel (one-bounce image; the direct-only one
+    /// uses a quarter).
+    pub spp: u32,
+    /// VPL budget of the bake.
+    pub vpls: u32,
+    /// RSM resolution.
+    pub rsm_size: u32,
+    /// Hemisphere map resolution.
+    pub vpl_map_size: u32,
+    /// Scene time.
+    pub time: f32,
+    /// Box-blur radius in pixels for the error.
+    pub blur: u32,
+    /// Supersampling of the GPU renders (the reference integrates each
+    /// pixel's area).
+    pub ssaa: u32,
+    /// Most dynamic VPLs per frame.
+    pub max_dynamic_vpls: u32,
+}
+
+impl Default for EvalSettings {
+    fn default() -> Self {
+        EvalSettings {
+            size: 64,
+            spp: 256,
+            vpls: 664,
+            rsm_size: 512,
+            vpl_map_size: 128,
+            time: 0.5,
+            blur: 1,
+            ssaa: 2,
+            max_dynamic_vpls: RenderSettings::default().max_dynamic_vpls,
+        }
+    }
+}
+
+/// Why an evaluation failed.
+#[derive(Debug, thiserror::Error)]
+pub enum EvalError {
+    /// The bake failed.
+    #[error(transparent)]
+    Bake(#[from] gibake_bake::BakeError),
+    /// Rendering failed.
+    #[error(transparent)]
+    Runtime(#[from] gibake_runtime::RuntimeError),
+    /// The reference failed.
+    #[error(transparent)]
+    Reference(#[from] gibake_reference::ReferenceError),
+}
+
+/// The figures of one scene.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct IndirectEval {
+    /// Scene name.
+    pub name: String,
+    /// VPLs baked.
+    pub vpls: usize,
+    /// Whether the scene has moving objects.
+    pub has_dynamic: bool,
+    /// Reference mean indirect radiance (RGB).
+    pub ref_mean: [f32; 3],
+    /// Standard error of the reference's mean indirect radiance, relative
+    /// to it, per channel (from two independent halves of its samples).
+    pub ref_noise: [f32; 3],
+    /// `full`'s mean indirect bias per channel (0.05 = 5% too bright).
+    pub full_bias: [f32; 3],
+    /// `rsm`'s mean indirect bias per channel.
+    pub rsm_bias: [f32; 3],
+    /// `full`'s relative indirect error.
+    pub full_err: f64,
+    /// `rsm`'s relative indirect error.
+    pub rsm_err: f64,
+    /// rel MSE of `naive` against `full`.
+    pub naive_vs_full: f64,
+    /// Per mode (`full`, `indirect`, `rsm`, `naive`): mean indirect radiance
+    /// (sum of channels) — all must be positive where the reference's is.
+    pub mode_indirect: Vec<(String, f32)>,
+}
+
+impl IndirectEval {
+    /// The largest absolute per-channel bias of `full`.
+    pub fn worst_full_bias(&self) -> f32 {
+        self.full_bias.iter().fold(0f32, |a, b| a.max(b.abs()))
+    }
+
+    /// Whether `full`'s mean indirect light is within `tol` (0.05 = ±5%)
+    /// of the reference's in every channel, beyond three standard errors
+    /// of the reference's own mean.
+    pub fn full_bias_within(&self, tol: f32) -> bool {
+        (0..3).all(|c| self.full_bias[c].abs() <= tol + 3.0 * self.ref_noise[c])
+    }
+
+    /// One line for logs.
+    pub fn line(&self) -> String {
+        let pct =
+            |b: [f32; 3]| format!("{:+.1}/{:+.1}/{:+.1}%", b[0] * 1e2, b[1] * 1e2, b[2] * 1e2);
+        format!(
+            "{:<44} vpls {:>4} | bias full {} rsm {} (ref ±{:.1}%) | err full {:.4} rsm {:.4} ({:.2}×) | naive~full {:.1e}",
+            self.name,
+            self.vpls,
+            pct(self.full_bias),
+            pct(self.rsm_bias),
+            300.0 * self.ref_noise.iter().fold(0f32, |a, b| a.max(*b)),
+            self.full_err,
+            self.rsm_err,
+            self.full_err / self.rsm_err.max(1e-12),
+            self.naive_vs_full
+        )
+    }
+}
+
+/// Loads GLB bytes as a scene named `name`.
+pub fn load(bytes: &[u8], name: &str) -> Scene {
+    gibake_scene::load_from_slice(bytes, std::path::Path::new(name), &Default::default())
+        .expect("generated scenes load")
+}
+
+/// The random scene of `seed` and a name describing it.
+pub fn random_scene(seed: u64) -> (Scene, String) {
+    let (bytes, info) = gibake_scenegen::random(seed, &Default::default());
+    let name = format!("seed {seed}: {info}");
+    (load(&bytes, &format!("random_{seed}.glb")), name)
+}
+
+/// Bakes `scene` with the evaluation's settings.
+pub fn bake(ctx: &GpuContext, scene: &Scene, s: &EvalSettings) -> Result<Asset, EvalError> {
+    let opts = gibake_bake::BakeOptions {
+        rsm_size: s.rsm_size,
+        vpl_map_size: s.vpl_map_size,
+        shadow_map_size: 2048,
+        target: gibake_bake::cluster::ClusterTarget::Count(s.vpls),
+    };
+    Ok(gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "eval")?.asset)
+}
+
+/// Renders one mode.
+pub fn render(
+    ctx: &GpuContext,
+    scene: &Scene,
+    asset: &Asset,
+    mode: Mode,
+    s: &EvalSettings,
+) -> Result<Image, EvalError> {
+    let rs = RenderSettings {
+        width: s.size,
+        height: s.size,
+        mode,
+        max_dynamic_vpls: s.max_dynamic_vpls,
+        ..Default::default()
+    };
+    Ok(gibake_runtime::render_image(
+        ctx,
+        scene,
+        Some(asset),
+        &rs,
+        s.time,
+        s.ssaa,
+    )?)
+}
+
+/// The reference's indirect part (one bounce minus direct only) and the
+/// standard error of its mean per channel, estimated from two independent
+/// halves of the one-bounce samples (seeds 0 and 1).
+pub fn reference_indirect(scene: &Scene, s: &EvalSettings) -> Result<(Image, Vec3), EvalError> {
+    let r = |depth, spp, seed| {
+        gibake_reference::render(
+            scene,
+            &gibake_reference::Settings {
+                width: s.size,
+                height: s.size,
+                spp,
+                time: s.time,
+                depth,
+                seed,
+            },
+            &|_| {},
+        )
+    };
+    let half = (s.spp / 2).max(1);
+    let a = r(gibake_reference::Depth::OneBounce, half, 0)?;
+    let b = r(gibake_reference::Depth::OneBounce, half, 1)?;
+    let direct = r(gibake_reference::Depth::Direct, (s.spp / 4).max(16), 2)?;
+    let mut full = Image::new(s.size, s.size);
+    let mut var = Vec3::ZERO;
+    for (k, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        full.pixels[k] = (*p + *q) * 0.5;
+        // Var of the pixel's estimate ≈ (p − q)²/4.
+        var += (*p - *q) * (*p - *q) * 0.25;
+    }
+    let n = a.pixels.len().max(1) as f32;
+    Ok((full.sub(&direct), (var / (n * n)).map(f32::sqrt)))
+}
+
+/// Box blur of radius `r` (clamped at the borders).
+pub fn blur(img: &Image, r: u32) -> Image {
+    let (w, h) = (img.width as i64, img.height as i64);
+    let r = r as i64;
+    let mut out = Image::new(img.width, img.height);
+    for y in 0..h {
+        for x in 0..w {
+            let mut s = Vec3::ZERO;
+            let mut n = 0.0;
+            for yy in (y - r).max(0)..=(y + r).min(h - 1) {
+                for xx in (x - r).max(0)..=(x + r).min(w - 1) {
+                    s += img.get(xx as u32, yy as u32);
+                    n += 1.0;
+                }
+            }
+            out.set(x as u32, y as u32, s / n);
+        }
+    }
+    out
+}
+
+/// Relative indirect error (see the module docs).
+pub fn indirect_error(ours: &Image, reference: &Image, r: u32) -> f64 {
+    let (a, b) = (blur(ours, r), blur(reference, r));
+    let mut sq = 0.0f64;
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        sq += f64::from((*p - *q).length_squared());
+    }
+    let rmse = (sq / (3.0 * a.pixels.len().max(1) as f64)).sqrt();
+    let m = reference.mean();
+    let mean = f64::from(m.x + m.y + m.z) / 3.0;
+    rmse / mean.max(f64::MIN_POSITIVE)
+}
+
+fn bias(ours: Vec3, reference: Vec3) -> [f32; 3] {
+    let b = ours / reference.max(Vec3::splat(f32::MIN_POSITIVE)) - Vec3::ONE;
+    b.to_array()
+}
+
+/// Evaluates `scene` (see the module docs); `naive` mode only if
+/// `with_naive` (its `naive_vs_full` is 0 otherwise).
+pub fn evaluate(
+    ctx: &GpuContext,
+    scene: &Scene,
+    name: &str,
+    s: &EvalSettings,
+    with_naive: bool,
+) -> Result<IndirectEval, EvalError> {
+    let reference = reference_indirect(scene, s)?;
+    evaluate_with(ctx, scene, name, s, with_naive, reference)
+}
+
+/// Like [`evaluate`], but only if the reference can judge the scene: its
+/// mean indirect radiance has a relative standard error at most
+/// `max_noise` in every channel (a camera that sees almost no indirect
+/// light gives a reference that is all noise). `None` otherwise, without
+/// baking.
+pub fn evaluate_if_judgeable(
+    ctx: &GpuContext,
+    scene: &Scene,
+    name: &str,
+    s: &EvalSettings,
+    with_naive: bool,
+    max_noise: f32,
+) -> Result<Option<IndirectEval>, EvalError> {
+    let reference = reference_indirect(scene, s)?;
+    let m = reference.0.mean();
+    let ok = (0..3).all(|c| m[c] > 0.0 && reference.1[c] <= max_noise * m[c]);
+    if !ok {
+        return Ok(None);
+    }
+    evaluate_with(ctx, scene, name, s, with_naive, reference).map(Some)
+}
+
+fn evaluate_with(
+    ctx: &GpuContext,
+    scene: &Scene,
+    name: &str,
+    s: &EvalSettings,
+    with_naive: bool,
+    (reference, noise): (Image, Vec3),
+) -> Result<IndirectEval, EvalError> {
+    let t = std::time::Instant::now();
+    let lap = |what: &str| {
+        if std::env::var_os("GIBAKE_EVAL_TIMES").is_some() {
+            eprintln!("  {what}: {:.2}s", t.elapsed().as_secs_f64());
+        }
+    };
+    let asset = bake(ctx, scene, s)?;
+    lap("bake");
+    let direct = render(ctx, scene, &asset, Mode::Direct, s)?;
+    lap("direct");
+    let full = render(ctx, scene, &asset, Mode::Full, s)?.sub(&direct);
+    // `indirect` is full's indirect part (checked on static scenes).
+    let indirect = if with_naive {
+        render(ctx, scene, &asset, Mode::Indirect, s)?
+    } else {
+        full.clone()
+    };
+    lap("full+indirect");
+    let rsm = render(ctx, scene, &asset, Mode::Rsm, s)?.sub(&direct);
+    lap("rsm");
+    // Naive re-renders every map each frame (slow); it must equal full.
+    let naive = if with_naive {
+        render(ctx, scene, &asset, Mode::Naive, s)?.sub(&direct)
+    } else {
+        full.clone()
+    };
+    lap("naive");
+    let rm = reference.mean();
+    let sum = |i: &Image| {
+        let m = i.mean();
+        m.x + m.y + m.z
+    };
+    Ok(IndirectEval {
+        name: name.to_string(),
+        vpls: asset.vpls.len(),
+        has_dynamic: !scene.dynamic_objects.is_empty(),
+        ref_mean: rm.to_array(),
+        ref_noise: (noise / rm.max(Vec3::splat(f32::MIN_POSITIVE))).to_array(),
+        full_bias: bias(full.mean(), rm),
+        rsm_bias: bias(rsm.mean(), rm),
+        full_err: indirect_error(&full, &reference, s.blur),
+        rsm_err: indirect_error(&rsm, &reference, s.blur),
+        naive_vs_full: gibake_image::rel_mse(&naive, &full),
+        mode_indirect: vec![
+            ("full".into(), sum(&full)),
+            ("indirect".into(), sum(&indirect)),
+            ("rsm".into(), sum(&rsm)),
+            ("naive".into(), sum(&naive)),
+        ],
+    })
+}

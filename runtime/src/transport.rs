@@ -1,0 +1,103 @@
+//! CPU twin of the shading's VPL transport (`shade.wgsl`): the irradiance a
+//! static VPL sends to a receiver before visibility, from one disk far away
+//! and from its near-field tree up close (`gibake_bake::near_field`). Tests
+//! compare the GPU image with sums made from these functions.
+
+use gibake_asset::{NODES_PER_VPL, VplRecord};
+use glam::Vec3;
+
+/// A VPL or node is replaced by its children where the receiver is nearer
+/// than this many disk radii `√(A/π)` (must match `NEAR_FIELD_RATIO` in
+/// shade.wgsl). At 4 radii a disk's point approximation is within a few
+/// per cent; measured in docs/method.md ("Near field").
+pub const NEAR_FIELD_RATIO: f32 = 4.0;
+
+/// Irradiance at `x` (shading normal `ns`, geometric `ng`) from a disk-like
+/// emitter at `origin` with normal `nv`, area `a`, flux `phi`:
+/// `Φ/π · cosθ_v cosθ_r / √(d⁴ + (A/π)²)` (shade.wgsl `vpl_irradiance`).
+pub fn disk_irradiance(
+    origin: Vec3,
+    nv: Vec3,
+    a: f32,
+    phi: Vec3,
+    x: Vec3,
+    ns: Vec3,
+    ng: Vec3,
+) -> Vec3 {
+    let dv = x - origin;
+    let d2 = dv.length_squared();
+    if d2 <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let dir = dv / d2.sqrt();
+    let (cv, cr) = (nv.dot(dir), ns.dot(-dir));
+    if cv <= 0.0 || cr <= 0.0 || ng.dot(-dir) <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let r2 = a / std::f32::consts::PI;
+    let e = phi * (cv * cr / std::f32::consts::PI / (d2 * d2 + r2 * r2).sqrt());
+    if e.is_finite() { e } else { Vec3::ZERO }
+}
+
+fn is_near(x: Vec3, p: Vec3, a: f32) -> bool {
+    (x - p).length_squared() < NEAR_FIELD_RATIO * NEAR_FIELD_RATIO * a / std::f32::consts::PI
+}
+
+fn node(n: &VplRecord, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 {
+    if n.texels == 0 {
+        return Vec3::ZERO;
+    }
+    disk_irradiance(
+        Vec3::from_array(n.position),
+        Vec3::from_array(n.normal),
+        n.area,
+        Vec3::from_array(n.flux),
+        x,
+        ns,
+        ng,
+    )
+}
+
+/// Unshadowed irradiance at `x` from VPL `v` whose map origin is `origin`
+/// and whose near-field tree is `nodes` ([`NODES_PER_VPL`] records).
+pub fn static_vpl_irradiance(
+    v: &VplRecord,
+    origin: Vec3,
+    nodes: &[VplRecord],
+    x: Vec3,
+    ns: Vec3,
+    ng: Vec3,
+) -> Vec3 {
+    let nv = Vec3::from_array(v.normal);
+    if !is_near(x, origin, v.area) || nodes.len() < NODES_PER_VPL {
+        return disk_irradiance(origin, nv, v.area, Vec3::from_array(v.flux), x, ns, ng);
+    }
+    let mut e = Vec3::ZERO;
+    for c1 in 0..4 {
+        let (i1, j1) = (c1 % 2, c1 / 2);
+        let n1 = &nodes[j1 * 2 + i1];
+        if n1.texels == 0 {
+            continue;
+        }
+        if !is_near(x, Vec3::from_array(n1.position), n1.area) {
+            e += node(n1, x, ns, ng);
+            continue;
+        }
+        for c2 in 0..4 {
+            let (i2, j2) = (2 * i1 + c2 % 2, 2 * j1 + c2 / 2);
+            let n2 = &nodes[4 + j2 * 4 + i2];
+            if n2.texels == 0 {
+                continue;
+            }
+            if !is_near(x, Vec3::from_array(n2.position), n2.area) {
+                e += node(n2, x, ns, ng);
+                continue;
+            }
+            for c3 in 0..4 {
+                let (i3, j3) = (2 * i2 + c3 % 2, 2 * j2 + c3 / 2);
+                e += node(&nodes[20 + j3 * 8 + i3], x, ns, ng);
+            }
+        }
+    }
+    e
+}
