@@ -490,12 +490,12 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
 pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
     check_output_dir(&a.output)?;
     let t = Instant::now();
-    let mut parts = Vec::with_capacity(a.parts.len());
+    // One part's front data in memory at a time (plus every shard's maps).
+    let mut merger = gibake_asset::Merger::default();
     for p in &a.parts {
-        let part = gibake_asset::load_part(p)?;
-        parts.push((p.clone(), part));
+        merger.add(p.clone(), gibake_asset::load_part(p)?)?;
     }
-    let asset = gibake_asset::merge(parts)?;
+    let asset = merger.finish()?;
     gibake_asset::write(&asset, &a.output)?;
     let seconds = t.elapsed().as_secs_f64();
     let m = &asset.manifest;

@@ -455,69 +455,107 @@ fn manifest_difference(a: &Manifest, b: &Manifest) -> Option<String> {
 /// Merges a complete set of parts (any order) into the asset the
 /// single-machine bake gives. Checks that every part comes from the same
 /// scene, settings, baker version, adapter and shard count, that the front
-/// data agrees, and that every shard `0..N` is present exactly once.
+/// data agrees, and that every shard `0..N` is present exactly once. See
+/// [`Merger`] to merge while loading (one part's front data in memory at a
+/// time).
 pub fn merge(parts: Vec<(PathBuf, ShardPart)>) -> Result<Asset, MergeError> {
-    let Some((first_path, first)) = parts.first() else {
-        return Err(MergeError::NoParts);
-    };
-    let first_hash = front_hash(&first.front);
-    let shards = first.shards;
-    let mut slots: Vec<Option<usize>> = vec![None; shards as usize];
-    for (i, (path, p)) in parts.iter().enumerate() {
+    let mut m = Merger::default();
+    for (path, part) in parts {
+        m.add(path, part)?;
+    }
+    m.finish()
+}
+
+/// An incremental [`merge`]: [`Merger::add`] each part as it is loaded
+/// (it keeps the first part's front data and every part's maps, and drops the
+/// rest), then [`Merger::finish`].
+#[derive(Default)]
+pub struct Merger {
+    /// The first part: its path, front data and that data's hash.
+    first: Option<(PathBuf, Asset, [u8; 32])>,
+    shards: u32,
+    /// Per shard: the part's path and its maps.
+    slots: Vec<Option<(PathBuf, Vec<Option<Vec<f32>>>)>>,
+    /// Every part added, for messages.
+    paths: Vec<PathBuf>,
+}
+
+impl Merger {
+    /// Adds one part, checking it against the first one added and the
+    /// shards seen so far (a repeated shard is an error at once).
+    pub fn add(&mut self, path: PathBuf, part: ShardPart) -> Result<(), MergeError> {
+        check_part(&part, &path)?;
+        let ShardPart {
+            shard,
+            shards,
+            front,
+            maps,
+        } = part;
+        let hash = front_hash(&front);
+        let Some((first_path, first, first_hash)) = &self.first else {
+            self.shards = shards;
+            self.slots = vec![None; shards as usize];
+            self.slots[shard as usize] = Some((path.clone(), maps));
+            self.paths.push(path.clone());
+            self.first = Some((path, front, hash));
+            return Ok(());
+        };
         let mismatch = |message: String| MergeError::Mismatch {
             part: path.clone(),
             first: first_path.clone(),
             message,
         };
-        if p.shards != shards {
+        if shards != self.shards {
             return Err(mismatch(format!(
-                "is shard {}/{}, from a bake split into {} shards, not {shards}",
-                p.shard, p.shards, p.shards
+                "is shard {shard}/{shards}, from a bake split into {shards} shards, not {}",
+                self.shards
             )));
         }
-        if let Some(d) = manifest_difference(&first.front.manifest, &p.front.manifest) {
+        if let Some(d) = manifest_difference(&first.manifest, &front.manifest) {
             return Err(mismatch(d));
         }
-        if i > 0 && front_hash(&p.front) != first_hash {
+        if hash != *first_hash {
             return Err(mismatch(
                 "its shared front data (VPLs, primary shadow map, RSM) differs: the shards did not compute the same bake".into(),
             ));
         }
-        let slot = &mut slots[p.shard as usize];
-        if let Some(j) = *slot {
+        let slot = &mut self.slots[shard as usize];
+        if let Some((other, _)) = slot {
             return Err(MergeError::Repeated {
-                a: parts[j].0.clone(),
-                b: path.clone(),
-                shard: p.shard,
+                a: other.clone(),
+                b: path,
+                shard,
                 shards,
             });
         }
-        *slot = Some(i);
+        *slot = Some((path.clone(), maps));
+        self.paths.push(path);
+        Ok(())
     }
-    let missing: Vec<u32> = (0..shards)
-        .filter(|&k| slots[k as usize].is_none())
-        .collect();
-    if !missing.is_empty() {
-        return Err(MergeError::Missing {
-            missing,
-            present: (0..shards)
-                .filter(|&k| slots[k as usize].is_some())
-                .collect(),
-            shards,
-            parts: parts.iter().map(|(p, _)| p.display().to_string()).collect(),
-        });
+
+    /// The merged asset, or which shards are missing.
+    pub fn finish(self) -> Result<Asset, MergeError> {
+        let Some((_, mut asset, _)) = self.first else {
+            return Err(MergeError::NoParts);
+        };
+        let missing: Vec<u32> = (0..self.shards)
+            .filter(|&k| self.slots[k as usize].is_none())
+            .collect();
+        if !missing.is_empty() {
+            return Err(MergeError::Missing {
+                missing,
+                present: (0..self.shards)
+                    .filter(|&k| self.slots[k as usize].is_some())
+                    .collect(),
+                shards: self.shards,
+                parts: self.paths.iter().map(|p| p.display().to_string()).collect(),
+            });
+        }
+        // Shard order is VPL order: the ranges are contiguous and ordered.
+        let maps = self.slots.into_iter().flatten().flat_map(|(_, m)| m);
+        asset.vpl_maps = assign_map_layers(&mut asset.vpls, maps);
+        Ok(asset)
     }
-    let mut order: Vec<usize> = slots.into_iter().flatten().collect();
-    let mut parts = parts;
-    // Take the maps out in shard order (ranges are contiguous and ordered).
-    let mut maps = Vec::new();
-    for &i in &order {
-        maps.append(&mut parts[i].1.maps);
-    }
-    let i0 = order.remove(0);
-    let mut asset = parts.swap_remove(i0).1.front;
-    asset.vpl_maps = assign_map_layers(&mut asset.vpls, maps);
-    Ok(asset)
 }
 
 #[cfg(test)]
@@ -538,6 +576,101 @@ mod tests {
                 assert_eq!(next, v);
             }
         }
+    }
+
+    fn tiny_part(shard: u32, shards: u32) -> ShardPart {
+        let manifest = crate::Manifest {
+            provenance: crate::Provenance {
+                baker_version: "t".into(),
+                scene_name: "s.glb".into(),
+                adapter: "a".into(),
+                backend: "b".into(),
+                driver: "d".into(),
+            },
+            settings: crate::BakeSettings {
+                rsm_size: 2,
+                vpl_map_size: 2,
+                shadow_map_size: 2,
+                threshold: 0.5,
+                vpl_budget: Some(3),
+            },
+            static_scene_hash: [7; 32],
+            light_view: crate::LightViewRecord {
+                directional: false,
+                view_proj: [0.0; 16],
+                origin: [0.0; 3],
+                direction: [0.0, -1.0, 0.0],
+                texel_scale: 1.0,
+                texel_area: 1.0,
+            },
+            vpl_count: 3,
+            map_count: 0,
+            has_dynamic: false,
+            files: Vec::new(),
+        };
+        let rec = VplRecord {
+            position: [0.0; 3],
+            area: 1.0,
+            normal: [0.0, 0.0, 1.0],
+            texels: 1,
+            flux: [1.0; 3],
+            map: NO_MAP,
+        };
+        let range = shard_range(3, shard, shards);
+        ShardPart {
+            shard,
+            shards,
+            front: Asset {
+                manifest,
+                vpls: vec![rec; 3],
+                primary_depth: Map {
+                    size: 2,
+                    data: vec![1.0; 4],
+                },
+                vpl_maps: Vec::new(),
+                rsm: None,
+            },
+            maps: range.map(|i| (i != 1).then(|| vec![i as f32; 4])).collect(),
+        }
+    }
+
+    #[test]
+    fn parts_round_trip_and_merge_in_any_order() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut loaded = Vec::new();
+        for k in [2, 0, 1] {
+            let path = dir.path().join(format!("p{k}"));
+            let part = tiny_part(k, 3);
+            write_part(&part, &path).unwrap();
+            let back = load_part(&path).unwrap();
+            assert_eq!(back, part);
+            loaded.push((path, back));
+        }
+        let asset = merge(loaded).unwrap();
+        assert_eq!(
+            asset.vpls.iter().map(|v| v.map).collect::<Vec<_>>(),
+            [0, NO_MAP, 1]
+        );
+        assert_eq!(asset.vpl_maps, [0.0, 0.0, 0.0, 0.0, 2.0, 2.0, 2.0, 2.0]);
+    }
+
+    #[test]
+    fn invalid_parts_are_errors_not_panics() {
+        let mut bad = tiny_part(0, 2);
+        bad.shard = 5;
+        let mut m = Merger::default();
+        assert!(m.add("x".into(), bad).is_err());
+        let mut short = tiny_part(1, 2);
+        short.maps.pop();
+        assert!(Merger::default().add("y".into(), short).is_err());
+        assert!(matches!(
+            Merger::default().finish(),
+            Err(MergeError::NoParts)
+        ));
+        let mut m = Merger::default();
+        m.add("a".into(), tiny_part(0, 2)).unwrap();
+        let e = m.finish().unwrap_err().to_string();
+        assert!(e.contains("[1]"), "{e}");
     }
 
     #[test]
