@@ -74,6 +74,9 @@ pub fn assign_map_layers(
     out
 }
 
+/// A shard's hemisphere maps, one per VPL of its range (`None`: not stored).
+pub type ShardMaps = Vec<Option<Vec<f32>>>;
+
 /// One shard's result: the shared front part (everything of the asset but
 /// the hemisphere maps) and the maps of the VPLs it owns.
 #[derive(Clone, Debug, PartialEq)]
@@ -88,7 +91,7 @@ pub struct ShardPart {
     pub front: Asset,
     /// The maps of the VPLs in `shard_range(vpls, shard, shards)`, in order;
     /// `None` for a VPL whose map sees no surface (not stored).
-    pub maps: Vec<Option<Vec<f32>>>,
+    pub maps: ShardMaps,
 }
 
 /// The serialized form (private: the layout is the doc's, not serde's choice).
@@ -475,7 +478,7 @@ pub struct Merger {
     first: Option<(PathBuf, Asset, [u8; 32])>,
     shards: u32,
     /// Per shard: the part's path and its maps.
-    slots: Vec<Option<(PathBuf, Vec<Option<Vec<f32>>>)>>,
+    slots: Vec<Option<(PathBuf, ShardMaps)>>,
     /// Every part added, for messages.
     paths: Vec<PathBuf>,
 }
