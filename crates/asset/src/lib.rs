@@ -37,8 +37,8 @@ pub use format::{
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
 pub use shard::{
-    MAX_SHARDS, MergeError, Merger, PART_MAGIC, PART_VERSION, ShardPart, assign_map_layers,
-    load_part, merge, shard_range, write_part,
+    MAX_SHARDS, MergeError, Merger, PART_MAGIC, PART_VERSION, ShardMaps, ShardPart,
+    assign_map_layers, load_part, merge, shard_range, write_part,
 };
 
 /// Magic bytes at the start of `manifest.bin`.

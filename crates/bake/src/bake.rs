@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use gibake_asset::{
     Asset, BakeSettings, LightViewRecord, MAX_SHARDS, Manifest, Map, NO_MAP, Provenance, RsmData,
-    ShardPart, VplRecord, assign_map_layers, shard_range,
+    ShardMaps, ShardPart, VplRecord, assign_map_layers, shard_range,
 };
 use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::passes::shadow::ShadowPass;
@@ -167,9 +167,6 @@ pub fn bake_shard(
         stages: out.stages,
     })
 }
-
-/// The hemisphere maps of a shard's VPLs, in order (`None`: not stored).
-type ShardMaps = Vec<Option<Vec<f32>>>;
 
 /// The bake; with `shard`, the asset has no hemisphere maps and the maps of
 /// the shard's VPLs are returned apart.
