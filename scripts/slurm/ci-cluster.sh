@@ -108,7 +108,7 @@ for _ in $(seq 1 50); do [ -S "$sock" ] && break; sleep 0.1; done
 cat >"$dir/slurm.conf" <<CONF
 # Written by scripts/slurm/ci-cluster.sh: a one-node cluster for CI.
 ClusterName=gibakeci
-SlurmctldHost=$host
+SlurmctldHost=$host(127.0.0.1)
 SlurmctldPort=$ctld_port
 SlurmdPort=$slurmd_port
 AuthType=auth/munge
@@ -139,7 +139,7 @@ MinJobAge=600
 SlurmdTimeout=60
 InactiveLimit=0
 KillWait=5
-NodeName=$host CPUs=$cpus RealMemory=1024 State=UNKNOWN
+NodeName=$host NodeAddr=127.0.0.1 CPUs=$cpus RealMemory=1024 State=UNKNOWN
 PartitionName=debug Nodes=$host Default=YES MaxTime=INFINITE State=UP
 CONF
 export SLURM_CONF="$dir/slurm.conf"
