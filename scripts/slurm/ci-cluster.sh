@@ -145,8 +145,10 @@ CONF
 export SLURM_CONF="$dir/slurm.conf"
 
 slurmctld -f "$SLURM_CONF" -i || fail "slurmctld did not start"
+died() { [ -f "$1" ] && ! kill -0 "$(cat "$1" 2>/dev/null)" 2>/dev/null; }
 for _ in $(seq 1 100); do
   scontrol ping 2>/dev/null | grep -q UP && break
+  died "$dir/slurmctld.pid" && fail "slurmctld exited"
   sleep 0.2
 done
 scontrol ping 2>/dev/null | grep -q UP || fail "slurmctld does not answer (scontrol ping)"
@@ -155,6 +157,7 @@ slurmd -f "$SLURM_CONF" -N "$host" || fail "slurmd did not start"
 # Wait for the node to be idle (bounded).
 state=""
 for _ in $(seq 1 150); do
+  died "$dir/slurmd.pid" && fail "slurmd exited"
   state=$(sinfo -h -N -n "$host" -o %T 2>/dev/null | head -n 1 || true)
   case "$state" in
     idle*) break ;;
