@@ -472,3 +472,31 @@ fn bake_usage_errors() {
     let r = gibake(&[&"merge", &w.join("nope.part"), &"-o", &w.join("m.gibake")]);
     assert_bad_input(&r, &["nope.part"]);
 }
+
+#[test]
+fn bench_pipeline_reports_the_check_against_the_bake() {
+    let dir = tempfile::tempdir().unwrap();
+    let r = gibake(&[&"bench", &"pipeline", &"--quick", &"--out", &dir.path()]);
+    assert_ok(&r);
+    assert!(r.stdout.contains("| scene | bake (s) |"), "no table\n{r}");
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("pipeline.json")).unwrap()).unwrap();
+    let scenes = j["scenes"].as_array().unwrap();
+    assert_eq!(scenes.len(), 3, "{j}");
+    for s in scenes {
+        let (bake, check) = (
+            s["median_bake_seconds"].as_f64().unwrap(),
+            s["median_check_seconds"].as_f64().unwrap(),
+        );
+        assert!(
+            bake.is_finite() && bake > 0.0 && check.is_finite() && check > 0.0,
+            "{s}"
+        );
+        // The target is < 10 % (docs/pipeline.md: about 1 % measured); this
+        // loose bound only catches a check that started doing real work.
+        assert!(
+            check < 0.25 * bake,
+            "the up-to-date check costs {check} s against a {bake} s bake: {s}"
+        );
+    }
+}

@@ -23,6 +23,8 @@ use gibake_scene::{LoadOptions, Scene};
 use serde_json::{Value, json};
 
 use crate::cli::{BenchArgs, BenchScene, BenchWhich};
+
+mod pipeline;
 use crate::output::{bar, write_atomic};
 
 const CORNER_BUNNY: &[u8] = include_bytes!("../../data/corner_bunny.glb");
@@ -149,6 +151,9 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<ExitCode> {
         }
         if matches!(a.which, BenchWhich::Runtime | BenchWhich::All) {
             bench_runtime(&mut b, a.heavy)?;
+        }
+        if matches!(a.which, BenchWhich::Pipeline | BenchWhich::All) {
+            pipeline::bench_pipeline(&mut b)?;
         }
         if matches!(a.which, BenchWhich::Quality | BenchWhich::All) {
             let spp = a.ref_spp.unwrap_or(if a.quick { 256 } else { 1024 });

@@ -302,7 +302,8 @@ pub struct InspectArgs {
 pub struct BenchArgs {
     /// Which benchmark: `bake` (bake time per stage), `runtime` (per-frame
     /// update of full against naive, the paper's Table 1, asset load),
-    /// `quality` (error against run time for every mode), or `all`.
+    /// `quality` (error against run time for every mode), `pipeline` (an
+    /// up-to-date check against the bake it skips), or `all`.
     #[arg(value_enum, default_value_t = BenchWhich::All)]
     pub which: BenchWhich,
     /// Directory for the Markdown report, the JSON and the SVG plots.
@@ -341,7 +342,9 @@ pub enum BenchWhich {
     Runtime,
     /// Error against run time for every mode and several qualities.
     Quality,
-    /// All three.
+    /// An up-to-date check against the bake it skips, per bundled scene.
+    Pipeline,
+    /// All four.
     All,
 }
 
