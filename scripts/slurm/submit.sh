@@ -14,7 +14,7 @@
 #   GIBAKE_KEEP_PARTS   1 keeps the part files after the merge
 set -euo pipefail
 if [ $# -lt 3 ]; then
-  sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//' >&2
+  sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//' >&2
   exit 2
 fi
 here=$(cd "$(dirname "$0")" && pwd)
