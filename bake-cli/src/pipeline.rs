@@ -105,15 +105,14 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
             bake_stale(&ctx, &scene, &output, &opts, stale, &progress)?
         }
     };
-    let ctx_record = record;
     let total_s = total.elapsed().as_secs_f64();
     if a.json {
         let mut j = o.json(&output);
-        j["adapter"] = json!(ctx_record.to_string());
+        j["adapter"] = json!(record.to_string());
         j["total_seconds"] = json!(total_s);
         println!("{}", serde_json::to_string_pretty(&j)?);
     } else {
-        eprintln!("GPU: {ctx_record}");
+        eprintln!("GPU: {record}");
         o.print(&output);
         if o.baked.is_some() {
             eprintln!("  {:<12} {:>8.3} s", "total", total_s);
@@ -126,7 +125,7 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
 struct Outcome {
     /// Why it (re-)baked; `None`: up to date, left untouched.
     reasons: Option<Vec<String>>,
-    /// Seconds the up-to-date check took (0 with --force).
+    /// Seconds the up-to-date check took (next to nothing with --force).
     check_s: f64,
     /// The bake's summary when it baked.
     baked: Option<Baked>,
