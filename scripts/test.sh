@@ -2,10 +2,12 @@
 # The whole test suite, as CI runs it: installs what is missing, validates the
 # bundled glTF scenes with the Khronos validator, then runs every Rust test
 # (GPU tests run on lavapipe when there is no GPU; they fail, never skip,
-# when no adapter exists).
+# when no adapter exists). Slurm (slurm-wlm, munge) is installed for the
+# one-node cluster test, tests/pipeline_slurm.rs, which fails when it cannot
+# start.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/ensure-deps.sh --node
+bash scripts/ensure-deps.sh --node --slurm
 echo "== glTF validator on data/*.glb"
 (cd data/validate && npm ci --silent --no-audit --no-fund && node validate.mjs ../*.glb)
 echo "== cargo test"

@@ -25,6 +25,8 @@ use serde_json::{Value, json};
 mod accuracy;
 
 use crate::cli::{BenchArgs, BenchScene, BenchWhich};
+
+mod pipeline;
 use crate::output::{bar, write_atomic};
 
 const CORNER_BUNNY: &[u8] = include_bytes!("../../data/corner_bunny.glb");
@@ -151,6 +153,9 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<ExitCode> {
         }
         if matches!(a.which, BenchWhich::Runtime | BenchWhich::All) {
             bench_runtime(&mut b, a.heavy)?;
+        }
+        if matches!(a.which, BenchWhich::Pipeline | BenchWhich::All) {
+            pipeline::bench_pipeline(&mut b)?;
         }
         if matches!(a.which, BenchWhich::Quality | BenchWhich::All) {
             let spp = a.ref_spp.unwrap_or(if a.quick { 256 } else { 1024 });

@@ -43,6 +43,9 @@ pub enum Command {
     Diff(DiffArgs),
     /// Describe a baked asset: counts, sizes, settings, provenance, VPL flux.
     Inspect(InspectArgs),
+    /// Join the parts of a sharded bake (`bake --shard K/N`) into the asset
+    /// the single-machine bake writes, byte for byte.
+    Merge(MergeArgs),
     /// Measure: bake time per stage, per-frame update of full vs naive,
     /// Table 1, and error against run time for every mode and quality.
     Bench(BenchArgs),
@@ -54,13 +57,35 @@ pub enum Command {
 
 /// `gibake bake`.
 #[derive(Args, Debug)]
+#[command(group(clap::ArgGroup::new("out").required(true).args(["output", "out_dir"])))]
 pub struct BakeArgs {
-    /// Scene.
-    #[command(flatten)]
-    pub scene: SceneArgs,
-    /// Output asset directory (NAME.gibake). Replaced if it is an existing asset.
+    /// The glTF 2.0 scene(s) (.gltf or .glb). Several scenes need --out-dir
+    /// (a batch: each is baked into DIR/NAME.gibake, NAME = the file stem).
+    #[arg(required = true, value_name = "SCENE")]
+    pub scenes: Vec<PathBuf>,
+    /// Pick the primary light by name when the scene has several.
+    #[arg(long, value_name = "NAME")]
+    pub light: Option<String>,
+    /// Output asset directory (NAME.gibake) of one scene; with --shard, the
+    /// shard's part file. An existing asset is left untouched when it is up
+    /// to date (see --force) and replaced otherwise.
     #[arg(short, long, value_name = "OUT.gibake")]
-    pub output: PathBuf,
+    pub output: Option<PathBuf>,
+    /// Batch: bake every SCENE into DIR/NAME.gibake (DIR is created). A
+    /// scene that fails is named and the others are still baked; the exit
+    /// code is 2 if any failed.
+    #[arg(long, value_name = "DIR", conflicts_with = "output")]
+    pub out_dir: Option<PathBuf>,
+    /// Re-bake even when the existing asset is up to date (same static-scene
+    /// hash, settings, baker version and adapter).
+    #[arg(long)]
+    pub force: bool,
+    /// Bake shard K of N (0-based, K in 0..N) of a distributed bake: the
+    /// shared front part (shadow map, RSM, clusters) and the hemisphere maps
+    /// of the K-th of N equal runs of VPLs, into the part file -o PART.
+    /// `gibake merge` joins the N parts into the single bake's bytes.
+    #[arg(long, value_name = "K/N", value_parser = parse_shard, conflicts_with = "out_dir")]
+    pub shard: Option<(u32, u32)>,
     /// Number of VPLs to make (the result has N ± 2%). Default 256 unless --threshold is given.
     #[arg(long, value_name = "N", conflicts_with = "threshold")]
     pub vpls: Option<u32>,
@@ -76,12 +101,53 @@ pub struct BakeArgs {
     /// Primary shadow map resolution.
     #[arg(long, default_value_t = 2048, value_name = "N")]
     pub shadow_map_size: u32,
-    /// Print the summary (counts, per-stage times) as JSON on stdout.
+    /// Print the summary as JSON on stdout: the decision ("baked" or
+    /// "up_to_date") and why, counts, per-stage times; a batch gives one
+    /// entry per scene and the failed scenes (see docs/pipeline.md).
     #[arg(long)]
     pub json: bool,
     /// GPU adapter to use (substring of its name).
     #[arg(long)]
     pub adapter: Option<String>,
+}
+
+/// Parses `K/N` (0-based shard K of N).
+fn parse_shard(s: &str) -> Result<(u32, u32), String> {
+    let (k, n) = s
+        .split_once('/')
+        .ok_or_else(|| format!("`{s}` is not K/N (for example 0/4)"))?;
+    let k: u32 = k
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}`: K is not a whole number"))?;
+    let n: u32 = n
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}`: N is not a whole number"))?;
+    let max = gibake_asset::MAX_SHARDS;
+    if n == 0 || n > max {
+        return Err(format!("`{s}`: N must be in 1..={max}"));
+    }
+    if k >= n {
+        return Err(format!(
+            "`{s}`: K must be in 0..{n} (shards are numbered from 0)"
+        ));
+    }
+    Ok((k, n))
+}
+
+/// `gibake merge`.
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    /// The part files of every shard, in any order (each exactly once).
+    #[arg(required = true, value_name = "PART")]
+    pub parts: Vec<PathBuf>,
+    /// The merged asset directory (NAME.gibake); an existing asset is replaced.
+    #[arg(short, long, value_name = "OUT.gibake")]
+    pub output: PathBuf,
+    /// Print a summary as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Render modes.
@@ -237,7 +303,8 @@ pub struct InspectArgs {
 pub struct BenchArgs {
     /// Which benchmark: `bake` (bake time per stage), `runtime` (per-frame
     /// update of full against naive, the paper's Table 1, asset load),
-    /// `quality` (error against run time for every mode), or `all`.
+    /// `quality` (error against run time for every mode), `pipeline` (an
+    /// up-to-date check against the bake it skips), or `all`.
     #[arg(value_enum, default_value_t = BenchWhich::All)]
     pub which: BenchWhich,
     /// Directory for the Markdown report, the JSON and the SVG plots.
@@ -282,6 +349,8 @@ pub enum BenchWhich {
     /// Indirect light against the reference: mean bias per channel and full's
     /// against rsm's error, on the bundled scenes and --seeds random ones.
     Accuracy,
+    /// An up-to-date check against the bake it skips, per bundled scene.
+    Pipeline,
     /// All of them.
     All,
 }

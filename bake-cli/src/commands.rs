@@ -9,7 +9,7 @@ use gibake_gpu::{GpuContext, GpuOptions};
 use gibake_scene::{LoadOptions, Scene};
 
 use crate::cli::{
-    BakeArgs, Cli, Command, DiffArgs, InspectArgs, ModeArg, ReferenceArgs, RenderArgs, SceneArgs,
+    Cli, Command, DiffArgs, InspectArgs, ModeArg, ReferenceArgs, RenderArgs, SceneArgs,
     TolerancePreset,
 };
 use crate::output::{bar, write_image_atomic};
@@ -23,14 +23,15 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Render(a) => render(a),
         Command::Reference(a) => reference(a),
         Command::Demo(a) => crate::demo::run(a),
-        Command::Bake(a) => bake(a),
+        Command::Bake(a) => crate::pipeline::bake(a),
+        Command::Merge(a) => crate::pipeline::merge(a),
         Command::Diff(a) => diff(a),
         Command::Inspect(a) => inspect(a),
         Command::Bench(a) => crate::bench::bench(a),
     }
 }
 
-fn load_scene(a: &SceneArgs) -> anyhow::Result<Scene> {
+pub(crate) fn load_scene(a: &SceneArgs) -> anyhow::Result<Scene> {
     let scene = gibake_scene::load(
         &a.scene,
         &LoadOptions {
@@ -43,7 +44,7 @@ fn load_scene(a: &SceneArgs) -> anyhow::Result<Scene> {
     Ok(scene)
 }
 
-fn check_output_dir(path: &Path) -> anyhow::Result<()> {
+pub(crate) fn check_output_dir(path: &Path) -> anyhow::Result<()> {
     let dir = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -291,76 +292,6 @@ impl gibake_bake::BakeProgress for BarProgress {
             pb.finish_and_clear();
         }
     }
-}
-
-fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
-    if let Some(dir) = a.output.parent().filter(|p| !p.as_os_str().is_empty()) {
-        if !dir.is_dir() {
-            bail!(
-                "{}: the output directory {} does not exist",
-                a.output.display(),
-                dir.display()
-            );
-        }
-    }
-    let target = match (a.vpls, a.threshold) {
-        (Some(n), _) => gibake_bake::cluster::ClusterTarget::Count(n),
-        (None, Some(t)) => gibake_bake::cluster::ClusterTarget::Threshold(t),
-        (None, None) => gibake_bake::cluster::ClusterTarget::Count(256),
-    };
-    let opts = gibake_bake::BakeOptions {
-        rsm_size: a.rsm_size,
-        vpl_map_size: a.vpl_map_size,
-        shadow_map_size: a.shadow_map_size,
-        target,
-    };
-    let total = Instant::now();
-    let scene = load_scene(&a.scene)?;
-    let load_s = total.elapsed().as_secs_f64();
-    let ctx = GpuContext::new(&GpuOptions {
-        adapter: a.adapter.clone(),
-    })?;
-    let progress = BarProgress {
-        bar: std::sync::Mutex::new(None),
-        quiet: a.json,
-    };
-    let out = gibake_bake::bake(&ctx, &scene, &opts, &progress, env!("CARGO_PKG_VERSION"))
-        .with_context(|| format!("baking {}", a.scene.scene.display()))?;
-    let w = Instant::now();
-    gibake_asset::write(&out.asset, &a.output)?;
-    let write_s = w.elapsed().as_secs_f64();
-    let m = &out.asset.manifest;
-    let mut stages: Vec<(String, f64)> = vec![("load scene".into(), load_s)];
-    stages.extend(out.stages.iter().map(|s| (s.stage.to_string(), s.seconds)));
-    stages.push(("write".into(), write_s));
-    let total_s = total.elapsed().as_secs_f64();
-    if a.json {
-        let json = serde_json::json!({
-            "asset": a.output,
-            "adapter": ctx.record.to_string(),
-            "vpls": m.vpl_count,
-            "maps_stored": m.map_count,
-            "threshold": m.settings.threshold,
-            "has_dynamic": m.has_dynamic,
-            "stages": stages.iter().map(|(n, s)| serde_json::json!({"stage": n, "seconds": s})).collect::<Vec<_>>(),
-            "total_seconds": total_s,
-        });
-        println!("{}", serde_json::to_string_pretty(&json)?);
-    } else {
-        eprintln!("GPU: {}", ctx.record);
-        eprintln!(
-            "baked {}: {} VPLs ({} maps stored), threshold {:.4}",
-            a.output.display(),
-            m.vpl_count,
-            m.map_count,
-            m.settings.threshold
-        );
-        for (n, s) in &stages {
-            eprintln!("  {n:<12} {s:>8.3} s");
-        }
-        eprintln!("  {:<12} {:>8.3} s", "total", total_s);
-    }
-    Ok(ExitCode::SUCCESS)
 }
 
 fn inspect(a: InspectArgs) -> anyhow::Result<ExitCode> {

@@ -8,6 +8,7 @@ mod cli;
 mod commands;
 mod demo;
 mod output;
+mod pipeline;
 
 use std::process::ExitCode;
 

@@ -10,7 +10,10 @@
 //!   checksums, counts, sizes, values) without panicking on any input;
 //! - [`check_scene_hash`]: refuse an asset baked from a different static scene;
 //! - [`inspect`]: a summary ([`Inspection`], `Display` + `Serialize`);
-//! - [`diff`] / [`write_diff_images`]: compare two assets under a [`Tolerance`].
+//! - [`diff`] / [`write_diff_images`]: compare two assets under a [`Tolerance`];
+//! - [`verify_files`]: manifest and file checksums only (up-to-date checks);
+//! - [`write_part`] / [`load_part`] / [`merge`]: shard parts of a distributed
+//!   bake and their merge into the single bake's asset.
 
 use serde::{Deserialize, Serialize};
 
@@ -19,6 +22,7 @@ mod error;
 mod exrio;
 mod format;
 mod inspect;
+mod shard;
 
 pub use diff::{
     DiffReport, FieldDiff, MapDiff, Tolerance, VplDiff, VplMismatch, diff, write_diff_images,
@@ -29,9 +33,13 @@ pub use format::testing;
 pub use format::{
     FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM, FILE_VPL_MAPS, FILE_VPL_NODES, FILE_VPLS,
     MAX_MAP_SIZE, VPL_RECORD_BYTES, atlas_grid, check_scene_hash, check_scene_hash_for, load,
-    load_manifest, write,
+    load_manifest, verify_files, write,
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
+pub use shard::{
+    MAX_SHARDS, MergeError, Merger, PART_MAGIC, PART_VERSION, ShardMaps, ShardPart,
+    assign_map_layers, load_part, merge, shard_range, write_part,
+};
 
 /// Magic bytes at the start of `manifest.bin`.
 pub const MAGIC: [u8; 8] = *b"GIBAKE\0\x01";

@@ -4,7 +4,8 @@
 use std::time::Instant;
 
 use gibake_asset::{
-    Asset, BakeSettings, LightViewRecord, Manifest, Map, NO_MAP, Provenance, RsmData, VplRecord,
+    Asset, BakeSettings, LightViewRecord, MAX_SHARDS, Manifest, Map, NO_MAP, Provenance, RsmData,
+    ShardMaps, ShardPart, VplRecord, assign_map_layers, shard_range,
 };
 use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::passes::shadow::ShadowPass;
@@ -117,6 +118,66 @@ pub fn bake(
     progress: &dyn BakeProgress,
     baker_version: &str,
 ) -> Result<BakeOutput, BakeError> {
+    bake_with(ctx, scene, opts, progress, baker_version, None).map(|(out, _)| out)
+}
+
+/// One shard of a distributed bake: shard `index` of `count` (0-based).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// This shard, `0..count`.
+    pub index: u32,
+    /// Number of shards.
+    pub count: u32,
+}
+
+/// A shard's part and its stage times.
+pub struct ShardOutput {
+    /// The part (write it with `gibake_asset::write_part`).
+    pub part: ShardPart,
+    /// Stage times, in order.
+    pub stages: Vec<StageTime>,
+}
+
+/// Bakes the front part of `scene` (primary shadow map, RSM, clustering:
+/// identical on every shard) and the hemisphere maps of the VPLs shard
+/// `shard` owns ([`gibake_asset::shard_range`]). Merging the parts of all
+/// shards ([`gibake_asset::merge`]) gives exactly [`bake()`]'s asset.
+pub fn bake_shard(
+    ctx: &GpuContext,
+    scene: &Scene,
+    opts: &BakeOptions,
+    shard: Shard,
+    progress: &dyn BakeProgress,
+    baker_version: &str,
+) -> Result<ShardOutput, BakeError> {
+    if shard.count == 0 || shard.count > MAX_SHARDS || shard.index >= shard.count {
+        return Err(BakeError::InvalidSetting(format!(
+            "--shard {}/{}: the shard count must be in 1..={MAX_SHARDS} and the index in 0..{}",
+            shard.index, shard.count, shard.count
+        )));
+    }
+    let (out, maps) = bake_with(ctx, scene, opts, progress, baker_version, Some(shard))?;
+    Ok(ShardOutput {
+        part: ShardPart {
+            shard: shard.index,
+            shards: shard.count,
+            front: out.asset,
+            maps,
+        },
+        stages: out.stages,
+    })
+}
+
+/// The bake; with `shard`, the asset has no hemisphere maps and the maps of
+/// the shard's VPLs are returned apart.
+fn bake_with(
+    ctx: &GpuContext,
+    scene: &Scene,
+    opts: &BakeOptions,
+    progress: &dyn BakeProgress,
+    baker_version: &str,
+    shard: Option<Shard>,
+) -> Result<(BakeOutput, ShardMaps), BakeError> {
     let max_tex = ctx.device.limits().max_texture_dimension_2d;
     check("--rsm-size", opts.rsm_size, 8192)?;
     check("--vpl-map-size", opts.vpl_map_size, 2048)?;
@@ -207,11 +268,19 @@ pub fn bake(
         .flat_map(|&r| crate::near_field::vpl_nodes(&rsm, r))
         .collect();
 
-    // Hemisphere maps by ray casting.
-    progress.begin("VPL maps", vpls.len() as u64);
-    let maps = crate::vplmap::render_vpl_maps(&rays, &mut vpls, opts.vpl_map_size, &|| {
+    // Hemisphere maps by ray casting (a shard: only its VPLs', kept apart).
+    let range = match shard {
+        Some(s) => shard_range(vpls.len(), s.index, s.count),
+        None => 0..vpls.len(),
+    };
+    progress.begin("VPL maps", range.len() as u64);
+    let each = crate::vplmap::render_each_vpl_map(&rays, &vpls[range], opts.vpl_map_size, &|| {
         progress.advance(1)
     });
+    let (maps, shard_maps) = match shard {
+        Some(_) => (Vec::new(), each),
+        None => (assign_map_layers(&mut vpls, each), Vec::new()),
+    };
     progress.end();
     lap("vpl maps", &mut stages);
 
@@ -274,7 +343,7 @@ pub fn bake(
         vpl_maps: maps,
         rsm: rsm_data,
     };
-    Ok(BakeOutput { asset, stages })
+    Ok((BakeOutput { asset, stages }, shard_maps))
 }
 
 /// The light view stored in an asset (for `shadow_map_size`).

@@ -9,16 +9,20 @@
 //!
 //! plus the static primary shadow map (GPU, the runtime's own pass) and the
 //! static-scene hash ([`gibake_scene::static_scene_hash`]). [`bake()`] runs them all and returns a
-//! [`gibake_asset::Asset`].
+//! [`gibake_asset::Asset`];
+//! [`bake_shard()`] bakes one shard of a distributed bake, and
+//! [`check_up_to_date`] decides whether an existing asset needs a re-bake.
 
 pub mod bake;
 pub mod cluster;
 pub mod near_field;
 pub mod rsm;
+pub mod uptodate;
 pub mod vplmap;
 
 pub use bake::{
-    BakeError, BakeOptions, BakeOutput, BakeProgress, NoProgress, StageTime, bake, light_view_of,
-    static_only,
+    BakeError, BakeOptions, BakeOutput, BakeProgress, NoProgress, Shard, ShardOutput, StageTime,
+    bake, bake_shard, light_view_of, static_only,
 };
 pub use gibake_scene::static_scene_hash;
+pub use uptodate::{Freshness, check_up_to_date};

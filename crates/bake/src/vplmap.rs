@@ -4,7 +4,7 @@
 //! logarithmic in scene size). The projection is the hemi-octahedral map of
 //! `gibake_gpu::hemisphere`, which the runtime's WGSL shares.
 
-use gibake_asset::{NO_MAP, VplRecord};
+use gibake_asset::VplRecord;
 use gibake_gpu::hemisphere;
 use gibake_reference::RayScene;
 use glam::Vec3;
@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 /// Renders the maps of `vpls` (`size²` distances each, +inf = no surface).
 /// A map that sees no surface at all is not stored: its VPL gets
-/// [`NO_MAP`]. Returns the stored maps, layer-major; sets `vpl.map`.
+/// [`NO_MAP`](gibake_asset::NO_MAP). Returns the stored maps, layer-major; sets `vpl.map`.
 /// `progress` is called once per finished VPL.
 pub fn render_vpl_maps(
     rays: &RayScene<'_>,
@@ -20,9 +20,22 @@ pub fn render_vpl_maps(
     size: u32,
     progress: &(dyn Fn() + Sync),
 ) -> Vec<f32> {
+    let maps = render_each_vpl_map(rays, vpls, size, progress);
+    gibake_asset::assign_map_layers(vpls, maps)
+}
+
+/// The map of every VPL of `vpls`, in order: `None` for a map that sees no
+/// surface (it is not stored). Each map depends only on its own VPL and the
+/// static geometry, so any subset (a shard) renders exactly the maps the
+/// whole bake renders. `progress` is called once per finished VPL.
+pub fn render_each_vpl_map(
+    rays: &RayScene<'_>,
+    vpls: &[VplRecord],
+    size: u32,
+    progress: &(dyn Fn() + Sync),
+) -> Vec<Option<Vec<f32>>> {
     let texels = (size * size) as usize;
-    let maps: Vec<Option<Vec<f32>>> = vpls
-        .par_iter()
+    vpls.par_iter()
         .map(|v| {
             let n = Vec3::from_array(v.normal);
             let origin = hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
@@ -45,18 +58,5 @@ pub fn render_vpl_maps(
             progress();
             any.then_some(map)
         })
-        .collect();
-    let mut out = Vec::new();
-    let mut next = 0u32;
-    for (v, m) in vpls.iter_mut().zip(maps) {
-        match m {
-            Some(m) => {
-                v.map = next;
-                next += 1;
-                out.extend_from_slice(&m);
-            }
-            None => v.map = NO_MAP,
-        }
-    }
-    out
+        .collect()
 }

@@ -108,7 +108,17 @@ impl GpuContext {
         pollster::block_on(Self::new_async(options))
     }
 
-    async fn new_async(options: &GpuOptions) -> Result<GpuContext, GpuError> {
+    /// The record of the adapter [`GpuContext::new`] would pick, without
+    /// creating a device (cheap: for up-to-date checks that compare the
+    /// adapter an asset was baked on).
+    pub fn adapter_record(options: &GpuOptions) -> Result<AdapterRecord, GpuError> {
+        pollster::block_on(Self::pick_adapter(options)).map(|(_, _, record)| record)
+    }
+
+    /// The preferred adapter (see the module docs) and its record.
+    async fn pick_adapter(
+        options: &GpuOptions,
+    ) -> Result<(wgpu::Instance, wgpu::Adapter, AdapterRecord), GpuError> {
         let desc = wgpu::InstanceDescriptor::new_without_display_handle().with_env();
         let backends = desc.backends;
         let instance = wgpu::Instance::new(desc);
@@ -166,6 +176,12 @@ impl GpuContext {
             driver_info: info.driver_info.clone(),
             device_type: format!("{:?}", info.device_type),
         };
+        Ok((instance, adapter, record))
+    }
+
+    async fn new_async(options: &GpuOptions) -> Result<GpuContext, GpuError> {
+        let (instance, adapter, record) = Self::pick_adapter(options).await?;
+        let info = adapter.get_info();
         let available = adapter.features();
         let mut features = wgpu::Features::empty();
         let timestamps = available.contains(wgpu::Features::TIMESTAMP_QUERY);

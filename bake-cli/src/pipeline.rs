@@ -1,0 +1,523 @@
+//! `gibake bake` for content pipelines and `gibake merge`:
+//!
+//! - one scene (`-o OUT.gibake`) or a batch (`SCENE... --out-dir DIR`), each
+//!   left untouched when its asset is up to date
+//!   ([`gibake_bake::check_up_to_date`]) unless `--force`;
+//! - one shard of a distributed bake (`-o PART --shard K/N`,
+//!   [`gibake_bake::bake_shard`]) and the merge of all parts
+//!   ([`gibake_asset::merge`]) into the single bake's bytes.
+//!
+//! See docs/pipeline.md for the contract.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Mutex;
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use gibake_bake::{BakeOptions, BakeProgress, Freshness, Shard};
+use gibake_gpu::{GpuContext, GpuOptions};
+use gibake_scene::Scene;
+use indicatif::{MultiProgress, ProgressBar};
+use serde_json::json;
+
+use crate::cli::{BakeArgs, MergeArgs, SceneArgs};
+use crate::commands::{BarProgress, check_output_dir, load_scene};
+use crate::output::bar;
+
+/// Environment variable that overrides the baker version recorded in (and
+/// compared with) assets: a test hook for "the baker version changed".
+pub const BAKER_VERSION_ENV: &str = "GIBAKE_BAKER_VERSION";
+
+/// The baker version to record: `GIBAKE_BAKER_VERSION` when set and not
+/// empty, else this binary's version.
+pub fn baker_version() -> String {
+    std::env::var(BAKER_VERSION_ENV)
+        .ok()
+        .filter(|v| !v.is_empty())
+        .unwrap_or_else(|| env!("CARGO_PKG_VERSION").to_string())
+}
+
+fn options(a: &BakeArgs) -> BakeOptions {
+    let target = match (a.vpls, a.threshold) {
+        (Some(n), _) => gibake_bake::cluster::ClusterTarget::Count(n),
+        (None, Some(t)) => gibake_bake::cluster::ClusterTarget::Threshold(t),
+        (None, None) => gibake_bake::cluster::ClusterTarget::Count(256),
+    };
+    BakeOptions {
+        rsm_size: a.rsm_size,
+        vpl_map_size: a.vpl_map_size,
+        shadow_map_size: a.shadow_map_size,
+        target,
+    }
+}
+
+/// `gibake bake`: a batch, a shard, or one scene.
+pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
+    if let Some(dir) = a.out_dir.clone() {
+        return batch(&a, &dir);
+    }
+    let Some(output) = a.output.clone() else {
+        bail!("give -o OUT.gibake (one scene) or --out-dir DIR (a batch)");
+    };
+    let [scene_path] = a.scenes.as_slice() else {
+        bail!(
+            "-o {} takes one scene but {} were given; bake several with --out-dir DIR",
+            output.display(),
+            a.scenes.len()
+        );
+    };
+    check_output_dir(&output)?;
+    let opts = options(&a);
+    let total = Instant::now();
+    let scene = load_scene(&SceneArgs {
+        scene: scene_path.clone(),
+        light: a.light.clone(),
+    })?;
+    let load_s = total.elapsed().as_secs_f64();
+    let gpu = GpuOptions {
+        adapter: a.adapter.clone(),
+    };
+    if let Some((index, count)) = a.shard {
+        let ctx = GpuContext::new(&gpu)?;
+        return shard(&a, &ctx, &scene, &output, Shard { index, count }, load_s);
+    }
+    // The up-to-date check needs only the adapter's identity, not a device.
+    let record = GpuContext::adapter_record(&gpu)?;
+    let (freshness, check_s) = decide(&output, &scene, &opts, a.force, &record);
+    let o = match freshness {
+        Freshness::UpToDate => Outcome {
+            reasons: None,
+            check_s,
+            baked: None,
+        },
+        Freshness::Stale(reasons) => {
+            let ctx = GpuContext::new(&gpu)?;
+            let progress = BarProgress {
+                bar: Mutex::new(None),
+                quiet: a.json,
+            };
+            let stale = Stale {
+                reasons,
+                check_s,
+                load_s,
+            };
+            bake_stale(&ctx, &scene, &output, &opts, stale, &progress)?
+        }
+    };
+    let total_s = total.elapsed().as_secs_f64();
+    if a.json {
+        let mut j = o.json(&output);
+        j["adapter"] = json!(record.to_string());
+        j["total_seconds"] = json!(total_s);
+        println!("{}", serde_json::to_string_pretty(&j)?);
+    } else {
+        eprintln!("GPU: {record}");
+        o.print(&output);
+        if o.baked.is_some() {
+            eprintln!("  {:<12} {:>8.3} s", "total", total_s);
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// What [`bake_one`] did.
+struct Outcome {
+    /// Why it (re-)baked; `None`: up to date, left untouched.
+    reasons: Option<Vec<String>>,
+    /// Seconds the up-to-date check took (next to nothing with --force).
+    check_s: f64,
+    /// The bake's summary when it baked.
+    baked: Option<Baked>,
+}
+
+struct Baked {
+    vpls: u32,
+    maps: u32,
+    threshold: f32,
+    has_dynamic: bool,
+    stages: Vec<(String, f64)>,
+}
+
+impl Outcome {
+    fn decision(&self) -> &'static str {
+        if self.baked.is_some() {
+            "baked"
+        } else {
+            "up_to_date"
+        }
+    }
+
+    fn json(&self, asset: &Path) -> serde_json::Value {
+        let mut j = json!({
+            "asset": asset,
+            "decision": self.decision(),
+            "reasons": self.reasons.clone().unwrap_or_default(),
+            "check_seconds": self.check_s,
+        });
+        if let Some(b) = &self.baked {
+            j["vpls"] = json!(b.vpls);
+            j["maps_stored"] = json!(b.maps);
+            j["threshold"] = json!(b.threshold);
+            j["has_dynamic"] = json!(b.has_dynamic);
+            j["stages"] = json!(
+                b.stages
+                    .iter()
+                    .map(|(n, s)| json!({"stage": n, "seconds": s}))
+                    .collect::<Vec<_>>()
+            );
+        }
+        j
+    }
+
+    fn print(&self, asset: &Path) {
+        match (&self.baked, &self.reasons) {
+            (None, _) => eprintln!(
+                "{}: up to date (same static-scene hash, settings, baker version and adapter); left untouched (checked in {:.3} s)",
+                asset.display(),
+                self.check_s
+            ),
+            (Some(b), reasons) => {
+                let why = reasons.clone().unwrap_or_default().join("; ");
+                eprintln!(
+                    "baked {}: {} VPLs ({} maps stored), threshold {:.4}; reason: {why}",
+                    asset.display(),
+                    b.vpls,
+                    b.maps,
+                    b.threshold
+                );
+                for (n, s) in &b.stages {
+                    eprintln!("  {n:<12} {s:>8.3} s");
+                }
+            }
+        }
+    }
+}
+
+/// Whether `out` needs a (re-)bake, and how long deciding took.
+fn decide(
+    out: &Path,
+    scene: &Scene,
+    opts: &BakeOptions,
+    force: bool,
+    adapter: &gibake_gpu::AdapterRecord,
+) -> (Freshness, f64) {
+    let check = Instant::now();
+    let freshness = if force {
+        Freshness::Stale(vec!["--force".into()])
+    } else {
+        gibake_bake::check_up_to_date(out, scene, opts, adapter, &baker_version())
+    };
+    (freshness, check.elapsed().as_secs_f64())
+}
+
+/// A decision to bake: why, and the times so far.
+struct Stale {
+    reasons: Vec<String>,
+    check_s: f64,
+    load_s: f64,
+}
+
+/// Bakes `scene` into `out` unless the asset there is up to date.
+fn bake_one(
+    ctx: &GpuContext,
+    scene: &Scene,
+    out: &Path,
+    opts: &BakeOptions,
+    force: bool,
+    progress: &dyn BakeProgress,
+    load_s: f64,
+) -> anyhow::Result<Outcome> {
+    match decide(out, scene, opts, force, &ctx.record) {
+        (Freshness::UpToDate, check_s) => Ok(Outcome {
+            reasons: None,
+            check_s,
+            baked: None,
+        }),
+        (Freshness::Stale(reasons), check_s) => {
+            let stale = Stale {
+                reasons,
+                check_s,
+                load_s,
+            };
+            bake_stale(ctx, scene, out, opts, stale, progress)
+        }
+    }
+}
+
+/// Bakes `scene` into `out` (the decision to bake was `stale`).
+fn bake_stale(
+    ctx: &GpuContext,
+    scene: &Scene,
+    out: &Path,
+    opts: &BakeOptions,
+    stale: Stale,
+    progress: &dyn BakeProgress,
+) -> anyhow::Result<Outcome> {
+    let version = baker_version();
+    let Stale {
+        reasons,
+        check_s,
+        load_s,
+    } = stale;
+    let o = gibake_bake::bake(ctx, scene, opts, progress, &version)
+        .with_context(|| format!("baking {}", scene.source.display()))?;
+    let w = Instant::now();
+    gibake_asset::write(&o.asset, out)?;
+    let write_s = w.elapsed().as_secs_f64();
+    let m = &o.asset.manifest;
+    let stages0 = [("load scene", load_s), ("check", check_s)];
+    let mut stages: Vec<(String, f64)> = stages0.iter().map(|(n, s)| (n.to_string(), *s)).collect();
+    stages.extend(o.stages.iter().map(|s| (s.stage.to_string(), s.seconds)));
+    stages.push(("write".into(), write_s));
+    Ok(Outcome {
+        reasons: Some(reasons),
+        check_s,
+        baked: Some(Baked {
+            vpls: m.vpl_count,
+            maps: o.asset.stored_map_count() as u32,
+            threshold: m.settings.threshold,
+            has_dynamic: m.has_dynamic,
+            stages,
+        }),
+    })
+}
+
+/// `bake SCENE -o PART --shard K/N`.
+fn shard(
+    a: &BakeArgs,
+    ctx: &GpuContext,
+    scene: &Scene,
+    output: &Path,
+    shard: Shard,
+    load_s: f64,
+) -> anyhow::Result<ExitCode> {
+    let progress = BarProgress {
+        bar: Mutex::new(None),
+        quiet: a.json,
+    };
+    let t = Instant::now();
+    let o = gibake_bake::bake_shard(ctx, scene, &options(a), shard, &progress, &baker_version())
+        .with_context(|| format!("baking {}", scene.source.display()))?;
+    gibake_asset::write_part(&o.part, output)?;
+    let seconds = t.elapsed().as_secs_f64() + load_s;
+    let vpls = o.part.front.vpls.len();
+    let range = gibake_asset::shard_range(vpls, shard.index, shard.count);
+    let stored = o.part.maps.iter().filter(|m| m.is_some()).count();
+    if a.json {
+        let j = json!({
+            "part": output,
+            "shard": shard.index,
+            "shards": shard.count,
+            "vpls": vpls,
+            "vpl_range": [range.start, range.end],
+            "maps_stored": stored,
+            "adapter": ctx.record.to_string(),
+            "stages": o.stages.iter().map(|s| json!({"stage": s.stage, "seconds": s.seconds})).collect::<Vec<_>>(),
+            "total_seconds": seconds,
+        });
+        println!("{}", serde_json::to_string_pretty(&j)?);
+    } else {
+        eprintln!("GPU: {}", ctx.record);
+        eprintln!(
+            "wrote shard {}/{} of {} to {}: {vpls} VPLs, maps of VPLs {}..{} ({stored} stored), {seconds:.3} s",
+            shard.index,
+            shard.count,
+            scene.source.display(),
+            output.display(),
+            range.start,
+            range.end
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// One progress display for a batch: an overall bar of scenes and, below
+/// it, the current stage's bar.
+struct BatchProgress {
+    multi: MultiProgress,
+    stage: Mutex<Option<ProgressBar>>,
+    quiet: bool,
+}
+
+impl BakeProgress for BatchProgress {
+    fn begin(&self, stage: &str, total: u64) {
+        if self.quiet {
+            return;
+        }
+        let pb = if total > 0 {
+            bar(total, stage)
+        } else {
+            let pb = ProgressBar::new_spinner();
+            pb.set_message(stage.to_string());
+            pb
+        };
+        let pb = self.multi.add(pb);
+        if total == 0 {
+            pb.enable_steady_tick(std::time::Duration::from_millis(120));
+        }
+        *self.stage.lock().expect("progress lock") = Some(pb);
+    }
+    fn advance(&self, n: u64) {
+        if let Some(pb) = self.stage.lock().expect("progress lock").as_ref() {
+            pb.inc(n);
+        }
+    }
+    fn end(&self) {
+        if let Some(pb) = self.stage.lock().expect("progress lock").take() {
+            pb.finish_and_clear();
+            self.multi.remove(&pb);
+        }
+    }
+}
+
+/// `bake SCENE... --out-dir DIR`.
+fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
+    // Output names first: two scenes with one stem would overwrite each other.
+    let mut outs: Vec<(PathBuf, PathBuf)> = Vec::new();
+    for s in &a.scenes {
+        let Some(stem) = s.file_stem().filter(|n| !n.is_empty()) else {
+            bail!("{}: has no file name to name its asset after", s.display());
+        };
+        let out = dir.join(format!("{}.gibake", stem.to_string_lossy()));
+        if let Some((other, _)) = outs.iter().find(|(_, o)| *o == out) {
+            bail!(
+                "{} and {} would both be baked into {}: rename one, or bake them into different --out-dir",
+                other.display(),
+                s.display(),
+                out.display()
+            );
+        }
+        outs.push((s.clone(), out));
+    }
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
+    let opts = options(a);
+    let total = Instant::now();
+    let ctx = GpuContext::new(&GpuOptions {
+        adapter: a.adapter.clone(),
+    })?;
+    let multi = MultiProgress::new();
+    if a.json {
+        multi.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let overall = multi.add(bar(outs.len() as u64, "scenes"));
+    let progress = BatchProgress {
+        multi: multi.clone(),
+        stage: Mutex::new(None),
+        quiet: a.json,
+    };
+    let mut results = Vec::new();
+    let mut failed = Vec::new();
+    for (scene_path, out) in &outs {
+        let t = Instant::now();
+        let r = (|| {
+            let scene = load_scene(&SceneArgs {
+                scene: scene_path.clone(),
+                light: a.light.clone(),
+            })?;
+            let load_s = t.elapsed().as_secs_f64();
+            bake_one(&ctx, &scene, out, &opts, a.force, &progress, load_s)
+        })();
+        progress.end();
+        let seconds = t.elapsed().as_secs_f64();
+        let mut j = match &r {
+            Ok(o) => o.json(out),
+            Err(e) => json!({"asset": out, "decision": "failed", "error": format!("{e:#}")}),
+        };
+        j["scene"] = json!(scene_path);
+        j["seconds"] = json!(seconds);
+        if !a.json {
+            let line = match &r {
+                Ok(o) if o.baked.is_some() => format!(
+                    "{}: baked in {seconds:.2} s ({})",
+                    out.display(),
+                    o.reasons.clone().unwrap_or_default().join("; ")
+                ),
+                Ok(o) => format!(
+                    "{}: up to date, left untouched (checked in {:.3} s)",
+                    out.display(),
+                    o.check_s
+                ),
+                Err(e) => format!("{}: FAILED: {e:#}", scene_path.display()),
+            };
+            multi.suspend(|| eprintln!("{line}"));
+        }
+        if r.is_err() {
+            failed.push(scene_path.display().to_string());
+        }
+        results.push(j);
+        overall.inc(1);
+    }
+    overall.finish_and_clear();
+    let count = |d: &str| results.iter().filter(|j| j["decision"] == d).count();
+    let (baked, fresh) = (count("baked"), count("up_to_date"));
+    let total_s = total.elapsed().as_secs_f64();
+    if a.json {
+        let j = json!({
+            "out_dir": dir,
+            "adapter": ctx.record.to_string(),
+            "scenes": results,
+            "baked": baked,
+            "up_to_date": fresh,
+            "failed": failed,
+            "total_seconds": total_s,
+        });
+        println!("{}", serde_json::to_string_pretty(&j)?);
+    } else {
+        eprintln!(
+            "batch of {} scenes on {}: {baked} baked, {fresh} up to date, {} failed, {total_s:.2} s",
+            outs.len(),
+            ctx.record,
+            failed.len()
+        );
+    }
+    if failed.is_empty() {
+        Ok(ExitCode::SUCCESS)
+    } else {
+        eprintln!(
+            "error: {} of {} scenes failed: {}",
+            failed.len(),
+            outs.len(),
+            failed.join(", ")
+        );
+        Ok(ExitCode::from(2))
+    }
+}
+
+/// `gibake merge PART... -o OUT.gibake`.
+pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
+    check_output_dir(&a.output)?;
+    let t = Instant::now();
+    // One part's front data in memory at a time (plus every shard's maps).
+    let mut merger = gibake_asset::Merger::default();
+    for p in &a.parts {
+        merger.add(p.clone(), gibake_asset::load_part(p)?)?;
+    }
+    let asset = merger.finish()?;
+    gibake_asset::write(&asset, &a.output)?;
+    let seconds = t.elapsed().as_secs_f64();
+    let m = &asset.manifest;
+    if a.json {
+        let j = json!({
+            "asset": a.output,
+            "parts": a.parts,
+            "vpls": asset.vpls.len(),
+            "maps_stored": asset.stored_map_count(),
+            "seconds": seconds,
+        });
+        println!("{}", serde_json::to_string_pretty(&j)?);
+    } else {
+        eprintln!(
+            "merged {} parts into {}: {} VPLs ({} maps stored), baked from {} by gibake {} on {}, {seconds:.3} s",
+            a.parts.len(),
+            a.output.display(),
+            asset.vpls.len(),
+            asset.stored_map_count(),
+            m.provenance.scene_name,
+            m.provenance.baker_version,
+            m.provenance.adapter
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}

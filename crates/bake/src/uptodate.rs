@@ -1,0 +1,149 @@
+//! Whether an existing asset is up to date, so a pipeline that re-runs
+//! `gibake bake` on every content change re-bakes only what changed.
+//!
+//! An asset is up to date when its manifest records exactly what a bake now
+//! would record as its inputs: the same static-scene hash, the same settings,
+//! the same baker version and the same adapter (name, backend, driver), and
+//! its files are intact (sizes and BLAKE3 checksums as listed). Because the
+//! bake is deterministic, a re-bake would then write the same bytes.
+//!
+//! Two inputs the static-scene hash leaves out also shape the asset, so they
+//! are compared too: the primary light's view (fitted to the scene's bounds
+//! *including* the swept bounds of the moving objects) and whether the scene
+//! has moving objects at all (then the static RSM is stored).
+
+use std::path::Path;
+
+use gibake_asset::{AssetError, Manifest};
+use gibake_gpu::{AdapterRecord, LightView};
+use gibake_scene::Scene;
+
+use crate::BakeOptions;
+use crate::cluster::ClusterTarget;
+
+/// The outcome of [`check_up_to_date`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Freshness {
+    /// The existing asset records the same inputs and is intact: leave it.
+    UpToDate,
+    /// A (re-)bake is needed; the reasons, one line each (never empty).
+    Stale(Vec<String>),
+}
+
+fn hex8(h: &[u8; 32]) -> String {
+    h[..8].iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Compares the asset at `dir` with what baking `scene` with `opts` on
+/// `adapter` by `baker_version` would record. Reads only the manifest and
+/// hashes the asset's files; renders nothing.
+pub fn check_up_to_date(
+    dir: &Path,
+    scene: &Scene,
+    opts: &BakeOptions,
+    adapter: &AdapterRecord,
+    baker_version: &str,
+) -> Freshness {
+    if std::fs::symlink_metadata(dir).is_err() {
+        return Freshness::Stale(vec!["no asset there yet".into()]);
+    }
+    let m = match gibake_asset::verify_files(dir) {
+        Ok(m) => m,
+        Err(e @ AssetError::NotSupported { .. }) => {
+            return Freshness::Stale(vec![format!("the existing asset is not readable: {e}")]);
+        }
+        Err(e) => {
+            return Freshness::Stale(vec![format!(
+                "the existing asset is damaged or not an asset: {e}"
+            )]);
+        }
+    };
+    let reasons = differences(&m, scene, opts, adapter, baker_version);
+    if reasons.is_empty() {
+        Freshness::UpToDate
+    } else {
+        Freshness::Stale(reasons)
+    }
+}
+
+/// Every difference between the manifest `m` and the inputs of a bake now.
+pub fn differences(
+    m: &Manifest,
+    scene: &Scene,
+    opts: &BakeOptions,
+    adapter: &AdapterRecord,
+    baker_version: &str,
+) -> Vec<String> {
+    let mut r = Vec::new();
+    let hash = gibake_scene::static_scene_hash(scene);
+    if hash != m.static_scene_hash {
+        r.push(format!(
+            "scene changed (static-scene hash {} → {})",
+            hex8(&m.static_scene_hash),
+            hex8(&hash)
+        ));
+    }
+    let s = &m.settings;
+    for (flag, was, now) in [
+        ("--rsm-size", s.rsm_size, opts.rsm_size),
+        ("--vpl-map-size", s.vpl_map_size, opts.vpl_map_size),
+        ("--shadow-map-size", s.shadow_map_size, opts.shadow_map_size),
+    ] {
+        if was != now {
+            r.push(format!("setting {flag} changed ({was} → {now})"));
+        }
+    }
+    match (s.vpl_budget, opts.target) {
+        (Some(was), ClusterTarget::Count(now)) if was != now => {
+            r.push(format!("setting --vpls changed ({was} → {now})"));
+        }
+        (Some(was), ClusterTarget::Threshold(t)) => {
+            r.push(format!("setting changed (--vpls {was} → --threshold {t})"))
+        }
+        (None, ClusterTarget::Count(n)) => r.push(format!(
+            "setting changed (--threshold {} → --vpls {n})",
+            s.threshold
+        )),
+        (None, ClusterTarget::Threshold(t)) if t.to_bits() != s.threshold.to_bits() => r.push(
+            format!("setting --threshold changed ({} → {t})", s.threshold),
+        ),
+        _ => {}
+    }
+    let p = &m.provenance;
+    if p.baker_version != baker_version {
+        r.push(format!(
+            "baker version changed ({} → {baker_version})",
+            p.baker_version
+        ));
+    }
+    let driver = format!("{} {}", adapter.driver, adapter.driver_info);
+    if p.adapter != adapter.name || p.backend != adapter.backend || p.driver != driver {
+        r.push(format!(
+            "adapter changed ({} / {} / {} → {} / {} / {driver})",
+            p.adapter, p.backend, p.driver, adapter.name, adapter.backend
+        ));
+    }
+    let has_dynamic = !scene.dynamic_objects.is_empty();
+    if has_dynamic != m.has_dynamic {
+        r.push(format!(
+            "moving objects {} (the static RSM is stored only with them)",
+            if has_dynamic { "added" } else { "removed" }
+        ));
+    }
+    if r.is_empty() {
+        // Same light and settings: the light view differs only when the
+        // moving objects' swept bounds changed the fitted frustum.
+        let v = LightView::new(&scene.light, &scene.full_bounds(), opts.shadow_map_size);
+        let lv = &m.light_view;
+        let same = lv.directional == v.directional
+            && lv.view_proj == v.view_proj.to_cols_array()
+            && lv.origin == v.origin.to_array()
+            && lv.direction == v.direction.to_array()
+            && lv.texel_scale == v.texel_scale
+            && lv.texel_area == v.texel_area;
+        if !same {
+            r.push("the light's view changed (the moving objects' swept bounds changed)".into());
+        }
+    }
+    r
+}

@@ -1,0 +1,123 @@
+//! The up-to-date comparison (`gibake_bake::uptodate::differences`) against
+//! a real bake's manifest: nothing differs for the same inputs, and each
+//! changed input is named — including the two the static-scene hash leaves
+//! out (the moving objects' presence and swept bounds, which shape the
+//! light view).
+
+use std::path::Path;
+
+use gibake_bake::cluster::ClusterTarget;
+use gibake_bake::uptodate::differences;
+use gibake_bake::{BakeOptions, NoProgress, bake, static_only};
+use gibake_gpu::GpuContext;
+use gibake_scene::LoadOptions;
+
+#[test]
+fn every_changed_input_is_named_and_nothing_else() {
+    let ctx = GpuContext::new(&Default::default()).unwrap_or_else(|e| {
+        panic!("needs a GPU adapter ({e}); `apt-get install mesa-vulkan-drivers` gives lavapipe")
+    });
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/sun.glb"));
+    let scene = gibake_scene::load(path, &LoadOptions::default()).expect("data/sun.glb loads");
+    assert!(
+        !scene.dynamic_objects.is_empty(),
+        "sun.glb has moving objects"
+    );
+    let opts = BakeOptions {
+        rsm_size: 64,
+        vpl_map_size: 16,
+        shadow_map_size: 256,
+        target: ClusterTarget::Count(32),
+    };
+    let asset = bake(&ctx, &scene, &opts, &NoProgress, "1.0.0")
+        .expect("bake")
+        .asset;
+    let m = &asset.manifest;
+    let diff = |scene: &gibake_scene::Scene, opts: &BakeOptions, version: &str| {
+        differences(m, scene, opts, &ctx.record, version)
+    };
+    assert_eq!(diff(&scene, &opts, "1.0.0"), Vec::<String>::new());
+
+    let one = |r: Vec<String>, what: &str| {
+        assert_eq!(r.len(), 1, "expected one reason ({what}), got {r:?}");
+        assert!(r[0].contains(what), "expected `{what}` in {r:?}");
+    };
+    one(
+        diff(&scene, &opts, "1.0.1"),
+        "baker version changed (1.0.0 → 1.0.1)",
+    );
+    for (o, what) in [
+        (
+            BakeOptions {
+                rsm_size: 128,
+                ..opts.clone()
+            },
+            "--rsm-size changed (64 → 128)",
+        ),
+        (
+            BakeOptions {
+                vpl_map_size: 8,
+                ..opts.clone()
+            },
+            "--vpl-map-size changed (16 → 8)",
+        ),
+        (
+            BakeOptions {
+                shadow_map_size: 512,
+                ..opts.clone()
+            },
+            "--shadow-map-size changed (256 → 512)",
+        ),
+        (
+            BakeOptions {
+                target: ClusterTarget::Count(33),
+                ..opts.clone()
+            },
+            "--vpls changed (32 → 33)",
+        ),
+        (
+            BakeOptions {
+                target: ClusterTarget::Threshold(0.5),
+                ..opts.clone()
+            },
+            "--vpls 32 → --threshold 0.5",
+        ),
+    ] {
+        one(diff(&scene, &o, "1.0.0"), what);
+    }
+    let mut other = ctx.record.clone();
+    other.name = "Some Other GPU".into();
+    one(
+        differences(m, &scene, &opts, &other, "1.0.0"),
+        "adapter changed",
+    );
+
+    // A static vertex moved: the static-scene hash.
+    let mut moved = scene.clone();
+    moved.static_meshes[0].positions[0].x += 1e-3;
+    one(diff(&moved, &opts, "1.0.0"), "scene changed");
+
+    // Moving objects' swept bounds grown: same static hash, other light view.
+    let mut big = scene.clone();
+    for mesh in &mut big.dynamic_meshes {
+        for p in &mut mesh.positions {
+            *p *= 40.0;
+        }
+    }
+    for o in &mut big.dynamic_objects {
+        o.local_bounds.min *= 40.0;
+        o.local_bounds.max *= 40.0;
+    }
+    assert_eq!(
+        gibake_scene::static_scene_hash(&big),
+        m.static_scene_hash,
+        "moving objects are not part of the static-scene hash"
+    );
+    one(diff(&big, &opts, "1.0.0"), "the light's view changed");
+
+    // No moving objects any more.
+    one(
+        diff(&static_only(&scene), &opts, "1.0.0"),
+        "moving objects removed",
+    );
+}
