@@ -355,9 +355,11 @@ fn leaf_vpl(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Option<Cluster
     } else {
         return None;
     };
+    // Normalized in f64: a weighted sum's squared length overflows f32 for
+    // very bright lights.
     let normal = [wn, an]
         .into_iter()
-        .map(|v| vec3(v).normalize_or_zero())
+        .map(|v| glam::DVec3::from_array(v).normalize_or_zero().as_vec3())
         .find(|n| *n != Vec3::ZERO)
         .or(first_normal)
         .unwrap_or(Vec3::ZERO);

@@ -89,7 +89,9 @@ impl Sums {
             return empty;
         }
         let p = (self.wp / self.w).as_vec3();
-        let n = self.wn.as_vec3().normalize_or_zero();
+        // Normalized in f64: the weighted sum overflows f32's squared length
+        // for very bright lights (1e20 W/sr).
+        let n = self.wn.normalize_or_zero().as_vec3();
         let flux = self.flux.as_vec3();
         if !(p.is_finite() && flux.is_finite() && (self.area as f32).is_finite()) {
             return empty;
