@@ -19,6 +19,7 @@ pub(crate) const CORNER_BUNNY: &[u8] = include_bytes!("../../data/corner_bunny.g
 
 /// Runs the parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    crate::limits::set_memory_budget(cli.max_memory);
     match cli.command {
         Command::Render(a) => render(a),
         Command::Reference(a) => reference(a),
@@ -35,11 +36,10 @@ fn load_scene(a: &SceneArgs) -> anyhow::Result<Scene> {
         &a.scene,
         &LoadOptions {
             light: a.light.clone(),
+            limits: a.limits.to_limits(),
         },
     )?;
-    for w in &scene.warnings {
-        tracing::warn!("{}: {w}", a.scene.display());
-    }
+    // The importer has logged each of `scene.warnings` once already.
     Ok(scene)
 }
 
@@ -129,9 +129,10 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
     if let Some(stats) = &a.stats {
         check_output_dir(stats)?;
     }
+    check_render_outputs(&a)?;
     let mode = mode_of(a.mode);
     let asset = match (&a.bake, mode) {
-        (Some(p), _) => Some(gibake_asset::load(p)?),
+        (Some(p), _) => Some(crate::limits::load_asset(p)?),
         (None, gibake_runtime::Mode::Direct) => None,
         (None, _) => bail!(
             "--mode {} needs a baked asset: run `gibake bake {} -o OUT.gibake` and pass --bake OUT.gibake",
@@ -217,6 +218,34 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// Output safety of `render`: image extensions, `--stats` `.json`, no
+/// output over an input (the scene, the asset), every output distinct.
+fn check_render_outputs(a: &RenderArgs) -> anyhow::Result<()> {
+    let mut inputs: Vec<&Path> = vec![&a.scene.scene];
+    if let Some(b) = &a.bake {
+        inputs.push(b);
+    }
+    let frames: Vec<PathBuf> = (0..a.frames.min(100_000))
+        .map(|f| frame_path(&a.output, f, a.frames))
+        .collect();
+    crate::output::check_extension("-o", &a.output, &["exr", "png"])?;
+    let mut outputs: Vec<(&str, &Path)> = Vec::new();
+    for f in &frames {
+        crate::output::check_extension("-o", f, &["exr", "png"])?;
+        crate::output::check_not_input("-o", f, &inputs)?;
+        outputs.push(("-o", f));
+    }
+    if let Some(stats) = &a.stats {
+        crate::output::check_extension("--stats", stats, &["json"])?;
+        crate::output::check_not_input("--stats", stats, &inputs)?;
+        outputs.push(("--stats", stats));
+    }
+    if frames.len() <= 1000 {
+        crate::output::check_distinct(&outputs)?;
+    }
+    Ok(())
+}
+
 fn reference(a: ReferenceArgs) -> anyhow::Result<ExitCode> {
     check_size(a.width, a.height)?;
     check_time(a.time)?;
@@ -224,6 +253,8 @@ fn reference(a: ReferenceArgs) -> anyhow::Result<ExitCode> {
         bail!("--spp must be at least 1");
     }
     check_output_dir(&a.output)?;
+    crate::output::check_extension("-o", &a.output, &["exr", "png"])?;
+    crate::output::check_not_input("-o", &a.output, &[&a.scene.scene])?;
     let scene = load_scene(&a.scene)?;
     let settings = gibake_reference::Settings {
         width: a.width,
@@ -314,6 +345,8 @@ fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
         shadow_map_size: a.shadow_map_size,
         target,
     };
+    crate::output::check_not_input("-o", &a.output, &[&a.scene.scene])?;
+    gibake_bake::budget::check(&opts, crate::limits::memory())?;
     let total = Instant::now();
     let scene = load_scene(&a.scene)?;
     let load_s = total.elapsed().as_secs_f64();
@@ -345,7 +378,7 @@ fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
             "stages": stages.iter().map(|(n, s)| serde_json::json!({"stage": n, "seconds": s})).collect::<Vec<_>>(),
             "total_seconds": total_s,
         });
-        println!("{}", serde_json::to_string_pretty(&json)?);
+        crate::output::print_stdout(&serde_json::to_string_pretty(&json)?)?;
     } else {
         eprintln!("GPU: {}", ctx.record);
         eprintln!(
@@ -364,19 +397,19 @@ fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn inspect(a: InspectArgs) -> anyhow::Result<ExitCode> {
-    let asset = gibake_asset::load(&a.asset)?;
+    let asset = crate::limits::load_asset(&a.asset)?;
     let info = gibake_asset::inspect(&asset);
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&info)?);
+        crate::output::print_stdout(&serde_json::to_string_pretty(&info)?)?;
     } else {
-        println!("{info}");
+        crate::output::print_stdout(&info.to_string())?;
     }
     Ok(ExitCode::SUCCESS)
 }
 
 fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
-    let asset_a = gibake_asset::load(&a.a)?;
-    let asset_b = gibake_asset::load(&a.b)?;
+    let asset_a = crate::limits::load_asset(&a.a)?;
+    let asset_b = crate::limits::load_asset(&a.b)?;
     let mut tol = match a.tolerance {
         TolerancePreset::SameMachine => gibake_asset::Tolerance::same_machine(),
         TolerancePreset::AnotherGpu => gibake_asset::Tolerance::another_gpu(),
@@ -396,11 +429,12 @@ fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
     tol.strict_provenance |= a.strict_provenance;
     let report = gibake_asset::diff(&asset_a, &asset_b, &tol);
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        crate::output::print_stdout(&serde_json::to_string_pretty(&report)?)?;
     } else {
-        println!("{report}");
+        crate::output::print_stdout(&report.to_string())?;
     }
     if let Some(dir) = &a.images {
+        crate::output::check_not_input("--images", dir, &[&a.a, &a.b])?;
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         for p in gibake_asset::write_diff_images(&asset_a, &asset_b, dir)? {
             eprintln!("wrote {}", p.display());

@@ -10,6 +10,7 @@
 //! [`gibake_asset::Asset`].
 
 pub mod bake;
+pub mod budget;
 pub mod cluster;
 pub mod rsm;
 pub mod vplmap;
