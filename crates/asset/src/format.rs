@@ -1030,6 +1030,21 @@ pub mod testing {
         })
     }
 
+    /// Decodes and validates `manifest.bin` bytes as [`load()`] does (magic,
+    /// version, length, checksum, payload, values). For fuzzing.
+    pub fn decode_manifest_bytes(bytes: &[u8]) -> Result<Manifest, AssetError> {
+        let path = Path::new(FILE_MANIFEST);
+        let (m, minor) = decode_manifest(bytes, path)?;
+        validate_manifest(&m, minor, path, true)?;
+        Ok(m)
+    }
+
+    /// Decodes one EXR map the way [`load()`] does, its size taken from its
+    /// own header (at most 2048² texels). For fuzzing.
+    pub fn decode_exr_bytes(bytes: &[u8]) -> Result<(), AssetError> {
+        exrio::decode_any(bytes, Path::new("map.exr"))
+    }
+
     /// The bytes of `manifest.bin` for `manifest` as [`write()`] would write them.
     pub fn manifest_bytes(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
         encode_manifest(manifest, Path::new(FILE_MANIFEST))
