@@ -272,30 +272,27 @@ fn run_case(name: &str, p: &Params) -> Outcome {
         ok(&r);
         images.push((mode, read(&out)));
     }
-    let refs: Vec<Image> = [false, true]
-        .iter()
-        .map(|&direct_only| {
-            let out = dir.path().join(format!("ref{direct_only}.exr"));
-            let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![
-                &"reference",
-                &scene,
-                &"--width",
-                &W,
-                &"--height",
-                &W,
-                &"--spp",
-                &"64",
-                &"-o",
-                &out,
-            ];
-            if direct_only {
-                args.push(&"--direct-only");
-            }
-            ok(&gibake(&args));
-            read(&out)
-        })
-        .collect();
-    let [reference, reference_direct]: [Image; 2] = refs.try_into().ok().expect("two refs");
+    let mut refs = [false, true].iter().map(|&direct_only| {
+        let out = dir.path().join(format!("ref{direct_only}.exr"));
+        let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![
+            &"reference",
+            &scene,
+            &"--width",
+            &W,
+            &"--height",
+            &W,
+            &"--spp",
+            &"64",
+            &"-o",
+            &out,
+        ];
+        if direct_only {
+            args.push(&"--direct-only");
+        }
+        ok(&gibake(&args));
+        read(&out)
+    });
+    let (reference, reference_direct) = (refs.next().expect("ref"), refs.next().expect("ref"));
     let o = Outcome {
         vpls,
         images,
