@@ -307,6 +307,11 @@ fn render_never_writes_into_its_asset() {
     let mut a = render_args(&scene, &inside);
     a.extend_from_slice(&[&"--bake", &asset]);
     assert_bad(&run(&a), &["frame.exr", "inside"]);
+    // `diff --images` into one of the compared assets.
+    let r = run(&[&"diff", &asset, &asset, &"--images", &asset]);
+    assert_bad(&r, &["--images", "s.gibake"]);
+    let r = run(&[&"diff", &asset, &asset, &"--images", &asset.join("d")]);
+    assert_bad(&r, &["--images", "inside"]);
     assert_eq!(names(&asset), before);
 }
 

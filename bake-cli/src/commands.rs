@@ -240,9 +240,7 @@ fn check_render_outputs(a: &RenderArgs) -> anyhow::Result<()> {
         crate::output::check_not_input("--stats", stats, &inputs)?;
         outputs.push(("--stats", stats));
     }
-    if frames.len() <= 1000 {
-        crate::output::check_distinct(&outputs)?;
-    }
+    crate::output::check_distinct(&outputs)?;
     Ok(())
 }
 
@@ -408,6 +406,9 @@ fn inspect(a: InspectArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
+    if let Some(dir) = &a.images {
+        crate::output::check_not_input("--images", dir, &[&a.a, &a.b])?;
+    }
     let asset_a = crate::limits::load_asset(&a.a)?;
     let asset_b = crate::limits::load_asset(&a.b)?;
     let mut tol = match a.tolerance {
@@ -434,7 +435,6 @@ fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
         crate::output::print_stdout(&report.to_string())?;
     }
     if let Some(dir) = &a.images {
-        crate::output::check_not_input("--images", dir, &[&a.a, &a.b])?;
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         for p in gibake_asset::write_diff_images(&asset_a, &asset_b, dir)? {
             eprintln!("wrote {}", p.display());

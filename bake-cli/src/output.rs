@@ -101,19 +101,37 @@ pub fn check_not_input(flag: &str, out: &Path, inputs: &[&Path]) -> anyhow::Resu
     Ok(())
 }
 
-/// Refuses two outputs of one command that name the same file.
+/// Refuses two outputs of one command that name the same file (same
+/// device and inode when it exists, else the same normalised path).
 pub fn check_distinct(outputs: &[(&str, &Path)]) -> anyhow::Result<()> {
-    for (i, (fa, a)) in outputs.iter().enumerate() {
-        for (fb, b) in &outputs[i + 1..] {
-            if same_file(a, b) {
-                bail!(
-                    "{}: {fa} and {fb} name the same file; give them different paths",
-                    a.display()
-                );
-            }
+    let mut seen: std::collections::HashMap<FileKey, &str> = std::collections::HashMap::new();
+    for (flag, p) in outputs {
+        if let Some(first) = seen.insert(file_key(p), flag) {
+            bail!(
+                "{}: {first} and {flag} name the same file; give them different paths",
+                p.display()
+            );
         }
     }
     Ok(())
+}
+
+/// What identifies a file for [`check_distinct`].
+#[derive(PartialEq, Eq, Hash)]
+enum FileKey {
+    Inode(u64, u64),
+    Path(PathBuf),
+}
+
+fn file_key(p: &Path) -> FileKey {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let Ok(m) = std::fs::metadata(p) {
+            return FileKey::Inode(m.dev(), m.ino());
+        }
+    }
+    FileKey::Path(normalised(p))
 }
 
 /// A uniquely named, empty temporary file next to `path` (removed when
