@@ -60,3 +60,20 @@ fn decoding_budget_and_regular_files() {
         assert!(e.to_string().contains("not a regular file"), "{e}");
     }
 }
+
+#[test]
+fn a_manifest_promising_gigabytes_of_maps_is_refused_before_any_map_is_read() {
+    // Within the format's limits (maps ≤ 16384, ≤ 2³¹ texels per file) but
+    // over the default decoding budget: refused from the manifest alone,
+    // whatever the (small, highly compressible) EXR files hold.
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = written(tmp.path(), &sample_asset(true));
+    edit_manifest(&dir, |m| m.settings.vpl_map_size = 4096);
+    let m = load_manifest(&dir).unwrap();
+    assert!(decoded_bytes(&m) > DEFAULT_MAX_DECODED_BYTES, "{m:?}");
+    let e = load(&dir).unwrap_err();
+    assert!(
+        e.to_string().contains("--max-memory") && e.to_string().contains("manifest.bin"),
+        "{e}"
+    );
+}
