@@ -506,6 +506,25 @@ fn devices_fifos_and_outside_uris_are_not_read() {
 }
 
 #[test]
+fn input_files_over_the_byte_limit_are_refused_before_reading() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scene = write_json(dir.path(), "s.gltf", &base_scene());
+    let out = dir.path().join("f.exr");
+    let mut a = render_args(&scene, &out);
+    a.extend_from_slice(&[&"--max-input-bytes", &"1K"]);
+    assert_bad(&run(&a), &["s.gltf", "--max-input-bytes"]);
+    // An external buffer over the limit (the scene itself is under it).
+    let mut v = base_scene();
+    std::fs::write(dir.path().join("big.bin"), vec![0u8; 4096]).expect("write");
+    v["buffers"][0] = json!({"byteLength": 4096, "uri": "big.bin"});
+    let scene = write_json(dir.path(), "ext.gltf", &v);
+    let mut a = render_args(&scene, &out);
+    a.extend_from_slice(&[&"--max-input-bytes", &"2K"]);
+    assert_bad(&run(&a), &["ext.gltf", "big.bin", "--max-input-bytes"]);
+    assert!(!out.exists());
+}
+
+#[test]
 fn an_image_too_large_to_decode_is_refused_from_its_header() {
     let dir = tempfile::tempdir().expect("tempdir");
     // A valid PNG header claiming 24000 × 24000 (576 M texels, 2.2 GB RGBA).

@@ -200,6 +200,16 @@ pub fn print_stdout(text: &str) -> anyhow::Result<()> {
     }
 }
 
+/// `println!` through [`print_stdout`]: a closed pipe ends the output
+/// quietly instead of panicking (other write errors are ignored too, as a
+/// report on stdout is not the command's result).
+#[macro_export]
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        let _ = $crate::output::print_stdout(&format!($($arg)*));
+    }};
+}
+
 /// A progress bar on stderr (hidden when stderr is not a terminal).
 pub fn bar(len: u64, what: &str) -> ProgressBar {
     let pb = ProgressBar::new(len);
