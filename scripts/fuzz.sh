@@ -12,11 +12,15 @@
 # script fails.
 #
 # Needs a nightly toolchain; installs cargo-fuzz when it is missing.
+# FUZZ_SANITIZER (default `none`: gibake's crates deny unsafe code, and
+# without AddressSanitizer the instrumented build is much faster, which keeps
+# CI well under its time budget; `address` for a deeper local run).
 # Usage: scripts/fuzz.sh [TARGET...]     (FUZZ_SECONDS=60 scripts/fuzz.sh)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
 seconds="${FUZZ_SECONDS:-30}"
+san="${FUZZ_SANITIZER:-none}"
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
     targets=(gltf_import asset_manifest asset_exr diff_tolerance)
@@ -30,7 +34,7 @@ if ! cargo fuzz --version >/dev/null 2>&1; then
     cargo install --locked cargo-fuzz
 fi
 echo "== building fuzz targets"
-(cd fuzz && cargo +nightly fuzz build -O 2>&1 | tail -3)
+(cd fuzz && cargo +nightly fuzz build -O --sanitizer "$san" 2>&1 | tail -3)
 status=0
 for t in "${targets[@]}"; do
     corpus="fuzz/corpus/$t"
@@ -45,7 +49,7 @@ for t in "${targets[@]}"; do
     echo "== fuzzing $t for ${seconds}s"
     log=$(mktemp)
     set +e
-    (cd fuzz && cargo +nightly fuzz run -O "$t" "corpus/$t" -- \
+    (cd fuzz && cargo +nightly fuzz run -O --sanitizer "$san" "$t" "corpus/$t" -- \
         -max_total_time="$seconds" -rss_limit_mb=2048 -max_len=1048576 \
         -timeout=10 -print_final_stats=1) >"$log" 2>&1
     rc=$?
