@@ -2,9 +2,9 @@
 # The whole test suite, as CI runs it: installs what is missing, validates the
 # bundled glTF scenes with the Khronos validator, then runs every Rust test
 # (GPU tests run on lavapipe when there is no GPU; they fail, never skip,
-# when no adapter exists). Slurm (slurm-wlm, munge) is installed for the
-# one-node cluster test, tests/pipeline_slurm.rs, which fails when it cannot
-# start.
+# when no adapter exists), then a bounded fuzzing run (scripts/fuzz.sh).
+# Slurm (slurm-wlm, munge) is installed for the one-node cluster test,
+# tests/pipeline_slurm.rs, which fails when it cannot start.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/ensure-deps.sh --node --slurm
@@ -16,6 +16,15 @@ set +e
 cargo test --workspace --release --no-fail-fast 2>&1 | tee "$log"
 status=${PIPESTATUS[0]}
 set -e
+# Bounded fuzzing (about 2 minutes; needs nightly, installs cargo-fuzz;
+# GIBAKE_FUZZ=0 skips it). A crash fails the run and is kept in
+# fuzz/regressions/ for the plain regression tests.
+if [ "${GIBAKE_FUZZ:-1}" != 0 ]; then
+    echo "== fuzzing (scripts/fuzz.sh, ${FUZZ_SECONDS:-30} s per target)"
+    if ! bash scripts/fuzz.sh; then
+        status=1
+    fi
+fi
 # One closing line over every test binary (cargo's last line is often a
 # doc-test run with nothing in it).
 totals=$(awk '/^test result:/ { for (i = 1; i < NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } } END { printf "%d %d", p, f }' "$log")

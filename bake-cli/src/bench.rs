@@ -184,7 +184,7 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<ExitCode> {
 impl Bench {
     fn emit(&mut self, t: &Table) {
         let md = t.markdown();
-        println!("{md}");
+        crate::outln!("{md}");
         self.report.push_str(&md);
     }
 

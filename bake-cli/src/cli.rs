@@ -15,6 +15,11 @@ pub struct Cli {
     /// Log progress details to stderr (also: GIBAKE_LOG=info|debug).
     #[arg(short, long, global = true)]
     pub verbose: bool,
+    /// Memory budget (bytes; suffixes K, M, G, T) for a bake's estimated
+    /// peak and for the maps an asset decodes to. Default: 2G, or half the
+    /// available memory when that is less.
+    #[arg(long, global = true, value_name = "BYTES", value_parser = crate::limits::parse_size)]
+    pub max_memory: Option<u64>,
     /// The command.
     #[command(subcommand)]
     pub command: Command,
@@ -28,6 +33,9 @@ pub struct SceneArgs {
     /// Pick the primary light by name when the scene has several.
     #[arg(long, value_name = "NAME")]
     pub light: Option<String>,
+    /// Import budgets.
+    #[command(flatten)]
+    pub limits: crate::limits::LimitArgs,
 }
 
 /// The commands.
@@ -66,6 +74,9 @@ pub struct BakeArgs {
     /// Pick the primary light by name when the scene has several.
     #[arg(long, value_name = "NAME")]
     pub light: Option<String>,
+    /// Import budgets.
+    #[command(flatten)]
+    pub limits: crate::limits::LimitArgs,
     /// Output asset directory (NAME.gibake) of one scene; with --shard, the
     /// shard's part file. An existing asset is left untouched when it is up
     /// to date (see --force) and replaced otherwise.
@@ -260,16 +271,19 @@ pub struct DiffArgs {
     #[arg(long, value_enum, default_value_t = TolerancePreset::SameMachine)]
     pub tolerance: TolerancePreset,
     /// Relative tolerance per map texel (overrides the preset).
-    #[arg(long, value_name = "REL")]
+    /// A finite number from 0 to 1.
+    #[arg(long, value_name = "REL", value_parser = crate::limits::tolerance_f32("--map-rel"))]
     pub map_rel: Option<f32>,
-    /// Allowed fraction of map texels over tolerance (overrides the preset).
-    #[arg(long, value_name = "FRACTION")]
+    /// Allowed fraction of map texels over tolerance (overrides the preset),
+    /// from 0 to 1.
+    #[arg(long, value_name = "FRACTION", value_parser = crate::limits::tolerance_f64("--max-texels-over"))]
     pub max_texels_over: Option<f64>,
-    /// VPL position tolerance, relative to the scene diagonal (overrides the preset).
-    #[arg(long, value_name = "REL")]
+    /// VPL position tolerance, relative to the scene diagonal (overrides the
+    /// preset), from 0 to 1.
+    #[arg(long, value_name = "REL", value_parser = crate::limits::tolerance_f32("--vpl-position-rel"))]
     pub vpl_position_rel: Option<f32>,
-    /// VPL flux tolerance, relative (overrides the preset).
-    #[arg(long, value_name = "REL")]
+    /// VPL flux tolerance, relative (overrides the preset), from 0 to 1.
+    #[arg(long, value_name = "REL", value_parser = crate::limits::tolerance_f32("--vpl-flux-rel"))]
     pub vpl_flux_rel: Option<f32>,
     /// Count provenance differences (adapter, driver, baker version) as differences.
     #[arg(long)]

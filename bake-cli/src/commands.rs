@@ -19,6 +19,7 @@ pub(crate) const CORNER_BUNNY: &[u8] = include_bytes!("../../data/corner_bunny.g
 
 /// Runs the parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    crate::limits::set_memory_budget(cli.max_memory);
     match cli.command {
         Command::Render(a) => render(a),
         Command::Reference(a) => reference(a),
@@ -36,11 +37,10 @@ pub(crate) fn load_scene(a: &SceneArgs) -> anyhow::Result<Scene> {
         &a.scene,
         &LoadOptions {
             light: a.light.clone(),
+            limits: a.limits.to_limits(),
         },
     )?;
-    for w in &scene.warnings {
-        tracing::warn!("{}: {w}", a.scene.display());
-    }
+    // The importer has logged each of `scene.warnings` once already.
     Ok(scene)
 }
 
@@ -130,9 +130,10 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
     if let Some(stats) = &a.stats {
         check_output_dir(stats)?;
     }
+    check_render_outputs(&a)?;
     let mode = mode_of(a.mode);
     let asset = match (&a.bake, mode) {
-        (Some(p), _) => Some(gibake_asset::load(p)?),
+        (Some(p), _) => Some(crate::limits::load_asset(p)?),
         (None, gibake_runtime::Mode::Direct) => None,
         (None, _) => bail!(
             "--mode {} needs a baked asset: run `gibake bake {} -o OUT.gibake` and pass --bake OUT.gibake",
@@ -218,6 +219,32 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// Output safety of `render`: image extensions, `--stats` `.json`, no
+/// output over an input (the scene, the asset), every output distinct.
+fn check_render_outputs(a: &RenderArgs) -> anyhow::Result<()> {
+    let mut inputs: Vec<&Path> = vec![&a.scene.scene];
+    if let Some(b) = &a.bake {
+        inputs.push(b);
+    }
+    let frames: Vec<PathBuf> = (0..a.frames.min(100_000))
+        .map(|f| frame_path(&a.output, f, a.frames))
+        .collect();
+    crate::output::check_extension("-o", &a.output, &["exr", "png"])?;
+    let mut outputs: Vec<(&str, &Path)> = Vec::new();
+    for f in &frames {
+        crate::output::check_extension("-o", f, &["exr", "png"])?;
+        crate::output::check_not_input("-o", f, &inputs)?;
+        outputs.push(("-o", f));
+    }
+    if let Some(stats) = &a.stats {
+        crate::output::check_extension("--stats", stats, &["json"])?;
+        crate::output::check_not_input("--stats", stats, &inputs)?;
+        outputs.push(("--stats", stats));
+    }
+    crate::output::check_distinct(&outputs)?;
+    Ok(())
+}
+
 fn reference(a: ReferenceArgs) -> anyhow::Result<ExitCode> {
     check_size(a.width, a.height)?;
     check_time(a.time)?;
@@ -225,6 +252,8 @@ fn reference(a: ReferenceArgs) -> anyhow::Result<ExitCode> {
         bail!("--spp must be at least 1");
     }
     check_output_dir(&a.output)?;
+    crate::output::check_extension("-o", &a.output, &["exr", "png"])?;
+    crate::output::check_not_input("-o", &a.output, &[&a.scene.scene])?;
     let scene = load_scene(&a.scene)?;
     let settings = gibake_reference::Settings {
         width: a.width,
@@ -295,19 +324,22 @@ impl gibake_bake::BakeProgress for BarProgress {
 }
 
 fn inspect(a: InspectArgs) -> anyhow::Result<ExitCode> {
-    let asset = gibake_asset::load(&a.asset)?;
+    let asset = crate::limits::load_asset(&a.asset)?;
     let info = gibake_asset::inspect(&asset);
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&info)?);
+        crate::output::print_stdout(&serde_json::to_string_pretty(&info)?)?;
     } else {
-        println!("{info}");
+        crate::output::print_stdout(&info.to_string())?;
     }
     Ok(ExitCode::SUCCESS)
 }
 
 fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
-    let asset_a = gibake_asset::load(&a.a)?;
-    let asset_b = gibake_asset::load(&a.b)?;
+    if let Some(dir) = &a.images {
+        crate::output::check_not_input("--images", dir, &[&a.a, &a.b])?;
+    }
+    let asset_a = crate::limits::load_asset(&a.a)?;
+    let asset_b = crate::limits::load_asset(&a.b)?;
     let mut tol = match a.tolerance {
         TolerancePreset::SameMachine => gibake_asset::Tolerance::same_machine(),
         TolerancePreset::AnotherGpu => gibake_asset::Tolerance::another_gpu(),
@@ -327,9 +359,9 @@ fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
     tol.strict_provenance |= a.strict_provenance;
     let report = gibake_asset::diff(&asset_a, &asset_b, &tol);
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        crate::output::print_stdout(&serde_json::to_string_pretty(&report)?)?;
     } else {
-        println!("{report}");
+        crate::output::print_stdout(&report.to_string())?;
     }
     if let Some(dir) = &a.images {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

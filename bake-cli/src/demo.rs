@@ -26,12 +26,12 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let path = PathBuf::from("corner_bunny.glb");
     let scene = gibake_scene::load_from_slice(CORNER_BUNNY, &path, &LoadOptions::default())?;
     let (st, dt) = scene.triangle_counts();
-    println!(
+    crate::outln!(
         "scene: corner_bunny (embedded) — {st} static triangles, {} moving objects ({dt} triangles)",
         scene.dynamic_objects.len()
     );
     let ctx = GpuContext::new(&GpuOptions::default())?;
-    println!("GPU: {}", ctx.record);
+    crate::outln!("GPU: {}", ctx.record);
 
     // 1. Bake.
     let t = Instant::now();
@@ -48,7 +48,7 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     gibake_asset::write(&out.asset, &asset_dir)?;
     let bake_s = t.elapsed().as_secs_f64();
     let m = &out.asset.manifest;
-    println!(
+    crate::outln!(
         "baked {} VPLs ({} hemisphere maps) into {} in {bake_s:.2} s",
         m.vpl_count,
         m.map_count,
@@ -100,19 +100,21 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     pb.finish_and_clear();
     let anim_s = t.elapsed().as_secs_f64();
 
-    println!(
+    crate::outln!(
         "\nper-pass GPU time, {} frames at {}×{} ({timing}):",
-        a.frames, a.width, a.height
+        a.frames,
+        a.width,
+        a.height
     );
-    println!("  {:<16} {:>10} {:>10}", "pass", "median ms", "max ms");
+    crate::outln!("  {:<16} {:>10} {:>10}", "pass", "median ms", "max ms");
     let mut total = 0.0;
     for (name, v) in &mut per_pass {
         v.sort_by(|x, y| x.total_cmp(y));
         let med = v[v.len() / 2];
         total += med;
-        println!("  {name:<16} {med:>10.2} {:>10.2}", v[v.len() - 1]);
+        crate::outln!("  {name:<16} {med:>10.2} {:>10.2}", v[v.len() - 1]);
     }
-    println!("  {:<16} {total:>10.2}", "frame");
+    crate::outln!("  {:<16} {total:>10.2}", "frame");
 
     // 3. Reference for the first frame.
     let t = Instant::now();
@@ -131,11 +133,11 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     write_image_atomic(&reference, &a.output.join("reference_000.exr"))?;
     write_image_atomic(&reference, &a.output.join("reference_000.png"))?;
     let err = gibake_image::rel_mse(first.as_ref().expect("at least one frame"), &reference);
-    println!(
+    crate::outln!(
         "\nframe 0 against the CPU reference (one bounce, {} spp, {ref_s:.1} s): rel MSE {err:.4}",
         a.spp
     );
-    println!(
+    crate::outln!(
         "bake {bake_s:.1} s, animation {anim_s:.1} s; images in {}",
         a.output.display()
     );

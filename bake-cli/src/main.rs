@@ -7,6 +7,7 @@ mod bench;
 mod cli;
 mod commands;
 mod demo;
+mod limits;
 mod output;
 mod pipeline;
 

@@ -1,60 +1,213 @@
-//! Output helpers: atomic file writes and progress bars.
+//! Output helpers: output-path safety checks, atomic file writes, stdout
+//! that tolerates a closed pipe, and progress bars.
+//!
+//! Safety rules (docs/robustness.md): an output never names an input of the
+//! same command (the same file, or a file inside an input asset directory);
+//! `-o` of an image is `.exr` or `.png`, `--stats` is `.json`; the outputs of
+//! one command are distinct; every write goes to a uniquely named temporary
+//! sibling (`tempfile`, unique per process and call) that is renamed into
+//! place, and removed on every failure path.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
+use anyhow::{Context, bail};
 use gibake_image::Image;
 use indicatif::{ProgressBar, ProgressStyle};
 
-/// Writes `img` (EXR or PNG by extension) through a temporary file in the
-/// same directory and a rename, so a failure never leaves a half-written
-/// file that looks valid.
-pub fn write_image_atomic(img: &Image, path: &Path) -> anyhow::Result<()> {
-    let tmp = temp_sibling(path);
-    let ext = path
-        .extension()
+/// The lower-case extension of `path`, if any.
+fn extension(path: &Path) -> Option<String> {
+    path.extension()
         .and_then(|e| e.to_str())
-        .unwrap_or("exr")
-        .to_ascii_lowercase();
-    let tmp = tmp.with_extension(format!("tmp.{ext}"));
-    let r = if ext == "png" {
-        img.write_png(&tmp, None)
-    } else {
-        img.write_exr(&tmp)
-    };
-    if let Err(e) = r {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(e).with_context(|| format!("writing {}", path.display()));
+        .map(|e| e.to_ascii_lowercase())
+}
+
+/// Requires `path` (given to `flag`) to end in one of `allowed` (lower-case,
+/// without the dot).
+pub fn check_extension(flag: &str, path: &Path, allowed: &[&str]) -> anyhow::Result<()> {
+    match extension(path) {
+        Some(e) if allowed.contains(&e.as_str()) => Ok(()),
+        other => {
+            let list = allowed
+                .iter()
+                .map(|a| format!(".{a}"))
+                .collect::<Vec<_>>()
+                .join(" or ");
+            match other {
+                Some(e) => bail!(
+                    "{}: {flag} must name a {list} file, not .{e}",
+                    path.display()
+                ),
+                None => bail!(
+                    "{}: {flag} must name a {list} file (the name has no extension)",
+                    path.display()
+                ),
+            }
+        }
     }
-    std::fs::rename(&tmp, path).with_context(|| {
-        format!(
+}
+
+/// An absolute, normalised form of `p` for comparisons: the canonical path
+/// of its parent directory (symbolic links resolved) joined with its name;
+/// `p` itself when it cannot be resolved.
+fn normalised(p: &Path) -> PathBuf {
+    if let Ok(c) = std::fs::canonicalize(p) {
+        return c;
+    }
+    let parent = p
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    match (std::fs::canonicalize(parent), p.file_name()) {
+        (Ok(d), Some(name)) => d.join(name),
+        _ => p.to_path_buf(),
+    }
+}
+
+/// Whether `a` and `b` are the same file (same device and inode when both
+/// exist, else the same normalised path).
+fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return ma.dev() == mb.dev() && ma.ino() == mb.ino();
+        }
+    }
+    normalised(a) == normalised(b)
+}
+
+/// Refuses an output `out` (given to `flag`) that is one of the command's
+/// `inputs` or lies inside one of them (an input asset directory).
+pub fn check_not_input(flag: &str, out: &Path, inputs: &[&Path]) -> anyhow::Result<()> {
+    let n_out = normalised(out);
+    for input in inputs {
+        if same_file(out, input) {
+            bail!(
+                "{}: {flag} names an input of this command ({}); refusing to overwrite it",
+                out.display(),
+                input.display()
+            );
+        }
+        let n_in = normalised(input);
+        if n_in.is_dir() && n_out.starts_with(&n_in) {
+            bail!(
+                "{}: {flag} lies inside the input {}; refusing to write into it",
+                out.display(),
+                input.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Refuses two outputs of one command that name the same file (same
+/// device and inode when it exists, else the same normalised path).
+pub fn check_distinct(outputs: &[(&str, &Path)]) -> anyhow::Result<()> {
+    let mut seen: std::collections::HashMap<FileKey, &str> = std::collections::HashMap::new();
+    for (flag, p) in outputs {
+        if let Some(first) = seen.insert(file_key(p), flag) {
+            bail!(
+                "{}: {first} and {flag} name the same file; give them different paths",
+                p.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// What identifies a file for [`check_distinct`].
+#[derive(PartialEq, Eq, Hash)]
+enum FileKey {
+    Inode(u64, u64),
+    Path(PathBuf),
+}
+
+fn file_key(p: &Path) -> FileKey {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let Ok(m) = std::fs::metadata(p) {
+            return FileKey::Inode(m.dev(), m.ino());
+        }
+    }
+    FileKey::Path(normalised(p))
+}
+
+/// A uniquely named, empty temporary file next to `path` (removed when
+/// dropped unless persisted). Short names, so a valid `path` whose name is
+/// near the 255-byte limit still works.
+fn temp_sibling(path: &Path, ext: &str) -> anyhow::Result<tempfile::NamedTempFile> {
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    tempfile::Builder::new()
+        .prefix(".gibake-")
+        .suffix(&format!(".tmp.{ext}"))
+        .tempfile_in(dir)
+        .with_context(|| format!("{}: cannot create a temporary file", path.display()))
+}
+
+/// Moves a finished temporary file into place; on failure the temporary
+/// file is removed (dropped).
+fn persist(tmp: tempfile::NamedTempFile, path: &Path) -> anyhow::Result<()> {
+    tmp.persist(path).map(|_| ()).map_err(|e| {
+        let err = e.error;
+        drop(e.file);
+        anyhow::Error::new(err).context(format!(
             "{}: cannot move the finished file into place",
             path.display()
-        )
+        ))
     })
+}
+
+/// Writes `img` (EXR or PNG by extension; anything else is refused) through
+/// a temporary file in the same directory and a rename, so a failure never
+/// leaves a half-written file that looks valid, nor a temporary file.
+pub fn write_image_atomic(img: &Image, path: &Path) -> anyhow::Result<()> {
+    check_extension("-o", path, &["exr", "png"])?;
+    let ext = extension(path).unwrap_or_default();
+    let tmp = temp_sibling(path, &ext)?;
+    let r = if ext == "png" {
+        img.write_png(tmp.path(), None)
+    } else {
+        img.write_exr(tmp.path())
+    };
+    r.with_context(|| format!("writing {}", path.display()))?;
+    persist(tmp, path)
 }
 
 /// Writes bytes through a temporary sibling and a rename.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let tmp = temp_sibling(path);
-    if let Err(e) = std::fs::write(&tmp, bytes) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(e).with_context(|| format!("{}: cannot write", path.display()));
-    }
-    std::fs::rename(&tmp, path).with_context(|| {
-        format!(
-            "{}: cannot move the finished file into place",
-            path.display()
-        )
-    })
+    let ext = extension(path).unwrap_or_else(|| "out".into());
+    let mut tmp = temp_sibling(path, &ext)?;
+    tmp.write_all(bytes)
+        .and_then(|()| tmp.as_file().sync_all())
+        .with_context(|| format!("{}: cannot write", path.display()))?;
+    persist(tmp, path)
 }
 
-fn temp_sibling(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    path.with_file_name(format!(".{name}.{}", std::process::id()))
+/// Prints `text` and a newline on stdout. A reader that closed the pipe
+/// early (`gibake inspect A | head -1`) is not an error: the rest is
+/// dropped quietly.
+pub fn print_stdout(text: &str) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    match writeln!(out, "{text}").and_then(|()| out.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(anyhow::Error::new(e).context("cannot write to standard output")),
+    }
+}
+
+/// `println!` through [`print_stdout`]: a closed pipe ends the output
+/// quietly instead of panicking (other write errors are ignored too, as a
+/// report on stdout is not the command's result).
+#[macro_export]
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        let _ = $crate::output::print_stdout(&format!($($arg)*));
+    }};
 }
 
 /// A progress bar on stderr (hidden when stderr is not a terminal).
@@ -69,4 +222,44 @@ pub fn bar(len: u64, what: &str) -> ProgressBar {
     );
     pb.set_prefix(what.to_string());
     pb
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn extensions_inputs_and_distinct_outputs() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let scene = dir.path().join("s.glb");
+        std::fs::write(&scene, b"x").expect("write");
+        assert!(check_extension("-o", Path::new("a.EXR"), &["exr", "png"]).is_ok());
+        assert!(check_extension("-o", Path::new("a.glb"), &["exr", "png"]).is_err());
+        assert!(check_extension("-o", Path::new("a"), &["exr", "png"]).is_err());
+        assert!(check_not_input("-o", &scene, &[&scene]).is_err());
+        let dotted = dir.path().join(".").join("s.glb");
+        assert!(check_not_input("-o", &dotted, &[&scene]).is_err());
+        assert!(check_not_input("-o", &dir.path().join("f.exr"), &[&scene]).is_ok());
+        assert!(check_not_input("-o", &dir.path().join("f.exr"), &[dir.path()]).is_err());
+        let f = dir.path().join("f.exr");
+        assert!(check_distinct(&[("-o", &f), ("--stats", &f)]).is_err());
+    }
+
+    #[test]
+    fn a_long_valid_name_and_a_failed_rename_leave_nothing_behind() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let long = format!("{}.json", "a".repeat(250));
+        write_atomic(&dir.path().join(&long), b"{}").expect("247+ byte names work");
+        // Renaming onto a non-empty directory fails: no temporary is left.
+        let blocker = dir.path().join("x.json");
+        std::fs::create_dir(&blocker).expect("mkdir");
+        std::fs::write(blocker.join("keep"), b"k").expect("write");
+        assert!(write_atomic(&blocker, b"{}").is_err());
+        let mut names: Vec<String> = std::fs::read_dir(dir.path())
+            .expect("read_dir")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, vec![long, "x.json".to_string()]);
+    }
 }

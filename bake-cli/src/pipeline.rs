@@ -54,6 +54,8 @@ fn options(a: &BakeArgs) -> BakeOptions {
 
 /// `gibake bake`: a batch, a shard, or one scene.
 pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
+    // The bake's memory, estimated before anything is read (--max-memory).
+    gibake_bake::budget::check(&options(&a), crate::limits::memory())?;
     if let Some(dir) = a.out_dir.clone() {
         return batch(&a, &dir);
     }
@@ -68,11 +70,13 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
         );
     };
     check_output_dir(&output)?;
+    crate::output::check_not_input("-o", &output, &[scene_path])?;
     let opts = options(&a);
     let total = Instant::now();
     let scene = load_scene(&SceneArgs {
         scene: scene_path.clone(),
         light: a.light.clone(),
+        limits: a.limits.clone(),
     })?;
     let load_s = total.elapsed().as_secs_f64();
     let gpu = GpuOptions {
@@ -110,7 +114,7 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
         let mut j = o.json(&output);
         j["adapter"] = json!(record.to_string());
         j["total_seconds"] = json!(total_s);
-        println!("{}", serde_json::to_string_pretty(&j)?);
+        crate::output::print_stdout(&serde_json::to_string_pretty(&j)?)?;
     } else {
         eprintln!("GPU: {record}");
         o.print(&output);
@@ -316,7 +320,7 @@ fn shard(
             "stages": o.stages.iter().map(|s| json!({"stage": s.stage, "seconds": s.seconds})).collect::<Vec<_>>(),
             "total_seconds": seconds,
         });
-        println!("{}", serde_json::to_string_pretty(&j)?);
+        crate::output::print_stdout(&serde_json::to_string_pretty(&j)?)?;
     } else {
         eprintln!("GPU: {}", ctx.record);
         eprintln!(
@@ -380,6 +384,8 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
             bail!("{}: has no file name to name its asset after", s.display());
         };
         let out = dir.join(format!("{}.gibake", stem.to_string_lossy()));
+        let inputs: Vec<&Path> = a.scenes.iter().map(|p| p.as_path()).collect();
+        crate::output::check_not_input("--out-dir", &out, &inputs)?;
         if let Some((other, _)) = outs.iter().find(|(_, o)| *o == out) {
             bail!(
                 "{} and {} would both be baked into {}: rename one, or bake them into different --out-dir",
@@ -415,6 +421,7 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
             let scene = load_scene(&SceneArgs {
                 scene: scene_path.clone(),
                 light: a.light.clone(),
+                limits: a.limits.clone(),
             })?;
             let load_s = t.elapsed().as_secs_f64();
             bake_one(&ctx, &scene, out, &opts, a.force, &progress, load_s)
@@ -463,7 +470,7 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
             "failed": failed,
             "total_seconds": total_s,
         });
-        println!("{}", serde_json::to_string_pretty(&j)?);
+        crate::output::print_stdout(&serde_json::to_string_pretty(&j)?)?;
     } else {
         eprintln!(
             "batch of {} scenes on {}: {baked} baked, {fresh} up to date, {} failed, {total_s:.2} s",
@@ -506,7 +513,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
             "maps_stored": asset.stored_map_count(),
             "seconds": seconds,
         });
-        println!("{}", serde_json::to_string_pretty(&j)?);
+        crate::output::print_stdout(&serde_json::to_string_pretty(&j)?)?;
     } else {
         eprintln!(
             "merged {} parts into {}: {} VPLs ({} maps stored), baked from {} by gibake {} on {}, {seconds:.3} s",

@@ -174,6 +174,41 @@ fn decode_inner(
     Ok(out)
 }
 
+/// Decodes EXR `bytes` the way the loader decodes each of the asset's maps,
+/// with the size taken from the file's own header (at most 2048² texels, so
+/// a fuzzer's input cannot ask for gigabytes): once as a depth map (`D`),
+/// once as the RSM (`D`, `flux.*`, `vpl`). For fuzzing and regression tests.
+pub(crate) fn decode_any(bytes: &[u8], path: &Path) -> std::result::Result<(), AssetError> {
+    let size = std::panic::catch_unwind(|| {
+        MetaData::read_from_buffered(Cursor::new(bytes), false)
+            .ok()
+            .and_then(|m| {
+                m.headers
+                    .first()
+                    .map(|h| (h.layer_size.width(), h.layer_size.height()))
+            })
+    })
+    .map_err(|_| AssetError::invalid(path, "damaged EXR (the decoder gave up)"))?;
+    let Some((w, h)) = size.filter(|&(w, h)| w.saturating_mul(h) <= 2048 * 2048) else {
+        return Err(AssetError::invalid(path, "no usable EXR header"));
+    };
+    let depth = decode(bytes, path, w, h, &[("D", Kind::F32)]);
+    let rsm = decode(
+        bytes,
+        path,
+        w,
+        h,
+        &[
+            ("D", Kind::F32),
+            ("flux.R", Kind::F32),
+            ("flux.G", Kind::F32),
+            ("flux.B", Kind::F32),
+            ("vpl", Kind::U32),
+        ],
+    );
+    depth.and(rsm).map(|_| ())
+}
+
 impl Samples {
     pub(crate) fn into_f32(self) -> Vec<f32> {
         match self {

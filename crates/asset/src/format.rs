@@ -137,6 +137,7 @@ fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetEr
 
 /// Reads a whole file, refusing files larger than `max` bytes (before reading).
 fn read_capped(path: &Path, max: u64) -> Result<Vec<u8>, AssetError> {
+    check_regular(path)?;
     let f = fs::File::open(path).map_err(|e| AssetError::io(path, e))?;
     let len = f.metadata().map_err(|e| AssetError::io(path, e))?.len();
     if len > max {
@@ -153,6 +154,22 @@ fn read_capped(path: &Path, max: u64) -> Result<Vec<u8>, AssetError> {
         return Err(AssetError::invalid(path, "file grew while being read"));
     }
     Ok(buf)
+}
+
+/// Refuses anything but a regular file before it is opened (opening a FIFO
+/// blocks; a device never ends).
+fn check_regular(path: &Path) -> Result<(), AssetError> {
+    let meta = fs::metadata(path).map_err(|e| AssetError::io(path, e))?;
+    if meta.is_file() {
+        Ok(())
+    } else if meta.is_dir() {
+        Err(AssetError::invalid(path, "is a directory, not a file"))
+    } else {
+        Err(AssetError::invalid(
+            path,
+            "not a regular file (a pipe, device or socket); only regular files are read",
+        ))
+    }
 }
 
 /// Whether a file of format minor `minor` may hold additions this version
@@ -368,6 +385,7 @@ fn check_hash(
 /// Reads one listed file, checking its size (before reading) and BLAKE3.
 fn read_verified(dir: &Path, entry: &FileEntry) -> Result<Vec<u8>, AssetError> {
     let path = dir.join(&entry.name);
+    check_regular(&path)?;
     let f = fs::File::open(&path).map_err(|e| AssetError::io(&path, e))?;
     let len = f.metadata().map_err(|e| AssetError::io(&path, e))?.len();
     if len != entry.size {
@@ -525,7 +543,42 @@ pub(crate) fn layers_to_atlas(layers: &[f32], count: u32, size: u32) -> (usize, 
 /// file concerned. Never panics, and never allocates more than the files on
 /// disk justify (plus the decoded maps, whose size the manifest bounds).
 pub fn load(dir: &Path) -> Result<Asset, AssetError> {
+    load_with_limit(dir, DEFAULT_MAX_DECODED_BYTES)
+}
+
+/// Default of [`load_with_limit`]'s budget: 1 GiB of decoded map data.
+pub const DEFAULT_MAX_DECODED_BYTES: u64 = 1 << 30;
+
+/// Bytes the maps of an asset with this manifest decode to (every sample
+/// 4 bytes, the atlas counted twice: decoded, then split into layers).
+pub fn decoded_bytes(m: &Manifest) -> u64 {
+    let s = &m.settings;
+    let sq = |n: u32| n as u64 * n as u64;
+    let (aw, ah) = atlas_dims(m);
+    let mut samples = sq(s.shadow_map_size);
+    if m.map_count > 0 {
+        samples = samples.saturating_add(aw.saturating_mul(ah).saturating_mul(2));
+    }
+    if m.has_dynamic {
+        samples = samples.saturating_add(sq(s.rsm_size).saturating_mul(5));
+    }
+    samples.saturating_mul(4)
+}
+
+/// Like [`load`], refusing (before reading any map) an asset whose maps
+/// decode to more than `max_decoded_bytes` ([`decoded_bytes`]): a small,
+/// highly compressed EXR cannot make the reader allocate gigabytes.
+pub fn load_with_limit(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
     let (manifest, _minor) = load_manifest_inner(dir)?;
+    let need = decoded_bytes(&manifest);
+    if need > max_decoded_bytes {
+        return Err(AssetError::invalid(
+            dir.join(FILE_MANIFEST),
+            format!(
+                "the asset's maps decode to {need} bytes, over the memory limit of {max_decoded_bytes} bytes (raise it with --max-memory)"
+            ),
+        ));
+    }
     // Verify every listed file (including unknown ones of a newer minor)
     // before decoding anything.
     let mut contents: Vec<(&str, Vec<u8>)> = Vec::new();
@@ -734,13 +787,63 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
     Ok(m)
 }
 
-/// Whether `dir` exists and may be replaced: `Ok(false)` when absent,
-/// `Ok(true)` when it is a gibake asset (has `manifest.bin`) or an empty
-/// directory, an error otherwise.
-fn check_target(dir: &Path) -> Result<bool, AssetError> {
+/// What is at the output path of [`write()`].
+#[derive(Debug, PartialEq)]
+enum Target {
+    /// Nothing.
+    Absent,
+    /// An empty directory.
+    Empty,
+    /// A gibake asset (its `manifest.bin` starts with [`MAGIC`]); `foreign`
+    /// lists the files in it that the format does not own.
+    Asset { foreign: Vec<std::ffi::OsString> },
+}
+
+/// The names of the files an asset directory's format owns: the fixed names
+/// and, if the old manifest can be decoded, every plain name it lists.
+fn owned_names(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = [
+        FILE_MANIFEST,
+        FILE_VPLS,
+        FILE_PRIMARY_DEPTH,
+        FILE_VPL_MAPS,
+        FILE_RSM,
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let path = dir.join(FILE_MANIFEST);
+    let decoded = read_capped(&path, (HEADER_BYTES + TRAILER_BYTES) as u64 + MAX_PAYLOAD)
+        .and_then(|bytes| decode_manifest(&bytes, &path));
+    if let Ok((m, _)) = decoded {
+        for f in m.files {
+            if is_plain_name(&f.name) && !names.contains(&f.name) {
+                names.push(f.name);
+            }
+        }
+    }
+    names
+}
+
+/// Whether `path` is a regular file that starts with the manifest magic bytes.
+fn has_magic(path: &Path) -> bool {
+    if !fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        return false;
+    }
+    let mut head = [0u8; 8];
+    fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok()
+        && head == MAGIC
+}
+
+/// What is at `dir`: absent, an empty directory or a gibake asset (judged
+/// by the magic bytes of its `manifest.bin`); anything else is an error and
+/// is left untouched.
+fn check_target(dir: &Path) -> Result<Target, AssetError> {
     let meta = match fs::symlink_metadata(dir) {
         Ok(m) => m,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(false),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Target::Absent),
         Err(e) => return Err(AssetError::io(dir, e)),
     };
     if !meta.is_dir() {
@@ -749,17 +852,32 @@ fn check_target(dir: &Path) -> Result<bool, AssetError> {
             "exists and is not a directory; refusing to replace it with an asset",
         ));
     }
-    if dir.join(FILE_MANIFEST).is_file() {
-        return Ok(true);
+    let entries: Vec<std::ffi::OsString> = fs::read_dir(dir)
+        .map_err(|e| AssetError::io(dir, e))?
+        .filter_map(|e| e.ok().map(|e| e.file_name()))
+        .collect();
+    if entries.is_empty() {
+        return Ok(Target::Empty);
     }
-    let mut entries = fs::read_dir(dir).map_err(|e| AssetError::io(dir, e))?;
-    if entries.next().is_none() {
-        return Ok(true);
+    let manifest = dir.join(FILE_MANIFEST);
+    if manifest.exists() && !has_magic(&manifest) {
+        return Err(AssetError::invalid(
+            dir,
+            "exists and is not a gibake asset (its manifest.bin lacks the gibake magic bytes); refusing to replace it",
+        ));
     }
-    Err(AssetError::invalid(
-        dir,
-        "exists and is not a gibake asset (no manifest.bin); refusing to replace it",
-    ))
+    if !manifest.exists() {
+        return Err(AssetError::invalid(
+            dir,
+            "exists and is not a gibake asset (no manifest.bin); refusing to replace it",
+        ));
+    }
+    let owned = owned_names(dir);
+    let foreign = entries
+        .into_iter()
+        .filter(|n| !n.to_str().is_some_and(|n| owned.iter().any(|o| o == n)))
+        .collect();
+    Ok(Target::Asset { foreign })
 }
 
 fn sibling(dir: &Path, suffix: &str) -> Result<PathBuf, AssetError> {
@@ -875,21 +993,59 @@ fn write_into(
 
 /// Moves the finished temporary directory to `dir`, replacing an existing
 /// asset there (moved aside first, restored if the final rename fails).
+///
+/// When the old asset directory also holds files the format does not own
+/// (a user's notes, a scene), the directory itself is kept: the old
+/// `manifest.bin` is removed first (so a half-replaced directory is never
+/// taken for an asset), the new files are moved in one by one, owned files
+/// the new asset does not have are removed, and `manifest.bin` comes last.
 fn replace(tmp: &Path, dir: &Path) -> Result<(), AssetError> {
-    if !check_target(dir)? {
-        return fs::rename(tmp, dir).map_err(|e| AssetError::io(dir, e));
+    match check_target(dir)? {
+        Target::Absent => fs::rename(tmp, dir).map_err(|e| AssetError::io(dir, e)),
+        Target::Empty => {
+            fs::remove_dir(dir).map_err(|e| AssetError::io(dir, e))?;
+            fs::rename(tmp, dir).map_err(|e| AssetError::io(dir, e))
+        }
+        Target::Asset { foreign } if foreign.is_empty() => {
+            let old = sibling(dir, "old")?;
+            if fs::symlink_metadata(&old).is_ok() {
+                fs::remove_dir_all(&old).map_err(|e| AssetError::io(&old, e))?;
+            }
+            fs::rename(dir, &old).map_err(|e| AssetError::io(dir, e))?;
+            if let Err(e) = fs::rename(tmp, dir) {
+                let _ = fs::rename(&old, dir);
+                return Err(AssetError::io(dir, e));
+            }
+            // The new asset is in place; a leftover hidden `.old` directory is harmless.
+            let _ = fs::remove_dir_all(&old);
+            Ok(())
+        }
+        Target::Asset { .. } => replace_in_place(tmp, dir),
     }
-    let old = sibling(dir, "old")?;
-    if fs::symlink_metadata(&old).is_ok() {
-        fs::remove_dir_all(&old).map_err(|e| AssetError::io(&old, e))?;
+}
+
+/// [`replace`] for an asset directory that also holds foreign files.
+fn replace_in_place(tmp: &Path, dir: &Path) -> Result<(), AssetError> {
+    let owned = owned_names(dir);
+    let manifest = dir.join(FILE_MANIFEST);
+    fs::remove_file(&manifest).map_err(|e| AssetError::io(&manifest, e))?;
+    let mut new_names = Vec::new();
+    for e in fs::read_dir(tmp).map_err(|e| AssetError::io(tmp, e))? {
+        let e = e.map_err(|e| AssetError::io(tmp, e))?;
+        new_names.push(e.file_name().to_string_lossy().into_owned());
     }
-    fs::rename(dir, &old).map_err(|e| AssetError::io(dir, e))?;
-    if let Err(e) = fs::rename(tmp, dir) {
-        let _ = fs::rename(&old, dir);
-        return Err(AssetError::io(dir, e));
+    for name in new_names.iter().filter(|n| *n != FILE_MANIFEST) {
+        let to = dir.join(name);
+        fs::rename(tmp.join(name), &to).map_err(|e| AssetError::io(&to, e))?;
     }
-    // The new asset is in place; a leftover hidden `.old` directory is harmless.
-    let _ = fs::remove_dir_all(&old);
+    for name in owned.iter().filter(|n| !new_names.contains(n)) {
+        let p = dir.join(name);
+        if fs::symlink_metadata(&p).is_ok_and(|m| m.is_file()) {
+            fs::remove_file(&p).map_err(|e| AssetError::io(&p, e))?;
+        }
+    }
+    fs::rename(tmp.join(FILE_MANIFEST), &manifest).map_err(|e| AssetError::io(&manifest, e))?;
+    let _ = fs::remove_dir(tmp);
     Ok(())
 }
 
@@ -910,6 +1066,21 @@ pub mod testing {
                 Ok(())
             }
         })
+    }
+
+    /// Decodes and validates `manifest.bin` bytes as [`load()`] does (magic,
+    /// version, length, checksum, payload, values). For fuzzing.
+    pub fn decode_manifest_bytes(bytes: &[u8]) -> Result<Manifest, AssetError> {
+        let path = Path::new(FILE_MANIFEST);
+        let (m, minor) = decode_manifest(bytes, path)?;
+        validate_manifest(&m, minor, path, true)?;
+        Ok(m)
+    }
+
+    /// Decodes one EXR map the way [`load()`] does, its size taken from its
+    /// own header (at most 2048² texels). For fuzzing.
+    pub fn decode_exr_bytes(bytes: &[u8]) -> Result<(), AssetError> {
+        exrio::decode_any(bytes, Path::new("map.exr"))
     }
 
     /// The bytes of `manifest.bin` for `manifest` as [`write()`] would write them.

@@ -23,6 +23,7 @@ mod exrio;
 mod format;
 mod inspect;
 mod shard;
+mod tolerance;
 
 pub use diff::{
     DiffReport, FieldDiff, MapDiff, Tolerance, VplDiff, VplMismatch, diff, write_diff_images,
@@ -31,15 +32,16 @@ pub use error::AssetError;
 #[doc(hidden)]
 pub use format::testing;
 pub use format::{
-    FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM, FILE_VPL_MAPS, FILE_VPL_NODES, FILE_VPLS,
-    MAX_MAP_SIZE, VPL_RECORD_BYTES, atlas_grid, check_scene_hash, check_scene_hash_for, load,
-    load_manifest, verify_files, write,
+    DEFAULT_MAX_DECODED_BYTES, FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM, FILE_VPL_MAPS,
+    FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE, VPL_RECORD_BYTES, atlas_grid, check_scene_hash,
+    check_scene_hash_for, decoded_bytes, load, load_manifest, load_with_limit, verify_files, write,
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
 pub use shard::{
     MAX_SHARDS, MergeError, Merger, PART_MAGIC, PART_VERSION, ShardMaps, ShardPart,
     assign_map_layers, load_part, merge, shard_range, write_part,
 };
+pub use tolerance::{MAX_TOLERANCE, ToleranceError, parse_tolerance};
 
 /// Magic bytes at the start of `manifest.bin`.
 pub const MAGIC: [u8; 8] = *b"GIBAKE\0\x01";

@@ -14,6 +14,7 @@
 //! [`check_up_to_date`] decides whether an existing asset needs a re-bake.
 
 pub mod bake;
+pub mod budget;
 pub mod cluster;
 pub mod near_field;
 pub mod rsm;

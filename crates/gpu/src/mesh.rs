@@ -289,7 +289,21 @@ impl SceneGpu {
             min_filter: wgpu::FilterMode::Linear,
             ..Default::default()
         });
+        let max_side = device.limits().max_texture_dimension_2d;
         let make_group = |tex: &gibake_scene::Texture| {
+            // A texture over the device's limit (the import already keeps
+            // sides ≤ --max-texture-size) is downscaled, never a wgpu panic.
+            let fitted = gibake_scene::limits::downscale_to_fit(tex, max_side);
+            if let Some(f) = &fitted {
+                tracing::warn!(
+                    "texture {}x{} exceeds the GPU's limit of {max_side}; downscaled to {}x{}",
+                    tex.width,
+                    tex.height,
+                    f.width,
+                    f.height
+                );
+            }
+            let tex = fitted.as_ref().unwrap_or(tex);
             let t = device.create_texture_with_data(
                 queue,
                 &wgpu::TextureDescriptor {

@@ -6,6 +6,7 @@
 //! the file and never a panic. As a last line of defence the whole import runs
 //! under `catch_unwind`.
 
+use std::cell::Cell;
 use std::collections::HashMap;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
@@ -16,6 +17,7 @@ use gltf::json::accessor::{ComponentType, GenericComponentType, Type as Accessor
 use gltf::json::validation::Checked;
 
 use crate::animation::{Animator, Channel, ChannelPath, Interpolation};
+use crate::limits::{self, FileRefusal, Limits};
 use crate::mesh::compute_normals;
 use crate::{
     Aabb, Camera, DynamicObject, Light, LightKind, Material, Mesh, Projection, Scene, SceneError,
@@ -27,14 +29,24 @@ use crate::{
 pub struct LoadOptions {
     /// Pick the primary light by name when the file has several candidates.
     pub light: Option<String>,
+    /// Resource budgets (file sizes, accessor elements, texels, animation
+    /// work, where external URIs may point).
+    pub limits: Limits,
 }
 
 /// Loads a `.gltf` (with its external buffers/images) or `.glb` file.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
-    let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes =
+        limits::read_regular(path, options.limits.max_input_bytes).map_err(|e| match e {
+            FileRefusal::Io(source) => SceneError::Io {
+                path: path.to_path_buf(),
+                source,
+            },
+            e => SceneError::Invalid {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            },
+        })?;
     load_from_slice(&bytes, path, options)
 }
 
@@ -91,6 +103,9 @@ fn import(bytes: &[u8], path: &Path, options: &LoadOptions) -> Result<Scene, Sce
         root: document.as_json(),
         buffers: Vec::new(),
         warnings: Vec::new(),
+        limits: &options.limits,
+        elements_read: Cell::new(0),
+        texels_decoded: Cell::new(0),
     };
     ctx.load_buffers(blob)?;
     ctx.build(options)
@@ -316,6 +331,11 @@ struct Ctx<'a> {
     root: &'a json::Root,
     buffers: Vec<gltf::buffer::Data>,
     warnings: Vec<String>,
+    limits: &'a Limits,
+    /// Accessor elements read so far (against `limits.max_elements`).
+    elements_read: Cell<u64>,
+    /// Texels decoded so far (against `limits.max_texels`).
+    texels_decoded: Cell<u64>,
 }
 
 /// Per-import state for materials and textures.
@@ -373,6 +393,18 @@ impl<'a> Ctx<'a> {
 
     /// Resolves a non-data URI to a file path.
     fn resolve_uri(&self, uri: &str, what: &str) -> Result<PathBuf, SceneError> {
+        let file = self.resolve_uri_unchecked(uri, what)?;
+        if !self.limits.allow_outside_uris && !limits::is_inside(&self.base, &file) {
+            return Err(self.invalid(format!(
+                "{what}: URI '{uri}' points outside the scene's directory {} (to {}); pass --allow-outside-uris to allow it",
+                self.base.display(),
+                file.display()
+            )));
+        }
+        Ok(file)
+    }
+
+    fn resolve_uri_unchecked(&self, uri: &str, what: &str) -> Result<PathBuf, SceneError> {
         if let Some(rest) = uri
             .strip_prefix("file://")
             .or_else(|| uri.strip_prefix("file:"))
@@ -394,7 +426,7 @@ impl<'a> Ctx<'a> {
 
     fn read_external(&self, uri: &str, what: &str) -> Result<(PathBuf, Vec<u8>), SceneError> {
         let file = self.resolve_uri(uri, what)?;
-        match std::fs::read(&file) {
+        match limits::read_regular(&file, self.limits.max_input_bytes) {
             Ok(b) => Ok((file, b)),
             Err(e) => Err(self.invalid(format!(
                 "{what}: cannot read '{uri}' ({}): {e}",
@@ -499,6 +531,8 @@ impl<'a> Ctx<'a> {
         let total = count
             .checked_mul(elem)
             .ok_or_else(|| format!("{label}: count {count} is too large"))?;
+        let sparse_count = acc.sparse.as_ref().map_or(0, |s| s.count.0);
+        self.charge_elements(&label, (count as u64).saturating_add(sparse_count))?;
 
         let mut bytes;
         if let Some(v) = acc.buffer_view {
@@ -608,6 +642,33 @@ impl<'a> Ctx<'a> {
             count,
             bytes,
         })
+    }
+
+    /// Counts `n` more accessor elements against the budget, before they are read.
+    fn charge_elements(&self, label: &str, n: u64) -> Result<(), String> {
+        let total = self.elements_read.get().saturating_add(n);
+        let max = self.limits.max_elements;
+        if total > max {
+            return Err(format!(
+                "{label}: reading its {n} elements would bring the accessor elements read to {total}, over the limit of {max} (raise it with --max-elements)"
+            ));
+        }
+        self.elements_read.set(total);
+        Ok(())
+    }
+
+    /// Counts a `w × h` image against the texel budget, before it is decoded.
+    fn charge_texels(&self, what: &str, w: u32, h: u32) -> Result<(), SceneError> {
+        let n = w as u64 * h as u64;
+        let total = self.texels_decoded.get().saturating_add(n);
+        let max = self.limits.max_texels;
+        if total > max {
+            return Err(self.invalid(format!(
+                "{what}: {w}x{h} texels would bring the texels decoded to {total}, over the limit of {max} (raise it with --max-texels)"
+            )));
+        }
+        self.texels_decoded.set(total);
+        Ok(())
     }
 
     /// Reads a float accessor with `dims` components per element.
@@ -842,6 +903,7 @@ impl<'a> Ctx<'a> {
         let parents = self.parents()?;
         let rest = self.rest_matrices()?;
         let channels = self.channels()?;
+        let total_keys: u64 = channels.iter().map(|c| c.times.len() as u64).sum();
         let animator = Animator::new(parents.clone(), rest, channels);
 
         // Depth-first traversal in document order, computing dynamic flags.
@@ -937,6 +999,15 @@ impl<'a> Ctx<'a> {
                     static_meshes.push(self.flatten(name, p, world)?);
                 }
             }
+        }
+
+        let work = total_keys.saturating_mul(dynamic_objects.len() as u64);
+        if work > self.limits.max_animation_work {
+            return Err(self.invalid(format!(
+                "{total_keys} animation keyframes × {} moving objects = {work}, over the animation work limit of {} (raise it with --max-animation-work)",
+                dynamic_objects.len(),
+                self.limits.max_animation_work
+            )));
         }
 
         let static_triangles: usize = static_meshes
@@ -1559,6 +1630,7 @@ impl<'a> Ctx<'a> {
                     Some(&i) => i,
                     None => {
                         let decoded = self.decode_image(image)?;
+                        let decoded = self.fit_texture(decoded, image);
                         table.textures.push(decoded);
                         table.by_image.insert(image, table.textures.len() - 1);
                         table.textures.len() - 1
@@ -1600,8 +1672,10 @@ impl<'a> Ctx<'a> {
         let file_uri;
         let source = if let Some(v) = img.buffer_view {
             let v = v.value();
-            self.view_bytes(v)
+            let (bytes, _) = self
+                .view_bytes(v)
                 .map_err(|e| self.invalid(format!("{what}: {e}")))?;
+            self.check_image_header(&what, bytes)?;
             let view =
                 self.document.views().nth(v).ok_or_else(|| {
                     self.invalid(format!("{what}: bufferView {v} does not exist"))
@@ -1612,12 +1686,21 @@ impl<'a> Ctx<'a> {
             gltf::image::Source::View { view, mime_type }
         } else if let Some(uri) = img.uri.as_deref() {
             if uri.starts_with("data:") {
+                let bytes = gltf::buffer::Data::from_source(gltf::buffer::Source::Uri(uri), None)
+                    .map_err(|e| self.invalid(format!("{what}: bad data URI: {e}")))?;
+                self.check_image_header(&what, &bytes.0)?;
                 gltf::image::Source::Uri {
                     uri,
                     mime_type: mime,
                 }
             } else {
                 let file = self.resolve_uri(uri, &what)?;
+                if let Err(e) = limits::check_regular(&file, self.limits.max_input_bytes) {
+                    return Err(self.invalid(format!(
+                        "{what}: cannot read '{uri}' ({}): {e}",
+                        file.display()
+                    )));
+                }
                 let head = match sniff_image(&file) {
                     Ok(h) => h,
                     Err(e) => {
@@ -1627,6 +1710,7 @@ impl<'a> Ctx<'a> {
                         )));
                     }
                 };
+                self.check_image_header(&what, &head_bytes(&file))?;
                 let s = file.to_str().ok_or_else(|| {
                     self.invalid(format!(
                         "{what}: path {} is not valid UTF-8",
@@ -1647,6 +1731,31 @@ impl<'a> Ctx<'a> {
         let data = gltf::image::Data::from_source(source, Some(&self.base), &self.buffers)
             .map_err(|e| self.invalid(format!("{what}: cannot decode: {e}")))?;
         to_rgba8(&data).ok_or_else(|| self.invalid(format!("{what}: unexpected pixel data size")))
+    }
+
+    /// Reads the image's size from its header and charges it to the texel
+    /// budget, before anything is decoded.
+    fn check_image_header(&self, what: &str, bytes: &[u8]) -> Result<(), SceneError> {
+        match limits::image_dimensions(bytes) {
+            Some((w, h)) => self.charge_texels(what, w, h),
+            // Neither PNG nor JPEG: the decoder rejects it without decoding.
+            None => Ok(()),
+        }
+    }
+
+    /// Downscales a texture larger than `--max-texture-size`, with a warning.
+    fn fit_texture(&mut self, tex: Texture, image: usize) -> Texture {
+        let max = self.limits.max_texture_size;
+        match limits::downscale_to_fit(&tex, max) {
+            None => tex,
+            Some(small) => {
+                self.warn(format!(
+                    "image {image}: {}x{} is larger than {max} texels on a side, downscaled to {}x{} (raise --max-texture-size up to the GPU's limit to keep it)",
+                    tex.width, tex.height, small.width, small.height
+                ));
+                small
+            }
+        }
     }
 
     /// Flattens a primitive to world space with `world`.
@@ -1693,6 +1802,16 @@ impl<'a> Ctx<'a> {
             material: p.material,
         })
     }
+}
+
+/// The first 64 KiB of `file` (enough for a PNG or JPEG header), empty on error.
+fn head_bytes(file: &Path) -> Vec<u8> {
+    use std::io::Read;
+    let mut out = Vec::new();
+    if let Ok(f) = std::fs::File::open(file) {
+        let _ = f.take(1 << 16).read_to_end(&mut out);
+    }
+    out
 }
 
 /// The MIME type of a PNG or JPEG file from its first bytes (`None` if neither).

@@ -25,12 +25,14 @@ mod animation;
 mod error;
 mod hash;
 mod import;
+pub mod limits;
 mod mesh;
 
 pub use animation::{Animator, Trs};
 pub use error::SceneError;
 pub use hash::static_scene_hash;
 pub use import::{LoadOptions, load, load_from_slice};
+pub use limits::Limits;
 pub use mesh::{Aabb, compute_normals};
 
 use glam::{Mat4, Vec2, Vec3};

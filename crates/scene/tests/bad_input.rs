@@ -263,6 +263,7 @@ fn only_a_point_light() {
     // Picking it by name is also not supported.
     let opts = LoadOptions {
         light: Some("Bulb".into()),
+        ..Default::default()
     };
     let e = assert_err_contains(b.load_with(&opts), &[FILE, "Bulb", "point"]);
     assert!(matches!(e, SceneError::NotSupported { .. }), "{e:?}");
@@ -295,6 +296,7 @@ fn light_option_picks_one() {
     let s = b
         .load_with(&LoadOptions {
             light: Some("Beta".into()),
+            ..Default::default()
         })
         .unwrap();
     assert_eq!(s.light.name, "Beta");
@@ -308,6 +310,7 @@ fn light_option_picks_one() {
     let s = b
         .load_with(&LoadOptions {
             light: Some("A".into()),
+            ..Default::default()
         })
         .unwrap();
     assert_eq!(s.light.name, "Alpha");
@@ -319,6 +322,7 @@ fn unknown_light_name() {
     let e = assert_err_contains(
         two_spots().load_with(&LoadOptions {
             light: Some("Gamma".into()),
+            ..Default::default()
         }),
         &[FILE, "Gamma", "Alpha", "Beta"],
     );
@@ -407,6 +411,7 @@ fn light_under_dynamic_parent() {
     b.root(parent);
     let opts = LoadOptions {
         light: Some("Carried".into()),
+        ..Default::default()
     };
     assert_err_contains(b.load_with(&opts), &[FILE, "Carried", "must not move"]);
 }

@@ -1,0 +1,122 @@
+//! The bake's memory, estimated from its settings before anything is
+//! allocated, and checked against a budget (`gibake --max-memory`).
+//!
+//! The estimate is the peak the bake holds at once, per part:
+//!
+//! | part | bytes |
+//! |---|---|
+//! | RSM (metric, position, normal, flux, area) and the clustering pyramid | 64 × rsm² |
+//! | hemisphere maps: the layers, the atlas copy and its EXR encoding | 12 × VPLs × map² |
+//! | primary shadow map: read-back, map and EXR encoding | 12 × shadow² |
+//!
+//! With `--vpls N` the VPL count is N + 2% (the clustering's tolerance);
+//! with `--threshold` it is not known before clustering and the hemisphere
+//! maps are left out of the estimate (documented in docs/robustness.md).
+
+use crate::BakeOptions;
+use crate::cluster::ClusterTarget;
+
+/// The bake's estimated peak memory, per part (bytes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MemoryEstimate {
+    /// RSM and clustering.
+    pub rsm: u64,
+    /// Hemisphere maps (0 when the VPL count is not known up front).
+    pub vpl_maps: u64,
+    /// Primary shadow map.
+    pub shadow_map: u64,
+}
+
+impl MemoryEstimate {
+    /// The sum of the parts.
+    pub fn total(&self) -> u64 {
+        self.rsm
+            .saturating_add(self.vpl_maps)
+            .saturating_add(self.shadow_map)
+    }
+}
+
+/// A bake whose estimate is over the budget.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "the bake would need about {} MiB ({} VPL maps of {vpl_map_size}² = {} MiB, RSM {rsm_size}² = {} MiB, shadow map {shadow_map_size}² = {} MiB), over the memory limit of {} MiB; lower --vpls, --vpl-map-size, --rsm-size or --shadow-map-size, or raise the limit with --max-memory",
+    mib(estimate.total()),
+    vpls,
+    mib(estimate.vpl_maps),
+    mib(estimate.rsm),
+    mib(estimate.shadow_map),
+    mib(*limit)
+)]
+pub struct OverBudget {
+    /// The estimate.
+    pub estimate: MemoryEstimate,
+    /// The budget (bytes).
+    pub limit: u64,
+    /// VPL count assumed.
+    pub vpls: u64,
+    /// `--vpl-map-size`.
+    pub vpl_map_size: u32,
+    /// `--rsm-size`.
+    pub rsm_size: u32,
+    /// `--shadow-map-size`.
+    pub shadow_map_size: u32,
+}
+
+fn mib(b: u64) -> u64 {
+    b.div_ceil(1 << 20)
+}
+
+/// The VPL count assumed by the estimate (0 when not known up front).
+pub fn assumed_vpls(opts: &BakeOptions) -> u64 {
+    match opts.target {
+        ClusterTarget::Count(n) => n as u64 + (n as u64).div_ceil(50),
+        ClusterTarget::Threshold(_) => 0,
+    }
+}
+
+/// The bake's estimated peak memory for `opts`.
+pub fn estimate(opts: &BakeOptions) -> MemoryEstimate {
+    let sq = |n: u32| n as u64 * n as u64;
+    MemoryEstimate {
+        rsm: sq(opts.rsm_size).saturating_mul(64),
+        vpl_maps: assumed_vpls(opts)
+            .saturating_mul(sq(opts.vpl_map_size))
+            .saturating_mul(12),
+        shadow_map: sq(opts.shadow_map_size).saturating_mul(12),
+    }
+}
+
+/// Checks the estimate of `opts` against `limit` bytes.
+pub fn check(opts: &BakeOptions, limit: u64) -> Result<MemoryEstimate, Box<OverBudget>> {
+    let estimate = estimate(opts);
+    if estimate.total() > limit {
+        return Err(Box::new(OverBudget {
+            estimate,
+            limit,
+            vpls: assumed_vpls(opts),
+            vpl_map_size: opts.vpl_map_size,
+            rsm_size: opts.rsm_size,
+            shadow_map_size: opts.shadow_map_size,
+        }));
+    }
+    Ok(estimate)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_64_gib_bake_is_refused_and_the_default_fits() {
+        let big = BakeOptions {
+            vpl_map_size: 2048,
+            target: ClusterTarget::Count(4096),
+            ..BakeOptions::default()
+        };
+        assert!(estimate(&big).total() > 64 << 30);
+        let e = check(&big, 2 << 30).expect_err("over budget");
+        assert!(e.to_string().contains("--max-memory"), "{e}");
+        let small = check(&BakeOptions::default(), 2 << 30).expect("default fits");
+        assert!(small.total() < 200 << 20, "{small:?}");
+    }
+}
