@@ -280,6 +280,32 @@ fn render_and_reference_never_overwrite_the_scene() {
     assert_eq!(names(dir.path()), ["s.exr", "s.gltf", "scene.json"]);
 }
 
+/// A frame too large for the memory budget is refused before any
+/// allocation (16384² at ssaa 2 would need about 100 GiB).
+#[test]
+fn a_huge_frame_is_refused_up_front() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scene = write_json(dir.path(), "s.gltf", &base_scene());
+    let out = dir.path().join("f.exr");
+    let r = gibake_timed(
+        &[
+            &"render",
+            &scene,
+            &"--mode",
+            &"direct",
+            &"--width",
+            &"16384",
+            &"--height",
+            &"16384",
+            &"-o",
+            &out,
+        ],
+        Duration::from_secs(20),
+    );
+    assert_bad(&r, &["--max-memory", "16384"]);
+    assert_eq!(names(dir.path()), ["s.gltf"]);
+}
+
 #[test]
 fn output_extensions_are_checked() {
     let dir = tempfile::tempdir().expect("tempdir");

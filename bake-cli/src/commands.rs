@@ -117,8 +117,28 @@ fn mode_of(m: ModeArg) -> gibake_runtime::Mode {
     }
 }
 
+/// Bytes per rendered pixel, an upper estimate: G-buffer (48), depth (4),
+/// radiance (16), its read-back (16) and the CPU image (12 + 12 after the
+/// box filter).
+const RENDER_BYTES_PER_PIXEL: u64 = 108;
+
 fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
     check_size(a.width, a.height)?;
+    // The frame's memory, before anything is allocated (--max-memory).
+    let pixels = u64::from(a.width) * u64::from(a.ssaa) * u64::from(a.height) * u64::from(a.ssaa);
+    let need = pixels * RENDER_BYTES_PER_PIXEL;
+    let budget = crate::limits::memory();
+    if need > budget {
+        bail!(
+            "rendering {}×{} with --ssaa {} needs about {} MiB, over the memory budget of {} MiB: \
+             render smaller, lower --ssaa, or raise --max-memory",
+            a.width,
+            a.height,
+            a.ssaa,
+            need >> 20,
+            budget >> 20
+        );
+    }
     check_time(a.time)?;
     if !(a.fps.is_finite() && a.fps > 0.0) {
         bail!("--fps must be a positive number, got {}", a.fps);
