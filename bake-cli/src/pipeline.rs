@@ -184,7 +184,7 @@ impl Outcome {
             (Some(b), reasons) => {
                 let why = reasons.clone().unwrap_or_default().join("; ");
                 eprintln!(
-                    "baked {}: {} VPLs ({} maps stored), threshold {:.4}; reason: {why}",
+                    "baked {}: {} VPLs ({} maps stored), threshold {:.3e}; reason: {why}",
                     asset.display(),
                     b.vpls,
                     b.maps,
