@@ -1025,7 +1025,7 @@ pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf
         let d = diffs(&pa.data, &pb.data);
         if nonzero(&d) {
             let n = pa.size as usize;
-            let ch = vec![("D", Samples::F32(d))];
+            let ch = vec![("Z", Samples::F32(d))];
             written.push(write_exr(dir, "primary_depth.diff.exr", n, n, ch)?);
         }
     }
@@ -1043,7 +1043,7 @@ pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf
         }
         if nonzero(&layers) {
             let (w, h, atlas) = layers_to_atlas(&layers, count, size);
-            let ch = vec![("D", Samples::F32(atlas))];
+            let ch = vec![("Z", Samples::F32(atlas))];
             written.push(write_exr(dir, "vpl_maps.diff.exr", w, h, ch)?);
         }
     }
@@ -1068,7 +1068,7 @@ pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf
             if [&d, &r, &g, &bl, &v].iter().any(|c| nonzero(c)) {
                 let n = ra.size as usize;
                 let ch = vec![
-                    ("D", Samples::F32(d)),
+                    ("Z", Samples::F32(d)),
                     ("flux.R", Samples::F32(r)),
                     ("flux.G", Samples::F32(g)),
                     ("flux.B", Samples::F32(bl)),

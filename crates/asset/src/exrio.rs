@@ -192,14 +192,14 @@ pub(crate) fn decode_any(bytes: &[u8], path: &Path) -> std::result::Result<(), A
     let Some((w, h)) = size.filter(|&(w, h)| w.saturating_mul(h) <= 2048 * 2048) else {
         return Err(AssetError::invalid(path, "no usable EXR header"));
     };
-    let depth = decode(bytes, path, w, h, &[("D", Kind::F32)]);
+    let depth = decode(bytes, path, w, h, &[("Z", Kind::F32)]);
     let rsm = decode(
         bytes,
         path,
         w,
         h,
         &[
-            ("D", Kind::F32),
+            ("Z", Kind::F32),
             ("flux.R", Kind::F32),
             ("flux.G", Kind::F32),
             ("flux.B", Kind::F32),

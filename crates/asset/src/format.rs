@@ -602,7 +602,7 @@ pub fn load_with_limit(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, Asse
 
     let path = dir.join(FILE_PRIMARY_DEPTH);
     let n = s.shadow_map_size as usize;
-    let data = exrio::decode(take(FILE_PRIMARY_DEPTH), &path, n, n, &[("D", Kind::F32)])?;
+    let data = exrio::decode(take(FILE_PRIMARY_DEPTH), &path, n, n, &[("Z", Kind::F32)])?;
     let data = data
         .into_iter()
         .next()
@@ -622,7 +622,7 @@ pub fn load_with_limit(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, Asse
             &path,
             w as usize,
             h as usize,
-            &[("D", Kind::F32)],
+            &[("Z", Kind::F32)],
         )?;
         let atlas = data
             .into_iter()
@@ -640,7 +640,7 @@ pub fn load_with_limit(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, Asse
         let path = dir.join(FILE_RSM);
         let n = s.rsm_size as usize;
         let chans = [
-            ("D", Kind::F32),
+            ("Z", Kind::F32),
             ("flux.R", Kind::F32),
             ("flux.G", Kind::F32),
             ("flux.B", Kind::F32),
@@ -953,12 +953,12 @@ fn write_into(
             FILE_PRIMARY_DEPTH => {
                 let n = s.shadow_map_size as usize;
                 let d = asset.primary_depth.data.clone();
-                exrio::encode(n, n, vec![("D", Samples::F32(d))]).map_err(exr_err)?
+                exrio::encode(n, n, vec![("Z", Samples::F32(d))]).map_err(exr_err)?
             }
             FILE_VPL_MAPS => {
                 let (w, h, atlas) =
                     layers_to_atlas(&asset.vpl_maps, manifest.map_count, s.vpl_map_size);
-                exrio::encode(w, h, vec![("D", Samples::F32(atlas))]).map_err(exr_err)?
+                exrio::encode(w, h, vec![("Z", Samples::F32(atlas))]).map_err(exr_err)?
             }
             _ => {
                 let Some(r) = &asset.rsm else { continue };
@@ -968,7 +968,7 @@ fn write_into(
                     n,
                     n,
                     vec![
-                        ("D", Samples::F32(r.metric.clone())),
+                        ("Z", Samples::F32(r.metric.clone())),
                         ("flux.R", ch(0)),
                         ("flux.G", ch(1)),
                         ("flux.B", ch(2)),

@@ -176,7 +176,7 @@ fn exr_files_have_the_documented_layout() {
     let layer = &img.layer_data[0];
     assert_eq!(layer.size.width(), SHADOW as usize);
     assert_eq!(layer.channel_data.list.len(), 1);
-    let FlatSamples::F32(d) = channel(&img, "D") else {
+    let FlatSamples::F32(d) = channel(&img, "Z") else {
         panic!("D is not f32")
     };
     assert_eq!(d, &asset.primary_depth.data);
@@ -186,7 +186,7 @@ fn exr_files_have_the_documented_layout() {
     let layer = &img.layer_data[0];
     let (w, h) = (layer.size.width(), layer.size.height());
     assert_eq!((w, h), (24, 24));
-    let FlatSamples::F32(atlas) = channel(&img, "D") else {
+    let FlatSamples::F32(atlas) = channel(&img, "Z") else {
         panic!("D is not f32")
     };
     let s = VPL_MAP as usize;
@@ -214,8 +214,8 @@ fn exr_files_have_the_documented_layout() {
         .map(|c| c.name.to_string())
         .collect();
     names.sort();
-    assert_eq!(names, ["D", "flux.B", "flux.G", "flux.R", "vpl"]);
-    let FlatSamples::F32(m) = channel(&img, "D") else {
+    assert_eq!(names, ["Z", "flux.B", "flux.G", "flux.R", "vpl"]);
+    let FlatSamples::F32(m) = channel(&img, "Z") else {
         panic!()
     };
     assert_eq!(m, &r.metric);

@@ -116,12 +116,20 @@ impl Image {
         }
     }
 
-    /// Writes an EXR with 32-bit float `R`, `G`, `B` channels (linear, no tone map).
+    /// Writes an EXR with 32-bit float `R`, `G`, `B` channels (linear, no tone
+    /// map): scan lines (not tiles, which some minimal readers do not open),
+    /// lossless ZIP compression of 16 lines per block, increasing line order.
     pub fn write_exr(&self, path: &Path) -> Result<(), ImageError> {
         use exr::prelude::*;
         let (w, h) = (self.width as usize, self.height as usize);
-        let img = exr::image::Image::from_channels(
+        let encoding = Encoding {
+            compression: Compression::ZIP16,
+            blocks: Blocks::ScanLines,
+            line_order: LineOrder::Increasing,
+        };
+        let img = exr::image::Image::from_encoded_channels(
             (w, h),
+            encoding,
             SpecificChannels::rgb(|pos: Vec2<usize>| {
                 let p = self.pixels[pos.y() * w + pos.x()];
                 (p.x, p.y, p.z)
@@ -280,6 +288,21 @@ pub fn box_downsample(img: &Image, factor: u32) -> Image {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn frames_are_scan_line_exr_with_lossless_compression() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.exr");
+        let mut img = Image::new(5, 3);
+        img.set(4, 2, glam::Vec3::new(1.5, -0.0, 3e38));
+        img.write_exr(&path).unwrap();
+        let meta = exr::meta::MetaData::read_from_file(&path, false).unwrap();
+        let header = &meta.headers[0];
+        assert_eq!(header.blocks, exr::meta::BlockDescription::ScanLines);
+        assert_eq!(header.compression, exr::compression::Compression::ZIP16);
+        assert_eq!(Image::read_exr(&path).unwrap(), img);
+    }
+
     use super::*;
 
     #[test]
