@@ -5,6 +5,7 @@
 //! - interleave 4's relative MSE is at most 1.15× interleave 1's;
 //! - interleave 1 is bit-identical to the default settings' image;
 //! - two interleave-4 renders are bit-identical (determinism), and finite;
+//! - interleave 2 and 8 are finite (their error is printed);
 //! - on static levels, `naive` = `full` at interleave 4 (rel MSE < 1e-4).
 //!
 //! Invalid values are `RuntimeError::InvalidSetting`.
@@ -117,6 +118,15 @@ fn interleave_4_keeps_the_error_within_15_percent_of_the_full_sum() {
                     .collect();
                 eprintln!("{row}");
             }
+        }
+        // 2 and 8: finite (checked in `render`); their error is reported.
+        for n in [2, 8] {
+            let img = render(&ctx, &scene, &asset, Mode::Full, Some(n));
+            eprintln!(
+                "{name}: interleave {n}: rel MSE {:.5} (ratio {:.3})",
+                rel_mse(&img, &r),
+                rel_mse(&img, &r) / e1
+            );
         }
         if e4 > 1.15 * e1 {
             failures.push(format!(
@@ -235,4 +245,55 @@ fn shade_time_interleave_1_against_4() {
         s4 + f4,
         (s4 + f4) / s1
     );
+}
+
+/// An external G-buffer is filtered like the own one (the filter pass is
+/// re-bound to it), and the filter pass is timed as "interleave".
+#[test]
+fn an_external_gbuffer_is_filtered_like_the_own_one() {
+    let ctx = common::gpu();
+    let scene = gibake_eval::load(
+        &gibake_scenegen::corner_bunny(&Default::default()),
+        "cb.glb",
+    );
+    let s = EvalSettings {
+        vpls: 64,
+        rsm_size: 64,
+        vpl_map_size: 32,
+        ..Default::default()
+    };
+    let asset = gibake_eval::bake(&ctx, &scene, &s).unwrap();
+    let rs = RenderSettings {
+        width: 48,
+        height: 48,
+        interleave: 4,
+        ..Default::default()
+    };
+    let new = || {
+        gibake_runtime::Renderer::new(&ctx.device, &ctx.queue, &scene, Some(&asset), &rs, 0.4)
+            .unwrap()
+    };
+    let (mut own, mut ext) = (new(), new());
+    let views = &own.gbuffer().views;
+    ext.use_external_gbuffer(&ctx.device, [&views[0], &views[1], &views[2]]);
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    own.encode(&ctx.device, &ctx.queue, &mut enc);
+    ext.encode(&ctx.device, &ctx.queue, &mut enc);
+    ctx.queue.submit([enc.finish()]);
+    let stats = own.stats(&ctx.device);
+    if stats.timing == "gpu timestamps" {
+        let names: Vec<_> = stats.passes.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(
+            names[names.len() - 3..],
+            ["gbuffer", "shade", "interleave"],
+            "{names:?}"
+        );
+        let upd: f64 = stats.passes[..names.len() - 3].iter().map(|p| p.1).sum();
+        assert_eq!(stats.update_ms(), upd, "the filter is shading, not update");
+    }
+    let a = gibake_runtime::read_output(&ctx, &own, 1).unwrap();
+    let b = gibake_runtime::read_output(&ctx, &ext, 1).unwrap();
+    assert!(a.mean().x > 0.0);
+    assert!(a.all_finite());
+    assert_eq!(a, b);
 }
