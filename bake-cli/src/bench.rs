@@ -591,6 +591,7 @@ fn bench_runtime(b: &mut Bench, heavy: u32) -> anyhow::Result<()> {
         shadow_map_size: 2048,
         mode,
         max_dynamic_vpls: 64,
+        interleave: 1,
     };
     let mut configs = Vec::new();
     for (scene, (out, _)) in [&cb, &heavy_scene].into_iter().zip(&baked) {
@@ -729,6 +730,7 @@ fn bench_runtime(b: &mut Bench, heavy: u32) -> anyhow::Result<()> {
                     shadow_map_size: 2048,
                     mode: Mode::Full,
                     max_dynamic_vpls: d,
+                    interleave: 1,
                 },
                 frames: t1_frames,
             });
@@ -887,6 +889,7 @@ fn render_measured(
         shadow_map_size: 2048,
         mode,
         max_dynamic_vpls: 64,
+        interleave: 1,
     };
     let mut r = Renderer::new(
         &b.ctx.device,

@@ -222,6 +222,12 @@ pub struct RenderArgs {
     /// light next to the moving objects (docs/method.md, "Near field").
     #[arg(long, default_value_t = 256, value_name = "N")]
     pub max_dynamic_vpls: u32,
+    /// Interleaved VPL sampling: each pixel of an N×N block shades a disjoint
+    /// 1/N² of the VPLs and a geometry-aware filter reconstructs the sum
+    /// (1: every pixel shades every VPL). Applies at the supersampled
+    /// resolution.
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = interleave_value)]
+    pub interleave: u32,
     /// GPU adapter to use (substring of its name; default: GIBAKE_ADAPTER or the first real GPU).
     #[arg(long)]
     pub adapter: Option<String>,
@@ -402,4 +408,12 @@ pub struct DemoArgs {
     /// Reference samples per pixel (one bounce, first frame).
     #[arg(long, default_value_t = 64)]
     pub spp: u32,
+}
+
+/// Parses `--interleave` (1, 2, 4 or 8).
+fn interleave_value(s: &str) -> Result<u32, String> {
+    match s.parse::<u32>() {
+        Ok(n) if [1, 2, 4, 8].contains(&n) => Ok(n),
+        _ => Err(format!("{s:?} is not one of 1, 2, 4, 8")),
+    }
 }

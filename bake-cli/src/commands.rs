@@ -176,6 +176,7 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         shadow_map_size: a.shadow_map_size,
         mode,
         max_dynamic_vpls: a.max_dynamic_vpls,
+        interleave: a.interleave,
     };
     let t0 = Instant::now();
     let mut renderer = gibake_runtime::Renderer::new(
@@ -230,6 +231,7 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
             "width": a.width,
             "height": a.height,
             "ssaa": a.ssaa,
+            "interleave": a.interleave,
             "setup_seconds": setup_s,
             "asset_upload_bytes": renderer.asset_bytes(),
             "frames": frames,

@@ -28,6 +28,7 @@ pub mod camera;
 pub mod dynamic_rsm;
 pub mod dynamic_vpl;
 pub mod gbuffer;
+pub mod interleave;
 pub mod shade;
 pub mod timer;
 pub mod transport;
@@ -77,6 +78,11 @@ pub struct RenderSettings {
     pub mode: Mode,
     /// Most dynamic VPLs per frame (rounded up to a power of 4; 0: none).
     pub max_dynamic_vpls: u32,
+    /// Interleaved VPL sampling: 1 (every pixel sums every VPL), 2, 4 or 8
+    /// (each pixel of an N×N block sums a disjoint 1/N² of the VPLs, and a
+    /// geometry-aware filter over its neighbours reconstructs the sum; see
+    /// [`interleave`]). Other values are [`RuntimeError::InvalidSetting`].
+    pub interleave: u32,
 }
 
 impl Default for RenderSettings {
@@ -87,6 +93,7 @@ impl Default for RenderSettings {
             height: 480,
             shadow_map_size: 2048,
             mode: Mode::Full,
+            interleave: 1,
         }
     }
 }
@@ -131,11 +138,12 @@ pub struct FrameStats {
 }
 
 impl FrameStats {
-    /// Sum of the update passes (everything but G-buffer and shading).
+    /// Sum of the update passes (everything but G-buffer, shading and its
+    /// interleave filter).
     pub fn update_ms(&self) -> f64 {
         self.passes
             .iter()
-            .filter(|(n, _)| n != "gbuffer" && n != "shade")
+            .filter(|(n, _)| n != "gbuffer" && n != "shade" && n != "interleave")
             .map(|(_, t)| t)
             .sum()
     }
@@ -146,7 +154,11 @@ struct FrameViews {
     primary_static: wgpu::TextureView,
     primary_dynamic: wgpu::TextureView,
     light_view_buf: wgpu::Buffer,
+    /// What the shade pass writes: the final output, or interleaved, the
+    /// filter's input.
     output: wgpu::TextureView,
+    /// The renderer's output.
+    final_output: wgpu::TextureView,
 }
 
 impl FrameViews {
@@ -194,6 +206,8 @@ pub struct Renderer {
     gbuffer: gbuffer::GBuffer,
     gbuffer_pass: gbuffer::GBufferPass,
     shade: shade::ShadePass,
+    /// The interleave filter (interleave > 1 only).
+    interleave: Option<interleave::InterleavePass>,
     frame_group: wgpu::BindGroup,
     /// Built right after construction (it needs the renderer's resources).
     gi_group: Option<wgpu::BindGroup>,
@@ -245,6 +259,12 @@ impl Renderer {
                     "{what} {v} must be in 1..={limit} on this device"
                 )));
             }
+        }
+        if !interleave::VALID.contains(&settings.interleave) {
+            return Err(RuntimeError::InvalidSetting(format!(
+                "interleave {} must be 1, 2, 4 or 8",
+                settings.interleave
+            )));
         }
         let mode = settings.mode;
         if asset.is_none() && mode != Mode::Direct {
@@ -378,6 +398,21 @@ impl Renderer {
         });
         let out_view = output.create_view(&Default::default());
         let shade = shade::ShadePass::new(device);
+        let size = [settings.width, settings.height];
+        let mut interleave = (settings.interleave > 1)
+            .then(|| interleave::InterleavePass::new(device, queue, size, settings.interleave));
+        if let Some(il) = &mut interleave {
+            il.bind(
+                device,
+                [&gbuffer.views[0], &gbuffer.views[1], &gbuffer.views[2]],
+                &out_view,
+            );
+        }
+        // Interleaved, the shade pass writes the filter's input instead.
+        let shade_out = match &interleave {
+            Some(il) => il.shaded.clone(),
+            None => out_view.clone(),
+        };
         let dyn_primary_view = dyn_primary
             .as_ref()
             .map(|p| p.metric_view.clone())
@@ -386,7 +421,8 @@ impl Renderer {
             primary_static,
             primary_dynamic: dyn_primary_view,
             light_view_buf,
-            output: out_view,
+            output: shade_out,
+            final_output: out_view,
         };
         let frame_group = frame_views.group(
             device,
@@ -457,6 +493,8 @@ impl Renderer {
             atlas_cols: hemi.as_ref().map(|h| h.atlas.cols).unwrap_or(1),
             n_dynamic: dyn_vpls.as_ref().map(|d| d.slots()).unwrap_or(0),
             static_cols: baked.as_ref().map(|b| b.static_cols).unwrap_or(1),
+            interleave: settings.interleave,
+            _pad: [0; 3],
         };
         queue.write_buffer(&shade.uniform_buf, 0, bytemuck::bytes_of(&params));
         queue.write_buffer(
@@ -480,6 +518,7 @@ impl Renderer {
             gbuffer,
             gbuffer_pass,
             shade,
+            interleave,
             frame_group,
             gi_group: None,
             frame_views,
@@ -492,7 +531,7 @@ impl Renderer {
             dyn_vpls,
             camera,
             transforms,
-            timer: timer::Timer::new(device, queue, 8),
+            timer: timer::Timer::new(device, queue, 9),
             stats: FrameStats::default(),
             wall_start: None,
         };
@@ -760,6 +799,10 @@ impl Renderer {
             [self.settings.width, self.settings.height],
             ts,
         );
+        if let Some(il) = &self.interleave {
+            let ts = self.timer.as_mut().and_then(|t| t.compute("interleave"));
+            il.encode(encoder, ts);
+        }
         if let Some(t) = &self.timer {
             t.resolve(encoder);
         }
@@ -815,6 +858,9 @@ impl Renderer {
         self.frame_group = self
             .frame_views
             .group(device, &self.shade, views, &self._light_buf);
+        if let Some(il) = &mut self.interleave {
+            il.bind(device, views, &self.frame_views.final_output);
+        }
         self.external_gbuffer = true;
     }
 

@@ -1,6 +1,8 @@
 //! Deferred shading pass (compute, `shade.wgsl`): direct light with the
 //! merged primary shadow map, static VPLs with merged hemisphere maps and
-//! partial occlusion, dynamic VPLs. Writes linear radiance (`Rgba32Float`).
+//! partial occlusion, dynamic VPLs. Writes linear radiance (`Rgba32Float`),
+//! or, interleaved, direct radiance and an irradiance estimate side by side
+//! for [`crate::interleave::InterleavePass`] to filter.
 
 use gibake_gpu::shaders;
 
@@ -25,6 +27,12 @@ pub struct GpuShadeParams {
     pub n_dynamic: u32,
     /// Tiles per row of the baked map atlas.
     pub static_cols: u32,
+    /// Interleave N: 1 shades every VPL at every pixel; N > 1 shades the
+    /// VPLs `i ≡ k (mod N²)` at pixel `k = x mod N + N·(y mod N)` and writes
+    /// direct radiance | irradiance side by side (see `interleave.rs`).
+    pub interleave: u32,
+    /// Padding (16-byte struct size).
+    pub _pad: [u32; 3],
 }
 
 /// Direct light.
@@ -293,6 +301,10 @@ mod tests {
                 format!("{MESH_WGSL}\n{}", include_str!("dynamic_rsm.wgsl")),
             ),
             ("occlusion.wgsl", include_str!("occlusion.wgsl").to_string()),
+            (
+                "interleave.wgsl",
+                include_str!("interleave.wgsl").to_string(),
+            ),
         ] {
             if let Err(e) = validate(&compose(&src)) {
                 panic!("{name} does not validate:\n{e}");

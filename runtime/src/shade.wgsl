@@ -9,6 +9,11 @@
 // the disk's exitance Φ/A, beyond the disk's radius R it is the point
 // light's 1/d² to within (R/d)⁴/2 (1/(d² + A/π) would be 25% low at 2R).
 // Accumulates in f32; writes linear radiance.
+// Interleaved (params.interleave = N > 1): pixel (x, y) shades only the VPLs
+// i ≡ k (mod N²), k = (x mod N) + N·(y mod N), scaled by N² (VPLs are in
+// quadtree Morton order, so every subset is an even spread over the RSM), and
+// writes direct radiance at (x, y) and that irradiance estimate at
+// (x + width, y) of a 2·width-wide texture; interleave.wgsl filters it.
 
 struct ShadeParams {
     size: vec2<u32>,
@@ -18,6 +23,10 @@ struct ShadeParams {
     atlas_cols: u32,
     n_dynamic: u32,
     static_cols: u32,   // tiles per row of the baked map atlas
+    interleave: u32,    // N: 1 shades every VPL at every pixel
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 const FLAG_DIRECT: u32 = 1u;
@@ -256,20 +265,24 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let px = vec2<i32>(gid.xy);
+    let n = max(params.interleave, 1u);
+    let stride = n * n;
+    let k = (gid.x % n) + n * (gid.y % n);
     let pos = textureLoad(g_position, px, 0);
-    var radiance = vec3<f32>(0.0);
+    var direct = vec3<f32>(0.0);
+    var e = vec3<f32>(0.0);
+    var albedo = vec3<f32>(0.0);
     if (pos.w > 0.5) {
         let x = pos.xyz;
         let nn = textureLoad(g_normals, px, 0);
         let ns = oct_decode(nn.xy);
         let ng = oct_decode(nn.zw);
-        let albedo = textureLoad(g_albedo, px, 0).rgb;
+        albedo = textureLoad(g_albedo, px, 0).rgb;
         if (has(FLAG_DIRECT)) {
-            radiance += direct_radiance(x, ns, ng, albedo);
+            direct = direct_radiance(x, ns, ng, albedo);
         }
-        var e = vec3<f32>(0.0);
         if (has(FLAG_STATIC_VPL)) {
-            for (var i = 0u; i < params.n_static; i++) {
+            for (var i = k; i < params.n_static; i += stride) {
                 let v = vpls[i];
                 let origin = v.position;   // the map origin, lifted at load (baked.rs)
                 var ei = static_vpl_irradiance(i, v, origin, x, ns, ng);
@@ -287,12 +300,24 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
         }
         if (has(FLAG_DYNAMIC_VPL)) {
-            for (var i = 0u; i < params.n_dynamic; i++) {
+            for (var i = k; i < params.n_dynamic; i += stride) {
                 let v = dyn_vpls[i];
                 if (v.normal.w > 0.5) {
                     e += vpl_irradiance(v.position.xyz, v.normal.xyz, v.position.w, v.flux.rgb, x, ns, ng);
                 }
             }
+        }
+    }
+    if (stride > 1u) {
+        textureStore(out_radiance, px, vec4<f32>(finite_or_zero3(direct), 1.0));
+        let ex = finite_or_zero3(e * f32(stride));
+        textureStore(out_radiance, px + vec2<i32>(i32(params.size.x), 0), vec4<f32>(ex, 1.0));
+        return;
+    }
+    var radiance = vec3<f32>(0.0);
+    if (pos.w > 0.5) {
+        if (has(FLAG_DIRECT)) {
+            radiance += direct;
         }
         radiance += albedo * INV_PI * e;
     }

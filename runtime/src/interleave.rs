@@ -1,0 +1,159 @@
+//! Reconstruction pass of interleaved VPL sampling (compute,
+//! `interleave.wgsl`). With [`crate::RenderSettings::interleave`] `N > 1`
+//! the shade pass gives each pixel of an N×N block a disjoint 1/N² subset
+//! of the VPLs (scaled by N²) and writes direct radiance and that
+//! irradiance estimate side by side into [`InterleavePass::shaded`]; this
+//! pass filters the irradiance over the pixel's neighbours on the same
+//! surface (normal and tangent-plane similarity, scale-invariant) and
+//! writes the final radiance. With `N = 1` neither this pass nor its
+//! texture exists.
+
+use gibake_gpu::shaders;
+
+use crate::shade::RADIANCE_FORMAT;
+
+/// Must match `InterleaveParams` in `interleave.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuInterleaveParams {
+    /// Output size.
+    pub size: [u32; 2],
+    /// Interleave N (2, 4 or 8).
+    pub interleave: u32,
+    /// Padding.
+    pub _pad: u32,
+}
+
+/// The interleave values [`crate::RenderSettings::interleave`] accepts.
+pub const VALID: [u32; 4] = [1, 2, 4, 8];
+
+/// The filter pass: pipeline, layout, uniform and the shade pass's
+/// intermediate texture.
+pub struct InterleavePass {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    uniform_buf: wgpu::Buffer,
+    /// `2·width × height` `Rgba32Float`: direct radiance in the left half,
+    /// the interleaved irradiance estimate in the right half.
+    pub shaded: wgpu::TextureView,
+    group: Option<wgpu::BindGroup>,
+    size: [u32; 2],
+}
+
+const COMPUTE: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
+
+impl InterleavePass {
+    /// Creates the pass and its intermediate texture for `size` and `n`.
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        size: [u32; 2],
+        n: u32,
+    ) -> InterleavePass {
+        let module = shaders::module(device, "interleave.wgsl", include_str!("interleave.wgsl"));
+        use wgpu::TextureViewDimension::D2;
+        let tex = |b| gibake_gpu::util::texture_entry(b, COMPUTE, D2);
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("interleave"),
+            entries: &[
+                tex(0),
+                tex(1),
+                tex(2),
+                tex(3),
+                gibake_gpu::util::uniform_entry(4, COMPUTE),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 5,
+                    visibility: COMPUTE,
+                    ty: wgpu::BindingType::StorageTexture {
+                        access: wgpu::StorageTextureAccess::WriteOnly,
+                        format: RADIANCE_FORMAT,
+                        view_dimension: D2,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let uniform_buf = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("interleave params"),
+            size: std::mem::size_of::<GpuInterleaveParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let params = GpuInterleaveParams {
+            size,
+            interleave: n,
+            _pad: 0,
+        };
+        queue.write_buffer(&uniform_buf, 0, bytemuck::bytes_of(&params));
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("interleave"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("interleave"),
+            layout: Some(&pl),
+            module: &module,
+            entry_point: Some("cs_main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let shaded = gibake_gpu::util::texture_2d(
+            device,
+            "interleaved shading",
+            size[0] * 2,
+            size[1],
+            RADIANCE_FORMAT,
+            wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
+        )
+        .create_view(&Default::default());
+        InterleavePass {
+            pipeline,
+            layout,
+            uniform_buf,
+            shaded,
+            group: None,
+            size,
+        }
+    }
+
+    /// Binds the G-buffer views and the final output (again after the
+    /// G-buffer changes).
+    pub fn bind(
+        &mut self,
+        device: &wgpu::Device,
+        gbuffer: [&wgpu::TextureView; 3],
+        output: &wgpu::TextureView,
+    ) {
+        let tv = wgpu::BindingResource::TextureView;
+        let entries = [
+            (0, tv(gbuffer[0])),
+            (1, tv(gbuffer[1])),
+            (2, tv(gbuffer[2])),
+            (3, tv(&self.shaded)),
+            (4, self.uniform_buf.as_entire_binding()),
+            (5, tv(output)),
+        ]
+        .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource });
+        self.group = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("interleave"),
+            layout: &self.layout,
+            entries: &entries,
+        }));
+    }
+
+    /// Records the pass.
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("interleave"),
+            timestamp_writes: timestamps,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, self.group.as_ref().expect("bound in Renderer::new"), &[]);
+        pass.dispatch_workgroups(self.size[0].div_ceil(8), self.size[1].div_ceil(8), 1);
+    }
+}
