@@ -237,6 +237,16 @@ impl Asset {
 }
 
 impl VplRecord {
+    /// A node of a near-field tree without lit texels (all zeros, no map).
+    pub const EMPTY_NODE: VplRecord = VplRecord {
+        position: [0.0; 3],
+        area: 0.0,
+        normal: [0.0; 3],
+        texels: 0,
+        flux: [0.0; 3],
+        map: NO_MAP,
+    };
+
     /// Luminance of the flux (Rec. 709 weights).
     pub fn flux_luminance(&self) -> f32 {
         0.2126 * self.flux[0] + 0.7152 * self.flux[1] + 0.0722 * self.flux[2]

@@ -27,7 +27,7 @@
 //! `(l, i, j)` has the children `(l + 1, 2i + a, 2j + b)`, `a, b ∈ {0, 1}`.
 //! A node without lit texels is all zeros (and `map = NO_MAP`).
 
-use gibake_asset::{NEAR_FIELD_LEVELS, NO_MAP, NODES_PER_VPL, VplRecord};
+use gibake_asset::{NEAR_FIELD_LEVELS, NODES_PER_VPL, VplRecord};
 use glam::{DVec3, Vec3};
 
 use crate::rsm::Rsm;
@@ -77,14 +77,7 @@ impl Sums {
     }
 
     fn record(&self) -> VplRecord {
-        let empty = VplRecord {
-            position: [0.0; 3],
-            area: 0.0,
-            normal: [0.0; 3],
-            texels: 0,
-            flux: [0.0; 3],
-            map: NO_MAP,
-        };
+        let empty = VplRecord::EMPTY_NODE;
         if self.count == 0 || !(self.w > 0.0 && self.w.is_finite()) {
             return empty;
         }
@@ -102,7 +95,7 @@ impl Sums {
             normal: n.to_array(),
             texels: self.count,
             flux: flux.to_array(),
-            map: NO_MAP,
+            map: gibake_asset::NO_MAP,
         }
     }
 }

@@ -63,14 +63,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
         .iter()
         .flat_map(|v| {
             (0..gibake_asset::NODES_PER_VPL).map(move |k| {
-                let mut r = VplRecord {
-                    position: [0.0; 3],
-                    area: 0.0,
-                    normal: [0.0; 3],
-                    texels: 0,
-                    flux: [0.0; 3],
-                    map: NO_MAP,
-                };
+                let mut r = VplRecord::EMPTY_NODE;
                 if k < 4 {
                     r.position = v.position;
                     r.position[0] += k as f32 * 0.01;
