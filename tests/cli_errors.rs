@@ -5,33 +5,9 @@
 
 mod common;
 
-use common::{Run, run_command};
+use common::{Run, TINY_BAKE, TINY_RENDER, run_command};
 
 use std::path::{Path, PathBuf};
-
-/// Small settings so every GPU call takes well under a second on lavapipe.
-const TINY_RENDER: [&str; 10] = [
-    "--mode",
-    "direct",
-    "--width",
-    "16",
-    "--height",
-    "16",
-    "--shadow-map-size",
-    "128",
-    "--ssaa",
-    "1",
-];
-const TINY_BAKE: [&str; 8] = [
-    "--vpls",
-    "16",
-    "--rsm-size",
-    "64",
-    "--vpl-map-size",
-    "16",
-    "--shadow-map-size",
-    "256",
-];
 
 /// Runs `gibake` with the given arguments (anything `AsRef<OsStr>`).
 macro_rules! gibake {

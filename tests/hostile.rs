@@ -11,31 +11,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::Run;
+use common::{Run, TINY_BAKE, TINY_RENDER};
 use serde_json::{Value, json};
-
-const TINY_RENDER: [&str; 10] = [
-    "--mode",
-    "direct",
-    "--width",
-    "16",
-    "--height",
-    "16",
-    "--shadow-map-size",
-    "128",
-    "--ssaa",
-    "1",
-];
-const TINY_BAKE: [&str; 8] = [
-    "--vpls",
-    "16",
-    "--rsm-size",
-    "64",
-    "--vpl-map-size",
-    "16",
-    "--shadow-map-size",
-    "256",
-];
 
 /// Runs `gibake` with `args`, killing it after `limit` (a hang is a failure).
 fn gibake_timed(args: &[&dyn AsRef<std::ffi::OsStr>], limit: Duration) -> Run {
@@ -43,13 +20,7 @@ fn gibake_timed(args: &[&dyn AsRef<std::ffi::OsStr>], limit: Duration) -> Run {
     for a in args {
         c.arg(a);
     }
-    let cmd = format!(
-        "gibake {}",
-        c.get_args()
-            .map(|a| a.to_string_lossy().into_owned())
-            .collect::<Vec<_>>()
-            .join(" ")
-    );
+    let cmd = common::command_line(&c);
     let dir = tempfile::tempdir().expect("tempdir");
     let (out, err) = (dir.path().join("out"), dir.path().join("err"));
     c.stdout(std::fs::File::create(&out).expect("stdout file"));

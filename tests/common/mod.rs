@@ -55,13 +55,7 @@ impl std::fmt::Display for Run {
 
 /// Runs a `gibake` command and captures its output.
 pub fn run_command(mut c: std::process::Command) -> Run {
-    let cmd = format!(
-        "gibake {}",
-        c.get_args()
-            .map(|a| a.to_string_lossy().into_owned())
-            .collect::<Vec<_>>()
-            .join(" ")
-    );
+    let cmd = command_line(&c);
     let o = c.output().expect("cannot start the gibake binary");
     Run {
         code: o.status.code(),
@@ -69,4 +63,41 @@ pub fn run_command(mut c: std::process::Command) -> Run {
         stderr: String::from_utf8_lossy(&o.stderr).into_owned(),
         cmd,
     }
+}
+
+/// Small render settings so every GPU call takes well under a second on lavapipe.
+pub const TINY_RENDER: [&str; 10] = [
+    "--mode",
+    "direct",
+    "--width",
+    "16",
+    "--height",
+    "16",
+    "--shadow-map-size",
+    "128",
+    "--ssaa",
+    "1",
+];
+
+/// Small bake settings (16 VPLs, tiny maps).
+pub const TINY_BAKE: [&str; 8] = [
+    "--vpls",
+    "16",
+    "--rsm-size",
+    "64",
+    "--vpl-map-size",
+    "16",
+    "--shadow-map-size",
+    "256",
+];
+
+/// The command line of `c`, for messages.
+pub fn command_line(c: &std::process::Command) -> String {
+    format!(
+        "gibake {}",
+        c.get_args()
+            .map(|a| a.to_string_lossy().into_owned())
+            .collect::<Vec<_>>()
+            .join(" ")
+    )
 }

@@ -303,16 +303,8 @@ fn evaluate_with(
     with_naive: bool,
     (reference, noise): (Image, Vec3),
 ) -> Result<IndirectEval, EvalError> {
-    let t = std::time::Instant::now();
-    let lap = |what: &str| {
-        if std::env::var_os("GIBAKE_EVAL_TIMES").is_some() {
-            eprintln!("  {what}: {:.2}s", t.elapsed().as_secs_f64());
-        }
-    };
     let asset = bake(ctx, scene, s)?;
-    lap("bake");
     let direct = render(ctx, scene, &asset, Mode::Direct, s)?;
-    lap("direct");
     let full = render(ctx, scene, &asset, Mode::Full, s)?.sub(&direct);
     // `indirect` is full's indirect part (checked on static scenes).
     let indirect = if with_naive {
@@ -320,16 +312,13 @@ fn evaluate_with(
     } else {
         full.clone()
     };
-    lap("full+indirect");
     let rsm = render(ctx, scene, &asset, Mode::Rsm, s)?.sub(&direct);
-    lap("rsm");
     // Naive re-renders every map each frame (slow); it must equal full.
     let naive = if with_naive {
         render(ctx, scene, &asset, Mode::Naive, s)?.sub(&direct)
     } else {
         full.clone()
     };
-    lap("naive");
     let rm = reference.mean();
     let sum = |i: &Image| {
         let m = i.mean();
