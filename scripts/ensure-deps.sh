@@ -4,23 +4,30 @@
 # lavapipe software GPU (mesa-vulkan-drivers). With --node, also Node.js and
 # npm for the Khronos glTF validator used by the tests. With --slurm, also
 # slurm-wlm and munge for the one-node Slurm cluster of tests/pipeline_slurm.rs
-# (scripts/slurm/ci-cluster.sh).
+# (scripts/slurm/ci-cluster.sh). With --python, also python3 and python3-venv
+# and a virtual environment at target/pyenv (or $CARGO_TARGET_DIR/pyenv) with
+# numpy, OpenEXR and blake3 for the spec reader (tools/spec_reader,
+# tests/spec_reader.rs); Debian's own pip is externally managed, hence the
+# venv. Every step is skipped when already done.
 set -euo pipefail
+cd "$(dirname "$0")/.."
 
 want_node=0
 want_slurm=0
+want_python=0
 for arg in "$@"; do
   case "$arg" in
     --node) want_node=1 ;;
     --slurm) want_slurm=1 ;;
-    *) echo "ensure-deps: unknown option $arg (known: --node --slurm)" >&2; exit 2 ;;
+    --python) want_python=1 ;;
+    *) echo "ensure-deps: unknown option $arg (known: --node --slurm --python)" >&2; exit 2 ;;
   esac
 done
 
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then
   if command -v sudo >/dev/null 2>&1; then SUDO="sudo"; else
-    echo "ensure-deps: not root and no sudo; install mesa-vulkan-drivers (and nodejs npm, slurm-wlm munge) yourself" >&2
+    echo "ensure-deps: not root and no sudo; install mesa-vulkan-drivers (and nodejs npm, slurm-wlm munge, python3 python3-venv) yourself" >&2
     exit 1
   fi
 fi
@@ -39,9 +46,30 @@ fi
 if [ "$want_slurm" = 1 ] && ! { command -v slurmctld >/dev/null 2>&1 && command -v slurmd >/dev/null 2>&1 && command -v sbatch >/dev/null 2>&1 && command -v munged >/dev/null 2>&1; }; then
   pkgs+=(slurm-wlm munge)
 fi
+# The spec reader's venv; PIP_PACKAGES is what tools/spec_reader needs.
+PYENV="${CARGO_TARGET_DIR:-target}/pyenv"
+PIP_PACKAGES=("numpy>=1.24" "OpenEXR>=3.3,<4" "blake3>=0.4")
+pyenv_ready() {
+  [ -x "$PYENV/bin/python" ] && "$PYENV/bin/python" -c 'import numpy, OpenEXR, blake3' >/dev/null 2>&1
+}
+if [ "$want_python" = 1 ] && ! pyenv_ready; then
+  if ! command -v python3 >/dev/null 2>&1; then
+    pkgs+=(python3 python3-venv)
+  elif ! python3 -c 'import ensurepip, venv' >/dev/null 2>&1; then
+    pkgs+=(python3-venv)
+  fi
+fi
 if [ ${#pkgs[@]} -gt 0 ]; then
   echo "ensure-deps: installing ${pkgs[*]}" >&2
   export DEBIAN_FRONTEND=noninteractive
   $SUDO apt-get update -qq
   $SUDO apt-get install -y -qq "${pkgs[@]}" >/dev/null
+fi
+
+if [ "$want_python" = 1 ] && ! pyenv_ready; then
+  echo "ensure-deps: creating $PYENV with ${PIP_PACKAGES[*]}" >&2
+  rm -rf "$PYENV"
+  python3 -m venv "$PYENV"
+  "$PYENV/bin/python" -m pip install --quiet --disable-pip-version-check "${PIP_PACKAGES[@]}"
+  pyenv_ready || { echo "ensure-deps: $PYENV cannot import numpy, OpenEXR, blake3" >&2; exit 1; }
 fi

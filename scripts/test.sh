@@ -4,10 +4,12 @@
 # (GPU tests run on lavapipe when there is no GPU; they fail, never skip,
 # when no adapter exists), then a bounded fuzzing run (scripts/fuzz.sh).
 # Slurm (slurm-wlm, munge) is installed for the one-node cluster test,
-# tests/pipeline_slurm.rs, which fails when it cannot start.
+# tests/pipeline_slurm.rs, which fails when it cannot start. A Python venv
+# (target/pyenv: numpy, OpenEXR, blake3) is made for tests/spec_reader.rs,
+# which reads a baked asset with tools/spec_reader/read_gibake.py.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/ensure-deps.sh --node --slurm
+bash scripts/ensure-deps.sh --node --slurm --python
 echo "== glTF validator on data/*.glb"
 (cd data/validate && npm ci --silent --no-audit --no-fund && node validate.mjs ../*.glb)
 echo "== cargo test"

@@ -1,0 +1,735 @@
+#!/usr/bin/env python3
+"""Reads a baked `.gibake` asset directory from the format spec alone.
+
+Written from docs/asset-format.md only (not from the Rust sources of
+`gibake-asset`), to prove that the spec is enough to read an asset from
+another language. It
+
+- decodes `manifest.bin` (header, bincode 2 standard-config payload decoded by
+  hand, BLAKE3 trailer) and checks its values,
+- checks every listed file's size and BLAKE3 hash,
+- reads `vpls.bin` and `vpl_nodes.bin` and checks their records (ranges, the
+  map layers, the near-field tree's sums),
+- reads the EXR maps (header: single part, scan lines, ZIP, dimensions,
+  channels; pixels: no NaN, atlas tiles, RSM `vpl` indices),
+- recomputes map lookups: the light view (VPL positions land on the primary
+  shadow map's surface) and each stored hemisphere map (surface points
+  reconstructed from the primary shadow map are not nearer to the VPL than
+  its map says, and the map's hits are not in front of the light's nearest
+  surface),
+
+and prints a summary. Exit status 0: the asset is valid; 1: a check failed
+(the message names the file); 2: usage or a missing Python package.
+
+Needs numpy, OpenEXR (PyPI `OpenEXR` >= 3.3) and blake3 (PyPI `blake3`;
+Python's hashlib has no BLAKE3). `scripts/ensure-deps.sh --python` installs
+them into `target/pyenv`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import struct
+import sys
+
+try:
+    import numpy as np
+    import OpenEXR
+    import blake3
+except ImportError as e:  # pragma: no cover - environment problem
+    sys.stderr.write(
+        f"read_gibake: missing Python package ({e}); install numpy, OpenEXR and "
+        "blake3 (pip install numpy OpenEXR blake3, or scripts/ensure-deps.sh --python)\n"
+    )
+    sys.exit(2)
+
+MAGIC = b"GIBAKE\x00\x01"
+READER_MAJOR = 2
+READER_MINOR = 0
+MAX_PAYLOAD = 16 * 1024 * 1024
+NO_MAP = 0xFFFFFFFF
+RECORD = 48
+NODES_PER_VPL = 84
+VPL_ORIGIN_OFFSET = 0.05
+
+VPL_DTYPE = np.dtype(
+    [
+        ("position", "<f4", (3,)),
+        ("area", "<f4"),
+        ("normal", "<f4", (3,)),
+        ("texels", "<u4"),
+        ("flux", "<f4", (3,)),
+        ("map", "<u4"),
+    ]
+)
+assert VPL_DTYPE.itemsize == RECORD
+
+
+class AssetError(Exception):
+    """A check failed; the message names the file."""
+
+
+# ---------------------------------------------------------------------------
+# bincode 2, standard configuration (docs/asset-format.md, "Payload encoding").
+
+
+class Decoder:
+    """A cursor over a bincode payload."""
+
+    def __init__(self, data: bytes):
+        self.data = data
+        self.pos = 0
+
+    def take(self, n: int, what: str) -> bytes:
+        if self.pos + n > len(self.data):
+            raise AssetError(
+                f"manifest.bin: payload ends inside {what} (needs {n} bytes at {self.pos}, "
+                f"has {len(self.data) - self.pos})"
+            )
+        b = self.data[self.pos : self.pos + n]
+        self.pos += n
+        return b
+
+    def varint(self, what: str, bits: int) -> int:
+        tag = self.take(1, what)[0]
+        if tag <= 250:
+            v = tag
+        elif tag == 251:
+            v = struct.unpack("<H", self.take(2, what))[0]
+        elif tag == 252:
+            v = struct.unpack("<I", self.take(4, what))[0]
+        elif tag == 253:
+            v = struct.unpack("<Q", self.take(8, what))[0]
+        else:
+            raise AssetError(f"manifest.bin: {what}: invalid varint marker {tag}")
+        if v >= 1 << bits:
+            raise AssetError(f"manifest.bin: {what}: {v} does not fit u{bits}")
+        return v
+
+    def u32(self, what: str) -> int:
+        return self.varint(what, 32)
+
+    def u64(self, what: str) -> int:
+        return self.varint(what, 64)
+
+    def boolean(self, what: str) -> bool:
+        b = self.take(1, what)[0]
+        if b > 1:
+            raise AssetError(f"manifest.bin: {what}: invalid bool byte {b}")
+        return b == 1
+
+    def f32(self, what: str) -> float:
+        return struct.unpack("<f", self.take(4, what))[0]
+
+    def f32s(self, n: int, what: str) -> list[float]:
+        return list(struct.unpack(f"<{n}f", self.take(4 * n, what)))
+
+    def string(self, what: str) -> str:
+        n = self.u64(f"{what} length")
+        raw = self.take(n, what)
+        try:
+            return raw.decode("utf-8")
+        except UnicodeDecodeError as e:
+            raise AssetError(f"manifest.bin: {what}: not UTF-8 ({e})") from e
+
+    def option(self, what: str) -> bool:
+        tag = self.take(1, f"{what} tag")[0]
+        if tag > 1:
+            raise AssetError(f"manifest.bin: {what}: invalid Option tag {tag}")
+        return tag == 1
+
+
+def read_manifest(asset: str) -> dict:
+    path = os.path.join(asset, "manifest.bin")
+    if not os.path.isfile(path):
+        raise AssetError(f"manifest.bin: missing in {asset}")
+    with open(path, "rb") as f:
+        data = f.read()
+    if len(data) < 12:
+        raise AssetError(f"manifest.bin: {len(data)} bytes, shorter than the 12-byte header")
+    if data[:8] != MAGIC:
+        raise AssetError(f"manifest.bin: bad magic {data[:8].hex(' ')}")
+    major, minor = struct.unpack("<HH", data[8:12])
+    if major != READER_MAJOR:
+        raise AssetError(
+            f"manifest.bin: asset format {major}.{minor} is not supported by this reader "
+            f"(reads {READER_MAJOR}.x)"
+        )
+    if len(data) < 20:
+        raise AssetError("manifest.bin: truncated before the payload length")
+    (length,) = struct.unpack("<Q", data[12:20])
+    if length > MAX_PAYLOAD:
+        raise AssetError(f"manifest.bin: payload length {length} exceeds {MAX_PAYLOAD}")
+    if len(data) != 20 + length + 32:
+        raise AssetError(
+            f"manifest.bin: {len(data)} bytes, expected 20 + {length} + 32 = {52 + length}"
+        )
+    want = data[20 + length :]
+    got = blake3.blake3(data[: 20 + length]).digest()
+    if got != want:
+        raise AssetError(
+            f"manifest.bin: BLAKE3 trailer mismatch (stored {want.hex()[:16]}…, "
+            f"computed {got.hex()[:16]}…)"
+        )
+
+    d = Decoder(data[20 : 20 + length])
+    m: dict = {"major": major, "minor": minor, "payload_len": length}
+    m["provenance"] = {
+        k: d.string(f"provenance.{k}")
+        for k in ("baker_version", "scene_name", "adapter", "backend", "driver")
+    }
+    s = {}
+    s["rsm_size"] = d.u32("settings.rsm_size")
+    s["vpl_map_size"] = d.u32("settings.vpl_map_size")
+    s["shadow_map_size"] = d.u32("settings.shadow_map_size")
+    s["threshold"] = d.f32("settings.threshold")
+    s["vpl_budget"] = d.u32("settings.vpl_budget") if d.option("settings.vpl_budget") else None
+    m["settings"] = s
+    m["static_scene_hash"] = d.take(32, "static_scene_hash")
+    lv = {}
+    lv["directional"] = d.boolean("light_view.directional")
+    lv["view_proj"] = d.f32s(16, "light_view.view_proj")
+    lv["origin"] = d.f32s(3, "light_view.origin")
+    lv["direction"] = d.f32s(3, "light_view.direction")
+    lv["texel_scale"] = d.f32("light_view.texel_scale")
+    lv["texel_area"] = d.f32("light_view.texel_area")
+    m["light_view"] = lv
+    m["vpl_count"] = d.u32("vpl_count")
+    m["map_count"] = d.u32("map_count")
+    m["has_dynamic"] = d.boolean("has_dynamic")
+    n = d.u64("files length")
+    files = []
+    for i in range(n):
+        name = d.string(f"files[{i}].name")
+        size = d.u64(f"files[{i}].size")
+        digest = d.take(32, f"files[{i}].blake3")
+        files.append((name, size, digest))
+    m["files"] = files
+    extra = length - d.pos
+    if extra and minor <= READER_MINOR:
+        raise AssetError(
+            f"manifest.bin: payload has {extra} bytes after the last field "
+            f"(allowed only for a minor newer than {READER_MAJOR}.{READER_MINOR})"
+        )
+    m["extra_payload_bytes"] = extra
+    return m
+
+
+def check_manifest_values(m: dict) -> list[str]:
+    s, lv = m["settings"], m["light_view"]
+    for k in ("rsm_size", "vpl_map_size", "shadow_map_size"):
+        if not 1 <= s[k] <= 16384:
+            raise AssetError(f"manifest.bin: settings.{k} = {s[k]} outside 1..=16384")
+    if not math.isfinite(s["threshold"]):
+        raise AssetError("manifest.bin: settings.threshold is not finite")
+    floats = lv["view_proj"] + lv["origin"] + lv["direction"] + [lv["texel_scale"], lv["texel_area"]]
+    if not all(math.isfinite(x) for x in floats):
+        raise AssetError("manifest.bin: light_view holds a non-finite value")
+    if m["map_count"] > m["vpl_count"]:
+        raise AssetError(
+            f"manifest.bin: map_count {m['map_count']} > vpl_count {m['vpl_count']}"
+        )
+    if m["map_count"] > 0:
+        cols, rows = atlas_grid(m["map_count"])
+        texels = cols * rows * s["vpl_map_size"] ** 2
+        if texels > 2**31:
+            raise AssetError(f"manifest.bin: atlas of {texels} texels exceeds 2^31")
+    required = ["vpls.bin", "vpl_nodes.bin", "primary_depth.exr"]
+    if m["map_count"] > 0:
+        required.append("vpl_maps.exr")
+    if m["has_dynamic"]:
+        required.append("rsm.exr")
+    names = [f[0] for f in m["files"]]
+    for name in names:
+        if "/" in name or "\\" in name or name in ("", ".", ".."):
+            raise AssetError(f"manifest.bin: file name {name!r} is not a plain name")
+    for name in required:
+        if names.count(name) != 1:
+            raise AssetError(
+                f"manifest.bin: file list holds {name} {names.count(name)} times (must be once)"
+            )
+    if len(set(names)) != len(names):
+        raise AssetError(f"manifest.bin: duplicate names in the file list {names}")
+    unknown = [n for n in names if n not in required]
+    if unknown and m["minor"] <= READER_MINOR:
+        raise AssetError(f"manifest.bin: unexpected files in the file list: {unknown}")
+    sizes = {f[0]: f[1] for f in m["files"]}
+    if sizes["vpls.bin"] != RECORD * m["vpl_count"]:
+        raise AssetError(
+            f"manifest.bin: vpls.bin listed as {sizes['vpls.bin']} bytes, "
+            f"expected 48 · {m['vpl_count']}"
+        )
+    if sizes["vpl_nodes.bin"] != RECORD * NODES_PER_VPL * m["vpl_count"]:
+        raise AssetError(
+            f"manifest.bin: vpl_nodes.bin listed as {sizes['vpl_nodes.bin']} bytes, "
+            f"expected 48 · 84 · {m['vpl_count']}"
+        )
+    return names
+
+
+def check_files(asset: str, m: dict) -> dict[str, bytes]:
+    contents = {}
+    for name, size, digest in m["files"]:
+        path = os.path.join(asset, name)
+        if not os.path.isfile(path):
+            raise AssetError(f"{name}: listed in the manifest but missing")
+        on_disk = os.path.getsize(path)
+        if on_disk != size:
+            raise AssetError(f"{name}: {on_disk} bytes on disk, the manifest says {size}")
+        with open(path, "rb") as f:
+            data = f.read()
+        got = blake3.blake3(data).digest()
+        if got != digest:
+            raise AssetError(
+                f"{name}: BLAKE3 mismatch (manifest {digest.hex()[:16]}…, file {got.hex()[:16]}…)"
+            )
+        contents[name] = data
+    return contents
+
+
+# ---------------------------------------------------------------------------
+# Records.
+
+
+def check_records(name: str, rec: np.ndarray, map_count: int, nodes: bool) -> None:
+    floats = np.concatenate(
+        [rec["position"], rec["area"][:, None], rec["normal"], rec["flux"]], axis=1
+    )
+    bad = ~np.isfinite(floats).all(axis=1)
+    if bad.any():
+        raise AssetError(f"{name}: record {int(np.argmax(bad))} holds a non-finite float")
+    if (rec["area"] < 0).any():
+        raise AssetError(f"{name}: record {int(np.argmax(rec['area'] < 0))} has a negative area")
+    if (rec["flux"] < 0).any():
+        raise AssetError(
+            f"{name}: record {int(np.argmax((rec['flux'] < 0).any(axis=1)))} has negative flux"
+        )
+    if nodes:
+        if (rec["map"] != NO_MAP).any():
+            raise AssetError(f"{name}: node {int(np.argmax(rec['map'] != NO_MAP))} has map != NO_MAP")
+    else:
+        ok = (rec["map"] < map_count) | (rec["map"] == NO_MAP)
+        if not ok.all():
+            raise AssetError(
+                f"{name}: VPL {int(np.argmax(~ok))} has map {int(rec['map'][np.argmax(~ok)])}, "
+                f"map_count is {map_count}"
+            )
+
+
+def check_vpls(vpls: np.ndarray, m: dict) -> None:
+    check_records("vpls.bin", vpls, m["map_count"], nodes=False)
+    layers = vpls["map"][vpls["map"] != NO_MAP]
+    # Every stored map belongs to one VPL: layers 0, 1, 2, … in VPL order.
+    if len(layers) != m["map_count"] or not np.array_equal(layers, np.arange(m["map_count"])):
+        raise AssetError(
+            f"vpls.bin: the VPLs' map layers {layers.tolist()} are not 0..{m['map_count']} "
+            "in VPL order"
+        )
+    lengths = np.linalg.norm(vpls["normal"].astype(np.float64), axis=1)
+    if len(lengths) and np.abs(lengths - 1).max() > 1e-3:
+        raise AssetError(f"vpls.bin: VPL {int(np.argmax(np.abs(lengths - 1)))} has a non-unit normal")
+    if (vpls["flux"].sum(axis=1) <= 0).any():
+        raise AssetError("vpls.bin: a VPL with zero flux (the baker drops those)")
+
+
+def check_nodes(nodes: np.ndarray, vpls: np.ndarray) -> None:
+    check_records("vpl_nodes.bin", nodes, 0, nodes=True)
+    v = len(vpls)
+    tree = nodes.reshape(v, NODES_PER_VPL)
+    empty = tree["texels"] == 0
+    zero = (
+        (tree["position"] == 0).all(axis=2)
+        & (tree["normal"] == 0).all(axis=2)
+        & (tree["flux"] == 0).all(axis=2)
+        & (tree["area"] == 0)
+    )
+    if (empty & ~zero).any():
+        i, k = np.argwhere(empty & ~zero)[0]
+        raise AssetError(f"vpl_nodes.bin: VPL {i} node {k} has texels = 0 but is not all zeros")
+    levels = [(0, 4, 2), (4, 20, 4), (20, 84, 8)]
+    for lo, hi, side in levels:
+        lvl = tree[:, lo:hi]
+        texels = lvl["texels"].sum(axis=1, dtype=np.int64)
+        if not np.array_equal(texels, vpls["texels"].astype(np.int64)):
+            i = int(np.argmax(texels != vpls["texels"]))
+            raise AssetError(
+                f"vpl_nodes.bin: VPL {i} level {side}×{side} holds {texels[i]} texels, "
+                f"the VPL {vpls['texels'][i]}"
+            )
+        flux = lvl["flux"].astype(np.float64).sum(axis=1)
+        ref = vpls["flux"].astype(np.float64)
+        err = np.abs(flux - ref) - (1e-4 * np.abs(ref) + 1e-12)
+        if (err > 0).any():
+            i = int(np.argwhere(err > 0)[0][0])
+            raise AssetError(
+                f"vpl_nodes.bin: VPL {i} level {side}×{side} flux sums to {flux[i].tolist()}, "
+                f"the VPL's is {ref[i].tolist()}"
+            )
+        if lo > 0:
+            # Parent (l, i, j) = sum of children (l+1, 2i+a, 2j+b).
+            plo, _, pside = levels[levels.index((lo, hi, side)) - 1]
+            for j in range(pside):
+                for i in range(pside):
+                    parent = tree["texels"][:, plo + j * pside + i].astype(np.int64)
+                    kids = sum(
+                        tree["texels"][:, lo + (2 * j + b) * side + 2 * i + a].astype(np.int64)
+                        for a in (0, 1)
+                        for b in (0, 1)
+                    )
+                    if not np.array_equal(parent, kids):
+                        w = int(np.argmax(parent != kids))
+                        raise AssetError(
+                            f"vpl_nodes.bin: VPL {w} node ({pside}×{pside}: {i}, {j}) holds "
+                            f"{parent[w]} texels, its children {kids[w]}"
+                        )
+
+
+# ---------------------------------------------------------------------------
+# EXR.
+
+
+def atlas_grid(map_count: int) -> tuple[int, int]:
+    cols = math.isqrt(map_count)
+    if cols * cols < map_count:
+        cols += 1
+    rows = -(-map_count // cols)
+    return cols, rows
+
+
+def read_exr(asset: str, name: str, width: int, height: int, channels: dict) -> dict:
+    """Reads `name` and checks its header; returns {channel: array[y, x]}."""
+    path = os.path.join(asset, name)
+    try:
+        f = OpenEXR.File(path, separate_channels=True)
+    except Exception as e:  # OpenEXR raises plain RuntimeError / others
+        raise AssetError(f"{name}: OpenEXR cannot read it: {e}") from e
+    if len(f.parts) != 1:
+        raise AssetError(f"{name}: {len(f.parts)} parts, expected one")
+    h = f.header()
+    if h.get("type") not in (None, OpenEXR.scanlineimage):
+        raise AssetError(f"{name}: storage {h.get('type')}, expected scan lines")
+    if h.get("compression") != OpenEXR.ZIP_COMPRESSION:
+        raise AssetError(f"{name}: compression {h.get('compression')}, expected ZIP")
+    if h.get("lineOrder") != OpenEXR.INCREASING_Y:
+        raise AssetError(f"{name}: line order {h.get('lineOrder')}, expected increasing y")
+    lo, hi = h["dataWindow"]
+    if tuple(lo) != (0, 0) or tuple(hi) != (width - 1, height - 1):
+        raise AssetError(
+            f"{name}: data window {tuple(lo)}..{tuple(hi)}, expected (0, 0)..({width - 1}, {height - 1})"
+        )
+    names = [c.name for c in h["channels"]]
+    layered = [n for n in names if n not in channels and "." in n and n.split(".")[0] not in ("flux",)]
+    if layered:
+        raise AssetError(f"{name}: unexpected layer channels {layered} (single layer expected)")
+    out = {}
+    chans = f.channels()
+    for cname, ctype in channels.items():
+        if cname not in chans:
+            raise AssetError(f"{name}: no channel {cname} (has {names})")
+        px = chans[cname].pixels
+        want = np.float32 if ctype == "f32" else np.uint32
+        if px.dtype != want:
+            raise AssetError(f"{name}: channel {cname} is {px.dtype}, expected {np.dtype(want)}")
+        if px.shape != (height, width):
+            raise AssetError(f"{name}: channel {cname} is {px.shape}, expected {(height, width)}")
+        if ctype == "f32" and np.isnan(px).any():
+            raise AssetError(f"{name}: channel {cname} holds NaN")
+        out[cname] = px
+    return out
+
+
+# ---------------------------------------------------------------------------
+# Lookups (docs/asset-format.md, "Metrics" and "Hemisphere map lookup").
+
+
+def view_proj_matrix(lv: dict) -> np.ndarray:
+    # Column-major: element (row r, column c) is view_proj[c * 4 + r].
+    return np.array(lv["view_proj"], dtype=np.float64).reshape(4, 4).T
+
+
+def lv_metric(lv: dict, p: np.ndarray) -> np.ndarray:
+    o = np.array(lv["origin"], dtype=np.float64)
+    if lv["directional"]:
+        return (p - o) @ np.array(lv["direction"], dtype=np.float64)
+    return np.linalg.norm(p - o, axis=-1)
+
+
+def lv_texel_coords(lv: dict, p: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Continuous texel coordinates (N, 2) of world points and clip w (N)."""
+    vp = view_proj_matrix(lv)
+    c = np.concatenate([p, np.ones((len(p), 1))], axis=1) @ vp.T
+    ndc = c[:, :2] / c[:, 3:4]
+    uv = np.stack([ndc[:, 0] * 0.5 + 0.5, 0.5 - ndc[:, 1] * 0.5], axis=1)
+    return uv * size, c[:, 3]
+
+
+def lv_unproject(lv: dict, depth: np.ndarray) -> np.ndarray:
+    """World points of every texel centre of a light-view map with its metric."""
+    size = depth.shape[0]
+    ys, xs = np.mgrid[0:size, 0:size]
+    u = (xs.ravel() + 0.5) / size
+    v = (ys.ravel() + 0.5) / size
+    ndc = np.stack([u * 2 - 1, 1 - v * 2], axis=1)
+    inv = np.linalg.inv(view_proj_matrix(lv))
+
+    def unproj(z: float) -> np.ndarray:
+        h = np.concatenate([ndc, np.full((len(ndc), 1), z), np.ones((len(ndc), 1))], axis=1) @ inv.T
+        return h[:, :3] / h[:, 3:4]
+
+    o = np.array(lv["origin"], dtype=np.float64)
+    dirn = np.array(lv["direction"], dtype=np.float64)
+    m = depth.ravel().astype(np.float64)
+    # Reversed Z: ndc z = 1 is the near plane; 0.5 lies in front of any far plane.
+    near = unproj(1.0)
+    if lv["directional"]:
+        return near + (m - (near - o) @ dirn)[:, None] * dirn
+    ray = near - o
+    ray /= np.linalg.norm(ray, axis=1, keepdims=True)
+    return o + m[:, None] * ray
+
+
+def hemi_frame(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    s = 1.0 if n[2] >= 0 else -1.0
+    a = -1.0 / (s + n[2])
+    b = n[0] * n[1] * a
+    t = np.array([1 + s * n[0] * n[0] * a, s * b, -s * n[0]])
+    bt = np.array([b, s + n[1] * n[1] * a, -n[1]])
+    return t, bt
+
+
+def hemi_texel_coords(n: np.ndarray, d: np.ndarray, size: int) -> np.ndarray:
+    t, bt = hemi_frame(n)
+    lx, ly, lz = d @ t, d @ bt, d @ n
+    z = np.maximum(lz, 0.0)
+    den = np.abs(lx) + np.abs(ly) + z
+    px, py = lx / den, ly / den
+    e = np.stack([px + py, px - py], axis=-1)
+    return (e * 0.5 + 0.5) * size
+
+
+def hemi_texel_dirs(n: np.ndarray, size: int) -> np.ndarray:
+    """World direction of every texel centre, (size, size, 3), [y, x]."""
+    t, bt = hemi_frame(n)
+    ys, xs = np.mgrid[0:size, 0:size]
+    ex = (xs + 0.5) / size * 2 - 1
+    ey = (ys + 0.5) / size * 2 - 1
+    px, py = (ex + ey) * 0.5, (ex - ey) * 0.5
+    local = np.stack([px, py, 1 - np.abs(px) - np.abs(py)], axis=-1)
+    local /= np.linalg.norm(local, axis=-1, keepdims=True)
+    return local[..., :1] * t + local[..., 1:2] * bt + local[..., 2:3] * n
+
+
+def neighbourhood(img: np.ndarray, xy: np.ndarray, op) -> np.ndarray:
+    """op (np.minimum / np.maximum) over the 3×3 texels around integer xy (clamped)."""
+    size_y, size_x = img.shape
+    out = None
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            x = np.clip(xy[:, 0] + dx, 0, size_x - 1)
+            y = np.clip(xy[:, 1] + dy, 0, size_y - 1)
+            v = img[y, x]
+            out = v if out is None else op(out, v)
+    return out
+
+
+def check_light_view(m: dict, vpls: np.ndarray, primary: np.ndarray) -> str:
+    """VPLs sit on lit surfaces: the primary shadow map sees them."""
+    lv, size = m["light_view"], primary.shape[0]
+    if len(vpls) == 0:
+        return "no VPLs"
+    p = vpls["position"].astype(np.float64)
+    tc, w = lv_texel_coords(lv, p, size)
+    inside = (w > 0) & (tc >= 0).all(axis=1) & (tc < size).all(axis=1)
+    if not inside.all():
+        raise AssetError(
+            f"primary_depth.exr: VPL {int(np.argmax(~inside))} projects outside the light view "
+            f"(texel {tc[np.argmax(~inside)].tolist()})"
+        )
+    xy = np.floor(tc).astype(np.int64)
+    metric = lv_metric(lv, p)
+    lo = neighbourhood(primary, xy, np.minimum).astype(np.float64)
+    hi = neighbourhood(primary, xy, np.maximum).astype(np.float64)
+    foot = lv["texel_scale"] * (1.0 if lv["directional"] else np.maximum(metric, 1e-6))
+    tol = 4 * foot + 1e-4 * np.abs(metric)
+    ok = (metric >= lo - tol) & (metric <= hi + tol)
+    if not ok.all():
+        i = int(np.argmax(~ok))
+        raise AssetError(
+            f"primary_depth.exr: VPL {i} at light-view metric {metric[i]:.4f} but the shadow "
+            f"map holds {lo[i]:.4f}..{hi[i]:.4f} around texel {xy[i].tolist()}"
+        )
+    return f"{len(vpls)} VPL positions on the primary shadow map's surface"
+
+
+def check_hemi_maps(
+    m: dict, vpls: np.ndarray, atlas: np.ndarray | None, primary: np.ndarray, show: int | None
+) -> list[str]:
+    """Recomputes each stored hemisphere map's lookups against the primary shadow map."""
+    s = m["settings"]["vpl_map_size"]
+    lv = m["light_view"]
+    lines = []
+    if atlas is None:
+        return ["no hemisphere maps stored"]
+    cols, rows = atlas_grid(m["map_count"])
+    for k in range(m["map_count"], cols * rows):
+        col, row = k % cols, k // cols
+        tile = atlas[row * s : (row + 1) * s, col * s : (col + 1) * s]
+        if not np.isposinf(tile).all():
+            raise AssetError(f"vpl_maps.exr: unused tile {k} is not all +inf")
+    if (atlas < 0).any():
+        raise AssetError("vpl_maps.exr: a negative distance")
+    surf = lv_unproject(lv, primary)[np.isfinite(primary.ravel())]
+    size = primary.shape[0]
+    pairs = near_ok = hits = hits_ok = 0
+    for i, rec in enumerate(vpls):
+        k = int(rec["map"])
+        if k == NO_MAP:
+            continue
+        col, row = k % cols, k // cols
+        tile = atlas[row * s : (row + 1) * s, col * s : (col + 1) * s].astype(np.float64)
+        if np.isposinf(tile).all():
+            raise AssetError(f"vpl_maps.exr: VPL {i}'s map (tile {k}) sees no surface; it must be NO_MAP")
+        n = rec["normal"].astype(np.float64)
+        origin = rec["position"].astype(np.float64) + n * VPL_ORIGIN_OFFSET * math.sqrt(
+            max(float(rec["area"]), 0.0) / math.pi
+        )
+        # (a) Surface points the light sees, in the VPL's hemisphere: its map
+        # must hold a surface at most that far along their direction.
+        d = surf - origin
+        dist = np.linalg.norm(d, axis=1)
+        dirs = d / np.maximum(dist, 1e-30)[:, None]
+        sel = (dirs @ n > 0.1) & (dist > 1e-6)
+        tc = hemi_texel_coords(n, dirs[sel], s)
+        xy = np.clip(np.floor(tc).astype(np.int64), 0, s - 1)
+        stored = neighbourhood(tile, xy, np.minimum)
+        ok_a = stored <= dist[sel] * 1.05 + 1e-5
+        pairs += int(sel.sum())
+        near_ok += int(ok_a.sum())
+        # (b) The map's hits: each finite texel's hit point is a surface point,
+        # so it cannot be nearer to the light than the primary shadow map says.
+        tdirs = hemi_texel_dirs(n, s)
+        fin = np.isfinite(tile)
+        hp = origin + tdirs[fin] * tile[fin][:, None]
+        ptc, w = lv_texel_coords(lv, hp, size)
+        inside = (w > 0) & (ptc >= 0).all(axis=1) & (ptc < size).all(axis=1)
+        pxy = np.floor(ptc[inside]).astype(np.int64)
+        met = lv_metric(lv, hp[inside])
+        lo = neighbourhood(primary, pxy, np.minimum).astype(np.float64)
+        foot = lv["texel_scale"] * (1.0 if lv["directional"] else np.maximum(met, 1e-6))
+        ok_b = met >= lo - (4 * foot + 1e-4 * np.abs(met) + tile[fin][inside] * 2.83 / s)
+        hits += int(inside.sum())
+        hits_ok += int(ok_b.sum())
+        if show is None or show == i:
+            show = i
+            centre = hemi_texel_coords(n, n[None, :], s)[0]
+            lines.append(
+                f"VPL {i}: map tile {k} at atlas column {col}, row {row} "
+                f"(texels x {col * s}..{(col + 1) * s}, y {row * s}..{(row + 1) * s}); "
+                f"origin {np.round(origin, 4).tolist()}, normal {np.round(n, 4).tolist()}; "
+                f"normal direction -> texel {np.floor(centre).astype(int).tolist()} = "
+                f"{tile[min(int(centre[1]), s - 1), min(int(centre[0]), s - 1)]:.4f}; "
+                f"{int(fin.sum())}/{s * s} texels see a surface; "
+                f"{int(ok_a.sum())}/{int(sel.sum())} lit surface points not nearer than the map, "
+                f"{int(ok_b.sum())}/{int(inside.sum())} map hits not in front of the light's surface"
+            )
+    # Texel-centre rays and shadow-map texels disagree at silhouettes; a wrong
+    # projection (frame, axes, atlas placement) fails far more than 5 %.
+    for what, good, total in (
+        ("lit surface points nearer to a VPL than its map says", near_ok, pairs),
+        ("hemisphere-map hits in front of the light's nearest surface", hits_ok, hits),
+    ):
+        if total and good < 0.95 * total:
+            raise AssetError(
+                f"vpl_maps.exr: {total - good} of {total} {what} (more than 5 %): "
+                "the map lookup does not match the spec"
+            )
+    lines.append(
+        f"all {m['map_count']} maps: {near_ok}/{pairs} surface points consistent, "
+        f"{hits_ok}/{hits} map hits consistent"
+    )
+    return lines
+
+
+# ---------------------------------------------------------------------------
+
+
+def read_asset(asset: str, show_vpl: int | None) -> list[str]:
+    if not os.path.isdir(asset):
+        raise AssetError(f"{asset}: not a directory")
+    m = read_manifest(asset)
+    names = check_manifest_values(m)
+    contents = check_files(asset, m)
+    s = m["settings"]
+    vpls = np.frombuffer(contents["vpls.bin"], dtype=VPL_DTYPE)
+    nodes = np.frombuffer(contents["vpl_nodes.bin"], dtype=VPL_DTYPE)
+    check_vpls(vpls, m)
+    check_nodes(nodes, vpls)
+    ss = s["shadow_map_size"]
+    primary = read_exr(asset, "primary_depth.exr", ss, ss, {"Z": "f32"})["Z"]
+    atlas = None
+    if m["map_count"] > 0:
+        cols, rows = atlas_grid(m["map_count"])
+        ms = s["vpl_map_size"]
+        atlas = read_exr(asset, "vpl_maps.exr", cols * ms, rows * ms, {"Z": "f32"})["Z"]
+    rsm_note = "no rsm.exr (no moving objects)"
+    if m["has_dynamic"]:
+        rs = s["rsm_size"]
+        rsm = read_exr(
+            asset,
+            "rsm.exr",
+            rs,
+            rs,
+            {"Z": "f32", "flux.R": "f32", "flux.G": "f32", "flux.B": "f32", "vpl": "u32"},
+        )
+        idx = rsm["vpl"]
+        ok = (idx < m["vpl_count"]) | (idx == NO_MAP)
+        if not ok.all():
+            raise AssetError(f"rsm.exr: vpl index {int(idx[~ok][0])} >= vpl_count {m['vpl_count']}")
+        used = np.unique(idx[idx != NO_MAP])
+        rsm_note = (
+            f"rsm.exr {rs}²: {int(np.isfinite(rsm['Z']).sum())} surface texels, "
+            f"{len(used)} VPLs referenced"
+        )
+    if show_vpl is not None and not 0 <= show_vpl < len(vpls):
+        raise AssetError(f"--vpl {show_vpl}: the asset has {len(vpls)} VPLs")
+    if show_vpl is not None and vpls["map"][show_vpl] == NO_MAP:
+        raise AssetError(f"--vpl {show_vpl}: that VPL stores no map")
+    lv_note = check_light_view(m, vpls, primary)
+    hemi = check_hemi_maps(m, vpls, atlas, primary, show_vpl)
+    p = m["provenance"]
+    out = [
+        f"{asset}: gibake asset {m['major']}.{m['minor']}, manifest payload {m['payload_len']} bytes",
+        f"  baked by gibake {p['baker_version']} from {p['scene_name']} on {p['adapter']} "
+        f"({p['backend']}, {p['driver']})",
+        f"  settings: rsm {s['rsm_size']}², vpl maps {s['vpl_map_size']}², shadow map "
+        f"{s['shadow_map_size']}², threshold {s['threshold']}, vpl budget {s['vpl_budget']}",
+        f"  light: {'directional' if m['light_view']['directional'] else 'spot'}; "
+        f"{m['vpl_count']} VPLs, {m['map_count']} maps, dynamic {m['has_dynamic']}",
+        f"  files (manifest order): {', '.join(names)}; all sizes and BLAKE3 hashes match",
+        f"  vpl_nodes.bin: {len(nodes)} nodes, level sums match",
+        f"  {rsm_note}",
+        f"  light view: {lv_note}",
+    ]
+    out += [f"  {line}" for line in hemi]
+    return out
+
+
+def main(argv: list[str]) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("asset", help="the NAME.gibake directory")
+    ap.add_argument("--vpl", type=int, default=None, help="VPL whose map lookup to print (default: the first with a map)")
+    args = ap.parse_args(argv)
+    try:
+        lines = read_asset(args.asset, args.vpl)
+    except AssetError as e:
+        sys.stderr.write(f"read_gibake: INVALID: {e}\n")
+        return 1
+    print("\n".join(lines))
+    print("OK")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
