@@ -8,19 +8,22 @@
 # and a virtual environment at target/pyenv (or $CARGO_TARGET_DIR/pyenv) with
 # numpy, OpenEXR and blake3 for the spec reader (tools/spec_reader,
 # tests/spec_reader.rs); Debian's own pip is externally managed, hence the
-# venv. Every step is skipped when already done.
+# venv. With --deny, also cargo-deny (cargo install --locked) for the
+# dependency check of .ci/run. Every step is skipped when already done.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 want_node=0
 want_slurm=0
 want_python=0
+want_deny=0
 for arg in "$@"; do
   case "$arg" in
     --node) want_node=1 ;;
     --slurm) want_slurm=1 ;;
     --python) want_python=1 ;;
-    *) echo "ensure-deps: unknown option $arg (known: --node --slurm --python)" >&2; exit 2 ;;
+    --deny) want_deny=1 ;;
+    *) echo "ensure-deps: unknown option $arg (known: --node --slurm --python --deny)" >&2; exit 2 ;;
   esac
 done
 
@@ -72,4 +75,8 @@ if [ "$want_python" = 1 ] && ! pyenv_ready; then
   python3 -m venv "$PYENV"
   "$PYENV/bin/python" -m pip install --quiet --disable-pip-version-check "${PIP_PACKAGES[@]}"
   pyenv_ready || { echo "ensure-deps: $PYENV cannot import numpy, OpenEXR, blake3" >&2; exit 1; }
+fi
+if [ "$want_deny" = 1 ] && ! cargo deny --version >/dev/null 2>&1; then
+  echo "ensure-deps: installing cargo-deny (cargo install --locked; several minutes)" >&2
+  cargo install cargo-deny --locked
 fi
