@@ -96,6 +96,17 @@ fn scenes() -> Vec<PathBuf> {
     v
 }
 
+/// A copy of the asset directory `asset` in `dir/name`.
+fn copy_asset(asset: &Path, dir: &Path, name: &str) -> PathBuf {
+    let copy = dir.join(name);
+    std::fs::create_dir_all(&copy).unwrap();
+    for e in std::fs::read_dir(asset).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), copy.join(e.file_name())).unwrap();
+    }
+    copy
+}
+
 /// A copy of `asset` in `dir/name` with byte `at(len)` of `file` inverted.
 fn damaged_copy(
     asset: &Path,
@@ -104,18 +115,41 @@ fn damaged_copy(
     file: &str,
     at: fn(usize) -> usize,
 ) -> PathBuf {
-    let copy = dir.join(name);
-    std::fs::create_dir_all(&copy).unwrap();
-    for e in std::fs::read_dir(asset).unwrap() {
-        let e = e.unwrap();
-        std::fs::copy(e.path(), copy.join(e.file_name())).unwrap();
-    }
+    let copy = copy_asset(asset, dir, name);
     let path = copy.join(file);
     let mut bytes = std::fs::read(&path).unwrap();
     let i = at(bytes.len());
     bytes[i] ^= 0xFF;
     std::fs::write(&path, bytes).unwrap();
     copy
+}
+
+/// Rewrites `manifest` with its payload edited by the Python statement `edit`
+/// (on `payload`, a bytes object) and minor version `minor`, then recomputes
+/// the payload length and the BLAKE3 trailer, so only the edit is wrong.
+fn reseal(py: &Path, manifest: &Path, edit: &str, minor: &str) {
+    let script = format!(
+        "import blake3, struct, sys\n\
+         p = sys.argv[1]\n\
+         d = open(p, 'rb').read()\n\
+         (n,) = struct.unpack('<Q', d[12:20])\n\
+         payload = d[20:20 + n]\n\
+         {edit}\n\
+         head = d[:10] + struct.pack('<H', {minor}) + struct.pack('<Q', len(payload))\n\
+         body = head + payload\n\
+         open(p, 'wb').write(body + blake3.blake3(body).digest())\n"
+    );
+    let out = Command::new(py)
+        .arg("-c")
+        .arg(script)
+        .arg(manifest)
+        .output()
+        .expect("python runs");
+    assert!(
+        out.status.success(),
+        "re-sealing failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 #[test]
@@ -178,8 +212,54 @@ fn reader_refuses_damaged_assets() {
         );
     }
 
+    // Re-sealed manifests (payload edited, length and BLAKE3 trailer
+    // recomputed): what the spec says a reader must refuse or accept.
+    let reseal_cases: [(&str, &str, Option<&str>); 5] = [
+        // One byte after the last field, same minor: refused.
+        ("payload += b'\\x00'", "0", Some("after the last field")),
+        // The same from a newer minor (2.1): accepted and ignored.
+        ("payload += b'\\x00'", "1", None),
+        // The file list cut short: refused.
+        ("payload = payload[:-40]", "0", Some("payload ends inside")),
+        // A varint marker bincode does not define (254), as the first length.
+        (
+            "payload = b'\\xfe' + payload[1:]",
+            "0",
+            Some("invalid varint marker"),
+        ),
+        // Control: re-sealed unchanged, accepted.
+        ("pass", "0", None),
+    ];
+    for (k, (edit, minor, refusal)) in reseal_cases.iter().enumerate() {
+        let copy = copy_asset(&asset, work.path(), &format!("reseal{k}.gibake"));
+        reseal(&py, &copy.join("manifest.bin"), edit, minor);
+        let r = read(&py, &copy);
+        match refusal {
+            Some(msg) => assert!(
+                r.code == Some(1) && r.stderr.contains(msg),
+                "a re-sealed manifest ({edit}, minor {minor}) must be refused with `{msg}`\n{r}"
+            ),
+            None => assert_eq!(
+                r.code,
+                Some(0),
+                "a re-sealed manifest ({edit}, minor {minor}) must be accepted\n{r}"
+            ),
+        }
+    }
+
+    // A major version this reader does not know.
+    let copy = copy_asset(&asset, work.path(), "major3.gibake");
+    let mut m = std::fs::read(copy.join("manifest.bin")).unwrap();
+    m[8] = 3;
+    std::fs::write(copy.join("manifest.bin"), m).unwrap();
+    let r = read(&py, &copy);
+    assert!(
+        r.code == Some(1) && r.stderr.contains("3.0 is not supported"),
+        "a 3.0 manifest must be refused by version\n{r}"
+    );
+
     // A file the manifest lists, removed.
-    let copy = damaged_copy(&asset, work.path(), "missing.gibake", "rsm.exr", |_| 0);
+    let copy = copy_asset(&asset, work.path(), "missing.gibake");
     std::fs::remove_file(copy.join("rsm.exr")).unwrap();
     let r = read(&py, &copy);
     assert_eq!(
