@@ -35,9 +35,9 @@ import struct
 import sys
 
 try:
+    import blake3
     import numpy as np
     import OpenEXR
-    import blake3
 except ImportError as e:  # pragma: no cover - environment problem
     sys.stderr.write(
         f"read_gibake: missing Python package ({e}); install numpy, OpenEXR and "
@@ -148,7 +148,9 @@ def read_manifest(asset: str) -> dict:
     with open(path, "rb") as f:
         data = f.read()
     if len(data) < 12:
-        raise AssetError(f"manifest.bin: {len(data)} bytes, shorter than the 12-byte header")
+        raise AssetError(
+            f"manifest.bin: {len(data)} bytes, shorter than the 12-byte header"
+        )
     if data[:8] != MAGIC:
         raise AssetError(f"manifest.bin: bad magic {data[:8].hex(' ')}")
     major, minor = struct.unpack("<HH", data[8:12])
@@ -185,7 +187,9 @@ def read_manifest(asset: str) -> dict:
     s["vpl_map_size"] = d.u32("settings.vpl_map_size")
     s["shadow_map_size"] = d.u32("settings.shadow_map_size")
     s["threshold"] = d.f32("settings.threshold")
-    s["vpl_budget"] = d.u32("settings.vpl_budget") if d.option("settings.vpl_budget") else None
+    s["vpl_budget"] = (
+        d.u32("settings.vpl_budget") if d.option("settings.vpl_budget") else None
+    )
     m["settings"] = s
     m["static_scene_hash"] = d.take(32, "static_scene_hash")
     lv = {}
@@ -224,7 +228,12 @@ def check_manifest_values(m: dict) -> list[str]:
             raise AssetError(f"manifest.bin: settings.{k} = {s[k]} outside 1..=16384")
     if not math.isfinite(s["threshold"]):
         raise AssetError("manifest.bin: settings.threshold is not finite")
-    floats = lv["view_proj"] + lv["origin"] + lv["direction"] + [lv["texel_scale"], lv["texel_area"]]
+    floats = (
+        lv["view_proj"]
+        + lv["origin"]
+        + lv["direction"]
+        + [lv["texel_scale"], lv["texel_area"]]
+    )
     if not all(math.isfinite(x) for x in floats):
         raise AssetError("manifest.bin: light_view holds a non-finite value")
     if m["map_count"] > m["vpl_count"]:
@@ -277,7 +286,9 @@ def check_files(asset: str, m: dict) -> dict[str, bytes]:
             raise AssetError(f"{name}: listed in the manifest but missing")
         on_disk = os.path.getsize(path)
         if on_disk != size:
-            raise AssetError(f"{name}: {on_disk} bytes on disk, the manifest says {size}")
+            raise AssetError(
+                f"{name}: {on_disk} bytes on disk, the manifest says {size}"
+            )
         with open(path, "rb") as f:
             data = f.read()
         got = blake3.blake3(data).digest()
@@ -299,16 +310,22 @@ def check_records(name: str, rec: np.ndarray, map_count: int, nodes: bool) -> No
     )
     bad = ~np.isfinite(floats).all(axis=1)
     if bad.any():
-        raise AssetError(f"{name}: record {int(np.argmax(bad))} holds a non-finite float")
+        raise AssetError(
+            f"{name}: record {int(np.argmax(bad))} holds a non-finite float"
+        )
     if (rec["area"] < 0).any():
-        raise AssetError(f"{name}: record {int(np.argmax(rec['area'] < 0))} has a negative area")
+        raise AssetError(
+            f"{name}: record {int(np.argmax(rec['area'] < 0))} has a negative area"
+        )
     if (rec["flux"] < 0).any():
         raise AssetError(
             f"{name}: record {int(np.argmax((rec['flux'] < 0).any(axis=1)))} has negative flux"
         )
     if nodes:
         if (rec["map"] != NO_MAP).any():
-            raise AssetError(f"{name}: node {int(np.argmax(rec['map'] != NO_MAP))} has map != NO_MAP")
+            raise AssetError(
+                f"{name}: node {int(np.argmax(rec['map'] != NO_MAP))} has map != NO_MAP"
+            )
     else:
         ok = (rec["map"] < map_count) | (rec["map"] == NO_MAP)
         if not ok.all():
@@ -322,14 +339,18 @@ def check_vpls(vpls: np.ndarray, m: dict) -> None:
     check_records("vpls.bin", vpls, m["map_count"], nodes=False)
     layers = vpls["map"][vpls["map"] != NO_MAP]
     # Every stored map belongs to one VPL: layers 0, 1, 2, … in VPL order.
-    if len(layers) != m["map_count"] or not np.array_equal(layers, np.arange(m["map_count"])):
+    if len(layers) != m["map_count"] or not np.array_equal(
+        layers, np.arange(m["map_count"])
+    ):
         raise AssetError(
             f"vpls.bin: the VPLs' map layers {layers.tolist()} are not 0..{m['map_count']} "
             "in VPL order"
         )
     lengths = np.linalg.norm(vpls["normal"].astype(np.float64), axis=1)
     if len(lengths) and np.abs(lengths - 1).max() > 1e-3:
-        raise AssetError(f"vpls.bin: VPL {int(np.argmax(np.abs(lengths - 1)))} has a non-unit normal")
+        raise AssetError(
+            f"vpls.bin: VPL {int(np.argmax(np.abs(lengths - 1)))} has a non-unit normal"
+        )
     if (vpls["flux"].sum(axis=1) <= 0).any():
         raise AssetError("vpls.bin: a VPL with zero flux (the baker drops those)")
 
@@ -347,7 +368,9 @@ def check_nodes(nodes: np.ndarray, vpls: np.ndarray) -> None:
     )
     if (empty & ~zero).any():
         i, k = np.argwhere(empty & ~zero)[0]
-        raise AssetError(f"vpl_nodes.bin: VPL {i} node {k} has texels = 0 but is not all zeros")
+        raise AssetError(
+            f"vpl_nodes.bin: VPL {i} node {k} has texels = 0 but is not all zeros"
+        )
     levels = [(0, 4, 2), (4, 20, 4), (20, 84, 8)]
     for lo, hi, side in levels:
         lvl = tree[:, lo:hi]
@@ -374,7 +397,9 @@ def check_nodes(nodes: np.ndarray, vpls: np.ndarray) -> None:
                 for i in range(pside):
                     parent = tree["texels"][:, plo + j * pside + i].astype(np.int64)
                     kids = sum(
-                        tree["texels"][:, lo + (2 * j + b) * side + 2 * i + a].astype(np.int64)
+                        tree["texels"][:, lo + (2 * j + b) * side + 2 * i + a].astype(
+                            np.int64
+                        )
                         for a in (0, 1)
                         for b in (0, 1)
                     )
@@ -413,16 +438,20 @@ def read_exr(asset: str, name: str, width: int, height: int, channels: dict) -> 
     if h.get("compression") != OpenEXR.ZIP_COMPRESSION:
         raise AssetError(f"{name}: compression {h.get('compression')}, expected ZIP")
     if h.get("lineOrder") != OpenEXR.INCREASING_Y:
-        raise AssetError(f"{name}: line order {h.get('lineOrder')}, expected increasing y")
+        raise AssetError(
+            f"{name}: line order {h.get('lineOrder')}, expected increasing y"
+        )
     lo, hi = h["dataWindow"]
     if tuple(lo) != (0, 0) or tuple(hi) != (width - 1, height - 1):
         raise AssetError(
             f"{name}: data window {tuple(lo)}..{tuple(hi)}, expected (0, 0)..({width - 1}, {height - 1})"
         )
+    if h.get("name"):
+        raise AssetError(
+            f"{name}: the part is named {h['name']!r} (single layer, no name expected)"
+        )
+    # Unknown channels are ignored (a newer minor may add some).
     names = [c.name for c in h["channels"]]
-    layered = [n for n in names if n not in channels and "." in n and n.split(".")[0] not in ("flux",)]
-    if layered:
-        raise AssetError(f"{name}: unexpected layer channels {layered} (single layer expected)")
     out = {}
     chans = f.channels()
     for cname, ctype in channels.items():
@@ -431,9 +460,13 @@ def read_exr(asset: str, name: str, width: int, height: int, channels: dict) -> 
         px = chans[cname].pixels
         want = np.float32 if ctype == "f32" else np.uint32
         if px.dtype != want:
-            raise AssetError(f"{name}: channel {cname} is {px.dtype}, expected {np.dtype(want)}")
+            raise AssetError(
+                f"{name}: channel {cname} is {px.dtype}, expected {np.dtype(want)}"
+            )
         if px.shape != (height, width):
-            raise AssetError(f"{name}: channel {cname} is {px.shape}, expected {(height, width)}")
+            raise AssetError(
+                f"{name}: channel {cname} is {px.shape}, expected {(height, width)}"
+            )
         if ctype == "f32" and np.isnan(px).any():
             raise AssetError(f"{name}: channel {cname} holds NaN")
         out[cname] = px
@@ -456,7 +489,9 @@ def lv_metric(lv: dict, p: np.ndarray) -> np.ndarray:
     return np.linalg.norm(p - o, axis=-1)
 
 
-def lv_texel_coords(lv: dict, p: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+def lv_texel_coords(
+    lv: dict, p: np.ndarray, size: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Continuous texel coordinates (N, 2) of world points and clip w (N)."""
     vp = view_proj_matrix(lv)
     c = np.concatenate([p, np.ones((len(p), 1))], axis=1) @ vp.T
@@ -475,7 +510,12 @@ def lv_unproject(lv: dict, depth: np.ndarray) -> np.ndarray:
     inv = np.linalg.inv(view_proj_matrix(lv))
 
     def unproj(z: float) -> np.ndarray:
-        h = np.concatenate([ndc, np.full((len(ndc), 1), z), np.ones((len(ndc), 1))], axis=1) @ inv.T
+        h = (
+            np.concatenate(
+                [ndc, np.full((len(ndc), 1), z), np.ones((len(ndc), 1))], axis=1
+            )
+            @ inv.T
+        )
         return h[:, :3] / h[:, 3:4]
 
     o = np.array(lv["origin"], dtype=np.float64)
@@ -564,7 +604,11 @@ def check_light_view(m: dict, vpls: np.ndarray, primary: np.ndarray) -> str:
 
 
 def check_hemi_maps(
-    m: dict, vpls: np.ndarray, atlas: np.ndarray | None, primary: np.ndarray, show: int | None
+    m: dict,
+    vpls: np.ndarray,
+    atlas: np.ndarray | None,
+    primary: np.ndarray,
+    show: int | None,
 ) -> list[str]:
     """Recomputes each stored hemisphere map's lookups against the primary shadow map."""
     s = m["settings"]["vpl_map_size"]
@@ -588,9 +632,13 @@ def check_hemi_maps(
         if k == NO_MAP:
             continue
         col, row = k % cols, k // cols
-        tile = atlas[row * s : (row + 1) * s, col * s : (col + 1) * s].astype(np.float64)
+        tile = atlas[row * s : (row + 1) * s, col * s : (col + 1) * s].astype(
+            np.float64
+        )
         if np.isposinf(tile).all():
-            raise AssetError(f"vpl_maps.exr: VPL {i}'s map (tile {k}) sees no surface; it must be NO_MAP")
+            raise AssetError(
+                f"vpl_maps.exr: VPL {i}'s map (tile {k}) sees no surface; it must be NO_MAP"
+            )
         n = rec["normal"].astype(np.float64)
         origin = rec["position"].astype(np.float64) + n * VPL_ORIGIN_OFFSET * math.sqrt(
             max(float(rec["area"]), 0.0) / math.pi
@@ -618,7 +666,9 @@ def check_hemi_maps(
         met = lv_metric(lv, hp[inside])
         lo = neighbourhood(primary, pxy, np.minimum).astype(np.float64)
         foot = lv["texel_scale"] * (1.0 if lv["directional"] else np.maximum(met, 1e-6))
-        ok_b = met >= lo - (4 * foot + 1e-4 * np.abs(met) + tile[fin][inside] * 2.83 / s)
+        ok_b = met >= lo - (
+            4 * foot + 1e-4 * np.abs(met) + tile[fin][inside] * 2.83 / s
+        )
         hits += int(inside.sum())
         hits_ok += int(ok_b.sum())
         if show is None or show == i:
@@ -681,12 +731,20 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
             "rsm.exr",
             rs,
             rs,
-            {"Z": "f32", "flux.R": "f32", "flux.G": "f32", "flux.B": "f32", "vpl": "u32"},
+            {
+                "Z": "f32",
+                "flux.R": "f32",
+                "flux.G": "f32",
+                "flux.B": "f32",
+                "vpl": "u32",
+            },
         )
         idx = rsm["vpl"]
         ok = (idx < m["vpl_count"]) | (idx == NO_MAP)
         if not ok.all():
-            raise AssetError(f"rsm.exr: vpl index {int(idx[~ok][0])} >= vpl_count {m['vpl_count']}")
+            raise AssetError(
+                f"rsm.exr: vpl index {int(idx[~ok][0])} >= vpl_count {m['vpl_count']}"
+            )
         used = np.unique(idx[idx != NO_MAP])
         rsm_note = (
             f"rsm.exr {rs}²: {int(np.isfinite(rsm['Z']).sum())} surface texels, "
@@ -701,12 +759,18 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
     p = m["provenance"]
     out = [
         f"{asset}: gibake asset {m['major']}.{m['minor']}, manifest payload {m['payload_len']} bytes",
-        f"  baked by gibake {p['baker_version']} from {p['scene_name']} on {p['adapter']} "
-        f"({p['backend']}, {p['driver']})",
-        f"  settings: rsm {s['rsm_size']}², vpl maps {s['vpl_map_size']}², shadow map "
-        f"{s['shadow_map_size']}², threshold {s['threshold']}, vpl budget {s['vpl_budget']}",
-        f"  light: {'directional' if m['light_view']['directional'] else 'spot'}; "
-        f"{m['vpl_count']} VPLs, {m['map_count']} maps, dynamic {m['has_dynamic']}",
+        (
+            f"  baked by gibake {p['baker_version']} from {p['scene_name']} on {p['adapter']} "
+            f"({p['backend']}, {p['driver']})"
+        ),
+        (
+            f"  settings: rsm {s['rsm_size']}², vpl maps {s['vpl_map_size']}², shadow map "
+            f"{s['shadow_map_size']}², threshold {s['threshold']}, vpl budget {s['vpl_budget']}"
+        ),
+        (
+            f"  light: {'directional' if m['light_view']['directional'] else 'spot'}; "
+            f"{m['vpl_count']} VPLs, {m['map_count']} maps, dynamic {m['has_dynamic']}"
+        ),
         f"  files (manifest order): {', '.join(names)}; all sizes and BLAKE3 hashes match",
         f"  vpl_nodes.bin: {len(nodes)} nodes, level sums match",
         f"  {rsm_note}",
@@ -719,7 +783,12 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
 def main(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("asset", help="the NAME.gibake directory")
-    ap.add_argument("--vpl", type=int, default=None, help="VPL whose map lookup to print (default: the first with a map)")
+    ap.add_argument(
+        "--vpl",
+        type=int,
+        default=None,
+        help="VPL whose map lookup to print (default: the first with a map)",
+    )
     args = ap.parse_args(argv)
     try:
         lines = read_asset(args.asset, args.vpl)
