@@ -190,7 +190,8 @@ fn reader_refuses_damaged_assets() {
     assert_eq!(intact.code, Some(0), "the intact asset must pass\n{intact}");
 
     // (file flipped, byte offset, the file the message must name)
-    let cases: [(&str, fn(usize) -> usize, &str); 5] = [
+    type Damage = (&'static str, fn(usize) -> usize, &'static str);
+    let cases: [Damage; 5] = [
         ("vpl_maps.exr", |n| n / 2, "vpl_maps.exr"),
         ("primary_depth.exr", |n| n - 1, "primary_depth.exr"),
         ("vpls.bin", |_| 3, "vpls.bin"),
