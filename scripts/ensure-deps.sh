@@ -37,7 +37,8 @@ fi
 
 pkgs=()
 # A Vulkan driver: any ICD manifest counts (a real GPU's, or lavapipe's).
-if ! ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1; then
+# (`ls a/*.json b/*.json` fails when either directory has none, so test each.)
+if ! compgen -G '/usr/share/vulkan/icd.d/*.json' >/dev/null && ! compgen -G '/etc/vulkan/icd.d/*.json' >/dev/null; then
   pkgs+=(mesa-vulkan-drivers)
 fi
 if ! ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1'; then
