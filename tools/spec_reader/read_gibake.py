@@ -501,31 +501,33 @@ def lv_texel_coords(
 
 
 def lv_unproject(lv: dict, depth: np.ndarray) -> np.ndarray:
-    """World points of every texel centre of a light-view map with its metric."""
+    """World points of every texel centre of a light-view map with its metric.
+
+    A texel's ray is found by unprojecting its centre through the inverse of
+    `view_proj` at the clip depth of a point about as far as the texel's metric
+    (near the light, f32 matrix entries make the direction imprecise).
+    """
     size = depth.shape[0]
     ys, xs = np.mgrid[0:size, 0:size]
     u = (xs.ravel() + 0.5) / size
     v = (ys.ravel() + 0.5) / size
     ndc = np.stack([u * 2 - 1, 1 - v * 2], axis=1)
-    inv = np.linalg.inv(view_proj_matrix(lv))
-
-    def unproj(z: float) -> np.ndarray:
-        h = (
-            np.concatenate(
-                [ndc, np.full((len(ndc), 1), z), np.ones((len(ndc), 1))], axis=1
-            )
-            @ inv.T
-        )
-        return h[:, :3] / h[:, 3:4]
-
+    vp = view_proj_matrix(lv)
+    inv = np.linalg.inv(vp)
     o = np.array(lv["origin"], dtype=np.float64)
     dirn = np.array(lv["direction"], dtype=np.float64)
     m = depth.ravel().astype(np.float64)
-    # Reversed Z: ndc z = 1 is the near plane; 0.5 lies in front of any far plane.
-    near = unproj(1.0)
+    # Depth of reference: the texel's metric along the light's axis (1 where
+    # the texel is empty: any finite depth in front of the light works).
+    ref = np.where(np.isfinite(m) & (m > 0), m, 1.0)
+    axis = o + ref[:, None] * dirn
+    c = np.concatenate([axis, np.ones((len(axis), 1))], axis=1) @ vp.T
+    z = c[:, 2] / c[:, 3]
+    h = np.concatenate([ndc, z[:, None], np.ones((len(ndc), 1))], axis=1) @ inv.T
+    on_ray = h[:, :3] / h[:, 3:4]
     if lv["directional"]:
-        return near + (m - (near - o) @ dirn)[:, None] * dirn
-    ray = near - o
+        return on_ray + (m - (on_ray - o) @ dirn)[:, None] * dirn
+    ray = on_ray - o
     ray /= np.linalg.norm(ray, axis=1, keepdims=True)
     return o + m[:, None] * ray
 
@@ -603,6 +605,63 @@ def check_light_view(m: dict, vpls: np.ndarray, primary: np.ndarray) -> str:
     return f"{len(vpls)} VPL positions on the primary shadow map's surface"
 
 
+def check_rsm_vpls(m: dict, vpls: np.ndarray, rsm: dict) -> str:
+    """The RSM's `vpl` channel against vpls.bin: each VPL's `texels` is the
+    number of RSM texels clustered into it, its flux their sum, and its
+    position the world point of the one of them nearest to their flux-weighted
+    centroid."""
+    lv = m["light_view"]
+    size = rsm["Z"].shape[0]
+    idx = rsm["vpl"].ravel()
+    counts = np.bincount(idx[idx != NO_MAP], minlength=len(vpls))
+    if not np.array_equal(counts, vpls["texels"].astype(np.int64)):
+        i = int(np.argmax(counts != vpls["texels"]))
+        raise AssetError(
+            f"rsm.exr: {counts[i]} texels name VPL {i}, whose record says texels = "
+            f"{vpls['texels'][i]}"
+        )
+    flux = np.stack(
+        [rsm["flux.R"].ravel(), rsm["flux.G"].ravel(), rsm["flux.B"].ravel()], axis=1
+    ).astype(np.float64)
+    points = lv_unproject(lv, rsm["Z"])
+    order = np.argsort(idx, kind="stable")
+    starts = np.searchsorted(idx[order], np.arange(len(vpls) + 1))
+    tc, _ = lv_texel_coords(lv, vpls["position"].astype(np.float64), size)
+    for i in range(len(vpls)):
+        sel = order[starts[i] : starts[i + 1]]
+        total = flux[sel].sum(axis=0)
+        ref = vpls["flux"][i].astype(np.float64)
+        if (np.abs(total - ref) > 1e-4 * np.abs(ref) + 1e-12).any():
+            raise AssetError(
+                f"rsm.exr: the flux of VPL {i}'s texels sums to {total.tolist()}, "
+                f"vpls.bin says {ref.tolist()}"
+            )
+        x, y = (int(c) for c in np.floor(tc[i]))
+        if not (0 <= x < size and 0 <= y < size) or idx[y * size + x] != i:
+            raise AssetError(
+                f"vpls.bin: VPL {i}'s position does not project onto one of its own "
+                f"RSM texels (texel {x}, {y})"
+            )
+        w = flux[sel].sum(axis=1)
+        centroid = (points[sel] * w[:, None]).sum(axis=0) / w.sum()
+        dist = np.linalg.norm(points[sel] - centroid, axis=1)
+        own = np.linalg.norm(points[y * size + x] - centroid)
+        metric = float(rsm["Z"][y, x])
+        foot = lv["texel_scale"] * (1.0 if lv["directional"] else metric)
+        pos = vpls["position"][i].astype(np.float64)
+        if own > dist.min() + 1e-3 * foot or np.linalg.norm(
+            points[y * size + x] - pos
+        ) > 1e-2 * foot + 1e-5 * np.linalg.norm(pos):
+            raise AssetError(
+                f"vpls.bin: VPL {i}'s position {pos.tolist()} is not its RSM texel "
+                "nearest to the flux-weighted centroid"
+            )
+    return (
+        f"{len(vpls)} VPLs: texel counts, flux sums and positions match their "
+        "RSM texels"
+    )
+
+
 def check_hemi_maps(
     m: dict,
     vpls: np.ndarray,
@@ -625,6 +684,9 @@ def check_hemi_maps(
     if (atlas < 0).any():
         raise AssetError("vpl_maps.exr: a negative distance")
     surf = lv_unproject(lv, primary)[np.isfinite(primary.ravel())]
+    # A deterministic subset keeps large assets quick (every map still sees
+    # thousands of points).
+    surf = surf[:: max(1, -(-len(surf) // 20000))]
     size = primary.shape[0]
     pairs = near_ok = hits = hits_ok = 0
     for i, rec in enumerate(vpls):
@@ -745,10 +807,9 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
             raise AssetError(
                 f"rsm.exr: vpl index {int(idx[~ok][0])} >= vpl_count {m['vpl_count']}"
             )
-        used = np.unique(idx[idx != NO_MAP])
         rsm_note = (
-            f"rsm.exr {rs}²: {int(np.isfinite(rsm['Z']).sum())} surface texels, "
-            f"{len(used)} VPLs referenced"
+            f"rsm.exr {rs}²: {int(np.isfinite(rsm['Z']).sum())} surface texels; "
+            + check_rsm_vpls(m, vpls, rsm)
         )
     if show_vpl is not None and not 0 <= show_vpl < len(vpls):
         raise AssetError(f"--vpl {show_vpl}: the asset has {len(vpls)} VPLs")
