@@ -12,6 +12,8 @@ another language. It
   map layers, the near-field tree's sums),
 - reads the EXR maps (header: single part, scan lines, ZIP, dimensions,
   channels; pixels: no NaN, atlas tiles, RSM `vpl` indices),
+- checks the RSM against the VPLs (texel counts, flux sums, each position at
+  its texel nearest to the flux-weighted centroid),
 - recomputes map lookups: the light view (VPL positions land on the primary
   shadow map's surface) and each stored hemisphere map (surface points
   reconstructed from the primary shadow map are not nearer to the VPL than
