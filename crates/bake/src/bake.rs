@@ -10,7 +10,7 @@ use gibake_asset::{
 use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::passes::shadow::ShadowPass;
 use gibake_gpu::{GpuContext, LightView, readback};
-use gibake_reference::RayScene;
+use gibake_raycast::RayScene;
 use gibake_scene::Scene;
 
 use crate::cluster::{ClusterTarget, NO_VPL, cluster};
