@@ -92,6 +92,8 @@ pub fn load_from_slice(
     }
 }
 
+/// The whole import, stage by stage (see the module docs); runs under
+/// [`load_from_slice`]'s `catch_unwind`.
 fn import(bytes: &[u8], path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
     let bytes = check_glb_header(bytes, path)?;
     let gltf_err = |source| SceneError::Gltf {
@@ -133,6 +135,9 @@ struct PrimData {
     material: usize,
 }
 
+/// The state of one import: the parsed document, its loaded buffers, the
+/// warnings gathered so far and the budgets charged against [`Limits`].
+/// Each submodule adds the methods of its stage.
 struct Ctx<'a> {
     path: &'a Path,
     base: PathBuf,
