@@ -12,7 +12,7 @@
 use gibake_bake::cluster::{ClusterTarget, cluster};
 use gibake_bake::rsm::render_rsm;
 use gibake_gpu::{LightView, hemisphere};
-use gibake_reference::RayScene;
+use gibake_raycast::RayScene;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -181,7 +181,7 @@ fn main() {
                         }
                         let o2 = rays.offset_point(h.position, h.geometric_normal);
                         if let Some(y2) = rays.intersect(o2, dl, f32::INFINITY) {
-                            s += rays.direct_radiance(&y2);
+                            s += gibake_reference::direct_radiance(&rays, &y2);
                         }
                     }
                 }

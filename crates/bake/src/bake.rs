@@ -4,16 +4,17 @@
 use std::time::Instant;
 
 use gibake_asset::{
-    Asset, BakeSettings, LightViewRecord, MAX_SHARDS, Manifest, Map, NO_MAP, Provenance, RsmData,
-    ShardMaps, ShardPart, VplRecord, assign_map_layers, shard_range,
+    Asset, BakeSettings, MAX_SHARDS, Manifest, Map, NO_MAP, Provenance, RsmData, ShardMaps,
+    ShardPart, VplRecord, assign_map_layers, shard_range,
 };
 use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::passes::shadow::ShadowPass;
 use gibake_gpu::{GpuContext, LightView, readback};
-use gibake_reference::RayScene;
+use gibake_raycast::RayScene;
 use gibake_scene::Scene;
 
 use crate::cluster::{ClusterTarget, NO_VPL, cluster};
+use crate::light_view::light_view_record;
 use crate::rsm::render_rsm;
 
 /// What to bake.
@@ -319,14 +320,7 @@ fn bake_with(
             },
         },
         static_scene_hash: gibake_scene::static_scene_hash(scene),
-        light_view: LightViewRecord {
-            directional: view.directional,
-            view_proj: view.view_proj.to_cols_array(),
-            origin: view.origin.to_array(),
-            direction: view.direction.to_array(),
-            texel_scale: view.texel_scale,
-            texel_area: view.texel_area,
-        },
+        light_view: light_view_record(&view),
         vpl_count: vpls.len() as u32,
         map_count,
         has_dynamic,
@@ -344,18 +338,4 @@ fn bake_with(
         rsm: rsm_data,
     };
     Ok((BakeOutput { asset, stages }, shard_maps))
-}
-
-/// The light view stored in an asset (for `shadow_map_size`).
-pub fn light_view_of(m: &Manifest) -> LightView {
-    let r = &m.light_view;
-    LightView {
-        directional: r.directional,
-        view_proj: glam::Mat4::from_cols_array(&r.view_proj),
-        origin: glam::Vec3::from_array(r.origin),
-        direction: glam::Vec3::from_array(r.direction),
-        texel_scale: r.texel_scale,
-        size: m.settings.shadow_map_size,
-        texel_area: r.texel_area,
-    }
 }

@@ -16,6 +16,7 @@
 pub mod bake;
 pub mod budget;
 pub mod cluster;
+pub mod light_view;
 pub mod near_field;
 pub mod rsm;
 pub mod uptodate;
@@ -23,7 +24,8 @@ pub mod vplmap;
 
 pub use bake::{
     BakeError, BakeOptions, BakeOutput, BakeProgress, NoProgress, Shard, ShardOutput, StageTime,
-    bake, bake_shard, light_view_of, static_only,
+    bake, bake_shard, static_only,
 };
 pub use gibake_scene::static_scene_hash;
+pub use light_view::{light_view_from_record, light_view_of, light_view_record};
 pub use uptodate::{Freshness, check_up_to_date};

@@ -2,7 +2,7 @@
 //! the CPU for clustering.
 
 use gibake_gpu::LightView;
-use gibake_reference::RayScene;
+use gibake_raycast::RayScene;
 use gibake_scene::Light;
 use glam::Vec3;
 use rayon::prelude::*;

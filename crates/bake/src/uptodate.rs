@@ -134,13 +134,7 @@ pub fn differences(
         // Same light and settings: the light view differs only when the
         // moving objects' swept bounds changed the fitted frustum.
         let v = LightView::new(&scene.light, &scene.full_bounds(), opts.shadow_map_size);
-        let lv = &m.light_view;
-        let same = lv.directional == v.directional
-            && lv.view_proj == v.view_proj.to_cols_array()
-            && lv.origin == v.origin.to_array()
-            && lv.direction == v.direction.to_array()
-            && lv.texel_scale == v.texel_scale
-            && lv.texel_area == v.texel_area;
+        let same = crate::light_view::light_view_record(&v) == m.light_view;
         if !same {
             r.push("the light's view changed (the moving objects' swept bounds changed)".into());
         }

@@ -6,7 +6,7 @@
 
 use gibake_asset::VplRecord;
 use gibake_gpu::hemisphere;
-use gibake_reference::RayScene;
+use gibake_raycast::RayScene;
 use glam::Vec3;
 use rayon::prelude::*;
 

@@ -1,25 +1,27 @@
-//! `gibake-reference`: the independent CPU physics reference of gibake.
+//! `gibake-reference`: the CPU physics reference of gibake.
 //!
 //! A small path tracer over a [`gibake_scene::Scene`], limited to path depth 2
 //! ([`Depth::Direct`]: light → surface → eye) or 3 ([`Depth::OneBounce`]:
-//! light → surface → surface → eye). It shares no code with the GPU renderer
-//! except the scene importer and follows the same written conventions (see
-//! `docs/reference.md`):
+//! light → surface → surface → eye). It shares no code with the GPU renderer;
+//! with the bake it shares the scene importer (`gibake-scene`) and the ray
+//! caster (`gibake-raycast`), nothing of the light transport. It follows the
+//! same written conventions as the renderer (see `docs/reference.md`):
 //!
 //! - camera rays as in [`View`] (box pixel filter, `spp` jittered samples per
 //!   pixel, stratified on a √spp grid, averaged); a miss is black;
 //! - two-sided Lambertian surfaces, BRDF = albedo/π; the geometric normal is
 //!   flipped to face the ray origin and the shading normal with it;
 //! - the primary light is a delta light (spot or directional,
-//!   [`RayScene::irradiance`]), never seen directly; shadow rays are exact;
+//!   [`irradiance`]), never seen directly; shadow rays are exact;
 //! - one bounce: a cosine-weighted direction about the shading normal (0 if
 //!   below the geometric hemisphere), contribution `albedo(x) · L_direct(y)`;
 //! - scale-invariant ray offsets (no epsilon in scene units), deterministic
 //!   results independent of the thread count, never NaN or ∞.
 //!
-//! Ray casting uses an obvhs CWBVH ([`RayScene`]).
+//! Ray casting is [`gibake_raycast`]'s [`RayScene`] (an obvhs CWBVH),
+//! re-exported here; the direct-light estimate on top of it is [`direct`].
 
-mod rayscene;
+pub mod direct;
 mod rng;
 pub mod scenes;
 mod view;
@@ -32,7 +34,8 @@ use gibake_scene::Scene;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-pub use rayscene::{Hit, RayScene};
+pub use direct::{direct_radiance, irradiance};
+pub use gibake_raycast::{Hit, RayScene};
 pub use view::View;
 
 use rng::{Pcg32, cosine_hemisphere};
@@ -248,7 +251,7 @@ fn render_pixel(rs: &RayScene<'_>, view: &View, s: &Settings, x: u32, y: u32) ->
         let (origin, dir, t_min) = view.primary_ray(s.width, s.height, px, py);
         sum += sample_radiance(rs, origin, dir, t_min, s.depth, &mut rng).as_dvec3();
     }
-    rayscene::sanitize(sum / s.spp as f64)
+    gibake_raycast::sanitize(sum / s.spp as f64)
 }
 
 /// Radiance along one camera ray: direct light at the first hit plus, for
@@ -264,7 +267,7 @@ fn sample_radiance(
     let Some(hit) = rs.intersect_range(origin, dir, t_min, f32::INFINITY) else {
         return Vec3::ZERO;
     };
-    let mut l = rs.direct_radiance(&hit);
+    let mut l = direct_radiance(rs, &hit);
     if depth == Depth::OneBounce {
         let (u1, u2) = (rng.next_f32(), rng.next_f32());
         if hit.albedo != Vec3::ZERO {
@@ -272,10 +275,10 @@ fn sample_radiance(
             if hit.geometric_normal.dot(d) > 0.0 {
                 let o = rs.offset_point(hit.position, hit.geometric_normal);
                 if let Some(y) = rs.intersect(o, d, f32::INFINITY) {
-                    l += hit.albedo * rs.direct_radiance(&y);
+                    l += hit.albedo * direct_radiance(rs, &y);
                 }
             }
         }
     }
-    rayscene::sanitize(l.as_dvec3())
+    gibake_raycast::sanitize(l.as_dvec3())
 }

@@ -1,6 +1,26 @@
-//! Ray casting over a [`Scene`] at one time: an obvhs compressed wide BVH
-//! (CWBVH) over every triangle, watertight ray/triangle tests, robust ray
-//! offsets, and the direct-light estimate with its shadow ray.
+//! `gibake-raycast`: CPU ray casting over a [`Scene`] at one time: an obvhs
+//! compressed wide BVH (CWBVH) over every triangle, watertight ray/triangle
+//! tests, robust ray offsets, and the closest-hit / any-hit / visibility
+//! queries built on them ([`RayScene`]).
+//!
+//! # Who uses it, and what that shares
+//! Two crates cast rays on the CPU: the bake (`gibake-bake`: the reflective
+//! shadow map is ray traced from the light, the VPL hemisphere maps measure
+//! distances with rays) and the physics reference (`gibake-reference`: camera,
+//! shadow and bounce rays). Both use this crate, so the product and its judge
+//! share the scene importer *and* the geometry queries: a bug here (a missed
+//! hit, a wrong normal, a leaking offset) would move both the same way and an
+//! image comparison between them could not see it. What the judge does *not*
+//! share with the bake is everything above the queries: the light transport
+//! (the reference's direct-light estimate, its shadow rays and the bounce
+//! integral live in `gibake-reference`), the GPU renderer and the VPL maps.
+//! The queries themselves are checked against closed-form answers that do not
+//! come from any renderer: the tests of this crate (`tests/analytic.rs`: hit
+//! distances, normals and barycentrics on known triangles, shared edges,
+//! scale invariance) and the analytic scenes of
+//! `crates/reference/tests/physics.rs` (inverse-square spot, exact shadow
+//! edge, closed box, quadrature of a one-bounce integral). See
+//! `docs/reference.md`.
 //!
 //! # Scale invariance
 //! Triangles are stored multiplied by a power of two `k` chosen so that the
@@ -22,7 +42,7 @@
 //! - Zero-area and non-finite triangles are dropped at build time; missing or
 //!   degenerate shading normals fall back to the geometric normal.
 
-use gibake_scene::{LightKind, Scene};
+use gibake_scene::Scene;
 use glam::{DVec3, Mat3, Vec2, Vec3, Vec3A};
 use obvhs::{
     BvhBuildParams,
@@ -118,7 +138,7 @@ fn offset_ray_scaled(p: Vec3, n: Vec3) -> Vec3 {
 }
 
 /// Replaces NaN by 0 and clamps ±∞ to ±`f32::MAX`, per component.
-pub(crate) fn sanitize(v: DVec3) -> Vec3 {
+pub fn sanitize(v: DVec3) -> Vec3 {
     let f = |x: f64| -> f32 {
         if x.is_nan() {
             0.0
@@ -214,8 +234,8 @@ impl<'s> RayScene<'s> {
     ///
     /// Never panics on bad data: triangles with an index out of range, a
     /// non-finite vertex or zero area are skipped; a mesh whose material index
-    /// is out of range gets albedo 0 ([`crate::render`] reports both as errors
-    /// before building).
+    /// is out of range gets albedo 0 (`gibake_reference::render` reports both
+    /// as errors before building).
     pub fn build(scene: &'s Scene, time: f32) -> RayScene<'s> {
         let meshes = scene.meshes_at(time);
         // World-space triangles first, to find the scale.
@@ -507,71 +527,12 @@ impl<'s> RayScene<'s> {
         !self.occluded(a2, seg / len, len)
     }
 
-    /// Irradiance `E` (W/m², RGB) arriving from the primary light at surface
-    /// point `p` with geometric normal `ng` and shading normal `ns`, shadowed.
-    /// Zero when the light is behind the geometric normal (`dot(ng, ω) ≤ 0`).
-    ///
-    /// Spot: `E = I · spot_attenuation(−ω) · max(0, ns·ω) / d²`.
-    /// Directional: `ω = −direction`, `E = E₀ · max(0, ns·ω)`.
-    pub fn irradiance(&self, p: Vec3, ng: Vec3, ns: Vec3) -> Vec3 {
-        let light = &self.scene.light;
-        match light.kind {
-            LightKind::Spot { .. } => {
-                let l = light.position - p;
-                let d2 = l.as_dvec3().length_squared();
-                if !(d2 > 0.0 && d2.is_finite()) {
-                    return Vec3::ZERO;
-                }
-                let d = d2.sqrt();
-                let w = (l.as_dvec3() / d).as_vec3();
-                let cos_g = ng.dot(w);
-                let cos_s = ns.dot(w).max(0.0);
-                if cos_g.is_nan() || cos_g <= 0.0 || cos_s <= 0.0 {
-                    return Vec3::ZERO;
-                }
-                let att = light.spot_attenuation(-w);
-                if att.is_nan() || att <= 0.0 {
-                    return Vec3::ZERO;
-                }
-                let origin = self.offset_point(p, ng);
-                let to_light = light.position - origin;
-                let dist = to_light.length();
-                if !(dist > 0.0 && dist.is_finite()) {
-                    return Vec3::ZERO;
-                }
-                // Stop short of the light by ~512 ULPs of its (scaled) coordinates,
-                // so a light lying on a surface is not shadowed by that surface.
-                let lp = (light.position * self.scale)
-                    .abs()
-                    .max_element()
-                    .max(1.0 / 32.0);
-                let stop = lp * pow2(-14) * self.inv_scale;
-                let t_max = dist - stop;
-                if t_max > 0.0 && self.occluded(origin, to_light / dist, t_max) {
-                    return Vec3::ZERO;
-                }
-                sanitize(light.color.as_dvec3() * (att as f64 * cos_s as f64 / d2))
-            }
-            LightKind::Directional => {
-                let w = (-light.direction).normalize_or_zero();
-                let cos_g = ng.dot(w);
-                let cos_s = ns.dot(w).max(0.0);
-                if cos_g.is_nan() || cos_g <= 0.0 || cos_s <= 0.0 {
-                    return Vec3::ZERO;
-                }
-                let origin = self.offset_point(p, ng);
-                if self.occluded(origin, w, f32::INFINITY) {
-                    return Vec3::ZERO;
-                }
-                sanitize(light.color.as_dvec3() * cos_s as f64)
-            }
-        }
-    }
-
-    /// Outgoing radiance at `hit` due to the primary light alone:
-    /// `albedo/π · E` ([`RayScene::irradiance`], with the hit's normals).
-    pub fn direct_radiance(&self, hit: &Hit) -> Vec3 {
-        let e = self.irradiance(hit.position, hit.geometric_normal, hit.shading_normal);
-        sanitize(hit.albedo.as_dvec3() * std::f64::consts::FRAC_1_PI * e.as_dvec3())
+    /// How far short of `target` a shadow ray toward it stops: about 512
+    /// ULPs of the target's (scaled) coordinates, at least `2⁻¹⁹` of the
+    /// scene scale, so a light lying on a surface is not shadowed by that
+    /// surface. Scale-invariant like every other offset here.
+    pub fn end_margin(&self, target: Vec3) -> f32 {
+        let lp = (target * self.scale).abs().max_element().max(1.0 / 32.0);
+        lp * pow2(-14) * self.inv_scale
     }
 }

@@ -1,0 +1,72 @@
+//! The reference's direct-light estimate: irradiance from the primary light
+//! at a surface point with its exact shadow ray, and the outgoing radiance
+//! `albedo/π · E`. This is light transport, so it lives here and not in the
+//! ray caster that the bake shares (`gibake-raycast`).
+
+use gibake_raycast::{Hit, RayScene, sanitize};
+use gibake_scene::LightKind;
+use glam::Vec3;
+
+/// Irradiance `E` (W/m², RGB) arriving from the primary light of `rs`'s scene
+/// at surface point `p` with geometric normal `ng` and shading normal `ns`,
+/// shadowed. Zero when the light is behind the geometric normal
+/// (`dot(ng, ω) ≤ 0`).
+///
+/// Spot: `E = I · spot_attenuation(−ω) · max(0, ns·ω) / d²`.
+/// Directional: `ω = −direction`, `E = E₀ · max(0, ns·ω)`.
+pub fn irradiance(rs: &RayScene<'_>, p: Vec3, ng: Vec3, ns: Vec3) -> Vec3 {
+    let light = &rs.scene().light;
+    match light.kind {
+        LightKind::Spot { .. } => {
+            let l = light.position - p;
+            let d2 = l.as_dvec3().length_squared();
+            if !(d2 > 0.0 && d2.is_finite()) {
+                return Vec3::ZERO;
+            }
+            let d = d2.sqrt();
+            let w = (l.as_dvec3() / d).as_vec3();
+            let cos_g = ng.dot(w);
+            let cos_s = ns.dot(w).max(0.0);
+            if cos_g.is_nan() || cos_g <= 0.0 || cos_s <= 0.0 {
+                return Vec3::ZERO;
+            }
+            let att = light.spot_attenuation(-w);
+            if att.is_nan() || att <= 0.0 {
+                return Vec3::ZERO;
+            }
+            let origin = rs.offset_point(p, ng);
+            let to_light = light.position - origin;
+            let dist = to_light.length();
+            if !(dist > 0.0 && dist.is_finite()) {
+                return Vec3::ZERO;
+            }
+            // Stop a few ULPs short of the light, so a light lying on a
+            // surface is not shadowed by that surface.
+            let t_max = dist - rs.end_margin(light.position);
+            if t_max > 0.0 && rs.occluded(origin, to_light / dist, t_max) {
+                return Vec3::ZERO;
+            }
+            sanitize(light.color.as_dvec3() * (att as f64 * cos_s as f64 / d2))
+        }
+        LightKind::Directional => {
+            let w = (-light.direction).normalize_or_zero();
+            let cos_g = ng.dot(w);
+            let cos_s = ns.dot(w).max(0.0);
+            if cos_g.is_nan() || cos_g <= 0.0 || cos_s <= 0.0 {
+                return Vec3::ZERO;
+            }
+            let origin = rs.offset_point(p, ng);
+            if rs.occluded(origin, w, f32::INFINITY) {
+                return Vec3::ZERO;
+            }
+            sanitize(light.color.as_dvec3() * cos_s as f64)
+        }
+    }
+}
+
+/// Outgoing radiance at `hit` due to the primary light alone:
+/// `albedo/π · E` ([`irradiance`], with the hit's normals).
+pub fn direct_radiance(rs: &RayScene<'_>, hit: &Hit) -> Vec3 {
+    let e = irradiance(rs, hit.position, hit.geometric_normal, hit.shading_normal);
+    sanitize(hit.albedo.as_dvec3() * std::f64::consts::FRAC_1_PI * e.as_dvec3())
+}

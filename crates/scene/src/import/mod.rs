@@ -1,0 +1,351 @@
+//! glTF → [`Scene`].
+//!
+//! The file is parsed and validated by the `gltf` crate; everything after that
+//! (buffer loading, accessor reading, hierarchy checks) is done here with
+//! checked arithmetic, so that malformed input gives a [`SceneError`] naming
+//! the file and never a panic. As a last line of defence the whole import runs
+//! under `catch_unwind`.
+//!
+//! The stages, in the order [`load`] runs them, one submodule each:
+//! - [`precheck`]: the GLB header and what gltf-json's validation would
+//!   choke on (required extensions, unchecked indices);
+//! - [`uri`] and [`accessors`]: buffers (blob, external files, data URIs),
+//!   buffer views and accessors, against the element budget;
+//! - [`nodes`] and [`animation`]: the node hierarchy and rest matrices, the
+//!   animation channels (sampled later by [`crate::Animator`]);
+//! - this module's `Ctx::build`: the traversal that decides what is static
+//!   and what moves, then assembles the [`Scene`];
+//! - [`lights`] and [`cameras`]: the primary light and the camera;
+//! - [`meshes`], [`materials`] and [`textures`]: primitives, materials and
+//!   their decoded base-colour images.
+//!
+//! `Ctx` holds the per-import state; each submodule adds the methods of its
+//! stage to it.
+
+mod accessors;
+mod animation;
+mod cameras;
+mod lights;
+mod materials;
+mod meshes;
+mod nodes;
+mod precheck;
+mod textures;
+mod uri;
+
+use std::cell::Cell;
+use std::collections::HashMap;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::{Path, PathBuf};
+
+use glam::{Vec2, Vec3};
+use gltf::json;
+
+use crate::animation::Animator;
+use crate::limits::{self, FileRefusal, Limits};
+use crate::mesh::compute_normals;
+use crate::{Aabb, DynamicObject, Material, Mesh, Scene, SceneError, Texture};
+use nodes::extras_dynamic;
+use precheck::{check_glb_header, precheck};
+
+/// Options for [`load`].
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    /// Pick the primary light by name when the file has several candidates.
+    pub light: Option<String>,
+    /// Resource budgets (file sizes, accessor elements, texels, animation
+    /// work, where external URIs may point).
+    pub limits: Limits,
+}
+
+/// Loads a `.gltf` (with its external buffers/images) or `.glb` file.
+pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+    let bytes =
+        limits::read_regular(path, options.limits.max_input_bytes).map_err(|e| match e {
+            FileRefusal::Io(source) => SceneError::Io {
+                path: path.to_path_buf(),
+                source,
+            },
+            e => SceneError::Invalid {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            },
+        })?;
+    load_from_slice(&bytes, path, options)
+}
+
+/// Loads a glTF held in memory. `path` is used for messages and to resolve
+/// relative URIs of external buffers and images.
+pub fn load_from_slice(
+    bytes: &[u8],
+    path: &Path,
+    options: &LoadOptions,
+) -> Result<Scene, SceneError> {
+    match catch_unwind(AssertUnwindSafe(|| import(bytes, path, options))) {
+        Ok(result) => result,
+        Err(_) => Err(SceneError::Invalid {
+            path: path.to_path_buf(),
+            message:
+                "internal error while importing this file (a bug in gibake-scene, please report it)"
+                    .into(),
+        }),
+    }
+}
+
+/// The whole import, stage by stage (see the module docs); runs under
+/// [`load_from_slice`]'s `catch_unwind`.
+fn import(bytes: &[u8], path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+    let bytes = check_glb_header(bytes, path)?;
+    let gltf_err = |source| SceneError::Gltf {
+        path: path.to_path_buf(),
+        source,
+    };
+    // Parse, run our own checks on what the gltf crate's validation would
+    // choke on (or reject for the wrong reason), then validate.
+    let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_err)?;
+    let gltf::Gltf { document, blob } = gltf;
+    let mut root = document.into_json();
+    precheck(&mut root, path)?;
+    let document = gltf::Document::from_json(root).map_err(gltf_err)?;
+    let base = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let mut ctx = Ctx {
+        path,
+        base,
+        document: &document,
+        root: document.as_json(),
+        buffers: Vec::new(),
+        warnings: Vec::new(),
+        limits: &options.limits,
+        elements_read: Cell::new(0),
+        texels_decoded: Cell::new(0),
+    };
+    ctx.load_buffers(blob)?;
+    ctx.build(options)
+}
+
+/// One primitive's data as read from the file (node-local space).
+struct PrimData {
+    positions: Vec<Vec3>,
+    normals: Option<Vec<Vec3>>,
+    uvs: Option<Vec<Vec2>>,
+    indices: Vec<u32>,
+    material: usize,
+}
+
+/// The state of one import: the parsed document, its loaded buffers, the
+/// warnings gathered so far and the budgets charged against [`Limits`].
+/// Each submodule adds the methods of its stage.
+struct Ctx<'a> {
+    path: &'a Path,
+    base: PathBuf,
+    document: &'a gltf::Document,
+    root: &'a json::Root,
+    buffers: Vec<gltf::buffer::Data>,
+    warnings: Vec<String>,
+    limits: &'a Limits,
+    /// Accessor elements read so far (against `limits.max_elements`).
+    elements_read: Cell<u64>,
+    /// Texels decoded so far (against `limits.max_texels`).
+    texels_decoded: Cell<u64>,
+}
+
+/// Per-import state for materials and textures.
+#[derive(Default)]
+struct MaterialTable {
+    materials: Vec<Material>,
+    textures: Vec<Texture>,
+    /// (glTF material, textured) → scene material.
+    by_key: HashMap<(Option<usize>, bool), usize>,
+    /// glTF image → scene texture.
+    by_image: HashMap<usize, usize>,
+    warned_inputs: bool,
+}
+
+impl<'a> Ctx<'a> {
+    fn invalid(&self, message: impl Into<String>) -> SceneError {
+        SceneError::Invalid {
+            path: self.path.to_path_buf(),
+            message: message.into(),
+        }
+    }
+
+    fn acc_err(&self, name: &str, acc: usize, what: &str, e: String) -> SceneError {
+        self.invalid(format!("mesh {name}: {what} (accessor {acc}): {e}"))
+    }
+
+    fn not_supported(&self, message: impl Into<String>) -> SceneError {
+        SceneError::NotSupported {
+            path: self.path.to_path_buf(),
+            message: message.into(),
+        }
+    }
+
+    fn warn(&mut self, message: impl Into<String>) {
+        let message = message.into();
+        tracing::warn!("{}: {}", self.path.display(), message);
+        self.warnings.push(message);
+    }
+
+    fn node_name(&self, i: usize) -> String {
+        match self.root.nodes.get(i).and_then(|n| n.name.as_deref()) {
+            Some(n) => format!("'{n}'"),
+            None => format!("#{i}"),
+        }
+    }
+
+    fn mesh_name(&self, i: usize) -> String {
+        match self.root.meshes.get(i).and_then(|n| n.name.as_deref()) {
+            Some(n) => n.to_string(),
+            None => format!("mesh #{i}"),
+        }
+    }
+
+    fn build(mut self, options: &LoadOptions) -> Result<Scene, SceneError> {
+        let root = self.root;
+        let scene_index = match root.scene {
+            Some(s) => s.value(),
+            None if !root.scenes.is_empty() => 0,
+            None => return Err(self.invalid("the file has no scene")),
+        };
+        let scene = root
+            .scenes
+            .get(scene_index)
+            .ok_or_else(|| self.invalid(format!("scene {scene_index} does not exist")))?;
+
+        let parents = self.parents()?;
+        let rest = self.rest_matrices()?;
+        let channels = self.channels()?;
+        let total_keys: u64 = channels.iter().map(|c| c.times.len() as u64).sum();
+        let animator = Animator::new(parents.clone(), rest, channels);
+
+        // Depth-first traversal in document order, computing dynamic flags.
+        let n = root.nodes.len();
+        let mut order = Vec::new();
+        let mut dynamic = vec![false; n];
+        let mut visited = vec![false; n];
+        let mut stack: Vec<(usize, bool)> = Vec::new();
+        for r in scene.nodes.iter().rev() {
+            let r = r.value();
+            if r >= n {
+                return Err(self.invalid(format!(
+                    "scene {scene_index} lists node {r}, which does not exist"
+                )));
+            }
+            if let Some(p) = parents[r] {
+                return Err(self.invalid(format!(
+                    "scene root node {} is also a child of node {}",
+                    self.node_name(r),
+                    self.node_name(p)
+                )));
+            }
+            stack.push((r, false));
+        }
+        while let Some((v, parent_dynamic)) = stack.pop() {
+            if visited[v] {
+                continue;
+            }
+            visited[v] = true;
+            let d =
+                parent_dynamic || extras_dynamic(&root.nodes[v].extras) || animator.is_animated(v);
+            dynamic[v] = d;
+            order.push(v);
+            for c in root.nodes[v].children.iter().flatten().rev() {
+                stack.push((c.value(), d));
+            }
+        }
+
+        let light = self.primary_light(&order, &dynamic, &animator, options)?;
+        let camera = self.camera(&order)?;
+
+        let mut table = MaterialTable::default();
+        let mut static_meshes = Vec::new();
+        let mut dynamic_meshes = Vec::new();
+        let mut dynamic_objects = Vec::new();
+        for &v in &order {
+            let node = &root.nodes[v];
+            let Some(mesh_index) = node.mesh.map(|m| m.value()) else {
+                continue;
+            };
+            if node.skin.is_some() {
+                self.warn(format!(
+                    "node {}: skin ignored, the mesh is rendered rigid",
+                    self.node_name(v)
+                ));
+            }
+            let node_label = match &node.name {
+                Some(nm) => nm.clone(),
+                None => format!("node #{v}"),
+            };
+            let prims = self.read_mesh(mesh_index, &node_label, &mut table)?;
+            if dynamic[v] {
+                let mut object = DynamicObject {
+                    name: node_label.clone(),
+                    node: v,
+                    meshes: Vec::new(),
+                    local_bounds: Aabb::EMPTY,
+                };
+                for (name, p) in prims {
+                    for &q in &p.positions {
+                        object.local_bounds.grow(q);
+                    }
+                    let normals = match p.normals {
+                        Some(nr) => nr,
+                        None => compute_normals(&p.positions, &p.indices),
+                    };
+                    object.meshes.push(dynamic_meshes.len());
+                    dynamic_meshes.push(Mesh {
+                        name,
+                        positions: p.positions,
+                        normals,
+                        uvs: p.uvs,
+                        indices: p.indices,
+                        material: p.material,
+                    });
+                }
+                if !object.meshes.is_empty() {
+                    dynamic_objects.push(object);
+                }
+            } else {
+                let world = animator.world_matrix(v, 0.0);
+                for (name, p) in prims {
+                    static_meshes.push(self.flatten(name, p, world)?);
+                }
+            }
+        }
+
+        let work = total_keys.saturating_mul(dynamic_objects.len() as u64);
+        if work > self.limits.max_animation_work {
+            return Err(self.invalid(format!(
+                "{total_keys} animation keyframes × {} moving objects = {work}, over the animation work limit of {} (raise it with --max-animation-work)",
+                dynamic_objects.len(),
+                self.limits.max_animation_work
+            )));
+        }
+
+        let static_triangles: usize = static_meshes
+            .iter()
+            .map(|m: &Mesh| m.indices.len() / 3)
+            .sum();
+        if static_triangles == 0 {
+            return Err(self.invalid(
+                "no static triangles: the scene needs static geometry (everything is dynamic, skipped or empty)",
+            ));
+        }
+
+        Ok(Scene {
+            source: self.path.to_path_buf(),
+            light,
+            camera,
+            materials: table.materials,
+            textures: table.textures,
+            static_meshes,
+            dynamic_meshes,
+            dynamic_objects,
+            animator,
+            warnings: self.warnings,
+        })
+    }
+}
