@@ -24,6 +24,7 @@
 mod animation;
 mod error;
 mod hash;
+#[cfg(feature = "gltf")]
 mod import;
 pub mod limits;
 mod mesh;
@@ -31,6 +32,7 @@ mod mesh;
 pub use animation::{Animator, Trs};
 pub use error::SceneError;
 pub use hash::static_scene_hash;
+#[cfg(feature = "gltf")]
 pub use import::{LoadOptions, load, load_from_slice};
 pub use limits::Limits;
 pub use mesh::{Aabb, compute_normals};
