@@ -105,13 +105,15 @@ impl BakedGpu {
         let n = m.map_count.max(1);
         let cols = ((n as f64).sqrt().ceil() as u32).clamp(1, (max / s.max(1)).max(1));
         let rows = n.div_ceil(cols);
-        if rows * s > max {
-            return Err(RuntimeError::InvalidSetting(format!(
-                "the asset stores {} VPL maps of {s}²; this device's largest texture ({max}²) holds {} \
-                 (bake fewer VPLs or smaller maps)",
-                m.map_count,
-                (max / s) * (max / s)
-            )));
+        if s > max || u64::from(rows) * u64::from(s) > u64::from(max) {
+            return Err(RuntimeError::DeviceLimit {
+                what: format!(
+                    "an atlas of the asset's {} VPL maps of {s}² texels (bake fewer VPLs or smaller maps)",
+                    m.map_count
+                ),
+                needed: u64::from(rows) * u64::from(s),
+                limit: u64::from(max),
+            });
         }
         let (w, h) = ((cols * s) as usize, (rows * s) as usize);
         let mut atlas = vec![f32::INFINITY; w * h];
@@ -129,6 +131,19 @@ impl BakedGpu {
         let static_maps = r32_texture(device, queue, "baked VPL maps", w as u32, h as u32, &atlas)
             .create_view(&Default::default());
         let pd = &asset.primary_depth;
+        let rsm_size = asset.rsm.as_ref().map(|r| r.size).unwrap_or(0);
+        for (what, size) in [
+            ("the baked primary shadow map", pd.size),
+            ("the baked RSM", rsm_size),
+        ] {
+            if size > max {
+                return Err(RuntimeError::DeviceLimit {
+                    what: format!("{what} ({size}² texels)"),
+                    needed: u64::from(size),
+                    limit: u64::from(max),
+                });
+            }
+        }
         let primary = r32_texture(
             device,
             queue,
@@ -172,11 +187,14 @@ impl BakedGpu {
         let node_bytes = (asset.vpl_nodes.len() * 48) as u64;
         let max_binding = device.limits().max_storage_buffer_binding_size;
         if node_bytes > max_binding {
-            return Err(RuntimeError::InvalidSetting(format!(
-                "the asset's {} VPLs need {node_bytes} bytes of near-field nodes; this device binds \
-                 at most {max_binding} bytes in one storage buffer (bake fewer VPLs)",
-                vpls.len()
-            )));
+            return Err(RuntimeError::DeviceLimit {
+                what: format!(
+                    "the near-field nodes of the asset's {} VPLs (bytes in one storage binding; bake fewer VPLs)",
+                    vpls.len()
+                ),
+                needed: node_bytes,
+                limit: max_binding,
+            });
         }
         let node_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("static VPL near-field nodes"),

@@ -2,7 +2,7 @@
 //! (`dynamic_rsm.wgsl`), and the partial-occlusion pass that reads it
 //! (`occlusion.wgsl`). Only built when the scene has moving objects.
 
-use gibake_gpu::mesh::{MESH_WGSL, SceneGpu};
+use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::util::{
     cleared_attachments, cleared_depth, draws_and_uniform_group, mesh_pipeline, texture_2d,
 };
@@ -34,8 +34,8 @@ pub struct DynamicRsmPass {
 impl DynamicRsmPass {
     /// Creates the pass for `view` (RSM resolution).
     pub fn new(device: &wgpu::Device, scene_gpu: &SceneGpu, view: &LightView) -> DynamicRsmPass {
-        let src = format!("{MESH_WGSL}\n{}", include_str!("dynamic_rsm.wgsl"));
-        let module = shaders::module(device, "dynamic_rsm.wgsl", &src);
+        let module =
+            shaders::mesh_module(device, "dynamic_rsm.wgsl", include_str!("dynamic_rsm.wgsl"));
         let view_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("rsm light view"),
             contents: bytemuck::bytes_of(&view.to_gpu()),

@@ -307,11 +307,7 @@ impl DynamicVplPass {
     }
 
     /// Records the clustering (after the dynamic RSM pass of the same frame).
-    pub fn encode(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: Option<&mut crate::timer::Timer>,
-    ) {
+    pub fn encode(&self, encoder: &mut wgpu::CommandEncoder, timer: Option<&crate::timer::Timer>) {
         let ts = timer.and_then(|t| t.compute("dynamic vpls"));
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("dynamic vpls"),

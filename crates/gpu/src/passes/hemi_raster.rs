@@ -12,7 +12,7 @@ use std::ops::Range;
 use gibake_scene::Aabb;
 use glam::Vec3;
 
-use crate::mesh::{MESH_WGSL, SceneGpu};
+use crate::mesh::SceneGpu;
 use crate::util::texture_2d;
 use crate::{hemisphere, shaders};
 
@@ -89,9 +89,11 @@ impl HemiAtlas {
     /// An atlas with room for `capacity` tiles of `tile_size²`.
     pub fn new(device: &wgpu::Device, tile_size: u32, capacity: u32) -> HemiAtlas {
         let capacity = capacity.max(1);
-        let max = device.limits().max_texture_dimension_2d;
-        let cols = ((capacity as f64).sqrt().ceil() as u32).clamp(1, (max / tile_size).max(1));
-        let rows = capacity.div_ceil(cols);
+        let (cols, rows) = Self::grid(
+            device.limits().max_texture_dimension_2d,
+            tile_size,
+            capacity,
+        );
         let (w, h) = (cols * tile_size, rows * tile_size);
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
@@ -121,6 +123,17 @@ impl HemiAtlas {
             cols,
             capacity: cols * rows,
         }
+    }
+
+    /// Columns and rows of an atlas for `capacity` tiles of `tile_size²`
+    /// on a device whose largest 2D texture is `max_dimension`: square-ish,
+    /// at most as many columns as fit. The atlas fits the device iff
+    /// `rows · tile_size ≤ max_dimension` (and `tile_size ≤ max_dimension`).
+    pub fn grid(max_dimension: u32, tile_size: u32, capacity: u32) -> (u32, u32) {
+        let capacity = capacity.max(1);
+        let cols = ((capacity as f64).sqrt().ceil() as u32)
+            .clamp(1, (max_dimension / tile_size.max(1)).max(1));
+        (cols, capacity.div_ceil(cols))
     }
 
     /// Texel offset of tile `i`.
@@ -156,8 +169,8 @@ impl HemiRasterPass {
     /// drawn geometry only; the runtime takes the minimum with the baked
     /// maps where it reads them.
     pub fn new(device: &wgpu::Device, scene_gpu: &SceneGpu, depth_scale: f32) -> HemiRasterPass {
-        let src = format!("{MESH_WGSL}\n{}", include_str!("hemi_raster.wgsl"));
-        let module = shaders::module(device, "hemi_raster.wgsl", &src);
+        let module =
+            shaders::mesh_module(device, "hemi_raster.wgsl", include_str!("hemi_raster.wgsl"));
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hemi raster"),
             entries: &[
