@@ -9,6 +9,13 @@ use gibake_gpu::util::{
 use gibake_gpu::{LightView, shaders};
 use wgpu::util::DeviceExt;
 
+/// The occlusion pass's WGSL: the shared in-front test, then its own.
+pub(crate) const OCCLUSION_WGSL: &str = concat!(
+    include_str!("moving.wgsl"),
+    "\n",
+    include_str!("occlusion.wgsl")
+);
+
 /// Target formats of the dynamic RSM.
 pub const DYN_RSM_FORMATS: [wgpu::TextureFormat; 3] = [
     wgpu::TextureFormat::Rgba32Float,
@@ -134,7 +141,7 @@ impl OcclusionPass {
         texel_info: &wgpu::Buffer,
         vpl_count: u32,
     ) -> OcclusionPass {
-        let module = shaders::module(device, "occlusion.wgsl", include_str!("occlusion.wgsl"));
+        let module = shaders::module(device, "occlusion.wgsl", OCCLUSION_WGSL);
         let occluded = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("occluded shares"),
             size: 4 * vpl_count.max(1) as u64,

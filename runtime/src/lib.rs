@@ -48,6 +48,7 @@
 //!
 //! With no moving objects none of 1–3 exists: no pass, no texture.
 
+mod atlas;
 #[doc(hidden)]
 pub mod baked;
 mod camera;

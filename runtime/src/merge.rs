@@ -8,7 +8,8 @@
 //! [`VplMerge::prepare`] computes, from the moving objects' world bounds,
 //! the octahedron faces of each VPL map a draw can touch (face masks), the
 //! VPLs that get a tile, each moving mesh's level of detail per map, and
-//! uploads the tables; [`VplMerge::record`] only records the one pass.
+//! uploads the tables (the atlas in the layout of [`crate::atlas`]);
+//! [`VplMerge::record`] only records the one pass.
 //!
 //! In `naive` mode every VPL gets a tile and every draw (static ones too) is
 //! rasterized into it: the same code re-renders every map (the cost
@@ -43,23 +44,15 @@ pub(crate) struct VplMerge {
     affected: u32,
 }
 
-/// An atlas for `capacity` tiles, or the device limit it would exceed.
+/// A merge atlas for `capacity` tiles in the one atlas layout, or the
+/// device limit it would exceed.
 fn checked_atlas(
     device: &wgpu::Device,
     tile_size: u32,
     capacity: u32,
 ) -> Result<HemiAtlas, RuntimeError> {
-    let max = device.limits().max_texture_dimension_2d;
-    let (_, rows) = HemiAtlas::grid(max, tile_size, capacity);
-    let needed = u64::from(rows.max(1)) * u64::from(tile_size);
-    if tile_size > max || needed > u64::from(max) {
-        return Err(RuntimeError::DeviceLimit {
-            what: format!("a merge atlas of {capacity} VPL maps of {tile_size}² texels"),
-            needed: needed.max(u64::from(tile_size)),
-            limit: u64::from(max),
-        });
-    }
-    Ok(HemiAtlas::new(device, tile_size, capacity))
+    let (cols, rows) = crate::atlas::layout(device, "the merge atlas", capacity, tile_size)?;
+    Ok(HemiAtlas::new(device, tile_size, cols, rows))
 }
 
 impl VplMerge {

@@ -6,6 +6,13 @@
 
 use gibake_gpu::shaders;
 
+/// The pass's WGSL: the dynamic VPL slot layout it reads, then its own.
+const SHADE_WGSL: &str = concat!(
+    include_str!("dyn_vpl.wgsl"),
+    "\n",
+    include_str!("shade.wgsl")
+);
+
 /// Output format of shading.
 pub const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
@@ -123,7 +130,7 @@ pub struct GiInputs<'a> {
 impl ShadePass {
     /// Creates the pass.
     pub fn new(device: &wgpu::Device) -> ShadePass {
-        let module = shaders::module(device, "shade.wgsl", include_str!("shade.wgsl"));
+        let module = shaders::module(device, "shade.wgsl", SHADE_WGSL);
         use wgpu::TextureViewDimension::D2;
         let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shade frame"),
@@ -326,13 +333,16 @@ mod tests {
     fn runtime_shaders_validate() {
         use gibake_gpu::shaders::{compose, compose_mesh, validate};
         for (name, src) in [
-            ("shade.wgsl", compose(include_str!("shade.wgsl"))),
+            ("shade.wgsl", compose(super::SHADE_WGSL)),
             ("gbuffer.wgsl", compose_mesh(include_str!("gbuffer.wgsl"))),
             (
                 "dynamic_rsm.wgsl",
                 compose_mesh(include_str!("dynamic_rsm.wgsl")),
             ),
-            ("occlusion.wgsl", compose(include_str!("occlusion.wgsl"))),
+            (
+                "occlusion.wgsl",
+                compose(crate::dynamic_rsm::OCCLUSION_WGSL),
+            ),
             ("interleave.wgsl", compose(include_str!("interleave.wgsl"))),
         ] {
             if let Err(e) = validate(&src) {

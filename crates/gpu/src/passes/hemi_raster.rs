@@ -86,14 +86,10 @@ pub struct HemiAtlas {
 }
 
 impl HemiAtlas {
-    /// An atlas with room for `capacity` tiles of `tile_size²`.
-    pub fn new(device: &wgpu::Device, tile_size: u32, capacity: u32) -> HemiAtlas {
-        let capacity = capacity.max(1);
-        let (cols, rows) = Self::grid(
-            device.limits().max_texture_dimension_2d,
-            tile_size,
-            capacity,
-        );
+    /// An atlas of `cols × rows` tiles of `tile_size²` (the caller picks
+    /// the layout and checks it against the device's limits).
+    pub fn new(device: &wgpu::Device, tile_size: u32, cols: u32, rows: u32) -> HemiAtlas {
+        let (cols, rows) = (cols.max(1), rows.max(1));
         let (w, h) = (cols * tile_size, rows * tile_size);
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
@@ -123,17 +119,6 @@ impl HemiAtlas {
             cols,
             capacity: cols * rows,
         }
-    }
-
-    /// Columns and rows of an atlas for `capacity` tiles of `tile_size²`
-    /// on a device whose largest 2D texture is `max_dimension`: square-ish,
-    /// at most as many columns as fit. The atlas fits the device iff
-    /// `rows · tile_size ≤ max_dimension` (and `tile_size ≤ max_dimension`).
-    pub fn grid(max_dimension: u32, tile_size: u32, capacity: u32) -> (u32, u32) {
-        let capacity = capacity.max(1);
-        let cols = ((capacity as f64).sqrt().ceil() as u32)
-            .clamp(1, (max_dimension / tile_size.max(1)).max(1));
-        (cols, capacity.div_ceil(cols))
     }
 
     /// Texel offset of tile `i`.
