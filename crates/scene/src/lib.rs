@@ -21,6 +21,9 @@
 //! Dynamic meshes are kept in their node's local space; [`Scene::dynamic_transform`]
 //! samples the animation at any time, so the runtime can move them per frame.
 
+// Without the importer, the animation parser's parts go unused.
+#![cfg_attr(not(feature = "gltf"), allow(dead_code))]
+
 mod animation;
 mod error;
 mod hash;
