@@ -20,7 +20,16 @@ fn gpu_direct_matches_reference_direct_on_bundled_scenes() {
                 mode: gibake_runtime::Mode::Direct,
                 ..Default::default()
             };
-            let gpu = gibake_runtime::render_image(&ctx, &scene, None, &settings, time, 2).unwrap();
+            let gpu = gibake_runtime::render_image(
+                &ctx.device,
+                &ctx.queue,
+                &scene,
+                None,
+                &settings,
+                time,
+                2,
+            )
+            .unwrap();
             let reference = gibake_reference::render(
                 &scene,
                 &gibake_reference::Settings {

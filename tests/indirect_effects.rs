@@ -10,7 +10,7 @@ mod common;
 use gibake_asset::Asset;
 use gibake_gpu::GpuContext;
 use gibake_image::Image;
-use gibake_runtime::{Mode, RenderSettings, Renderer};
+use gibake_runtime::{CameraMatrices, FrameInput, Mode, RenderSettings, Renderer};
 use gibake_scene::{LoadOptions, Scene};
 use gibake_scenegen::{geom, gltf::Builder};
 use glam::{DVec3, Mat4, Vec3};
@@ -101,12 +101,15 @@ fn frame(
         max_dynamic_vpls: dyn_vpls,
         ..Default::default()
     };
-    let mut r = Renderer::new(&ctx.device, &ctx.queue, scene, Some(asset), &s, 0.0).unwrap();
-    r.set_dynamic_transforms(&ctx.queue, &[Mat4::from_translation(ball)]);
+    let mut r = Renderer::new(&ctx.device, &ctx.queue, scene, Some(asset), &s).unwrap();
+    let camera = CameraMatrices::from_scene(scene, 0.0, SIZE, SIZE).unwrap();
+    let transforms = [Mat4::from_translation(ball)];
+    let frame = FrameInput::new(camera).transforms(&transforms);
+    r.prepare(&ctx.device, &ctx.queue, &frame).unwrap();
     let mut enc = ctx.device.create_command_encoder(&Default::default());
-    r.encode(&ctx.device, &ctx.queue, &mut enc);
+    r.record(&mut enc);
     ctx.queue.submit([enc.finish()]);
-    let img = gibake_runtime::read_output(ctx, &r, 1).unwrap();
+    let img = r.read_output(&ctx.device, &ctx.queue, 1).unwrap();
     assert!(img.all_finite());
     img
 }
@@ -271,13 +274,15 @@ fn a_scene_without_moving_objects_runs_no_dynamic_pass() {
             mode,
             ..Default::default()
         };
-        let mut r = Renderer::new(&ctx.device, &ctx.queue, &scene, Some(&asset), &s, 0.0).unwrap();
+        let mut r = Renderer::new(&ctx.device, &ctx.queue, &scene, Some(&asset), &s).unwrap();
         assert!(
             !r.has_dynamic_resources(),
             "{mode:?}: dynamic resources allocated"
         );
+        r.prepare_at_time(&ctx.device, &ctx.queue, &scene, 0.0)
+            .unwrap();
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        r.encode(&ctx.device, &ctx.queue, &mut enc);
+        r.record(&mut enc);
         ctx.queue.submit([enc.finish()]);
         let stats = r.stats(&ctx.device);
         assert_eq!(
@@ -302,6 +307,6 @@ fn a_scene_without_moving_objects_runs_no_dynamic_pass() {
         height: 32,
         ..Default::default()
     };
-    let r = Renderer::new(&ctx.device, &ctx.queue, &full, Some(&asset), &s, 0.0).unwrap();
+    let r = Renderer::new(&ctx.device, &ctx.queue, &full, Some(&asset), &s).unwrap();
     assert!(r.has_dynamic_resources());
 }

@@ -48,7 +48,9 @@ fn render(
     if let Some(n) = interleave {
         s.interleave = n;
     }
-    let img = gibake_runtime::render_image(ctx, scene, Some(asset), &s, TIME, 1).unwrap();
+    let img =
+        gibake_runtime::render_image(&ctx.device, &ctx.queue, scene, Some(asset), &s, TIME, 1)
+            .unwrap();
     assert!(
         img.all_finite(),
         "{mode:?} interleave {interleave:?}: non-finite pixels"
@@ -164,7 +166,7 @@ fn invalid_interleave_is_a_typed_error() {
             interleave: n,
             ..Default::default()
         };
-        match gibake_runtime::Renderer::new(&ctx.device, &ctx.queue, &scene, None, &s, 0.0) {
+        match gibake_runtime::Renderer::new(&ctx.device, &ctx.queue, &scene, None, &s) {
             Err(RuntimeError::InvalidSetting(m)) => assert!(m.contains("interleave"), "{m}"),
             Err(e) => panic!("interleave {n}: wrong error {e}"),
             Ok(_) => panic!("interleave {n} accepted"),
@@ -208,15 +210,21 @@ fn shade_time_interleave_1_against_4() {
                 interleave: n,
                 ..Default::default()
             };
-            gibake_runtime::Renderer::new(&ctx.device, &ctx.queue, &scene, Some(&asset), &rs, TIME)
-                .unwrap()
+            let mut r =
+                gibake_runtime::Renderer::new(&ctx.device, &ctx.queue, &scene, Some(&asset), &rs)
+                    .unwrap();
+            r.prepare_at_time(&ctx.device, &ctx.queue, &scene, TIME)
+                .unwrap();
+            r
         })
         .into();
     let mut times = [Vec::new(), Vec::new()];
     for frame in 0..6 {
         for (k, r) in renderers.iter_mut().enumerate() {
+            r.prepare_at_time(&ctx.device, &ctx.queue, &scene, TIME)
+                .unwrap();
             let mut enc = ctx.device.create_command_encoder(&Default::default());
-            r.encode(&ctx.device, &ctx.queue, &mut enc);
+            r.record(&mut enc);
             ctx.queue.submit([enc.finish()]);
             let st = r.stats(&ctx.device);
             let ms = |name: &str| {
@@ -270,15 +278,18 @@ fn an_external_gbuffer_is_filtered_like_the_own_one() {
         ..Default::default()
     };
     let new = || {
-        gibake_runtime::Renderer::new(&ctx.device, &ctx.queue, &scene, Some(&asset), &rs, 0.4)
-            .unwrap()
+        gibake_runtime::Renderer::new(&ctx.device, &ctx.queue, &scene, Some(&asset), &rs).unwrap()
     };
     let (mut own, mut ext) = (new(), new());
-    let views = &own.gbuffer().views;
+    let views = own.gbuffer_views();
     ext.use_external_gbuffer(&ctx.device, [&views[0], &views[1], &views[2]]);
+    for r in [&mut own, &mut ext] {
+        r.prepare_at_time(&ctx.device, &ctx.queue, &scene, 0.4)
+            .unwrap();
+    }
     let mut enc = ctx.device.create_command_encoder(&Default::default());
-    own.encode(&ctx.device, &ctx.queue, &mut enc);
-    ext.encode(&ctx.device, &ctx.queue, &mut enc);
+    own.record(&mut enc);
+    ext.record(&mut enc);
     ctx.queue.submit([enc.finish()]);
     let stats = own.stats(&ctx.device);
     if stats.timing == "gpu timestamps" {
@@ -291,8 +302,8 @@ fn an_external_gbuffer_is_filtered_like_the_own_one() {
         let upd: f64 = stats.passes[..names.len() - 3].iter().map(|p| p.1).sum();
         assert_eq!(stats.update_ms(), upd, "the filter is shading, not update");
     }
-    let a = gibake_runtime::read_output(&ctx, &own, 1).unwrap();
-    let b = gibake_runtime::read_output(&ctx, &ext, 1).unwrap();
+    let a = own.read_output(&ctx.device, &ctx.queue, 1).unwrap();
+    let b = ext.read_output(&ctx.device, &ctx.queue, 1).unwrap();
     assert!(a.mean().x > 0.0);
     assert!(a.all_finite());
     assert_eq!(a, b);

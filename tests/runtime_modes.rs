@@ -44,7 +44,9 @@ fn render(
         mode,
         ..Default::default()
     };
-    let img = gibake_runtime::render_image(ctx, scene, Some(asset), &s, time, ssaa).unwrap();
+    let img =
+        gibake_runtime::render_image(&ctx.device, &ctx.queue, scene, Some(asset), &s, time, ssaa)
+            .unwrap();
     assert!(img.all_finite(), "{mode:?}: non-finite pixels");
     img
 }
@@ -238,17 +240,22 @@ fn an_external_gbuffer_is_shaded_like_the_own_one() {
         mode: Mode::Full,
         ..Default::default()
     };
-    let mut own =
-        gibake_runtime::Renderer::new(&ctx.device, &ctx.queue, &scene, Some(&asset), &s, 0.4)
+    let new = || {
+        let mut r =
+            gibake_runtime::Renderer::new(&ctx.device, &ctx.queue, &scene, Some(&asset), &s)
+                .unwrap();
+        r.prepare_at_time(&ctx.device, &ctx.queue, &scene, 0.4)
             .unwrap();
-    let mut ext =
-        gibake_runtime::Renderer::new(&ctx.device, &ctx.queue, &scene, Some(&asset), &s, 0.4)
-            .unwrap();
-    let views = &own.gbuffer().views;
+        r
+    };
+    let (own, mut ext) = (new(), new());
+    let views = own.gbuffer_views();
     ext.use_external_gbuffer(&ctx.device, [&views[0], &views[1], &views[2]]);
+    ext.prepare_at_time(&ctx.device, &ctx.queue, &scene, 0.4)
+        .unwrap();
     let mut enc = ctx.device.create_command_encoder(&Default::default());
-    own.encode(&ctx.device, &ctx.queue, &mut enc);
-    ext.encode(&ctx.device, &ctx.queue, &mut enc);
+    own.record(&mut enc);
+    ext.record(&mut enc);
     ctx.queue.submit([enc.finish()]);
     let stats = ext.stats(&ctx.device);
     if stats.timing == "gpu timestamps" {
@@ -258,8 +265,8 @@ fn an_external_gbuffer_is_shaded_like_the_own_one() {
             stats.passes
         );
     }
-    let a = gibake_runtime::read_output(&ctx, &own, 1).unwrap();
-    let b = gibake_runtime::read_output(&ctx, &ext, 1).unwrap();
+    let a = own.read_output(&ctx.device, &ctx.queue, 1).unwrap();
+    let b = ext.read_output(&ctx.device, &ctx.queue, 1).unwrap();
     assert!(a.mean().x > 0.0);
     assert_eq!(a, b);
 }

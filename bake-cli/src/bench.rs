@@ -505,9 +505,9 @@ fn one_frame(
     t: f32,
 ) -> anyhow::Result<(FrameStats, f64)> {
     let start = Instant::now();
-    r.set_time(&ctx.queue, scene, t)?;
+    r.prepare_at_time(&ctx.device, &ctx.queue, scene, t)?;
     let mut enc = ctx.device.create_command_encoder(&Default::default());
-    r.encode(&ctx.device, &ctx.queue, &mut enc);
+    r.record(&mut enc);
     ctx.queue.submit([enc.finish()]);
     let stats = r.stats(&ctx.device);
     Ok((stats, start.elapsed().as_secs_f64() * 1e3))
@@ -534,7 +534,7 @@ fn measure_all(
 ) -> anyhow::Result<Vec<FrameSummary>> {
     let mut live = Vec::with_capacity(configs.len());
     for c in configs {
-        let mut r = Renderer::new(&ctx.device, &ctx.queue, c.scene, c.asset, &c.settings, 0.0)
+        let mut r = Renderer::new(&ctx.device, &ctx.queue, c.scene, c.asset, &c.settings)
             .with_context(|| format!("setting up {}", c.scene.source.display()))?;
         one_frame(ctx, &mut r, c.scene, 0.0)?;
         on_frame();
@@ -794,7 +794,6 @@ fn bench_runtime(b: &mut Bench, heavy: u32) -> anyhow::Result<()> {
                 height: h,
                 ..Default::default()
             },
-            0.0,
         )?;
         b.ctx.wait()?;
         uploads.push(t1.elapsed().as_secs_f64());
@@ -891,22 +890,15 @@ fn render_measured(
         max_dynamic_vpls: 64,
         interleave: 1,
     };
-    let mut r = Renderer::new(
-        &b.ctx.device,
-        &b.ctx.queue,
-        scene,
-        asset,
-        &settings,
-        QUALITY_TIME,
-    )
-    .with_context(|| format!("setting up {}", scene.source.display()))?;
+    let mut r = Renderer::new(&b.ctx.device, &b.ctx.queue, scene, asset, &settings)
+        .with_context(|| format!("setting up {}", scene.source.display()))?;
     // A warm-up frame first (the first frame pays for first-touch memory),
     // except with --quick.
     if !b.quick {
         one_frame(&b.ctx, &mut r, scene, QUALITY_TIME)?;
     }
     let (stats, _) = one_frame(&b.ctx, &mut r, scene, QUALITY_TIME)?;
-    let img = gibake_runtime::read_output(&b.ctx, &r, ssaa)?;
+    let img = r.read_output(&b.ctx.device, &b.ctx.queue, ssaa)?;
     if !img.all_finite() {
         bail!(
             "{}: mode {mode:?} rendered non-finite pixels",

@@ -9,28 +9,12 @@ use gibake_gpu::{GpuContext, GpuOptions};
 use gibake_scene::{LoadOptions, Scene};
 
 use crate::cli::{
-    Cli, Command, DiffArgs, InspectArgs, ModeArg, ReferenceArgs, RenderArgs, SceneArgs,
-    TolerancePreset,
+    DiffArgs, InspectArgs, ModeArg, ReferenceArgs, RenderArgs, SceneArgs, TolerancePreset,
 };
 use crate::output::{bar, write_image_atomic};
 
 /// The bundled paper scene, embedded for `gibake demo`.
 pub(crate) const CORNER_BUNNY: &[u8] = include_bytes!("../../data/corner_bunny.glb");
-
-/// Runs the parsed command line.
-pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
-    crate::limits::set_memory_budget(cli.max_memory);
-    match cli.command {
-        Command::Render(a) => render(a),
-        Command::Reference(a) => reference(a),
-        Command::Demo(a) => crate::demo::run(a),
-        Command::Bake(a) => crate::pipeline::bake(a),
-        Command::Merge(a) => crate::pipeline::merge(a),
-        Command::Diff(a) => diff(a),
-        Command::Inspect(a) => inspect(a),
-        Command::Bench(a) => crate::bench::bench(a),
-    }
-}
 
 pub(crate) fn load_scene(a: &SceneArgs) -> anyhow::Result<Scene> {
     let scene = gibake_scene::load(
@@ -122,7 +106,7 @@ fn mode_of(m: ModeArg) -> gibake_runtime::Mode {
 /// box filter).
 const RENDER_BYTES_PER_PIXEL: u64 = 108;
 
-fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
     check_size(a.width, a.height)?;
     // The frame's memory, before anything is allocated (--max-memory).
     let pixels = u64::from(a.width) * u64::from(a.ssaa) * u64::from(a.height) * u64::from(a.ssaa);
@@ -179,28 +163,29 @@ fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         interleave: a.interleave,
     };
     let t0 = Instant::now();
-    let mut renderer = gibake_runtime::Renderer::new(
-        &ctx.device,
-        &ctx.queue,
-        &scene,
-        asset.as_ref(),
-        &settings,
-        a.time,
-    )
-    .with_context(|| format!("setting up {}", a.scene.scene.display()))?;
+    // The scene's camera, checked before any GPU work.
+    gibake_runtime::CameraMatrices::from_scene(&scene, a.time, settings.width, settings.height)
+        .context("`gibake render` views the scene through its camera")?;
+    let mut renderer =
+        gibake_runtime::Renderer::new(&ctx.device, &ctx.queue, &scene, asset.as_ref(), &settings)
+            .with_context(|| format!("setting up {}", a.scene.scene.display()))?;
     ctx.wait()?;
     let setup_s = t0.elapsed().as_secs_f64();
     let mut frames = Vec::new();
     for f in 0..a.frames {
         let t = a.time + f as f32 / a.fps;
         let start = Instant::now();
-        renderer.set_time(&ctx.queue, &scene, t)?;
+        let camera =
+            gibake_runtime::CameraMatrices::from_scene(&scene, t, settings.width, settings.height)?;
+        let transforms = gibake_runtime::scene_transforms(&scene, t);
+        let frame = gibake_runtime::FrameInput::new(camera).transforms(&transforms);
+        renderer.prepare(&ctx.device, &ctx.queue, &frame)?;
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        renderer.encode(&ctx.device, &ctx.queue, &mut enc);
+        renderer.record(&mut enc);
         ctx.queue.submit([enc.finish()]);
         let stats = renderer.stats(&ctx.device);
         let frame_s = start.elapsed().as_secs_f64();
-        let img = gibake_runtime::read_output(&ctx, &renderer, a.ssaa)?;
+        let img = renderer.read_output(&ctx.device, &ctx.queue, a.ssaa)?;
         let out = frame_path(&a.output, f, a.frames);
         write_image_atomic(&img, &out)?;
         let gpu_ms: f64 = stats.passes.iter().map(|(_, ms)| ms).sum();
@@ -267,7 +252,7 @@ fn check_render_outputs(a: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn reference(a: ReferenceArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn reference(a: ReferenceArgs) -> anyhow::Result<ExitCode> {
     check_size(a.width, a.height)?;
     check_time(a.time)?;
     if a.spp == 0 {
@@ -345,7 +330,7 @@ impl gibake_bake::BakeProgress for BarProgress {
     }
 }
 
-fn inspect(a: InspectArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn inspect(a: InspectArgs) -> anyhow::Result<ExitCode> {
     let asset = crate::limits::load_asset(&a.asset)?;
     let info = gibake_asset::inspect(&asset);
     if a.json {
@@ -356,7 +341,7 @@ fn inspect(a: InspectArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
     if let Some(dir) = &a.images {
         crate::output::check_not_input("--images", dir, &[&a.a, &a.b])?;
     }

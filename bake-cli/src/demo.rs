@@ -68,7 +68,6 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         &scene,
         Some(&out.asset),
         &settings,
-        0.0,
     )?;
     let mut per_pass: Vec<(String, Vec<f64>)> = Vec::new();
     let mut first = None;
@@ -77,9 +76,12 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let mut timing = String::new();
     for f in 0..a.frames {
         let time = f as f32 / 15.0;
-        renderer.set_time(&ctx.queue, &scene, time)?;
+        let camera = gibake_runtime::CameraMatrices::from_scene(&scene, time, a.width, a.height)?;
+        let transforms = gibake_runtime::scene_transforms(&scene, time);
+        let frame = gibake_runtime::FrameInput::new(camera).transforms(&transforms);
+        renderer.prepare(&ctx.device, &ctx.queue, &frame)?;
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        renderer.encode(&ctx.device, &ctx.queue, &mut enc);
+        renderer.record(&mut enc);
         ctx.queue.submit([enc.finish()]);
         let stats = renderer.stats(&ctx.device);
         timing = stats.timing.clone();
@@ -89,7 +91,7 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
                 None => per_pass.push((name.clone(), vec![*ms])),
             }
         }
-        let img = gibake_runtime::read_output(&ctx, &renderer, 1)?;
+        let img = renderer.read_output(&ctx.device, &ctx.queue, 1)?;
         write_image_atomic(&img, &a.output.join(format!("frame_{f:03}.png")))?;
         if f == 0 {
             write_image_atomic(&img, &a.output.join("frame_000.exr"))?;

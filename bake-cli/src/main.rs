@@ -15,6 +15,22 @@ use std::process::ExitCode;
 
 use clap::Parser;
 
+/// Runs the parsed command line.
+fn run(cli: cli::Cli) -> anyhow::Result<ExitCode> {
+    use cli::Command;
+    limits::set_memory_budget(cli.max_memory);
+    match cli.command {
+        Command::Render(a) => commands::render(a),
+        Command::Reference(a) => commands::reference(a),
+        Command::Demo(a) => demo::run(a),
+        Command::Bake(a) => pipeline::bake(a),
+        Command::Merge(a) => pipeline::merge(a),
+        Command::Diff(a) => commands::diff(a),
+        Command::Inspect(a) => commands::inspect(a),
+        Command::Bench(a) => bench::bench(a),
+    }
+}
+
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
     let filter = tracing_subscriber::EnvFilter::try_from_env("GIBAKE_LOG").unwrap_or_else(|_| {
@@ -25,7 +41,7 @@ fn main() -> ExitCode {
         .with_writer(std::io::stderr)
         .without_time()
         .init();
-    match commands::run(args) {
+    match run(args) {
         Ok(code) => code,
         Err(e) => {
             eprintln!("error: {}", error_chain(&e));

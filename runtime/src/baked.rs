@@ -99,36 +99,44 @@ impl BakedGpu {
     ) -> Result<BakedGpu, RuntimeError> {
         let m = &asset.manifest;
         let max = device.limits().max_texture_dimension_2d;
-        // The baked maps as one 2D atlas (tile k at column k % cols, row
-        // k / cols), which holds far more maps than texture-array layers.
+        // The baked maps as one 2D atlas in the asset's own layout (which
+        // holds far more maps than texture-array layers).
         let s = m.settings.vpl_map_size;
-        let n = m.map_count.max(1);
-        let cols = ((n as f64).sqrt().ceil() as u32).clamp(1, (max / s.max(1)).max(1));
-        let rows = n.div_ceil(cols);
-        if rows * s > max {
+        let (cols, rows) = crate::atlas::layout(
+            device,
+            "the asset's VPL map atlas (bake fewer VPLs or smaller maps)",
+            m.map_count,
+            s,
+        )?;
+        let tile = (s as usize) * (s as usize);
+        let atlas = if m.map_count == 0 {
+            vec![f32::INFINITY; tile]
+        } else if asset.vpl_maps.len() == m.map_count as usize * tile {
+            gibake_asset::layers_to_atlas(&asset.vpl_maps, m.map_count, s).2
+        } else {
             return Err(RuntimeError::InvalidSetting(format!(
-                "the asset stores {} VPL maps of {s}²; this device's largest texture ({max}²) holds {} \
-                 (bake fewer VPLs or smaller maps)",
-                m.map_count,
-                (max / s) * (max / s)
+                "the asset holds {} map texels for {} maps of {s}²",
+                asset.vpl_maps.len(),
+                m.map_count
             )));
-        }
-        let (w, h) = ((cols * s) as usize, (rows * s) as usize);
-        let mut atlas = vec![f32::INFINITY; w * h];
-        let tile = (s * s) as usize;
-        for (k, map) in asset.vpl_maps.chunks_exact(tile.max(1)).enumerate() {
-            let (x0, y0) = (
-                (k as u32 % cols * s) as usize,
-                (k as u32 / cols * s) as usize,
-            );
-            for (y, row) in map.chunks_exact(s as usize).enumerate() {
-                let o = (y0 + y) * w + x0;
-                atlas[o..o + s as usize].copy_from_slice(row);
-            }
-        }
-        let static_maps = r32_texture(device, queue, "baked VPL maps", w as u32, h as u32, &atlas)
+        };
+        let (w, h) = (cols * s, rows * s);
+        let static_maps = r32_texture(device, queue, "baked VPL maps", w, h, &atlas)
             .create_view(&Default::default());
         let pd = &asset.primary_depth;
+        let rsm_size = asset.rsm.as_ref().map(|r| r.size).unwrap_or(0);
+        for (what, size) in [
+            ("the baked primary shadow map", pd.size),
+            ("the baked RSM", rsm_size),
+        ] {
+            if size > max {
+                return Err(RuntimeError::DeviceLimit {
+                    what: format!("{what} ({size}² texels)"),
+                    needed: u64::from(size),
+                    limit: u64::from(max),
+                });
+            }
+        }
         let primary = r32_texture(
             device,
             queue,
@@ -172,11 +180,14 @@ impl BakedGpu {
         let node_bytes = (asset.vpl_nodes.len() * 48) as u64;
         let max_binding = device.limits().max_storage_buffer_binding_size;
         if node_bytes > max_binding {
-            return Err(RuntimeError::InvalidSetting(format!(
-                "the asset's {} VPLs need {node_bytes} bytes of near-field nodes; this device binds \
-                 at most {max_binding} bytes in one storage buffer (bake fewer VPLs)",
-                vpls.len()
-            )));
+            return Err(RuntimeError::DeviceLimit {
+                what: format!(
+                    "the near-field nodes of the asset's {} VPLs (bytes in one storage binding; bake fewer VPLs)",
+                    vpls.len()
+                ),
+                needed: node_bytes,
+                limit: max_binding,
+            });
         }
         let node_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("static VPL near-field nodes"),

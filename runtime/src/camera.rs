@@ -1,8 +1,9 @@
-//! The scene camera as GPU matrices. Conventions (shared with the CPU
-//! reference): the camera looks down its node's −Z with +Y up, node scale is
-//! ignored, the aspect ratio comes from the output size, pixel row 0 is the
-//! top of the image, and the far plane is at infinity (glTF `zfar` is
-//! ignored; reversed Z keeps depth precise).
+//! The per-frame camera as GPU matrices: a game's own
+//! ([`CameraMatrices::perspective`], [`CameraMatrices::orthographic`]) or a
+//! glTF scene's ([`CameraMatrices::from_scene`]). Conventions (shared with
+//! the CPU reference): the camera looks down its −Z with +Y up, pixel row 0
+//! is the top of the image, depth is reversed Z (near → 1), and a
+//! perspective far plane is at infinity (glTF `zfar` is ignored).
 
 use gibake_scene::{Projection, Scene};
 use glam::{Mat4, Vec3, Vec4};
@@ -22,15 +23,59 @@ pub struct CameraMatrices {
 
 /// Why a camera could not be built.
 #[derive(Debug, thiserror::Error)]
-#[error("{path}: the scene has no camera; add a camera node (the first one in the scene is used)")]
+#[error(
+    "{path}: the scene has no camera; add a camera node (the first one in the scene is used) or pass one per frame"
+)]
 pub struct NoCamera {
     /// The scene file.
     pub path: std::path::PathBuf,
 }
 
 impl CameraMatrices {
-    /// The first camera of `scene` at time `time` for a `width × height` output.
-    pub fn new(
+    /// A perspective camera at `camera_to_world` (a rigid transform: the
+    /// camera looks down its −Z with +Y up), vertical field of view `yfov`
+    /// (radians), `aspect` = width / height, near plane `znear`; infinite far
+    /// plane, reversed Z.
+    pub fn perspective(camera_to_world: Mat4, yfov: f32, aspect: f32, znear: f32) -> Self {
+        let f = 1.0 / (0.5 * yfov).tan();
+        // Infinite far plane, reversed Z: depth = znear / (−z).
+        let proj = Mat4::from_cols(
+            Vec4::new(f / aspect, 0.0, 0.0, 0.0),
+            Vec4::new(0.0, f, 0.0, 0.0),
+            Vec4::new(0.0, 0.0, 0.0, -1.0),
+            Vec4::new(0.0, 0.0, znear, 0.0),
+        );
+        Self::with_projection(camera_to_world, proj, false)
+    }
+
+    /// An orthographic camera at `camera_to_world` seeing `2·ymag` world
+    /// units vertically (`2·ymag·aspect` horizontally) between `znear` and
+    /// `zfar`; reversed Z.
+    pub fn orthographic(
+        camera_to_world: Mat4,
+        ymag: f32,
+        aspect: f32,
+        znear: f32,
+        zfar: f32,
+    ) -> Self {
+        let proj = gibake_gpu::orthographic_reversed_z(ymag * aspect, ymag, znear, zfar);
+        Self::with_projection(camera_to_world, proj, true)
+    }
+
+    fn with_projection(camera_to_world: Mat4, proj: Mat4, orthographic: bool) -> Self {
+        let (_scale, rot, pos) = camera_to_world.to_scale_rotation_translation();
+        let view = Mat4::from_rotation_translation(rot.normalize(), pos).inverse();
+        CameraMatrices {
+            view_proj: proj * view,
+            position: pos,
+            forward: rot * -Vec3::Z,
+            orthographic,
+        }
+    }
+
+    /// The first camera of `scene` at time `time` for a `width × height`
+    /// output (node scale ignored).
+    pub fn from_scene(
         scene: &Scene,
         time: f32,
         width: u32,
@@ -40,34 +85,14 @@ impl CameraMatrices {
             path: scene.source.clone(),
         })?;
         let world = scene.camera_transform(time).unwrap_or(Mat4::IDENTITY);
-        let (_scale, rot, pos) = world.to_scale_rotation_translation();
-        let rigid = Mat4::from_rotation_translation(rot.normalize(), pos);
-        let view = rigid.inverse();
         let aspect = width as f32 / height.max(1) as f32;
-        let (proj, orthographic) = match cam.projection {
+        Ok(match cam.projection {
             Projection::Perspective { yfov, znear, .. } => {
-                let f = 1.0 / (0.5 * yfov).tan();
-                // Infinite far plane, reversed Z: depth = znear / (−z).
-                let p = Mat4::from_cols(
-                    Vec4::new(f / aspect, 0.0, 0.0, 0.0),
-                    Vec4::new(0.0, f, 0.0, 0.0),
-                    Vec4::new(0.0, 0.0, 0.0, -1.0),
-                    Vec4::new(0.0, 0.0, znear, 0.0),
-                );
-                (p, false)
+                Self::perspective(world, yfov, aspect, znear)
             }
             Projection::Orthographic {
                 ymag, znear, zfar, ..
-            } => (
-                gibake_gpu::orthographic_reversed_z(ymag * aspect, ymag, znear, zfar),
-                true,
-            ),
-        };
-        Ok(CameraMatrices {
-            view_proj: proj * view,
-            position: pos,
-            forward: rot * -Vec3::Z,
-            orthographic,
+            } => Self::orthographic(world, ymag, aspect, znear, zfar),
         })
     }
 

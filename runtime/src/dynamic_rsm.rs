@@ -2,12 +2,19 @@
 //! (`dynamic_rsm.wgsl`), and the partial-occlusion pass that reads it
 //! (`occlusion.wgsl`). Only built when the scene has moving objects.
 
-use gibake_gpu::mesh::{MESH_WGSL, SceneGpu};
+use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::util::{
     cleared_attachments, cleared_depth, draws_and_uniform_group, mesh_pipeline, texture_2d,
 };
 use gibake_gpu::{LightView, shaders};
 use wgpu::util::DeviceExt;
+
+/// The occlusion pass's WGSL: the shared in-front test, then its own.
+pub(crate) const OCCLUSION_WGSL: &str = concat!(
+    include_str!("moving.wgsl"),
+    "\n",
+    include_str!("occlusion.wgsl")
+);
 
 /// Target formats of the dynamic RSM.
 pub const DYN_RSM_FORMATS: [wgpu::TextureFormat; 3] = [
@@ -34,8 +41,8 @@ pub struct DynamicRsmPass {
 impl DynamicRsmPass {
     /// Creates the pass for `view` (RSM resolution).
     pub fn new(device: &wgpu::Device, scene_gpu: &SceneGpu, view: &LightView) -> DynamicRsmPass {
-        let src = format!("{MESH_WGSL}\n{}", include_str!("dynamic_rsm.wgsl"));
-        let module = shaders::module(device, "dynamic_rsm.wgsl", &src);
+        let module =
+            shaders::mesh_module(device, "dynamic_rsm.wgsl", include_str!("dynamic_rsm.wgsl"));
         let view_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("rsm light view"),
             contents: bytemuck::bytes_of(&view.to_gpu()),
@@ -134,7 +141,7 @@ impl OcclusionPass {
         texel_info: &wgpu::Buffer,
         vpl_count: u32,
     ) -> OcclusionPass {
-        let module = shaders::module(device, "occlusion.wgsl", include_str!("occlusion.wgsl"));
+        let module = shaders::module(device, "occlusion.wgsl", OCCLUSION_WGSL);
         let occluded = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("occluded shares"),
             size: 4 * vpl_count.max(1) as u64,

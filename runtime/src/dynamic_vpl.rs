@@ -47,6 +47,16 @@ use wgpu::util::DeviceExt;
 
 use crate::dynamic_rsm::DynamicRsmPass;
 
+/// The pass's WGSL: the slot layout and the in-front test it shares, then
+/// its own.
+pub(crate) const DYNAMIC_VPL_WGSL: &str = concat!(
+    include_str!("dyn_vpl.wgsl"),
+    "\n",
+    include_str!("moving.wgsl"),
+    "\n",
+    include_str!("dynamic_vpl.wgsl")
+);
+
 /// One dynamic VPL slot. Must match `DynVpl` in `shade.wgsl` and
 /// `dynamic_vpl.wgsl` (48 bytes).
 #[repr(C)]
@@ -271,7 +281,7 @@ impl DynamicVplPass {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let module = shaders::module(device, "dynamic_vpl.wgsl", include_str!("dynamic_vpl.wgsl"));
+        let module = shaders::module(device, "dynamic_vpl.wgsl", DYNAMIC_VPL_WGSL);
         let pipeline = |entry: &str| {
             device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some("dynamic vpls"),
@@ -307,11 +317,7 @@ impl DynamicVplPass {
     }
 
     /// Records the clustering (after the dynamic RSM pass of the same frame).
-    pub fn encode(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: Option<&mut crate::timer::Timer>,
-    ) {
+    pub fn encode(&self, encoder: &mut wgpu::CommandEncoder, timer: Option<&crate::timer::Timer>) {
         let ts = timer.and_then(|t| t.compute("dynamic vpls"));
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("dynamic vpls"),
@@ -338,7 +344,7 @@ mod tests {
     #[test]
     fn dynamic_vpl_shader_validates() {
         use gibake_gpu::shaders::{compose, validate};
-        if let Err(e) = validate(&compose(include_str!("dynamic_vpl.wgsl"))) {
+        if let Err(e) = validate(&compose(DYNAMIC_VPL_WGSL)) {
             panic!("dynamic_vpl.wgsl does not validate:\n{e}");
         }
     }

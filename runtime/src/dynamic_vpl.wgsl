@@ -1,5 +1,6 @@
 // dynamic_vpl.wgsl — the moving objects' VPLs, clustered on the GPU with
-// the bake's quadtree rule (needs common.wgsl, light.wgsl, projection.wgsl).
+// the bake's quadtree rule (needs common.wgsl, light.wgsl, projection.wgsl, dyn_vpl.wgsl,
+// moving.wgsl).
 // CPU twin: gibake_bake::cluster::cluster_cut (see crates/bake/src/cluster.rs
 // for the rule, the moments and the slot order).
 //
@@ -40,12 +41,6 @@ struct Node {
     wn: vec3<f32>,        // Σ w · normal
 }
 
-struct DynVpl {           // must match GpuDynVpl in dynamic_vpl.rs
-    position: vec4<f32>,  // xyz, w = area
-    normal: vec4<f32>,    // xyz, w = 1 if the slot holds a VPL
-    flux: vec4<f32>,
-}
-
 @group(0) @binding(0) var dyn_position: texture_2d<f32>;
 @group(0) @binding(1) var dyn_albedo: texture_2d<f32>;
 @group(0) @binding(2) var dyn_normal: texture_2d<f32>;
@@ -56,24 +51,10 @@ struct DynVpl {           // must match GpuDynVpl in dynamic_vpl.rs
 @group(0) @binding(7) var<storage, read_write> vpls: array<DynVpl>;
 @group(0) @binding(8) var<uniform> params: Params;
 
-// Depth margin in texel footprints (scale-invariant). As occlusion.wgsl.
-const OCCLUSION_BIAS: f32 = 0.5;
 // As gibake_bake::rsm::MIN_AREA_COSINE.
 const MIN_AREA_COSINE: f32 = 0.05;
 // The dynamic RSM's clear value of the metric is 3e38: no moving surface.
 const EMPTY_METRIC: f32 = 1.0e38;
-
-// Whether the moving surface at texel c is in front of the static one
-// (copied from occlusion.wgsl).
-fn moving_in_front(c: vec2<i32>) -> bool {
-    let dm = textureLoad(dyn_position, c, 0).w;
-    let sm = textureLoad(static_metric, c, 0).r;
-    var w = view.direction.w;
-    if (view.origin.w < 0.5) {
-        w = min(dm, sm) * view.direction.w;
-    }
-    return dm < sm - OCCLUSION_BIAS * w;
-}
 
 fn empty_node() -> Node {
     var n: Node;

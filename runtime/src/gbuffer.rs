@@ -1,7 +1,7 @@
 //! Camera G-buffer of all geometry: world position, shading and geometric
 //! normals (octahedral, facing the viewer), albedo. 32 bytes per pixel.
 
-use gibake_gpu::mesh::{Draw, MESH_WGSL, SceneGpu};
+use gibake_gpu::mesh::{Draw, SceneGpu};
 use gibake_gpu::shaders;
 use gibake_gpu::util::{
     cleared_attachments, cleared_depth, draws_and_uniform_group, mesh_pipeline, texture_2d,
@@ -22,12 +22,8 @@ pub struct GBuffer {
     /// Textures in [`GBUFFER_FORMATS`] order.
     pub textures: Vec<wgpu::Texture>,
     /// Their views.
-    pub views: Vec<wgpu::TextureView>,
+    pub views: [wgpu::TextureView; 3],
     depth_view: wgpu::TextureView,
-    /// Size in pixels.
-    pub width: u32,
-    /// Size in pixels.
-    pub height: u32,
 }
 
 impl GBuffer {
@@ -41,10 +37,7 @@ impl GBuffer {
             .zip(["gbuffer position", "gbuffer normals", "gbuffer albedo"])
             .map(|(f, l)| texture_2d(device, l, width, height, *f, usage))
             .collect();
-        let views = textures
-            .iter()
-            .map(|t| t.create_view(&Default::default()))
-            .collect();
+        let views = [0, 1, 2].map(|i: usize| textures[i].create_view(&Default::default()));
         let depth = texture_2d(
             device,
             "gbuffer depth",
@@ -57,8 +50,6 @@ impl GBuffer {
             textures,
             views,
             depth_view: depth.create_view(&Default::default()),
-            width,
-            height,
         }
     }
 }
@@ -74,8 +65,7 @@ pub struct GBufferPass {
 impl GBufferPass {
     /// Creates the pass for the meshes of `scene_gpu`.
     pub fn new(device: &wgpu::Device, scene_gpu: &SceneGpu) -> GBufferPass {
-        let src = format!("{MESH_WGSL}\n{}", include_str!("gbuffer.wgsl"));
-        let module = shaders::module(device, "gbuffer.wgsl", &src);
+        let module = shaders::mesh_module(device, "gbuffer.wgsl", include_str!("gbuffer.wgsl"));
         let uniform_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("camera"),
             contents: bytemuck::bytes_of(&<GpuCamera as bytemuck::Zeroable>::zeroed()),

@@ -1,11 +1,36 @@
-//! gibake's game-facing runtime.
+//! gibake's game-facing runtime, in the style of wgpu middleware.
 //!
-//! A [`Renderer`] owns the GPU resources for one scene and (except in
-//! `direct` mode) one baked asset, on the caller's `wgpu::Device`. Each
-//! frame the caller moves the dynamic objects ([`Renderer::set_time`]
-//! samples the scene's animation; [`Renderer::set_dynamic_transforms`] takes
-//! the game's own matrices), records the frame with [`Renderer::encode`], and
-//! reads or samples [`Renderer::output`] (linear radiance, `Rgba32Float`).
+//! ```no_run
+//! # fn frame(device: &wgpu::Device, queue: &wgpu::Queue) -> Result<(), Box<dyn std::error::Error>> {
+//! use gibake_runtime::{CameraMatrices, FrameInput, RenderSettings, Renderer, glam::Mat4};
+//!
+//! let scene = gibake_runtime::load_scene(std::path::Path::new("level.glb"), &Default::default())?;
+//! let asset = gibake_runtime::load_asset(std::path::Path::new("level.gibake"))?;
+//! let mut renderer = Renderer::new(device, queue, &scene, Some(&asset), &RenderSettings::default())?;
+//! let door = renderer.object("door").ok_or("no door")?;
+//!
+//! // Every frame: the game's camera and moved objects, then one encoder.
+//! let camera = CameraMatrices::perspective(Mat4::IDENTITY, 1.0, 640.0 / 480.0, 0.1);
+//! let moved = [(door, Mat4::from_translation([0.0, 1.0, 0.0].into()))];
+//! renderer.prepare(device, queue, &FrameInput::new(camera).moving(&moved))?;
+//! let mut encoder = device.create_command_encoder(&Default::default());
+//! renderer.record(&mut encoder);
+//! // ... sample `renderer.output()` (linear radiance) in the game's own pass ...
+//! queue.submit([encoder.finish()]);
+//! # Ok(()) }
+//! ```
+//!
+//! A [`Renderer`] owns the GPU resources for one [`Scene`] and (except in
+//! `direct` mode) one baked [`Asset`], on the caller's `wgpu::Device`. The
+//! scene is plain data an engine can fill from its own meshes; with the
+//! default `gltf` feature [`load_scene`] reads one from a glTF file (its
+//! camera, if any, is not needed: the camera comes with each frame). Moving
+//! objects are addressed by [`ObjectHandle`] ([`Renderer::object`] looks one
+//! up by name). Per frame, [`Renderer::prepare`] does every upload and
+//! growth and returns typed errors ([`RuntimeError`]); [`Renderer::record`]
+//! only records. The frame lands in [`Renderer::output`] (linear radiance,
+//! [`OUTPUT_FORMAT`], sampleable) or in a texture the caller provides
+//! ([`Renderer::set_output_target`]); [`Renderer::resize`] changes its size.
 //!
 //! Per frame, only what moving objects cause is done (design brief, steps
 //! 4–8), all on the GPU, with no read-back:
@@ -23,31 +48,49 @@
 //!
 //! With no moving objects none of 1–3 exists: no pass, no texture.
 
+mod atlas;
+#[doc(hidden)]
 pub mod baked;
-pub mod camera;
+mod camera;
+#[doc(hidden)]
 pub mod dynamic_rsm;
+#[doc(hidden)]
 pub mod dynamic_vpl;
-pub mod gbuffer;
-pub mod interleave;
-pub mod shade;
+mod gbuffer;
+mod interleave;
+mod merge;
+mod shade;
+#[doc(hidden)]
 pub mod timer;
+#[doc(hidden)]
 pub mod transport;
 
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
-use gibake_asset::Asset;
 use gibake_gpu::mesh::SceneGpu;
-use gibake_gpu::passes::hemi_raster::{GpuHemiJob, HemiAtlas, HemiRasterPass, face_mask};
 use gibake_gpu::passes::shadow::ShadowPass;
-use gibake_gpu::{GpuContext, GpuError, GpuPrimaryLight, LightView, hemisphere};
-use gibake_image::Image;
-use gibake_scene::{Aabb, Scene};
-use glam::{Mat4, Vec3};
+use gibake_gpu::{GpuPrimaryLight, LightView};
+use glam::Mat4;
 use wgpu::util::DeviceExt;
 
 pub use camera::{CameraMatrices, NoCamera};
+pub use gbuffer::GBUFFER_FORMATS;
+pub use gibake_asset::{Asset, AssetError, load as load_asset};
+pub use gibake_gpu::GpuError;
+pub use gibake_image::Image;
+pub use gibake_scene::{
+    Aabb, Animator, DynamicObject, Light, LightKind, Material, Mesh, Projection, Scene, SceneError,
+    Texture,
+};
+#[cfg(feature = "gltf")]
+pub use gibake_scene::{LoadOptions, load as load_scene};
+pub use {glam, wgpu};
 
-/// What a frame contains (the `--mode` of `gibake render`).
+/// Format of the renderer's output: linear radiance.
+pub const OUTPUT_FORMAT: wgpu::TextureFormat = shade::RADIANCE_FORMAT;
+
+/// What a frame contains.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Mode {
     /// The method: direct + static VPLs with merged maps + dynamic VPLs.
@@ -64,10 +107,23 @@ pub enum Mode {
     Naive,
 }
 
+impl Mode {
+    /// Lower-case name (`full`, `direct`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Full => "full",
+            Mode::Direct => "direct",
+            Mode::Indirect => "indirect",
+            Mode::Rsm => "rsm",
+            Mode::Naive => "naive",
+        }
+    }
+}
+
 /// Settings of a [`Renderer`].
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
-    /// Output width in pixels.
+    /// Output width in pixels ([`Renderer::resize`] changes it).
     pub width: u32,
     /// Output height in pixels.
     pub height: u32,
@@ -80,8 +136,8 @@ pub struct RenderSettings {
     pub max_dynamic_vpls: u32,
     /// Interleaved VPL sampling: 1 (every pixel sums every VPL), 2, 4 or 8
     /// (each pixel of an N×N block sums a disjoint 1/N² of the VPLs, and a
-    /// geometry-aware filter over its neighbours reconstructs the sum; see
-    /// [`interleave`]). Other values are [`RuntimeError::InvalidSetting`].
+    /// geometry-aware filter over its neighbours reconstructs the sum).
+    /// Other values are [`RuntimeError::InvalidSetting`].
     pub interleave: u32,
 }
 
@@ -98,10 +154,12 @@ impl Default for RenderSettings {
     }
 }
 
-/// Runtime errors.
+/// Runtime errors. None of them is a panic; the messages name no command
+/// line (a tool adds its own wording).
 #[derive(Debug, thiserror::Error)]
 pub enum RuntimeError {
-    /// The scene has no camera.
+    /// The scene has no camera (only [`CameraMatrices::from_scene`] and
+    /// [`render_image`] need one).
     #[error(transparent)]
     NoCamera(#[from] NoCamera),
     /// A GPU operation failed.
@@ -109,13 +167,93 @@ pub enum RuntimeError {
     Gpu(#[from] GpuError),
     /// The asset does not fit the scene.
     #[error(transparent)]
-    Asset(#[from] gibake_asset::AssetError),
-    /// A bad setting (zero size, size over the device's limits, ...).
+    Asset(#[from] AssetError),
+    /// A bad setting (zero size, unknown interleave factor, ...).
     #[error("invalid render setting: {0}")]
     InvalidSetting(String),
+    /// Something would exceed a limit of the caller's device.
+    #[error("{what} needs {needed}; this device allows {limit}")]
+    DeviceLimit {
+        /// What was to be created.
+        what: String,
+        /// The size it needs (texels, bytes).
+        needed: u64,
+        /// The device's limit.
+        limit: u64,
+    },
     /// The mode needs a baked asset.
-    #[error("--mode {0} needs a baked asset (--bake OUT.gibake); run `gibake bake` first")]
+    #[error("mode `{0}` needs a baked asset")]
     NeedsAsset(&'static str),
+    /// A frame's transform list does not have one matrix per moving object.
+    #[error("{got} transforms given for {expected} moving objects")]
+    TransformCount {
+        /// Moving objects of the scene.
+        expected: usize,
+        /// Transforms given.
+        got: usize,
+    },
+    /// A handle that is not one of this renderer's moving objects.
+    #[error("{0:?} is not a moving object of this renderer")]
+    UnknownObject(ObjectHandle),
+    /// A caller-provided output texture does not fit.
+    #[error("output target: {0}")]
+    OutputTarget(String),
+}
+
+/// A moving object of one [`Renderer`] (from [`Renderer::object`] or
+/// [`Renderer::objects`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ObjectHandle {
+    renderer: u32,
+    index: u32,
+}
+
+impl ObjectHandle {
+    /// Position of the object in the scene's `dynamic_objects`.
+    pub fn index(self) -> usize {
+        self.index as usize
+    }
+}
+
+/// What the game supplies each frame.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameInput<'a> {
+    /// The camera (the output's aspect ratio is the caller's to match).
+    pub camera: CameraMatrices,
+    /// Either empty (objects stay where they are) or one world matrix per
+    /// moving object, in handle order ([`ObjectHandle::index`]).
+    pub transforms: &'a [Mat4],
+    /// World matrices of single objects, applied after `transforms`.
+    pub moved: &'a [(ObjectHandle, Mat4)],
+}
+
+impl<'a> FrameInput<'a> {
+    /// A frame with `camera` and no object moved.
+    pub fn new(camera: CameraMatrices) -> FrameInput<'a> {
+        FrameInput {
+            camera,
+            transforms: &[],
+            moved: &[],
+        }
+    }
+
+    /// With one world matrix per moving object.
+    pub fn transforms(self, transforms: &'a [Mat4]) -> FrameInput<'a> {
+        FrameInput { transforms, ..self }
+    }
+
+    /// With single objects moved.
+    pub fn moving(self, moved: &'a [(ObjectHandle, Mat4)]) -> FrameInput<'a> {
+        FrameInput { moved, ..self }
+    }
+}
+
+/// The world matrices of `scene`'s moving objects at `time` of its
+/// animation, in handle order.
+pub fn scene_transforms(scene: &Scene, time: f32) -> Vec<Mat4> {
+    (0..scene.dynamic_objects.len())
+        .map(|i| scene.dynamic_transform(i, time))
+        .collect()
 }
 
 /// Per-frame counts and times.
@@ -149,116 +287,154 @@ impl FrameStats {
     }
 }
 
-/// What the frame bind group needs besides the G-buffer.
+/// Where shading writes, and what depends on the output size.
+struct Target {
+    gbuffer: gbuffer::GBuffer,
+    /// The interleave filter (interleave > 1 only).
+    interleave: Option<interleave::InterleavePass>,
+    /// The renderer's output (its own, or the caller's).
+    output: wgpu::Texture,
+    output_view: wgpu::TextureView,
+    /// Shading's G-buffer and output (group 0).
+    frame_group: wgpu::BindGroup,
+    /// The caller's G-buffer views, when it provides them.
+    external_gbuffer: Option<[wgpu::TextureView; 3]>,
+}
+
+/// What the frame bind group needs besides the G-buffer and output.
 struct FrameViews {
     primary_static: wgpu::TextureView,
     primary_dynamic: wgpu::TextureView,
     light_view_buf: wgpu::Buffer,
-    /// What the shade pass writes: the final output, or interleaved, the
-    /// filter's input.
-    output: wgpu::TextureView,
-    /// The renderer's output.
-    final_output: wgpu::TextureView,
+    light_buf: wgpu::Buffer,
 }
 
 impl FrameViews {
-    fn group(
+    /// Group 0 of shading for this G-buffer and output; interleaved, shading
+    /// writes the filter's input, which the filter (bound here) resolves
+    /// into `output`.
+    fn bind(
         &self,
         device: &wgpu::Device,
         shade: &shade::ShadePass,
         gbuffer: [&wgpu::TextureView; 3],
-        light: &wgpu::Buffer,
+        interleave: Option<&mut interleave::InterleavePass>,
+        output: &wgpu::TextureView,
     ) -> wgpu::BindGroup {
+        let shade_out = match interleave {
+            Some(il) => {
+                il.bind(device, gbuffer, output);
+                il.shaded.clone()
+            }
+            None => output.clone(),
+        };
         shade.frame_group(
             device,
             &shade::FrameInputs {
                 gbuffer,
                 primary_static: &self.primary_static,
                 primary_dynamic: &self.primary_dynamic,
-                light,
+                light: &self.light_buf,
                 light_view: &self.light_view_buf,
-                output: &self.output,
+                output: &shade_out,
             },
         )
     }
 }
 
-struct HemiState {
-    /// Per static VPL: (map origin, normal), computed once.
-    frames: std::sync::Arc<[(Vec3, Vec3)]>,
-    pass: HemiRasterPass,
-    atlas: HemiAtlas,
-    tile_buf: wgpu::Buffer,
-    jobs: Vec<GpuHemiJob>,
-    tiles: Vec<u32>,
-}
-
 /// Renders frames of one scene.
 pub struct Renderer {
+    id: u32,
     settings: RenderSettings,
+    object_names: Vec<String>,
     scene_gpu: SceneGpu,
     baked: Option<baked::BakedGpu>,
     _own_static: Option<ShadowPass>,
     dyn_primary: Option<ShadowPass>,
     dyn_rsm: Option<dynamic_rsm::DynamicRsmPass>,
     occlusion: Option<dynamic_rsm::OcclusionPass>,
-    hemi: Option<HemiState>,
-    gbuffer: gbuffer::GBuffer,
+    merge: Option<merge::VplMerge>,
     gbuffer_pass: gbuffer::GBufferPass,
     shade: shade::ShadePass,
-    /// The interleave filter (interleave > 1 only).
-    interleave: Option<interleave::InterleavePass>,
-    frame_group: wgpu::BindGroup,
-    /// Built right after construction (it needs the renderer's resources).
-    gi_group: Option<wgpu::BindGroup>,
+    target: Target,
+    gi_group: wgpu::BindGroup,
     frame_views: FrameViews,
-    external_gbuffer: bool,
     params: shade::GpuShadeParams,
-    output: wgpu::Texture,
-    _light_buf: wgpu::Buffer,
-    dummy_buf: wgpu::Buffer,
-    dyn_vpl_buf: wgpu::Buffer,
     dyn_vpls: Option<dynamic_vpl::DynamicVplPass>,
-    camera: CameraMatrices,
     transforms: Vec<Mat4>,
     timer: Option<timer::Timer>,
     stats: FrameStats,
     wall_start: Option<Instant>,
 }
 
-fn mode_name(m: Mode) -> &'static str {
-    match m {
-        Mode::Full => "full",
-        Mode::Direct => "direct",
-        Mode::Indirect => "indirect",
-        Mode::Rsm => "rsm",
-        Mode::Naive => "naive",
+static NEXT_RENDERER: AtomicU32 = AtomicU32::new(0);
+
+/// Checks an output size against the device.
+fn check_size(device: &wgpu::Device, width: u32, height: u32) -> Result<(), RuntimeError> {
+    let limit = device.limits().max_texture_dimension_2d;
+    for (what, v) in [("width", width), ("height", height)] {
+        if v == 0 {
+            return Err(RuntimeError::InvalidSetting(format!(
+                "{what} must be at least 1"
+            )));
+        }
+        if v > limit {
+            return Err(RuntimeError::DeviceLimit {
+                what: format!("an output {what} of {v} pixels"),
+                needed: u64::from(v),
+                limit: u64::from(limit),
+            });
+        }
     }
+    Ok(())
+}
+
+/// The renderer's own output texture.
+fn own_output(device: &wgpu::Device, width: u32, height: u32) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("radiance"),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: OUTPUT_FORMAT,
+        usage: wgpu::TextureUsages::STORAGE_BINDING
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    })
 }
 
 impl Renderer {
     /// Creates every GPU resource for `scene` (and `asset`, needed by every
-    /// mode but `Direct`), with moving objects at `time`. The asset must
-    /// have been baked from this scene's static part.
+    /// mode but `Direct`) on the caller's device. The asset must have been
+    /// baked from this scene's static part. Moving objects start at their
+    /// animation's time 0; the camera comes with the first
+    /// [`Renderer::prepare`].
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         scene: &Scene,
         asset: Option<&Asset>,
         settings: &RenderSettings,
-        time: f32,
     ) -> Result<Renderer, RuntimeError> {
+        check_size(device, settings.width, settings.height)?;
         let limit = device.limits().max_texture_dimension_2d;
-        for (what, v) in [
-            ("width", settings.width),
-            ("height", settings.height),
-            ("shadow map size", settings.shadow_map_size),
-        ] {
-            if v == 0 || v > limit {
-                return Err(RuntimeError::InvalidSetting(format!(
-                    "{what} {v} must be in 1..={limit} on this device"
-                )));
-            }
+        if settings.shadow_map_size == 0 {
+            return Err(RuntimeError::InvalidSetting(
+                "shadow map size must be at least 1".into(),
+            ));
+        }
+        if asset.is_none() && settings.shadow_map_size > limit {
+            return Err(RuntimeError::DeviceLimit {
+                what: format!("a shadow map of {}²", settings.shadow_map_size),
+                needed: u64::from(settings.shadow_map_size),
+                limit: u64::from(limit),
+            });
         }
         if !interleave::VALID.contains(&settings.interleave) {
             return Err(RuntimeError::InvalidSetting(format!(
@@ -268,7 +444,7 @@ impl Renderer {
         }
         let mode = settings.mode;
         if asset.is_none() && mode != Mode::Direct {
-            return Err(RuntimeError::NeedsAsset(mode_name(mode)));
+            return Err(RuntimeError::NeedsAsset(mode.name()));
         }
         if let Some(a) = asset {
             gibake_asset::check_scene_hash(
@@ -277,18 +453,26 @@ impl Renderer {
                 &scene.source,
             )?;
         }
-        let camera = CameraMatrices::new(scene, time, settings.width, settings.height)?;
-        let scene_gpu = SceneGpu::new(device, queue, scene, time);
-        let has_dynamic = !scene.dynamic_objects.is_empty();
-        let indirect = mode != Mode::Direct;
-
+        for t in &scene.textures {
+            if t.width.max(t.height) > limit {
+                return Err(RuntimeError::DeviceLimit {
+                    what: format!("a {}×{} material texture", t.width, t.height),
+                    needed: u64::from(t.width.max(t.height)),
+                    limit: u64::from(limit),
+                });
+            }
+        }
+        // The asset first: its limits are checked before any upload.
         let baked = match asset {
             Some(a) => Some(baked::BakedGpu::new(device, queue, a)?),
             None => None,
         };
+        let scene_gpu = SceneGpu::new(device, queue, scene, 0.0);
+        let has_dynamic = !scene.dynamic_objects.is_empty();
+        let indirect = mode != Mode::Direct;
         // Primary shadow map: baked static map, or rendered once here.
-        let (view, own_static) = match &baked {
-            Some(b) => (b.view, None),
+        let (view, primary_static, own_static) = match &baked {
+            Some(b) => (b.view, b.primary.clone(), None),
             None => {
                 let view =
                     LightView::new(&scene.light, &scene.full_bounds(), settings.shadow_map_size);
@@ -296,13 +480,8 @@ impl Renderer {
                 let mut enc = device.create_command_encoder(&Default::default());
                 pass.encode(&mut enc, &scene_gpu, &[&scene_gpu.static_draws], None);
                 queue.submit([enc.finish()]);
-                (view, Some(pass))
+                (view, pass.metric_view.clone(), Some(pass))
             }
-        };
-        let primary_static = match (&baked, &own_static) {
-            (Some(b), _) => b.primary.clone(),
-            (None, Some(p)) => p.metric_view.clone(),
-            (None, None) => unreachable!("one of the two exists"),
         };
         let dyn_primary = has_dynamic.then(|| ShadowPass::new(device, &scene_gpu, view));
         let light_view_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -330,118 +509,41 @@ impl Renderer {
             _ => (None, None),
         };
 
-        // Hemisphere-map merge (full/indirect with moving objects) or
-        // re-render (naive).
-        let needs_hemi = match mode {
+        // VPL-map merge (full/indirect with moving objects) or re-render
+        // (naive).
+        let needs_merge = match mode {
             Mode::Naive => true,
             Mode::Full | Mode::Indirect => has_dynamic,
             _ => false,
         };
-        let hemi = match (&baked, needs_hemi) {
-            (Some(b), true) => {
-                let n = b.vpls.len() as u32;
-                let capacity = if mode == Mode::Naive { n } else { n.min(64) };
-                let atlas = HemiAtlas::new(device, b.map_size, capacity);
-                let diag = scene.full_bounds().diagonal().max(f32::MIN_POSITIVE);
-                let pass = HemiRasterPass::new(device, &scene_gpu, 1.0 / (4.0 * diag));
-                let tile_buf = device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("VPL tiles"),
-                    size: 4 * n.max(1) as u64,
-                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                });
-                let frames = b
-                    .vpls
-                    .iter()
-                    .map(|v| {
-                        let n = Vec3::from_array(v.normal);
-                        (
-                            hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area),
-                            n,
-                        )
-                    })
-                    .collect();
-                Some(HemiState {
-                    frames,
-                    pass,
-                    atlas,
-                    tile_buf,
-                    jobs: Vec::new(),
-                    tiles: vec![u32::MAX; n as usize],
-                })
-            }
+        let merge = match (&baked, needs_merge) {
+            (Some(b), true) => Some(merge::VplMerge::new(
+                device,
+                &scene_gpu,
+                b,
+                scene.full_bounds().diagonal(),
+                mode == Mode::Naive,
+            )?),
             _ => None,
         };
 
-        let gbuffer = gbuffer::GBuffer::new(device, settings.width, settings.height);
         let gbuffer_pass = gbuffer::GBufferPass::new(device, &scene_gpu);
-        let output = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("radiance"),
-            size: wgpu::Extent3d {
-                width: settings.width,
-                height: settings.height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: shade::RADIANCE_FORMAT,
-            usage: wgpu::TextureUsages::STORAGE_BINDING
-                | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
         let light_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("primary light"),
             contents: bytemuck::bytes_of(&GpuPrimaryLight::new(&scene.light)),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let out_view = output.create_view(&Default::default());
         let shade = shade::ShadePass::new(device);
-        let size = [settings.width, settings.height];
-        let mut interleave = (settings.interleave > 1)
-            .then(|| interleave::InterleavePass::new(device, queue, size, settings.interleave));
-        if let Some(il) = &mut interleave {
-            il.bind(
-                device,
-                [&gbuffer.views[0], &gbuffer.views[1], &gbuffer.views[2]],
-                &out_view,
-            );
-        }
-        // Interleaved, the shade pass writes the filter's input instead.
-        let shade_out = match &interleave {
-            Some(il) => il.shaded.clone(),
-            None => out_view.clone(),
-        };
-        let dyn_primary_view = dyn_primary
+        let primary_dynamic = dyn_primary
             .as_ref()
             .map(|p| p.metric_view.clone())
             .unwrap_or_else(|| primary_static.clone());
         let frame_views = FrameViews {
             primary_static,
-            primary_dynamic: dyn_primary_view,
+            primary_dynamic,
             light_view_buf,
-            output: shade_out,
-            final_output: out_view,
+            light_buf,
         };
-        let frame_group = frame_views.group(
-            device,
-            &shade,
-            [&gbuffer.views[0], &gbuffer.views[1], &gbuffer.views[2]],
-            &light_buf,
-        );
-        let dummy_buf = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("dummy"),
-            size: 64,
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
-        let dyn_vpl_buf = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("no dynamic VPLs"),
-            size: 48,
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
         // Dynamic VPLs: moving surfaces of the dynamic RSM, clustered on the
         // GPU with the bake's rule and threshold.
         let dyn_vpls = match (&dyn_rsm, &baked, asset) {
@@ -451,7 +553,7 @@ impl Renderer {
                         device,
                         r,
                         &rg.static_metric,
-                        &light_buf,
+                        &frame_views.light_buf,
                         a.manifest.settings.threshold,
                         settings.max_dynamic_vpls,
                     )
@@ -479,7 +581,7 @@ impl Renderer {
         }
         // Without a merge atlas there is no tile buffer: every VPL uses its
         // baked map alone (a static scene, or rsm mode).
-        if hemi.is_some() {
+        if merge.is_some() {
             flags |= shade::FLAG_TILES;
         }
         if dyn_vpls.is_some() && mode != Mode::Direct {
@@ -490,325 +592,391 @@ impl Renderer {
             flags,
             n_static: baked.as_ref().map(|b| b.vpls.len() as u32).unwrap_or(0),
             map_size: baked.as_ref().map(|b| b.map_size).unwrap_or(1),
-            atlas_cols: hemi.as_ref().map(|h| h.atlas.cols).unwrap_or(1),
+            atlas_cols: merge.as_ref().map(|m| m.atlas_cols()).unwrap_or(1),
             n_dynamic: dyn_vpls.as_ref().map(|d| d.slots()).unwrap_or(0),
             static_cols: baked.as_ref().map(|b| b.static_cols).unwrap_or(1),
             interleave: settings.interleave,
             _pad: [0; 3],
         };
         queue.write_buffer(&shade.uniform_buf, 0, bytemuck::bytes_of(&params));
-        queue.write_buffer(
-            &gbuffer_pass.uniform_buf,
-            0,
-            bytemuck::bytes_of(&camera.to_gpu()),
+        let target = Self::make_target(device, queue, &shade, &frame_views, settings, None);
+        let gi_group = Self::make_gi_group(
+            device,
+            &shade,
+            baked.as_ref(),
+            occlusion.as_ref(),
+            merge.as_ref(),
+            dyn_vpls.as_ref(),
         );
-
-        let transforms = (0..scene.dynamic_objects.len())
-            .map(|i| scene.dynamic_transform(i, time))
-            .collect();
-        let mut r = Renderer {
+        Ok(Renderer {
+            id: NEXT_RENDERER.fetch_add(1, Ordering::Relaxed),
             settings: settings.clone(),
+            object_names: scene
+                .dynamic_objects
+                .iter()
+                .map(|o| o.name.clone())
+                .collect(),
+            transforms: scene_transforms(scene, 0.0),
             scene_gpu,
             baked,
             _own_static: own_static,
             dyn_primary,
             dyn_rsm,
             occlusion,
-            hemi,
-            gbuffer,
+            merge,
             gbuffer_pass,
             shade,
-            interleave,
-            frame_group,
-            gi_group: None,
+            target,
+            gi_group,
             frame_views,
-            external_gbuffer: false,
             params,
-            output,
-            _light_buf: light_buf,
-            dummy_buf,
-            dyn_vpl_buf,
             dyn_vpls,
-            camera,
-            transforms,
             timer: timer::Timer::new(device, queue, 9),
             stats: FrameStats::default(),
             wall_start: None,
-        };
-        r.gi_group = Some(r.make_gi_group(device));
-        Ok(r)
+        })
     }
 
-    fn make_gi_group(&self, device: &wgpu::Device) -> wgpu::BindGroup {
-        let fallback_maps;
-        let static_maps = match &self.baked {
-            Some(b) => &b.static_maps,
-            None => {
-                fallback_maps = tiny_texture(device);
-                &fallback_maps
-            }
-        };
-        let fallback_atlas;
-        let atlas = match &self.hemi {
-            Some(h) => &h.atlas.view,
-            None => {
-                fallback_atlas = tiny_texture(device);
-                &fallback_atlas
-            }
-        };
-        self.shade.gi_group(
+    /// G-buffer, interleave filter, output and frame group for the
+    /// settings' size; `output`: the caller's texture, or `None` for an own.
+    fn make_target(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        shade: &shade::ShadePass,
+        frame_views: &FrameViews,
+        settings: &RenderSettings,
+        output: Option<&wgpu::Texture>,
+    ) -> Target {
+        let (w, h) = (settings.width, settings.height);
+        let gbuffer = gbuffer::GBuffer::new(device, w, h);
+        let output = output.cloned().unwrap_or_else(|| own_output(device, w, h));
+        let output_view = output.create_view(&Default::default());
+        let mut interleave = (settings.interleave > 1)
+            .then(|| interleave::InterleavePass::new(device, queue, [w, h], settings.interleave));
+        let views = [&gbuffer.views[0], &gbuffer.views[1], &gbuffer.views[2]];
+        let frame_group = frame_views.bind(device, shade, views, interleave.as_mut(), &output_view);
+        Target {
+            gbuffer,
+            interleave,
+            output,
+            output_view,
+            frame_group,
+            external_gbuffer: None,
+        }
+    }
+
+    fn make_gi_group(
+        device: &wgpu::Device,
+        shade: &shade::ShadePass,
+        baked: Option<&baked::BakedGpu>,
+        occlusion: Option<&dynamic_rsm::OcclusionPass>,
+        merge: Option<&merge::VplMerge>,
+        dyn_vpls: Option<&dynamic_vpl::DynamicVplPass>,
+    ) -> wgpu::BindGroup {
+        shade.gi_group(
             device,
             &shade::GiInputs {
-                vpls: self
-                    .baked
-                    .as_ref()
-                    .map(|b| &b.vpl_buf)
-                    .unwrap_or(&self.dummy_buf),
-                occlusion: self
-                    .occlusion
-                    .as_ref()
-                    .map(|o| &o.occluded)
-                    .unwrap_or(&self.dummy_buf),
-                vpl_tile: self
-                    .hemi
-                    .as_ref()
-                    .map(|h| &h.tile_buf)
-                    .unwrap_or(&self.dummy_buf),
-                static_maps,
-                atlas,
-                dyn_vpls: self
-                    .dyn_vpls
-                    .as_ref()
-                    .map(|d| &d.vpls)
-                    .unwrap_or(&self.dyn_vpl_buf),
-                vpl_nodes: self
-                    .baked
-                    .as_ref()
-                    .map(|b| &b.node_buf)
-                    .unwrap_or(&self.dummy_buf),
+                vpls: baked.map(|b| &b.vpl_buf),
+                occlusion: occlusion.map(|o| &o.occluded),
+                vpl_tile: merge.map(|m| m.tile_buf()),
+                static_maps: baked.map(|b| &b.static_maps),
+                atlas: merge.map(|m| m.atlas_view()),
+                dyn_vpls: dyn_vpls.map(|d| &d.vpls),
+                vpl_nodes: baked.map(|b| &b.node_buf),
             },
         )
     }
 
-    /// Moves the dynamic objects and the camera to the scene's animation at `time`.
-    pub fn set_time(
+    /// The moving objects: handle and name, in the scene's order.
+    pub fn objects(&self) -> impl Iterator<Item = (ObjectHandle, &str)> + '_ {
+        self.object_names.iter().enumerate().map(|(i, n)| {
+            (
+                ObjectHandle {
+                    renderer: self.id,
+                    index: i as u32,
+                },
+                n.as_str(),
+            )
+        })
+    }
+
+    /// The first moving object named `name`.
+    pub fn object(&self, name: &str) -> Option<ObjectHandle> {
+        self.objects().find(|(_, n)| *n == name).map(|(h, _)| h)
+    }
+
+    /// The current world matrix of a moving object.
+    pub fn transform(&self, object: ObjectHandle) -> Result<Mat4, RuntimeError> {
+        Ok(self.transforms[self.check_handle(object)?])
+    }
+
+    fn check_handle(&self, h: ObjectHandle) -> Result<usize, RuntimeError> {
+        if h.renderer != self.id || h.index() >= self.transforms.len() {
+            return Err(RuntimeError::UnknownObject(h));
+        }
+        Ok(h.index())
+    }
+
+    /// The output size in pixels.
+    pub fn size(&self) -> (u32, u32) {
+        (self.settings.width, self.settings.height)
+    }
+
+    /// Changes the output size: a new G-buffer and output (the renderer's
+    /// own again, and its own G-buffer: a caller that provided either
+    /// provides it again at the new size). The camera's aspect ratio is the
+    /// caller's to change.
+    pub fn resize(
         &mut self,
+        device: &wgpu::Device,
         queue: &wgpu::Queue,
-        scene: &Scene,
-        time: f32,
+        width: u32,
+        height: u32,
     ) -> Result<(), RuntimeError> {
-        let transforms: Vec<Mat4> = (0..scene.dynamic_objects.len())
-            .map(|i| scene.dynamic_transform(i, time))
-            .collect();
-        self.set_dynamic_transforms(queue, &transforms);
-        self.set_camera(
+        check_size(device, width, height)?;
+        self.settings.width = width;
+        self.settings.height = height;
+        self.params.size = [width, height];
+        queue.write_buffer(&self.shade.uniform_buf, 0, bytemuck::bytes_of(&self.params));
+        self.target = Self::make_target(
+            device,
             queue,
-            CameraMatrices::new(scene, time, self.settings.width, self.settings.height)?,
+            &self.shade,
+            &self.frame_views,
+            &self.settings,
+            None,
         );
         Ok(())
     }
 
-    /// Sets the dynamic objects' world matrices (one per
-    /// `Scene::dynamic_objects` entry), as a game would each frame.
-    pub fn set_dynamic_transforms(&mut self, queue: &wgpu::Queue, transforms: &[Mat4]) {
-        for (t, m) in self.transforms.iter_mut().zip(transforms) {
-            *t = *m;
+    /// Renders into the caller's `texture` from now on (`None`: the
+    /// renderer's own output again). It must be a 2D [`OUTPUT_FORMAT`]
+    /// texture of the output size with `STORAGE_BINDING` usage.
+    pub fn set_output_target(
+        &mut self,
+        device: &wgpu::Device,
+        texture: Option<&wgpu::Texture>,
+    ) -> Result<(), RuntimeError> {
+        let (w, h) = self.size();
+        if let Some(t) = texture {
+            let problem = if t.format() != OUTPUT_FORMAT {
+                Some(format!("format {:?}, needs {OUTPUT_FORMAT:?}", t.format()))
+            } else if !t.usage().contains(wgpu::TextureUsages::STORAGE_BINDING) {
+                Some("needs STORAGE_BINDING usage".to_string())
+            } else if t.dimension() != wgpu::TextureDimension::D2 || t.sample_count() != 1 {
+                Some("needs a single-sampled 2D texture".to_string())
+            } else if (t.width(), t.height()) != (w, h) {
+                Some(format!(
+                    "{}×{}, the output is {w}×{h} (resize first)",
+                    t.width(),
+                    t.height()
+                ))
+            } else {
+                None
+            };
+            if let Some(p) = problem {
+                return Err(RuntimeError::OutputTarget(p));
+            }
         }
-        self.scene_gpu.set_dynamic_transforms(queue, transforms);
+        self.target.output = match texture {
+            Some(t) => t.clone(),
+            None => own_output(device, w, h),
+        };
+        self.target.output_view = self.target.output.create_view(&Default::default());
+        self.rebind_frame(device);
+        Ok(())
     }
 
-    /// Sets the camera.
-    pub fn set_camera(&mut self, queue: &wgpu::Queue, camera: CameraMatrices) {
-        self.camera = camera;
-        queue.write_buffer(
-            &self.gbuffer_pass.uniform_buf,
-            0,
-            bytemuck::bytes_of(&camera.to_gpu()),
+    /// Rebinds group 0 (and the interleave filter) to the current output
+    /// and G-buffer (the caller's, if it provides one).
+    fn rebind_frame(&mut self, device: &wgpu::Device) {
+        let t = &mut self.target;
+        let g = t.external_gbuffer.as_ref().unwrap_or(&t.gbuffer.views);
+        t.frame_group = self.frame_views.bind(
+            device,
+            &self.shade,
+            [&g[0], &g[1], &g[2]],
+            t.interleave.as_mut(),
+            &t.output_view,
         );
     }
 
-    /// Records one frame. Needs the device to grow the merge atlas when
-    /// more VPL maps are affected than ever before.
-    pub fn encode(
+    /// Prepares one frame: applies the camera and the moving objects'
+    /// matrices, and uploads every table and grows every buffer the frame
+    /// needs (the merge atlas included). On an error nothing of the frame is
+    /// recorded differently from the last successful prepare's, except the
+    /// matrices.
+    pub fn prepare(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        encoder: &mut wgpu::CommandEncoder,
-    ) {
-        self.wall_start = Some(Instant::now());
+        frame: &FrameInput<'_>,
+    ) -> Result<(), RuntimeError> {
+        // Validate everything before changing anything.
+        let n = self.transforms.len();
+        if !frame.transforms.is_empty() && frame.transforms.len() != n {
+            return Err(RuntimeError::TransformCount {
+                expected: n,
+                got: frame.transforms.len(),
+            });
+        }
+        for (h, _) in frame.moved {
+            self.check_handle(*h)?;
+        }
+        if !frame.transforms.is_empty() {
+            self.transforms.copy_from_slice(frame.transforms);
+        }
+        for (h, m) in frame.moved {
+            self.transforms[h.index()] = *m;
+        }
+        if n > 0 {
+            self.scene_gpu
+                .set_dynamic_transforms(queue, &self.transforms);
+        }
+        queue.write_buffer(
+            &self.gbuffer_pass.uniform_buf,
+            0,
+            bytemuck::bytes_of(&frame.camera.to_gpu()),
+        );
+
         let mut stats = FrameStats {
             static_vpls: self.params.n_static,
+            dynamic_vpl_slots: self.params.n_dynamic,
             ..Default::default()
         };
+        let mut calls = 0u32;
+        let mut planned: Vec<&'static str> = Vec::new();
+        if self.dyn_primary.is_some() {
+            planned.push("primary merge");
+            calls += self.scene_gpu.dynamic_draws.len() as u32;
+        }
+        if self.dyn_rsm.is_some() && self.occlusion.is_some() {
+            planned.push("dynamic rsm");
+            calls += self.scene_gpu.dynamic_draws.len() as u32;
+            planned.push("occlusion");
+            if self.dyn_vpls.is_some() {
+                planned.push("dynamic vpls");
+            }
+        }
+        if let Some(m) = self.merge.as_mut() {
+            let grown = m.prepare(device, queue, &self.scene_gpu, &self.transforms)?;
+            if grown {
+                self.params.atlas_cols = m.atlas_cols();
+                queue.write_buffer(&self.shade.uniform_buf, 0, bytemuck::bytes_of(&self.params));
+                self.gi_group = Self::make_gi_group(
+                    device,
+                    &self.shade,
+                    self.baked.as_ref(),
+                    self.occlusion.as_ref(),
+                    self.merge.as_ref(),
+                    self.dyn_vpls.as_ref(),
+                );
+            }
+            let m = self.merge.as_ref().expect("matched above");
+            stats.affected_maps = m.affected();
+            if m.affected() > 0 {
+                planned.push("vpl maps");
+                calls += m.draw_calls();
+            }
+        }
+        stats.update_draw_calls = calls;
+        if self.target.external_gbuffer.is_none() {
+            planned.push("gbuffer");
+            calls +=
+                (self.scene_gpu.static_draws.len() + self.scene_gpu.dynamic_draws.len()) as u32;
+        }
+        planned.push("shade");
+        if self.target.interleave.is_some() {
+            planned.push("interleave");
+        }
+        stats.draw_calls = calls;
         if let Some(t) = self.timer.as_mut() {
             t.reset();
+            for p in planned {
+                t.plan(p);
+            }
         }
-        let mut calls = 0u32;
+        self.stats = stats;
+        self.wall_start = Some(Instant::now());
+        Ok(())
+    }
+
+    /// [`Renderer::prepare`] for the frame of `scene`'s own animation at
+    /// `time`, seen by its camera ([`RuntimeError::NoCamera`] without one):
+    /// what tools and tests render.
+    pub fn prepare_at_time(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene: &Scene,
+        time: f32,
+    ) -> Result<(), RuntimeError> {
+        let (w, h) = self.size();
+        let camera = CameraMatrices::from_scene(scene, time, w, h)?;
+        let transforms = scene_transforms(scene, time);
+        self.prepare(
+            device,
+            queue,
+            &FrameInput::new(camera).transforms(&transforms),
+        )
+    }
+
+    /// Records the frame last prepared into `encoder`; uploads nothing.
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder) {
+        let timer = self.timer.as_ref();
         // 1. Moving objects into their primary shadow map.
         if let Some(p) = &self.dyn_primary {
-            let ts = self.timer.as_mut().and_then(|t| t.render("primary merge"));
+            let ts = timer.and_then(|t| t.render("primary merge"));
             p.encode(
                 encoder,
                 &self.scene_gpu,
                 &[&self.scene_gpu.dynamic_draws],
                 ts,
             );
-            calls += self.scene_gpu.dynamic_draws.len() as u32;
         }
-        // 2. Moving objects' RSM, partial occlusion.
+        // 2. Moving objects' RSM, partial occlusion, dynamic VPLs.
         if let (Some(r), Some(o)) = (&self.dyn_rsm, &self.occlusion) {
-            let ts = self.timer.as_mut().and_then(|t| t.render("dynamic rsm"));
-            calls += r.encode(encoder, &self.scene_gpu, ts);
-            let ts = self.timer.as_mut().and_then(|t| t.compute("occlusion"));
-            o.encode(encoder, ts);
-            if let Some(d) = &self.dyn_vpls {
-                d.encode(encoder, self.timer.as_mut());
-            }
-        }
-        // 3. VPL maps: per (draw, VPL, octahedron face) instances, only where
-        // the draw's bounds can reach.
-        if let (Some(b), Some(capacity)) =
-            (&self.baked, self.hemi.as_ref().map(|h| h.atlas.capacity))
-        {
-            let naive = self.settings.mode == Mode::Naive;
-            let draws: Vec<&gibake_gpu::mesh::Draw> = if naive {
-                self.scene_gpu
-                    .static_draws
-                    .iter()
-                    .chain(&self.scene_gpu.dynamic_draws)
-                    .collect()
-            } else {
-                self.scene_gpu.dynamic_draws.iter().collect()
-            };
-            let boxes: Vec<Aabb> = draws
-                .iter()
-                .map(|d| match d.object {
-                    Some(o) => d.bounds.transformed(self.transforms[o]),
-                    None => d.bounds,
-                })
-                .collect();
-            // masks[v][k]: faces of VPL v's map that draw k can touch.
-            let frames = self
-                .hemi
-                .as_ref()
-                .map(|h| h.frames.clone())
-                .unwrap_or_default();
-            let masks: Vec<Vec<u32>> = frames
-                .iter()
-                .map(|(o, n)| boxes.iter().map(|bx| face_mask(bx, *o, *n)).collect())
-                .collect();
-            // Full: only VPLs some moving object reaches get a tile.
-            let chosen: Vec<u32> = (0..b.vpls.len() as u32)
-                .filter(|&v| naive || masks[v as usize].iter().any(|&m| m != 0))
-                .collect();
-            let map_size = b.map_size;
-            if chosen.len() as u32 > capacity {
-                let cap = (chosen.len() as u32)
-                    .next_power_of_two()
-                    .min(b.vpls.len() as u32);
-                if let Some(h) = self.hemi.as_mut() {
-                    h.atlas = HemiAtlas::new(device, map_size, cap);
-                    self.params.atlas_cols = h.atlas.cols;
-                }
-                queue.write_buffer(&self.shade.uniform_buf, 0, bytemuck::bytes_of(&self.params));
-                self.gi_group = Some(self.make_gi_group(device));
-            }
-            let Some(h) = self.hemi.as_mut() else {
-                unreachable!("checked above")
-            };
-            h.jobs.clear();
-            h.tiles.iter_mut().for_each(|t| *t = u32::MAX);
-            for (slot, &v) in chosen.iter().enumerate() {
-                let (o, n) = frames[v as usize];
-                let t = h.atlas.tile_origin(slot as u32);
-                h.jobs.push(GpuHemiJob {
-                    origin: o.extend(0.0).to_array(),
-                    normal: n.extend(0.0).to_array(),
-                    tile: [t[0], t[1], 0, 0],
-                });
-                h.tiles[v as usize] = slot as u32;
-            }
-            // Moving meshes use the level of detail matched to their size in
-            // each map; instances are grouped per (draw, level).
-            let mut instances: Vec<[u32; 4]> = Vec::new();
-            let mut ranges = Vec::with_capacity(draws.len());
-            for (k, d) in draws.iter().enumerate() {
-                let levels: Vec<usize> = chosen
-                    .iter()
-                    .map(|&v| {
-                        if d.object.is_some() {
-                            gibake_gpu::mesh::lod_for(
-                                &boxes[k],
-                                frames[v as usize].0,
-                                map_size,
-                                d.lods.len(),
-                            )
-                        } else {
-                            0
-                        }
-                    })
-                    .collect();
-                for (level, lod) in d.lods.iter().enumerate() {
-                    let start = instances.len() as u32;
-                    for (slot, &v) in chosen.iter().enumerate() {
-                        let m = masks[v as usize][k];
-                        if levels[slot] != level || m == 0 {
-                            continue;
-                        }
-                        for face in 0..4 {
-                            if m & (1 << face) != 0 {
-                                instances.push([d.id, slot as u32, face, 0]);
-                            }
-                        }
-                    }
-                    ranges.push((lod.clone(), start..instances.len() as u32));
-                }
-            }
-            queue.write_buffer(&h.tile_buf, 0, bytemuck::cast_slice(&h.tiles));
-            h.pass.set_work(
-                device,
-                queue,
+            r.encode(
+                encoder,
                 &self.scene_gpu,
-                &h.atlas,
-                &h.jobs,
-                &instances,
+                timer.and_then(|t| t.render("dynamic rsm")),
             );
-            stats.affected_maps = chosen.len() as u32;
-            if !chosen.is_empty() {
-                let ts = self.timer.as_mut().and_then(|t| t.render("vpl maps"));
-                calls += h.pass.encode(encoder, &h.atlas, &ranges, true, ts);
+            o.encode(encoder, timer.and_then(|t| t.compute("occlusion")));
+            if let Some(d) = &self.dyn_vpls {
+                d.encode(encoder, timer);
             }
         }
-        stats.update_draw_calls = calls;
-        // 4. G-buffer and shading.
-        let all = [
-            &self.scene_gpu.static_draws[..],
-            &self.scene_gpu.dynamic_draws[..],
-        ];
-        if !self.external_gbuffer {
-            let ts = self.timer.as_mut().and_then(|t| t.render("gbuffer"));
-            self.gbuffer_pass
-                .encode(encoder, &self.gbuffer, &self.scene_gpu, &all, ts);
-            calls += (all[0].len() + all[1].len()) as u32;
+        // 3. VPL maps.
+        if let Some(m) = &self.merge {
+            m.record(encoder, timer.and_then(|t| t.render("vpl maps")));
         }
-        let ts = self.timer.as_mut().and_then(|t| t.compute("shade"));
+        // 4. G-buffer and shading.
+        if self.target.external_gbuffer.is_none() {
+            let all = [
+                &self.scene_gpu.static_draws[..],
+                &self.scene_gpu.dynamic_draws[..],
+            ];
+            self.gbuffer_pass.encode(
+                encoder,
+                &self.target.gbuffer,
+                &self.scene_gpu,
+                &all,
+                timer.and_then(|t| t.render("gbuffer")),
+            );
+        }
         self.shade.encode(
             encoder,
-            &self.frame_group,
-            self.gi_group.as_ref().expect("built in Renderer::new"),
+            &self.target.frame_group,
+            &self.gi_group,
             [self.settings.width, self.settings.height],
-            ts,
+            timer.and_then(|t| t.compute("shade")),
         );
-        if let Some(il) = &self.interleave {
-            let ts = self.timer.as_mut().and_then(|t| t.compute("interleave"));
-            il.encode(encoder, ts);
+        if let Some(il) = &self.target.interleave {
+            il.encode(encoder, timer.and_then(|t| t.compute("interleave")));
         }
-        if let Some(t) = &self.timer {
+        if let Some(t) = timer {
             t.resolve(encoder);
         }
-        stats.draw_calls = calls;
-        stats.dynamic_vpl_slots = self.params.n_dynamic;
-        self.stats = stats;
     }
 
     /// Stats of the last frame: waits for the GPU, reads the timestamps.
@@ -836,32 +1004,40 @@ impl Renderer {
         s
     }
 
-    /// The renderer's own G-buffer (what a game replaces with
-    /// [`Renderer::use_external_gbuffer`]).
-    pub fn gbuffer(&self) -> &gbuffer::GBuffer {
-        &self.gbuffer
+    /// The renderer's own G-buffer textures, in [`GBUFFER_FORMATS`] order.
+    pub fn gbuffer_textures(&self) -> &[wgpu::Texture] {
+        &self.target.gbuffer.textures
     }
 
-    /// The frame's linear radiance (`Rgba32Float`, row 0 at the top).
+    /// The renderer's own G-buffer views, in [`GBUFFER_FORMATS`] order.
+    pub fn gbuffer_views(&self) -> &[wgpu::TextureView; 3] {
+        &self.target.gbuffer.views
+    }
+
+    /// The frame's linear radiance ([`OUTPUT_FORMAT`], row 0 at the top,
+    /// `TEXTURE_BINDING` usage): the renderer's own texture, or the one given
+    /// to [`Renderer::set_output_target`].
     pub fn output(&self) -> &wgpu::Texture {
-        &self.output
+        &self.target.output
+    }
+
+    /// A view of [`Renderer::output`].
+    pub fn output_view(&self) -> &wgpu::TextureView {
+        &self.target.output_view
     }
 
     /// Shades the game's own G-buffer instead of rendering one: three views
-    /// of `width × height` textures in [`gbuffer::GBUFFER_FORMATS`] with
+    /// of output-sized textures in [`GBUFFER_FORMATS`] with
     /// `TEXTURE_BINDING` usage — 0: world position (xyz) and coverage (w = 1
     /// where a surface is, 0 elsewhere), 1: octahedral-encoded shading
     /// normal (xy) and geometric normal (zw), both facing the viewer (see
     /// `oct_encode` in the shared `common.wgsl`), 2: linear albedo (rgb).
-    /// After this call [`Renderer::encode`] skips its G-buffer pass.
+    /// After this call [`Renderer::record`] skips its G-buffer pass, until
+    /// [`Renderer::resize`], after which the caller provides its G-buffer
+    /// again.
     pub fn use_external_gbuffer(&mut self, device: &wgpu::Device, views: [&wgpu::TextureView; 3]) {
-        self.frame_group = self
-            .frame_views
-            .group(device, &self.shade, views, &self._light_buf);
-        if let Some(il) = &mut self.interleave {
-            il.bind(device, views, &self.frame_views.final_output);
-        }
-        self.external_gbuffer = true;
+        self.target.external_gbuffer = Some(views.map(|v| v.clone()));
+        self.rebind_frame(device);
     }
 
     /// Whether any resource for moving objects exists (merge maps, dynamic
@@ -871,7 +1047,7 @@ impl Renderer {
         self.dyn_primary.is_some()
             || self.dyn_rsm.is_some()
             || self.occlusion.is_some()
-            || self.hemi.is_some()
+            || self.merge.is_some()
             || self.dyn_vpls.is_some()
     }
 
@@ -879,26 +1055,28 @@ impl Renderer {
     pub fn asset_bytes(&self) -> u64 {
         self.baked.as_ref().map(|b| b.bytes).unwrap_or(0)
     }
+
+    /// Reads the output back (waits for the GPU), box-filtered by `ssaa`.
+    pub fn read_output(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        ssaa: u32,
+    ) -> Result<Image, RuntimeError> {
+        let out = self.output();
+        let data = gibake_gpu::readback::read_texture_f32_on(device, queue, out, 0, 4)?;
+        let img = Image::from_rgba_f32(out.width(), out.height(), &data);
+        Ok(gibake_image::box_downsample(&img, ssaa.max(1)))
+    }
 }
 
-/// A 1×1 `R32Float` texture bound where a feature is absent.
-fn tiny_texture(device: &wgpu::Device) -> wgpu::TextureView {
-    gibake_gpu::util::texture_2d(
-        device,
-        "unused",
-        1,
-        1,
-        wgpu::TextureFormat::R32Float,
-        wgpu::TextureUsages::TEXTURE_BINDING,
-    )
-    .create_view(&Default::default())
-}
-
-/// Renders one frame at `time` on `ctx` and reads it back. `ssaa` renders at
-/// `ssaa ×` the resolution and box-filters down (an unbiased pixel integral,
-/// like the reference's jittered samples).
+/// Renders one frame of `scene`'s animation at `time`, seen by its camera,
+/// and reads it back. `ssaa` renders at `ssaa ×` the resolution and
+/// box-filters down (an unbiased pixel integral, like the reference's
+/// jittered samples).
 pub fn render_image(
-    ctx: &GpuContext,
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
     scene: &Scene,
     asset: Option<&Asset>,
     settings: &RenderSettings,
@@ -909,21 +1087,12 @@ pub fn render_image(
     let mut hi = settings.clone();
     hi.width = settings.width * ssaa;
     hi.height = settings.height * ssaa;
-    let mut renderer = Renderer::new(&ctx.device, &ctx.queue, scene, asset, &hi, time)?;
-    let mut enc = ctx.device.create_command_encoder(&Default::default());
-    renderer.encode(&ctx.device, &ctx.queue, &mut enc);
-    ctx.queue.submit([enc.finish()]);
-    read_output(ctx, &renderer, ssaa)
-}
-
-/// Reads a renderer's output back (box-filtered by `ssaa`).
-pub fn read_output(
-    ctx: &GpuContext,
-    renderer: &Renderer,
-    ssaa: u32,
-) -> Result<Image, RuntimeError> {
-    let out = renderer.output();
-    let data = gibake_gpu::readback::read_texture_f32(ctx, out, 0, 4)?;
-    let img = Image::from_rgba_f32(out.width(), out.height(), &data);
-    Ok(gibake_image::box_downsample(&img, ssaa.max(1)))
+    // The camera first: no GPU work for a scene without one.
+    CameraMatrices::from_scene(scene, time, hi.width, hi.height)?;
+    let mut renderer = Renderer::new(device, queue, scene, asset, &hi)?;
+    renderer.prepare_at_time(device, queue, scene, time)?;
+    let mut enc = device.create_command_encoder(&Default::default());
+    renderer.record(&mut enc);
+    queue.submit([enc.finish()]);
+    renderer.read_output(device, queue, ssaa)
 }

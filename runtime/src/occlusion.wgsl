@@ -1,5 +1,5 @@
 // occlusion.wgsl — partial occlusion of static VPLs (needs common.wgsl,
-// projection.wgsl). One invocation per RSM texel: if a moving object is now
+// projection.wgsl, moving.wgsl). One invocation per RSM texel: if a moving object is now
 // nearer the light than the texel's static surface, the texel's share of its
 // VPL's flux (fixed point, 2^24 = the whole VPL) is added to that VPL's
 // occluded sum with an integer atomic: order-independent, so deterministic.
@@ -11,20 +11,6 @@
 @group(0) @binding(4) var<uniform> view: LightView;
 
 const NONE: u32 = 0xffffffffu;
-// Depth margin in texel footprints (scale-invariant).
-const OCCLUSION_BIAS: f32 = 0.5;
-
-// Whether the moving surface at texel c is in front of the static one.
-fn moving_in_front(c: vec2<i32>) -> bool {
-    let dm = textureLoad(dyn_position, c, 0).w;
-    let sm = textureLoad(static_metric, c, 0).r;
-    var w = view.direction.w;
-    if (view.origin.w < 0.5) {
-        w = min(dm, sm) * view.direction.w;
-    }
-    return dm < sm - OCCLUSION_BIAS * w;
-}
-
 @compute @workgroup_size(8, 8)
 fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let size = u32(view.params.x);

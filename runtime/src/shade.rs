@@ -6,6 +6,13 @@
 
 use gibake_gpu::shaders;
 
+/// The pass's WGSL: the dynamic VPL slot layout it reads, then its own.
+const SHADE_WGSL: &str = concat!(
+    include_str!("dyn_vpl.wgsl"),
+    "\n",
+    include_str!("shade.wgsl")
+);
+
 /// Output format of shading.
 pub const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
@@ -52,9 +59,16 @@ pub const FLAG_OCCLUSION: u32 = 64;
 /// Moving objects are merged into VPL map tiles (`vpl_tile` is bound).
 pub const FLAG_TILES: u32 = 128;
 
-/// The shading pass: pipeline, bind group layouts, uniform.
+/// The shading pass: pipeline, bind group layouts, uniform, and what is
+/// bound where a feature is absent (its fallbacks).
 pub struct ShadePass {
     pipeline: wgpu::ComputePipeline,
+    /// Bound for absent storage inputs.
+    fallback_buf: wgpu::Buffer,
+    /// Bound when there are no dynamic VPLs (one empty slot).
+    fallback_dyn_vpls: wgpu::Buffer,
+    /// A 1×1 `R32Float` texture bound for absent maps.
+    fallback_map: wgpu::TextureView,
     /// Layout of group 0 (G-buffer, primary maps, light, params, output).
     pub frame_layout: wgpu::BindGroupLayout,
     /// Layout of group 1 (VPL data and maps).
@@ -93,28 +107,30 @@ pub struct FrameInputs<'a> {
     pub output: &'a wgpu::TextureView,
 }
 
-/// GI inputs (group 1).
+/// GI inputs (group 1); `None`: the feature is absent and the pass binds
+/// its fallback.
+#[derive(Default)]
 pub struct GiInputs<'a> {
     /// Static VPL records.
-    pub vpls: &'a wgpu::Buffer,
+    pub vpls: Option<&'a wgpu::Buffer>,
     /// Per static VPL occluded fraction (fixed point 2^24).
-    pub occlusion: &'a wgpu::Buffer,
+    pub occlusion: Option<&'a wgpu::Buffer>,
     /// Per static VPL atlas tile or `u32::MAX`.
-    pub vpl_tile: &'a wgpu::Buffer,
+    pub vpl_tile: Option<&'a wgpu::Buffer>,
     /// Baked maps (2D atlas).
-    pub static_maps: &'a wgpu::TextureView,
+    pub static_maps: Option<&'a wgpu::TextureView>,
     /// Atlas of merged/re-rendered maps.
-    pub atlas: &'a wgpu::TextureView,
+    pub atlas: Option<&'a wgpu::TextureView>,
     /// Dynamic VPL slots.
-    pub dyn_vpls: &'a wgpu::Buffer,
+    pub dyn_vpls: Option<&'a wgpu::Buffer>,
     /// Near-field trees of the static VPLs.
-    pub vpl_nodes: &'a wgpu::Buffer,
+    pub vpl_nodes: Option<&'a wgpu::Buffer>,
 }
 
 impl ShadePass {
     /// Creates the pass.
     pub fn new(device: &wgpu::Device) -> ShadePass {
-        let module = shaders::module(device, "shade.wgsl", include_str!("shade.wgsl"));
+        let module = shaders::module(device, "shade.wgsl", SHADE_WGSL);
         use wgpu::TextureViewDimension::D2;
         let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shade frame"),
@@ -170,8 +186,27 @@ impl ShadePass {
             compilation_options: Default::default(),
             cache: None,
         });
+        let storage = |label, size| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            })
+        };
         ShadePass {
             pipeline,
+            fallback_buf: storage("absent GI input", 64),
+            fallback_dyn_vpls: storage("no dynamic VPLs", 48),
+            fallback_map: gibake_gpu::util::texture_2d(
+                device,
+                "absent map",
+                1,
+                1,
+                wgpu::TextureFormat::R32Float,
+                wgpu::TextureUsages::TEXTURE_BINDING,
+            )
+            .create_view(&Default::default()),
             frame_layout,
             gi_layout,
             uniform_buf,
@@ -226,39 +261,47 @@ impl ShadePass {
         })
     }
 
-    /// Bind group 1.
-    pub fn gi_group(&self, device: &wgpu::Device, i: &GiInputs<'_>) -> wgpu::BindGroup {
+    /// Bind group 1, with fallbacks for what `i` lacks.
+    pub fn gi_group<'a>(&'a self, device: &wgpu::Device, i: &GiInputs<'a>) -> wgpu::BindGroup {
+        let fb = &self.fallback_buf;
+        let fm = &self.fallback_map;
+        let buf = |b: Option<&'a wgpu::Buffer>| b.unwrap_or(fb).as_entire_binding();
+        let map =
+            |m: Option<&'a wgpu::TextureView>| wgpu::BindingResource::TextureView(m.unwrap_or(fm));
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shade gi"),
             layout: &self.gi_layout,
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
-                    resource: i.vpls.as_entire_binding(),
+                    resource: buf(i.vpls),
                 },
                 wgpu::BindGroupEntry {
                     binding: 1,
-                    resource: i.occlusion.as_entire_binding(),
+                    resource: buf(i.occlusion),
                 },
                 wgpu::BindGroupEntry {
                     binding: 2,
-                    resource: i.vpl_tile.as_entire_binding(),
+                    resource: buf(i.vpl_tile),
                 },
                 wgpu::BindGroupEntry {
                     binding: 3,
-                    resource: wgpu::BindingResource::TextureView(i.static_maps),
+                    resource: map(i.static_maps),
                 },
                 wgpu::BindGroupEntry {
                     binding: 6,
-                    resource: i.vpl_nodes.as_entire_binding(),
+                    resource: buf(i.vpl_nodes),
                 },
                 wgpu::BindGroupEntry {
                     binding: 4,
-                    resource: wgpu::BindingResource::TextureView(i.atlas),
+                    resource: map(i.atlas),
                 },
                 wgpu::BindGroupEntry {
                     binding: 5,
-                    resource: i.dyn_vpls.as_entire_binding(),
+                    resource: i
+                        .dyn_vpls
+                        .unwrap_or(&self.fallback_dyn_vpls)
+                        .as_entire_binding(),
                 },
             ],
         })
@@ -288,25 +331,21 @@ impl ShadePass {
 mod tests {
     #[test]
     fn runtime_shaders_validate() {
-        use gibake_gpu::mesh::MESH_WGSL;
-        use gibake_gpu::shaders::{compose, validate};
+        use gibake_gpu::shaders::{compose, compose_mesh, validate};
         for (name, src) in [
-            ("shade.wgsl", include_str!("shade.wgsl").to_string()),
-            (
-                "gbuffer.wgsl",
-                format!("{MESH_WGSL}\n{}", include_str!("gbuffer.wgsl")),
-            ),
+            ("shade.wgsl", compose(super::SHADE_WGSL)),
+            ("gbuffer.wgsl", compose_mesh(include_str!("gbuffer.wgsl"))),
             (
                 "dynamic_rsm.wgsl",
-                format!("{MESH_WGSL}\n{}", include_str!("dynamic_rsm.wgsl")),
+                compose_mesh(include_str!("dynamic_rsm.wgsl")),
             ),
-            ("occlusion.wgsl", include_str!("occlusion.wgsl").to_string()),
             (
-                "interleave.wgsl",
-                include_str!("interleave.wgsl").to_string(),
+                "occlusion.wgsl",
+                compose(crate::dynamic_rsm::OCCLUSION_WGSL),
             ),
+            ("interleave.wgsl", compose(include_str!("interleave.wgsl"))),
         ] {
-            if let Err(e) = validate(&compose(&src)) {
+            if let Err(e) = validate(&src) {
                 panic!("{name} does not validate:\n{e}");
             }
         }

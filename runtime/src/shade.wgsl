@@ -55,12 +55,6 @@ struct Vpl {              // must match gibake_asset::VplRecord (48 bytes)
     map: u32,
 }
 
-struct DynVpl {           // must match GpuDynVpl in dynamic_vpl.rs
-    position: vec4<f32>,  // xyz, w = area
-    normal: vec4<f32>,    // xyz, w = 1 if the slot holds a VPL
-    flux: vec4<f32>,
-}
-
 @group(0) @binding(0) var g_position: texture_2d<f32>;
 @group(0) @binding(1) var g_normals: texture_2d<f32>;
 @group(0) @binding(2) var g_albedo: texture_2d<f32>;
@@ -93,31 +87,7 @@ fn has(f: u32) -> bool {
 
 // Merged primary-map visibility: 2×2 PCF over min(static, moving).
 fn primary_visibility(p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
-    let w = lv_footprint(light_view, p);
-    let cos_t = clamp(dot(ng, wi), 0.0, 1.0);
-    let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
-    let q = p + ng * (w * SHADOW_NORMAL_OFFSET * sin_t);
-    let d = lv_metric(light_view, q);
-    let tc = lv_texel_coords(light_view, q);
-    if (tc.z <= 0.0 || any(tc.xy < vec2<f32>(0.0)) || any(tc.xy > vec2<f32>(light_view.params.x))) {
-        return 1.0;
-    }
-    let size = i32(light_view.params.x);
-    let t = tc.xy - vec2<f32>(0.5);
-    let i0 = vec2<i32>(floor(t));
-    let f = t - floor(t);
-    let bias = w * SHADOW_DEPTH_BIAS;
-    var lit = vec4<f32>(0.0);
-    let offs = array<vec2<i32>, 4>(vec2<i32>(0, 0), vec2<i32>(1, 0), vec2<i32>(0, 1), vec2<i32>(1, 1));
-    for (var k = 0; k < 4; k++) {
-        let c = clamp(i0 + offs[k], vec2<i32>(0), vec2<i32>(size - 1));
-        var s = textureLoad(primary_static, c, 0).r;
-        if (has(FLAG_DYN_PRIMARY)) {
-            s = min(s, textureLoad(primary_dynamic, c, 0).r);
-        }
-        lit[k] = select(0.0, 1.0, d <= s + bias);
-    }
-    return mix(mix(lit.x, lit.y, f.x), mix(lit.z, lit.w, f.x), f.y);
+    return lv_visibility(light_view, primary_static, primary_dynamic, has(FLAG_DYN_PRIMARY), p, ng, wi);
 }
 
 fn direct_radiance(p: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {

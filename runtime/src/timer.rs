@@ -1,6 +1,8 @@
 //! Per-pass GPU timing with timestamp queries (when the adapter has them).
 //! Timestamps are resolved into a buffer at the end of the frame and read
-//! only when stats are asked for, never inside the frame.
+//! only when stats are asked for, never inside the frame. The passes a
+//! frame times are planned while preparing it ([`Timer::plan`]); recording
+//! only looks their queries up.
 
 /// Named GPU timestamps of one frame.
 pub struct Timer {
@@ -52,18 +54,24 @@ impl Timer {
         self.names.clear();
     }
 
-    fn next(&mut self, name: &'static str) -> Option<u32> {
-        let i = self.names.len() as u32 * 2;
-        if i + 2 > self.capacity {
-            return None;
+    /// Plans a pass named `name` for this frame (ignored past the capacity
+    /// or when already planned).
+    pub fn plan(&mut self, name: &'static str) {
+        if (self.names.len() as u32 + 1) * 2 <= self.capacity && !self.names.contains(&name) {
+            self.names.push(name);
         }
-        self.names.push(name);
-        Some(i)
     }
 
-    /// Timestamp writes for a render pass named `name`.
-    pub fn render(&mut self, name: &'static str) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
-        let i = self.next(name)?;
+    fn index(&self, name: &'static str) -> Option<u32> {
+        self.names
+            .iter()
+            .position(|n| *n == name)
+            .map(|k| k as u32 * 2)
+    }
+
+    /// Timestamp writes for the planned render pass named `name`.
+    pub fn render(&self, name: &'static str) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
+        let i = self.index(name)?;
         Some(wgpu::RenderPassTimestampWrites {
             query_set: &self.set,
             beginning_of_pass_write_index: Some(i),
@@ -71,9 +79,9 @@ impl Timer {
         })
     }
 
-    /// Timestamp writes for a compute pass named `name`.
-    pub fn compute(&mut self, name: &'static str) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
-        let i = self.next(name)?;
+    /// Timestamp writes for the planned compute pass named `name`.
+    pub fn compute(&self, name: &'static str) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        let i = self.index(name)?;
         Some(wgpu::ComputePassTimestampWrites {
             query_set: &self.set,
             beginning_of_pass_write_index: Some(i),

@@ -120,8 +120,9 @@ fn run_pass(
     f.rsm.encode(&mut enc, &f.scene_gpu, None);
     if let Some(t) = timer.as_deref_mut() {
         t.reset();
+        t.plan("dynamic vpls");
     }
-    pass.encode(&mut enc, timer.as_deref_mut());
+    pass.encode(&mut enc, timer.as_deref());
     if let Some(t) = timer.as_deref() {
         t.resolve(&mut enc);
     }

@@ -519,7 +519,7 @@ pub(crate) fn atlas_to_layers(atlas: &[f32], count: u32, size: u32) -> Vec<f32> 
 
 /// Packs `count` layer-major maps of `size²` into an atlas (unused tiles
 /// +inf); returns `(width, height, texels)`.
-pub(crate) fn layers_to_atlas(layers: &[f32], count: u32, size: u32) -> (usize, usize, Vec<f32>) {
+pub fn layers_to_atlas(layers: &[f32], count: u32, size: u32) -> (usize, usize, Vec<f32>) {
     let (cols, rows) = atlas_grid(count);
     let s = size as usize;
     let (w, h) = (cols as usize * s, rows as usize * s);

@@ -34,7 +34,8 @@ pub use format::testing;
 pub use format::{
     DEFAULT_MAX_DECODED_BYTES, FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM, FILE_VPL_MAPS,
     FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE, VPL_RECORD_BYTES, atlas_grid, check_scene_hash,
-    check_scene_hash_for, decoded_bytes, load, load_manifest, load_with_limit, verify_files, write,
+    check_scene_hash_for, decoded_bytes, layers_to_atlas, load, load_manifest, load_with_limit,
+    verify_files, write,
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
 pub use shard::{

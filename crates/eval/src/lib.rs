@@ -179,7 +179,8 @@ pub fn render(
         ..Default::default()
     };
     Ok(gibake_runtime::render_image(
-        ctx,
+        &ctx.device,
+        &ctx.queue,
         scene,
         Some(asset),
         &rs,

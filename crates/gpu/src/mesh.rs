@@ -3,7 +3,7 @@
 //! `instance_index`, and one bind group per material texture.
 //!
 //! Static draws have identity transforms and never change; the world
-//! matrices of dynamic draws are rewritten by [`SceneGpu::update_dynamic`].
+//! matrices of dynamic draws are rewritten by [`SceneGpu::set_dynamic_transforms`].
 
 use std::ops::Range;
 
@@ -363,14 +363,6 @@ impl SceneGpu {
             material_groups,
             cpu_draw_data: draw_data,
         }
-    }
-
-    /// Rewrites the world matrices of the dynamic draws for time `time`.
-    pub fn update_dynamic(&mut self, queue: &wgpu::Queue, scene: &Scene, time: f32) {
-        let transforms: Vec<Mat4> = (0..scene.dynamic_objects.len())
-            .map(|i| scene.dynamic_transform(i, time))
-            .collect();
-        self.set_dynamic_transforms(queue, &transforms);
     }
 
     /// Rewrites the world matrices of the dynamic draws from one matrix per

@@ -30,6 +30,21 @@ pub fn compose(own: &str) -> String {
     s
 }
 
+/// [`compose`] for a pass that draws scene meshes: the shared parts, the
+/// mesh interface (`mesh.wgsl`: vertex input, per-draw data), then `own`.
+pub fn compose_mesh(own: &str) -> String {
+    compose(&format!("{}\n{own}", crate::mesh::MESH_WGSL))
+}
+
+/// Creates a shader module from a mesh-drawing pass's WGSL
+/// ([`compose_mesh`]).
+pub fn mesh_module(device: &wgpu::Device, label: &str, own: &str) -> wgpu::ShaderModule {
+    device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(compose_mesh(own).into()),
+    })
+}
+
 /// Creates a shader module from a pass's WGSL composed with the shared parts.
 pub fn module(device: &wgpu::Device, label: &str, own: &str) -> wgpu::ShaderModule {
     device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -60,8 +75,7 @@ mod tests {
             ("shadow.wgsl", include_str!("passes/shadow.wgsl")),
             ("hemi_raster.wgsl", include_str!("passes/hemi_raster.wgsl")),
         ] {
-            let src = format!("{}\n{own}", crate::mesh::MESH_WGSL);
-            if let Err(e) = validate(&compose(&src)) {
+            if let Err(e) = validate(&compose_mesh(own)) {
                 panic!("{name} does not validate:\n{e}");
             }
         }
@@ -79,7 +93,7 @@ mod tests {
 fn main() {
     let p = vec3<f32>(1.0, 2.0, 3.0);
     let inc = light_incident(pl, p);
-    out[0] = lv_visibility(lv, map, p, vec3<f32>(0.0, 1.0, 0.0), inc.wi) + inc.irradiance.x;
+    out[0] = lv_visibility(lv, map, map, true, p, vec3<f32>(0.0, 1.0, 0.0), inc.wi) + inc.irradiance.x;
     out[1] = oct_decode(oct_encode(normalize(p))).x;
     out[2] = hemi_texel_coords(normalize(p), hemi_decode(vec2<f32>(0.1, 0.2)), 128.0).x;
     out[3] = vpl_origin(p, normalize(p), 2.0).x;

@@ -32,6 +32,7 @@ pub enum ImageError {
         message: String,
     },
     /// Writing a PNG failed.
+    #[cfg(feature = "png")]
     #[error("{path}: cannot write PNG: {source}")]
     Png {
         /// The file.
@@ -170,7 +171,8 @@ impl Image {
 
     /// Writes a tone-mapped sRGB PNG preview. `exposure` scales radiance
     /// before the tone curve; `None` picks one that maps the 99th percentile
-    /// of luminance to 0.8.
+    /// of luminance to 0.8. (Cargo feature `png`, on by default.)
+    #[cfg(feature = "png")]
     pub fn write_png(&self, path: &Path, exposure: Option<f32>) -> Result<(), ImageError> {
         let exposure = exposure.unwrap_or_else(|| self.auto_exposure());
         let mut bytes = Vec::with_capacity(self.pixels.len() * 3);
@@ -205,7 +207,13 @@ impl Image {
             .and_then(|e| e.to_str())
             .map(|e| e.to_ascii_lowercase())
         {
+            #[cfg(feature = "png")]
             Some(e) if e == "png" => self.write_png(path, None),
+            #[cfg(not(feature = "png"))]
+            Some(e) if e == "png" => Err(ImageError::Invalid {
+                path: path.to_owned(),
+                message: "PNG output needs gibake-image's `png` feature".into(),
+            }),
             _ => self.write_exr(path),
         }
     }
@@ -233,11 +241,13 @@ impl Image {
     }
 }
 
+#[cfg(feature = "png")]
 fn aces(x: f32) -> f32 {
     let x = x.max(0.0);
     ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)
 }
 
+#[cfg(feature = "png")]
 fn linear_to_srgb(c: f32) -> f32 {
     if c <= 0.0031308 {
         c * 12.92

@@ -15,6 +15,7 @@ pub enum SceneError {
         source: std::io::Error,
     },
     /// The glTF could not be parsed or failed glTF validation.
+    #[cfg(feature = "gltf")]
     #[error("{path}: not a valid glTF 2.0 file: {source}")]
     Gltf {
         /// The file.

@@ -21,9 +21,13 @@
 //! Dynamic meshes are kept in their node's local space; [`Scene::dynamic_transform`]
 //! samples the animation at any time, so the runtime can move them per frame.
 
+// Without the importer, the animation parser's parts go unused.
+#![cfg_attr(not(feature = "gltf"), allow(dead_code))]
+
 mod animation;
 mod error;
 mod hash;
+#[cfg(feature = "gltf")]
 mod import;
 pub mod limits;
 mod mesh;
@@ -31,6 +35,7 @@ mod mesh;
 pub use animation::{Animator, Trs};
 pub use error::SceneError;
 pub use hash::static_scene_hash;
+#[cfg(feature = "gltf")]
 pub use import::{LoadOptions, load, load_from_slice};
 pub use limits::Limits;
 pub use mesh::{Aabb, compute_normals};

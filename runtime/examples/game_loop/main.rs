@@ -1,18 +1,34 @@
-//! A game's view of gibake: load a scene and its baked asset, create the
-//! runtime on the game's own `wgpu::Device`, move the dynamic objects with
-//! the game's own transforms every frame, and use the lit frame.
+//! A game's view of gibake, using `gibake-runtime` alone: load a scene and
+//! its baked asset, create the runtime on the game's own `wgpu::Device`,
+//! and each frame pass the game's own camera and move the dynamic objects
+//! by handle; resize once on the way; write the lit frames as EXR.
 //!
 //! ```text
-//! cargo run --release -p gibake-runtime --example game_loop -- [SCENE.glb [ASSET.gibake]] [--out DIR]
+//! gibake bake data/corner_bunny.glb -o bunny.gibake
+//! cargo run --release -p gibake-runtime --example game_loop -- data/corner_bunny.glb bunny.gibake [--out DIR]
 //! ```
-//! Without an asset the example bakes one in memory first (a game would
-//! ship the `.gibake` made by `gibake bake`).
+//! The scene's own camera is dropped on purpose: a game brings its own.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use gibake_gpu::{GpuContext, GpuOptions};
-use gibake_runtime::{Mode, RenderSettings, Renderer};
-use glam::Mat4;
+use gibake_runtime::glam::{Mat4, Vec3};
+use gibake_runtime::{CameraMatrices, FrameInput, Mode, RenderSettings, Renderer, wgpu};
+
+/// The game's camera: orbiting the scene's centre.
+fn orbit_camera(centre: Vec3, radius: f32, angle: f32, aspect: f32) -> CameraMatrices {
+    let eye = centre + Vec3::new(angle.sin(), 0.35, angle.cos()) * radius;
+    // Camera axes: looking down its −Z at the centre, +Y up.
+    let back = (eye - centre).normalize();
+    let right = Vec3::Y.cross(back).normalize();
+    let up = back.cross(right);
+    let camera_to_world = Mat4::from_cols(
+        right.extend(0.0),
+        up.extend(0.0),
+        back.extend(0.0),
+        eye.extend(1.0),
+    );
+    CameraMatrices::perspective(camera_to_world, 50f32.to_radians(), aspect, 0.01)
+}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
@@ -21,84 +37,84 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         out = PathBuf::from(args.get(i + 1).ok_or("--out needs a directory")?);
         args.drain(i..=i + 1);
     }
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    let scene_path = args
-        .first()
-        .map(PathBuf::from)
-        .unwrap_or(root.join("data/corner_bunny.glb"));
+    let [scene_path, asset_path] = args.as_slice() else {
+        return Err("usage: game_loop SCENE.glb ASSET.gibake [--out DIR] \
+                    (make the asset with `gibake bake SCENE.glb -o ASSET.gibake`)"
+            .into());
+    };
     std::fs::create_dir_all(&out)?;
 
-    // The game's device (here a headless one; a game passes its own).
-    let ctx = GpuContext::new(&GpuOptions::default())?;
-    println!("GPU: {}", ctx.record);
+    // The game's device (a game passes the one it renders with).
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+    let adapter = pollster::block_on(instance.request_adapter(&Default::default()))?;
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        // Timestamps, where the adapter has them, give per-pass GPU times.
+        required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
+        required_limits: adapter.limits(),
+        ..Default::default()
+    }))?;
+    println!("GPU: {}", adapter.get_info().name);
 
-    // Load the scene and the baked asset (checked against the scene).
-    let scene = gibake_scene::load(&scene_path, &Default::default())?;
-    let asset = match args.get(1) {
-        Some(p) => gibake_asset::load(std::path::Path::new(p))?,
-        None => {
-            println!("no asset given: baking {} in memory", scene_path.display());
-            gibake_bake::bake(
-                &ctx,
-                &scene,
-                &Default::default(),
-                &gibake_bake::NoProgress,
-                "example",
-            )?
-            .asset
-        }
-    };
+    // The scene (geometry, light, moving objects) and the baked asset.
+    let mut scene = gibake_runtime::load_scene(Path::new(scene_path), &Default::default())?;
+    scene.camera = None; // the game's camera is used, never the file's
+    let asset = gibake_runtime::load_asset(Path::new(asset_path))?;
 
-    // GPU resources on the game's device.
     let settings = RenderSettings {
         width: 320,
         height: 240,
         mode: Mode::Full,
         ..Default::default()
     };
-    let mut renderer = Renderer::new(
-        &ctx.device,
-        &ctx.queue,
-        &scene,
-        Some(&asset),
-        &settings,
-        0.0,
-    )?;
+    let mut renderer = Renderer::new(&device, &queue, &scene, Some(&asset), &settings)?;
+    let names: Vec<&str> = renderer.objects().map(|(_, n)| n).collect();
+    println!("moving objects: {names:?}");
+    // Handles and rest poses of the moving objects.
+    let rest: Vec<_> = renderer
+        .objects()
+        .map(|(h, _)| renderer.transform(h).map(|m| (h, m)))
+        .collect::<Result<_, _>>()?;
 
-    // The game loop: the game moves its objects (here: every dynamic object
-    // circles the scene centre), the runtime does only what they change.
-    let centre = scene.static_bounds().center();
-    let rest: Vec<Mat4> = (0..scene.dynamic_objects.len())
-        .map(|i| scene.dynamic_transform(i, 0.0))
-        .collect();
+    let bounds = scene.static_bounds();
+    let (centre, radius) = (bounds.center(), bounds.diagonal() * 0.9);
     for frame in 0..8 {
+        if frame == 4 {
+            // The window changed size.
+            renderer.resize(&device, &queue, 400, 225)?;
+        }
+        let (w, h) = renderer.size();
+        let camera = orbit_camera(centre, radius, frame as f32 * 0.1, w as f32 / h as f32);
+        // The game moves its objects: each circles the scene centre.
         let angle = frame as f32 * 0.15;
-        let transforms: Vec<Mat4> = rest
+        let moved: Vec<_> = rest
             .iter()
-            .map(|m| {
+            .map(|&(handle, m)| {
                 let p = m.w_axis.truncate() - centre;
                 let rotated = Mat4::from_rotation_y(angle).transform_point3(p) + centre;
-                Mat4::from_translation(rotated - m.w_axis.truncate()) * *m
+                (
+                    handle,
+                    Mat4::from_translation(rotated - m.w_axis.truncate()) * m,
+                )
             })
             .collect();
-        renderer.set_dynamic_transforms(&ctx.queue, &transforms);
+        renderer.prepare(&device, &queue, &FrameInput::new(camera).moving(&moved))?;
 
-        let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        renderer.encode(&ctx.device, &ctx.queue, &mut encoder);
-        // A game would now sample `renderer.output()` (linear radiance,
-        // Rgba32Float) in its own tone-mapping pass, in the same encoder.
-        ctx.queue.submit([encoder.finish()]);
+        let mut encoder = device.create_command_encoder(&Default::default());
+        renderer.record(&mut encoder);
+        // A game would now sample `renderer.output()` (linear radiance) in
+        // its own tone-mapping pass, in the same encoder.
+        queue.submit([encoder.finish()]);
 
-        let stats = renderer.stats(&ctx.device);
+        let stats = renderer.stats(&device);
         println!(
-            "frame {frame}: update {:.2} ms, {} affected VPL maps, {} dynamic VPL slots ({})",
+            "frame {frame} ({w}×{h}): update {:.2} ms, {} affected VPL maps, {} dynamic VPL slots ({})",
             stats.update_ms(),
             stats.affected_maps,
             stats.dynamic_vpl_slots,
             stats.timing
         );
-        let image = gibake_runtime::read_output(&ctx, &renderer, 1)?;
-        image.write_png(&out.join(format!("frame_{frame}.png")), None)?;
+        let image = renderer.read_output(&device, &queue, 1)?;
+        image.write_exr(&out.join(format!("frame_{frame}.exr")))?;
     }
     println!("frames in {}", out.display());
     Ok(())

@@ -12,7 +12,7 @@ use std::ops::Range;
 use gibake_scene::Aabb;
 use glam::Vec3;
 
-use crate::mesh::{MESH_WGSL, SceneGpu};
+use crate::mesh::SceneGpu;
 use crate::util::texture_2d;
 use crate::{hemisphere, shaders};
 
@@ -86,12 +86,10 @@ pub struct HemiAtlas {
 }
 
 impl HemiAtlas {
-    /// An atlas with room for `capacity` tiles of `tile_size²`.
-    pub fn new(device: &wgpu::Device, tile_size: u32, capacity: u32) -> HemiAtlas {
-        let capacity = capacity.max(1);
-        let max = device.limits().max_texture_dimension_2d;
-        let cols = ((capacity as f64).sqrt().ceil() as u32).clamp(1, (max / tile_size).max(1));
-        let rows = capacity.div_ceil(cols);
+    /// An atlas of `cols × rows` tiles of `tile_size²` (the caller picks
+    /// the layout and checks it against the device's limits).
+    pub fn new(device: &wgpu::Device, tile_size: u32, cols: u32, rows: u32) -> HemiAtlas {
+        let (cols, rows) = (cols.max(1), rows.max(1));
         let (w, h) = (cols * tile_size, rows * tile_size);
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
@@ -156,8 +154,8 @@ impl HemiRasterPass {
     /// drawn geometry only; the runtime takes the minimum with the baked
     /// maps where it reads them.
     pub fn new(device: &wgpu::Device, scene_gpu: &SceneGpu, depth_scale: f32) -> HemiRasterPass {
-        let src = format!("{MESH_WGSL}\n{}", include_str!("hemi_raster.wgsl"));
-        let module = shaders::module(device, "hemi_raster.wgsl", &src);
+        let module =
+            shaders::mesh_module(device, "hemi_raster.wgsl", include_str!("hemi_raster.wgsl"));
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("hemi raster"),
             entries: &[

@@ -6,7 +6,7 @@
 
 use wgpu::util::DeviceExt;
 
-use crate::mesh::{Draw, MESH_WGSL, SceneGpu};
+use crate::mesh::{Draw, SceneGpu};
 use crate::util::{
     cleared_attachments, cleared_depth, draws_and_uniform_group, mesh_pipeline, texture_2d,
 };
@@ -35,8 +35,7 @@ pub struct ShadowPass {
 impl ShadowPass {
     /// Creates the pass for `view` over the meshes of `scene_gpu`.
     pub fn new(device: &wgpu::Device, scene_gpu: &SceneGpu, view: LightView) -> ShadowPass {
-        let src = format!("{MESH_WGSL}\n{}", include_str!("shadow.wgsl"));
-        let module = shaders::module(device, "shadow.wgsl", &src);
+        let module = shaders::mesh_module(device, "shadow.wgsl", include_str!("shadow.wgsl"));
         let uniform_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("light view"),
             contents: bytemuck::bytes_of(&view.to_gpu()),

@@ -40,9 +40,11 @@ const SHADOW_NORMAL_OFFSET: f32 = 1.0;
 const SHADOW_DEPTH_BIAS: f32 = 1.0;
 
 // Fraction of the light that reaches p (geometric normal ng facing the
-// light), by 2×2 bilinear percentage-closer filtering of a metric map.
-// Points outside the map are unshadowed.
-fn lv_visibility(v: LightView, map: texture_2d<f32>, p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
+// light), by 2×2 bilinear percentage-closer filtering of a metric map: of
+// `map`, or with `merge`, of min(map, moving) (the z-min merge of a static
+// and a moving objects' map without copying). Points outside the map are
+// unshadowed.
+fn lv_visibility(v: LightView, map: texture_2d<f32>, moving: texture_2d<f32>, merge: bool, p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
     let w = lv_footprint(v, p);
     let cos_t = clamp(dot(ng, wi), 0.0, 1.0);
     let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
@@ -50,14 +52,11 @@ fn lv_visibility(v: LightView, map: texture_2d<f32>, p: vec3<f32>, ng: vec3<f32>
     let q = p + ng * (w * SHADOW_NORMAL_OFFSET * sin_t);
     let d = lv_metric(v, q);
     let tc = lv_texel_coords(v, q);
-    if (tc.z <= 0.0) {
+    if (tc.z <= 0.0 || any(tc.xy < vec2<f32>(0.0)) || any(tc.xy > vec2<f32>(v.params.x))) {
         return 1.0;
     }
     let size = i32(v.params.x);
     let t = tc.xy - vec2<f32>(0.5);
-    if (any(tc.xy < vec2<f32>(0.0)) || any(tc.xy > vec2<f32>(v.params.x))) {
-        return 1.0;
-    }
     let i0 = vec2<i32>(floor(t));
     let f = t - floor(t);
     let bias = w * SHADOW_DEPTH_BIAS;
@@ -65,7 +64,10 @@ fn lv_visibility(v: LightView, map: texture_2d<f32>, p: vec3<f32>, ng: vec3<f32>
     let offs = array<vec2<i32>, 4>(vec2<i32>(0, 0), vec2<i32>(1, 0), vec2<i32>(0, 1), vec2<i32>(1, 1));
     for (var k = 0; k < 4; k++) {
         let c = clamp(i0 + offs[k], vec2<i32>(0), vec2<i32>(size - 1));
-        let s = textureLoad(map, c, 0).r;
+        var s = textureLoad(map, c, 0).r;
+        if (merge) {
+            s = min(s, textureLoad(moving, c, 0).r);
+        }
         lit[k] = select(0.0, 1.0, d <= s + bias);
     }
     return mix(mix(lit.x, lit.y, f.x), mix(lit.z, lit.w, f.x), f.y);

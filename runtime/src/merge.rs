@@ -1,0 +1,274 @@
+//! The VPL-map merge (design brief, step 3): which static VPL maps moving
+//! objects reach, and rasterizing them there.
+//!
+//! [`VplMerge`] owns everything the merge needs: each VPL's map frame, the
+//! merge atlas (grown when more maps are affected than ever before, checked
+//! against the device's limits), the per-VPL tile table the shading reads,
+//! and the rasterization pass with its job and instance tables. Per frame,
+//! [`VplMerge::prepare`] computes, from the moving objects' world bounds,
+//! the octahedron faces of each VPL map a draw can touch (face masks), the
+//! VPLs that get a tile, each moving mesh's level of detail per map, and
+//! uploads the tables (the atlas in the layout of [`crate::atlas`]);
+//! [`VplMerge::record`] only records the one pass.
+//!
+//! In `naive` mode every VPL gets a tile and every draw (static ones too) is
+//! rasterized into it: the same code re-renders every map (the cost
+//! baseline).
+
+use std::ops::Range;
+
+use gibake_gpu::hemisphere;
+use gibake_gpu::mesh::{Draw, SceneGpu, lod_for};
+use gibake_gpu::passes::hemi_raster::{GpuHemiJob, HemiAtlas, HemiRasterPass, face_mask};
+use gibake_scene::Aabb;
+use glam::{Mat4, Vec3};
+
+use crate::RuntimeError;
+use crate::baked::BakedGpu;
+
+/// Merge state of one renderer.
+pub(crate) struct VplMerge {
+    /// Per static VPL: (map origin, normal), computed once.
+    frames: Vec<(Vec3, Vec3)>,
+    /// Every map is re-rendered from all geometry (`naive`).
+    naive: bool,
+    map_size: u32,
+    pass: HemiRasterPass,
+    atlas: HemiAtlas,
+    /// Per static VPL: its atlas tile, or `u32::MAX` (baked map alone).
+    tile_buf: wgpu::Buffer,
+    jobs: Vec<GpuHemiJob>,
+    tiles: Vec<u32>,
+    /// This frame's `(index range, instance range)` draws.
+    ranges: Vec<(Range<u32>, Range<u32>)>,
+    affected: u32,
+}
+
+/// A merge atlas for `capacity` tiles in the one atlas layout, or the
+/// device limit it would exceed.
+fn checked_atlas(
+    device: &wgpu::Device,
+    tile_size: u32,
+    capacity: u32,
+) -> Result<HemiAtlas, RuntimeError> {
+    let (cols, rows) = crate::atlas::layout(device, "the merge atlas", capacity, tile_size)?;
+    Ok(HemiAtlas::new(device, tile_size, cols, rows))
+}
+
+impl VplMerge {
+    /// The merge for `baked`'s VPLs; `scene_diagonal` scales the depth.
+    pub(crate) fn new(
+        device: &wgpu::Device,
+        scene_gpu: &SceneGpu,
+        baked: &BakedGpu,
+        scene_diagonal: f32,
+        naive: bool,
+    ) -> Result<VplMerge, RuntimeError> {
+        let n = baked.vpls.len() as u32;
+        let capacity = if naive { n } else { n.min(64) };
+        let atlas = checked_atlas(device, baked.map_size, capacity)?;
+        let diag = scene_diagonal.max(f32::MIN_POSITIVE);
+        let pass = HemiRasterPass::new(device, scene_gpu, 1.0 / (4.0 * diag));
+        let tile_buf = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("VPL tiles"),
+            size: 4 * u64::from(n.max(1)),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let frames = baked
+            .vpls
+            .iter()
+            .map(|v| {
+                let n = Vec3::from_array(v.normal);
+                (
+                    hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area),
+                    n,
+                )
+            })
+            .collect();
+        Ok(VplMerge {
+            frames,
+            naive,
+            map_size: baked.map_size,
+            pass,
+            atlas,
+            tile_buf,
+            jobs: Vec::new(),
+            tiles: vec![u32::MAX; n as usize],
+            ranges: Vec::new(),
+            affected: 0,
+        })
+    }
+
+    /// The merge atlas (`R32Float` distances).
+    pub(crate) fn atlas_view(&self) -> &wgpu::TextureView {
+        &self.atlas.view
+    }
+
+    /// Tiles per atlas row.
+    pub(crate) fn atlas_cols(&self) -> u32 {
+        self.atlas.cols
+    }
+
+    /// Per static VPL: its tile or `u32::MAX`.
+    pub(crate) fn tile_buf(&self) -> &wgpu::Buffer {
+        &self.tile_buf
+    }
+
+    /// VPL maps that get a tile this frame.
+    pub(crate) fn affected(&self) -> u32 {
+        self.affected
+    }
+
+    /// Draw calls [`VplMerge::record`] records.
+    pub(crate) fn draw_calls(&self) -> u32 {
+        if self.affected == 0 {
+            return 0;
+        }
+        self.ranges.iter().filter(|(_, r)| !r.is_empty()).count() as u32
+    }
+
+    /// Plans and uploads this frame's merge for the moving objects at
+    /// `transforms` (one per dynamic object). Returns whether the atlas was
+    /// re-created (the caller rebinds it); an atlas over the device's limits
+    /// is an error and leaves the old one in place.
+    pub(crate) fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene_gpu: &SceneGpu,
+        transforms: &[Mat4],
+    ) -> Result<bool, RuntimeError> {
+        let draws: Vec<&Draw> = if self.naive {
+            scene_gpu
+                .static_draws
+                .iter()
+                .chain(&scene_gpu.dynamic_draws)
+                .collect()
+        } else {
+            scene_gpu.dynamic_draws.iter().collect()
+        };
+        let boxes: Vec<Aabb> = draws
+            .iter()
+            .map(|d| match d.object.and_then(|o| transforms.get(o)) {
+                Some(m) => d.bounds.transformed(*m),
+                None => d.bounds,
+            })
+            .collect();
+        // masks[v][k]: faces of VPL v's map that draw k can touch.
+        let masks: Vec<Vec<u32>> = self
+            .frames
+            .iter()
+            .map(|(o, n)| boxes.iter().map(|bx| face_mask(bx, *o, *n)).collect())
+            .collect();
+        // Full: only VPLs some moving object reaches get a tile.
+        let chosen: Vec<u32> = (0..self.frames.len() as u32)
+            .filter(|&v| self.naive || masks[v as usize].iter().any(|&m| m != 0))
+            .collect();
+        // Plan everything first; nothing changes unless it all fits.
+        let atlas = if chosen.len() as u32 > self.atlas.capacity {
+            let cap = (chosen.len() as u32)
+                .next_power_of_two()
+                .min(self.frames.len() as u32);
+            Some(checked_atlas(device, self.map_size, cap)?)
+        } else {
+            None
+        };
+        let layout = atlas.as_ref().unwrap_or(&self.atlas);
+        let mut jobs = Vec::with_capacity(chosen.len());
+        let mut tiles = vec![u32::MAX; self.frames.len()];
+        for (slot, &v) in chosen.iter().enumerate() {
+            let (o, n) = self.frames[v as usize];
+            let t = layout.tile_origin(slot as u32);
+            jobs.push(GpuHemiJob {
+                origin: o.extend(0.0).to_array(),
+                normal: n.extend(0.0).to_array(),
+                tile: [t[0], t[1], 0, 0],
+            });
+            tiles[v as usize] = slot as u32;
+        }
+        // Moving meshes use the level of detail matched to their size in
+        // each map; instances are grouped per (draw, level).
+        let mut instances: Vec<[u32; 4]> = Vec::new();
+        let mut ranges = Vec::new();
+        for (k, d) in draws.iter().enumerate() {
+            let levels: Vec<usize> = chosen
+                .iter()
+                .map(|&v| {
+                    if d.object.is_some() {
+                        lod_for(
+                            &boxes[k],
+                            self.frames[v as usize].0,
+                            self.map_size,
+                            d.lods.len(),
+                        )
+                    } else {
+                        0
+                    }
+                })
+                .collect();
+            for (level, lod) in d.lods.iter().enumerate() {
+                let start = instances.len() as u32;
+                for (slot, &v) in chosen.iter().enumerate() {
+                    let m = masks[v as usize][k];
+                    if levels[slot] != level || m == 0 {
+                        continue;
+                    }
+                    for face in 0..4 {
+                        if m & (1 << face) != 0 {
+                            instances.push([d.id, slot as u32, face, 0]);
+                        }
+                    }
+                }
+                ranges.push((lod.clone(), start..instances.len() as u32));
+            }
+        }
+        // The job and instance tables grow to the next power of two.
+        let max_binding = device.limits().max_storage_buffer_binding_size;
+        for (what, count, stride) in [
+            ("the merge's job table", jobs.len() as u64, 48u64),
+            ("the merge's instance table", instances.len() as u64, 16u64),
+        ] {
+            let bytes = count.next_power_of_two() * stride;
+            if bytes > max_binding {
+                return Err(RuntimeError::DeviceLimit {
+                    what: format!("{what} ({count} entries, bytes in one storage binding)"),
+                    needed: bytes,
+                    limit: max_binding,
+                });
+            }
+        }
+        let grown = atlas.is_some();
+        if let Some(a) = atlas {
+            self.atlas = a;
+        }
+        self.jobs = jobs;
+        self.tiles = tiles;
+        self.ranges = ranges;
+        queue.write_buffer(&self.tile_buf, 0, bytemuck::cast_slice(&self.tiles));
+        self.pass.set_work(
+            device,
+            queue,
+            scene_gpu,
+            &self.atlas,
+            &self.jobs,
+            &instances,
+        );
+        self.affected = chosen.len() as u32;
+        Ok(grown)
+    }
+
+    /// Records the merge pass (nothing when no map is affected). Returns the
+    /// number of draw calls.
+    pub(crate) fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) -> u32 {
+        if self.affected == 0 {
+            return 0;
+        }
+        self.pass
+            .encode(encoder, &self.atlas, &self.ranges, true, ts)
+    }
+}
