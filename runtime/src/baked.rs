@@ -6,7 +6,7 @@
 
 use gibake_asset::{Asset, NO_MAP, VplRecord};
 use gibake_gpu::LightView;
-use glam::{Mat4, Vec3};
+use glam::Vec3;
 use wgpu::util::DeviceExt;
 
 use crate::RuntimeError;
@@ -48,17 +48,11 @@ pub struct BakedGpu {
 
 /// The light view stored in a manifest, at `size`.
 pub fn light_view(asset: &Asset, size: u32) -> LightView {
-    let r = &asset.manifest.light_view;
-    let base = LightView {
-        directional: r.directional,
-        view_proj: Mat4::from_cols_array(&r.view_proj),
-        origin: Vec3::from_array(r.origin),
-        direction: Vec3::from_array(r.direction),
-        texel_scale: r.texel_scale,
-        size: asset.manifest.settings.shadow_map_size,
-        texel_area: r.texel_area,
-    };
-    base.resized(size)
+    LightView::from_record(
+        &asset.manifest.light_view,
+        asset.manifest.settings.shadow_map_size,
+    )
+    .resized(size)
 }
 
 fn r32_texture(

@@ -251,9 +251,7 @@ impl<'a> FrameInput<'a> {
 /// The world matrices of `scene`'s moving objects at `time` of its
 /// animation, in handle order.
 pub fn scene_transforms(scene: &Scene, time: f32) -> Vec<Mat4> {
-    (0..scene.dynamic_objects.len())
-        .map(|i| scene.dynamic_transform(i, time))
-        .collect()
+    scene.dynamic_transforms(time)
 }
 
 /// Per-frame counts and times.

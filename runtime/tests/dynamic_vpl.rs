@@ -365,8 +365,7 @@ fn dynamic_vpls_are_empty_without_moving_surfaces_in_view() {
     let scene = scene();
     let asset = bake(&ctx, &scene);
     let mut f = frame(&ctx, &scene, &asset, 0.0);
-    let n = scene.dynamic_objects.len();
-    let base: Vec<Mat4> = (0..n).map(|i| scene.dynamic_transform(i, 0.0)).collect();
+    let base: Vec<Mat4> = scene.dynamic_transforms(0.0);
     // Far outside the light view; then just under the floor (behind the
     // static surface, as seen from the light).
     for offset in [Vec3::splat(1.0e3), Vec3::new(0.0, -1.5, 0.0)] {

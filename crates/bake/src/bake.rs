@@ -14,7 +14,6 @@ use gibake_raycast::RayScene;
 use gibake_scene::Scene;
 
 use crate::cluster::{ClusterTarget, NO_VPL, cluster};
-use crate::light_view::light_view_record;
 use crate::rsm::render_rsm;
 
 /// What to bake.
@@ -320,7 +319,7 @@ fn bake_with(
             },
         },
         static_scene_hash: gibake_scene::static_scene_hash(scene),
-        light_view: light_view_record(&view),
+        light_view: view.record(),
         vpl_count: vpls.len() as u32,
         map_count,
         has_dynamic,

@@ -16,7 +16,6 @@
 pub mod bake;
 pub mod budget;
 pub mod cluster;
-pub mod light_view;
 pub mod near_field;
 pub mod rsm;
 pub mod uptodate;
@@ -27,5 +26,4 @@ pub use bake::{
     bake, bake_shard, static_only,
 };
 pub use gibake_scene::static_scene_hash;
-pub use light_view::{light_view_from_record, light_view_of, light_view_record};
 pub use uptodate::{Freshness, check_up_to_date};

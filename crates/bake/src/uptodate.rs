@@ -134,7 +134,7 @@ pub fn differences(
         // Same light and settings: the light view differs only when the
         // moving objects' swept bounds changed the fitted frustum.
         let v = LightView::new(&scene.light, &scene.full_bounds(), opts.shadow_map_size);
-        let same = crate::light_view::light_view_record(&v) == m.light_view;
+        let same = v.record() == m.light_view;
         if !same {
             r.push("the light's view changed (the moving objects' swept bounds changed)".into());
         }

@@ -15,6 +15,7 @@
 //! units of the texel footprint at the receiver ([`LightView::footprint`]),
 //! which scales with the scene, so nothing depends on scene units.
 
+use gibake_asset::LightViewRecord;
 use gibake_scene::{Aabb, Light, LightKind};
 use glam::{Mat4, Vec3, Vec4};
 
@@ -104,6 +105,35 @@ pub fn look_to(origin: Vec3, dir: Vec3) -> Mat4 {
 }
 
 impl LightView {
+    /// The manifest record of this view: the one conversion into the asset's
+    /// plain arrays (its `size` is stored separately, as the bake's
+    /// `shadow_map_size`).
+    pub fn record(&self) -> LightViewRecord {
+        LightViewRecord {
+            directional: self.directional,
+            view_proj: self.view_proj.to_cols_array(),
+            origin: self.origin.to_array(),
+            direction: self.direction.to_array(),
+            texel_scale: self.texel_scale,
+            texel_area: self.texel_area,
+        }
+    }
+
+    /// The view of manifest record `r` at map resolution `size` (the one
+    /// conversion back; the runtime merges moving objects in exactly the
+    /// projection of the bake).
+    pub fn from_record(r: &LightViewRecord, size: u32) -> LightView {
+        LightView {
+            directional: r.directional,
+            view_proj: Mat4::from_cols_array(&r.view_proj),
+            origin: Vec3::from_array(r.origin),
+            direction: Vec3::from_array(r.direction),
+            texel_scale: r.texel_scale,
+            size,
+            texel_area: r.texel_area,
+        }
+    }
+
     /// The light's view fitted to `bounds` (must include every surface that
     /// can cast a shadow or receive light), with a `size × size` map.
     pub fn new(light: &Light, bounds: &Aabb, size: u32) -> LightView {
@@ -298,13 +328,9 @@ impl GpuPrimaryLight {
     pub fn new(light: &Light) -> Self {
         let (dir_flag, scale, offset) = match light.kind {
             LightKind::Directional => (1.0, 0.0, 1.0),
-            LightKind::Spot {
-                inner_cone,
-                outer_cone,
-            } => {
-                let cos_outer = outer_cone.cos();
-                let scale = 1.0 / (inner_cone.cos() - cos_outer).max(0.001);
-                (0.0, scale, -cos_outer * scale)
+            LightKind::Spot { .. } => {
+                let (scale, offset) = light.spot_scale_offset();
+                (0.0, scale, offset)
             }
         };
         GpuPrimaryLight {
@@ -319,6 +345,35 @@ impl GpuPrimaryLight {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Record → view → record is the identity, bit for bit, for both kinds.
+    #[test]
+    fn record_round_trip() {
+        let bounds = Aabb {
+            min: Vec3::new(-2.0, -0.5, -3.0),
+            max: Vec3::new(4.0, 3.0, 1.0),
+        };
+        let spot = Light {
+            name: "spot".into(),
+            kind: LightKind::Spot {
+                inner_cone: 0.3,
+                outer_cone: 0.6,
+            },
+            color: Vec3::ONE,
+            position: Vec3::new(0.5, 5.0, 0.25),
+            direction: Vec3::new(0.1, -1.0, 0.05).normalize(),
+        };
+        let sun = Light {
+            kind: LightKind::Directional,
+            ..spot.clone()
+        };
+        for light in [spot, sun] {
+            let view = LightView::new(&light, &bounds, 512);
+            let back = LightView::from_record(&view.record(), 512);
+            assert_eq!(back, view);
+            assert_eq!(back.record(), view.record());
+        }
+    }
 
     #[test]
     fn basis_of_negative_zero_z_matches_wgsl() {

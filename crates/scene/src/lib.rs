@@ -72,6 +72,23 @@ pub struct Light {
 }
 
 impl Light {
+    /// The `(scale, offset)` of glTF's spot falloff (see
+    /// [`Light::spot_attenuation`]); the one place they are computed, for the
+    /// CPU and for the GPU light record. `(0, 1)` for directional lights.
+    pub fn spot_scale_offset(&self) -> (f32, f32) {
+        match self.kind {
+            LightKind::Directional => (0.0, 1.0),
+            LightKind::Spot {
+                inner_cone,
+                outer_cone,
+            } => {
+                let cos_outer = outer_cone.cos();
+                let scale = 1.0 / (inner_cone.cos() - cos_outer).max(0.001);
+                (scale, -cos_outer * scale)
+            }
+        }
+    }
+
     /// glTF's recommended spot falloff for a unit direction `dir_from_light`
     /// (from the light to the receiver). 1 for directional lights.
     ///
@@ -80,13 +97,8 @@ impl Light {
     pub fn spot_attenuation(&self, dir_from_light: Vec3) -> f32 {
         match self.kind {
             LightKind::Directional => 1.0,
-            LightKind::Spot {
-                inner_cone,
-                outer_cone,
-            } => {
-                let cos_outer = outer_cone.cos();
-                let scale = 1.0 / (inner_cone.cos() - cos_outer).max(0.001);
-                let offset = -cos_outer * scale;
+            LightKind::Spot { .. } => {
+                let (scale, offset) = self.spot_scale_offset();
                 let cd = self.direction.dot(dir_from_light);
                 let a = (cd * scale + offset).clamp(0.0, 1.0);
                 a * a
@@ -213,6 +225,14 @@ impl Scene {
     /// clamped to its own range).
     pub fn dynamic_transform(&self, i: usize, t: f32) -> Mat4 {
         self.animator.world_matrix(self.dynamic_objects[i].node, t)
+    }
+
+    /// World matrices of every moving object at time `t`, in object order
+    /// (the one definition of "the transforms at time t").
+    pub fn dynamic_transforms(&self, t: f32) -> Vec<Mat4> {
+        (0..self.dynamic_objects.len())
+            .map(|i| self.dynamic_transform(i, t))
+            .collect()
     }
 
     /// World matrix of the camera node at time `t`.
