@@ -207,13 +207,13 @@ impl Grid {
     }
 
     fn renders(&self) -> u64 {
-        let per = self.full_il.len() + 2 * self.other_il.len();
         let naive = self
             .budgets
             .iter()
             .filter(|&&b| b <= self.naive_max)
             .count();
-        ((self.budgets.len() * per + naive) * self.maps.len()) as u64
+        ((self.budgets.len() * self.full_il.len() + naive) * self.maps.len()
+            + 2 * self.budgets.len() * self.other_il.len()) as u64
     }
 }
 
@@ -319,9 +319,16 @@ pub(super) fn bench_quality(
                 for &il in &g.full_il {
                     jobs.push(("full", Mode::Full, il));
                 }
+                // `rsm` does not read the hemisphere maps: rendered at the
+                // first map size only; `indirect` (full − direct) at the
+                // largest only.
                 for &il in &g.other_il {
-                    jobs.push(("rsm", Mode::Rsm, il));
-                    jobs.push(("indirect", Mode::Indirect, il));
+                    if Some(&map) == g.maps.first() {
+                        jobs.push(("rsm", Mode::Rsm, il));
+                    }
+                    if Some(&map) == g.maps.last() {
+                        jobs.push(("indirect", Mode::Indirect, il));
+                    }
                 }
                 if vpls <= g.naive_max {
                     jobs.push(("naive", Mode::Naive, 1));
