@@ -63,6 +63,11 @@ fn log_range(v: impl Iterator<Item = f64>) -> (f64, f64) {
     }
 }
 
+/// An axis label: 3 significant digits, no float noise.
+fn axis_label(v: &f64) -> String {
+    super::report::sig(*v)
+}
+
 fn series_names<'a>(names: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
     let mut out: Vec<&str> = Vec::new();
     for n in names {
@@ -101,6 +106,8 @@ pub(super) fn error_vs_time(
     chart
         .configure_mesh()
         .x_desc("time per frame (ms, log)")
+        .x_label_formatter(&axis_label)
+        .y_label_formatter(&axis_label)
         .y_desc(y_desc)
         .label_style((FAMILY, 13))
         .draw()
@@ -186,6 +193,8 @@ pub(super) fn scaling(
     chart
         .configure_mesh()
         .x_desc(x_desc)
+        .x_label_formatter(&axis_label)
+        .y_label_formatter(&axis_label)
         .y_desc("GPU time per frame (ms, log)")
         .label_style((FAMILY, 13))
         .draw()
