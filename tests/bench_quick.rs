@@ -8,7 +8,14 @@ fn quick_quality_bench_reports_every_mode() {
     let dir = tempfile::tempdir().unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_gibake"))
         .args([
-            "bench", "quality", "--quick", "--scenes", "occluded", "--out",
+            "bench",
+            "quality",
+            "--quick",
+            "--scenes",
+            "occluded",
+            "--random-scenes",
+            "0",
+            "--out",
         ])
         .arg(dir.path())
         .output()
@@ -44,6 +51,6 @@ fn quick_quality_bench_reports_every_mode() {
         assert!(finite(&r["bake_seconds"]), "bake time not finite: {r}");
     }
     assert!(dir.path().join("report.md").is_file());
-    let svg = std::fs::read_to_string(dir.path().join("quality_occluded.svg")).unwrap();
-    assert!(svg.starts_with("<svg") && svg.contains("<circle"));
+    let png = std::fs::read(dir.path().join("quality_occluded.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
 }

@@ -16,6 +16,10 @@
 //! Used by the tests (`tests/indirect_accuracy.rs`, 20 random seeds at a
 //! small size) and by `gibake bench accuracy` (more seeds, full size).
 
+pub mod fit;
+pub mod flip;
+pub mod pareto;
+
 use gibake_asset::Asset;
 use gibake_gpu::GpuContext;
 use gibake_image::Image;

@@ -182,22 +182,7 @@ impl Image {
                 bytes.push((linear_to_srgb(v) * 255.0 + 0.5) as u8);
             }
         }
-        let file = std::fs::File::create(path).map_err(|source| ImageError::Io {
-            path: path.to_owned(),
-            source,
-        })?;
-        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), self.width, self.height);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        let mut w = enc.write_header().map_err(|source| ImageError::Png {
-            path: path.to_owned(),
-            source,
-        })?;
-        w.write_image_data(&bytes)
-            .map_err(|source| ImageError::Png {
-                path: path.to_owned(),
-                source,
-            })
+        write_rgb8_png(path, self.width, self.height, &bytes)
     }
 
     /// Writes EXR or PNG depending on the extension (`.png` → preview, anything else → EXR).
@@ -254,6 +239,32 @@ fn linear_to_srgb(c: f32) -> f32 {
     } else {
         1.055 * c.powf(1.0 / 2.4) - 0.055
     }
+}
+
+/// Writes 8-bit sRGB pixels (`width × height × 3` bytes, rows top to bottom)
+/// as a PNG: the one PNG encoder of the workspace (previews here, the bench's
+/// plots in `gibake`). (Cargo feature `png`, on by default.)
+#[cfg(feature = "png")]
+pub fn write_rgb8_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<(), ImageError> {
+    let file = std::fs::File::create(path).map_err(|source| ImageError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width, height);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().map_err(|source| ImageError::Png {
+        path: path.to_owned(),
+        source,
+    })?;
+    w.write_image_data(rgb).map_err(|source| ImageError::Png {
+        path: path.to_owned(),
+        source,
+    })?;
+    w.finish().map_err(|source| ImageError::Png {
+        path: path.to_owned(),
+        source,
+    })
 }
 
 /// Relative mean squared error of `x` against reference `r`: per pixel and

@@ -1,0 +1,276 @@
+//! `gibake bench scaling`: how the per-frame cost grows, with growth
+//! exponents fitted by least squares in log-log space
+//! (`gibake_eval::fit::power_fit`): static triangles 1…64× (corner_bunny's
+//! static detail multiplier), moving objects 1…64, static VPLs 64…4096.
+//! The update (every pass the moving objects cause) and the shade (shade
+//! pass + interleave filter) are timed separately, GPU timestamps where the
+//! adapter has them; each sweep's points are measured side by side.
+
+use std::path::Path;
+
+use gibake_eval::fit::{PowerFit, power_fit};
+use gibake_runtime::{Mode, RenderSettings};
+use gibake_scene::{LoadOptions, Scene};
+use serde_json::json;
+
+use super::frame::{Config, FrameSummary, measure_all};
+use super::plot::{Curve, scaling};
+use super::report::sig;
+use super::{Bench, CORNER_BUNNY, Table, load_embedded};
+use crate::output::bar;
+
+/// corner_bunny with `n` moving objects: the first `n` of its 13 balls, and
+/// beyond 13, copies of them that follow the same paths (each drawn and
+/// updated like a ball of its own).
+fn with_moving(base: &Scene, n: usize) -> Scene {
+    let mut s = base.clone();
+    let objs = &base.dynamic_objects;
+    s.dynamic_objects = (0..n)
+        .filter_map(|i| objs.get(i % objs.len().max(1)).cloned())
+        .collect();
+    s
+}
+
+/// One sweep: its name, the x axis, and the scenes/bakes at each point.
+struct Sweep {
+    key: &'static str,
+    title: &'static str,
+    x_desc: &'static str,
+}
+
+const SWEEPS: [Sweep; 3] = [
+    Sweep {
+        key: "static_triangles",
+        title: "static triangles (corner_bunny heavy 1…64×)",
+        x_desc: "static triangles (log)",
+    },
+    Sweep {
+        key: "moving_objects",
+        title: "moving objects (1…64)",
+        x_desc: "moving objects (log)",
+    },
+    Sweep {
+        key: "static_vpls",
+        title: "static VPLs (64…4096)",
+        x_desc: "static VPLs (log)",
+    },
+];
+
+/// Runs the three sweeps.
+pub(super) fn bench_scaling(b: &mut Bench) -> anyhow::Result<()> {
+    b.section("Scaling: growth exponents");
+    let quick = b.quick;
+    let size = if quick { 64 } else { 128 };
+    let frames = if quick { 1 } else { b.frames.min(3) };
+    let (vpls, map) = (250u32, 64u32);
+    let heavies: Vec<u32> = if quick {
+        vec![1, 4]
+    } else {
+        vec![1, 2, 4, 8, 16, 32, 64]
+    };
+    let movings: Vec<usize> = if quick {
+        vec![1, 4]
+    } else {
+        vec![1, 2, 4, 8, 16, 32, 64]
+    };
+    let budgets: Vec<u32> = if quick {
+        vec![64, 256]
+    } else {
+        vec![64, 128, 256, 512, 1024, 2048, 4096]
+    };
+    let cb = load_embedded(CORNER_BUNNY, "corner_bunny")?;
+    let settings = RenderSettings {
+        width: size,
+        height: size,
+        shadow_map_size: 2048,
+        mode: Mode::Full,
+        max_dynamic_vpls: 64,
+        interleave: 1,
+    };
+    let mut fits_json = Vec::new();
+    let mut summary = Table::new(
+        format!(
+            "Fitted growth exponents (least squares in log-log, time ∝ x^k) — mode full, {size}², interleave 1, median of {frames} frame(s) after a warm-up — adapter: {}",
+            b.adapter
+        ),
+        &[
+            "sweep",
+            "range",
+            "update k (R²)",
+            "shade+filter k (R²)",
+            "frame k (R²)",
+        ],
+    );
+    for sw in &SWEEPS {
+        // Scenes and bakes of the sweep's points: (x, scene, budget).
+        let mut points: Vec<(Scene, u32)> = Vec::new();
+        match sw.key {
+            "static_triangles" => {
+                for &h in &heavies {
+                    let bytes = gibake_scenegen::corner_bunny(&gibake_scenegen::Params {
+                        heavy: h,
+                        ..Default::default()
+                    });
+                    let scene = gibake_scene::load_from_slice(
+                        &bytes,
+                        Path::new(&format!("corner_bunny_heavy{h}.glb (generated)")),
+                        &LoadOptions::default(),
+                    )?;
+                    points.push((scene, vpls));
+                }
+            }
+            "moving_objects" => {
+                for &n in &movings {
+                    points.push((with_moving(&cb, n), vpls));
+                }
+            }
+            _ => {
+                for &v in &budgets {
+                    points.push((cb.clone(), v));
+                }
+            }
+        }
+        let pb = bar(points.len() as u64 * (2 + u64::from(frames)), sw.key);
+        let mut assets = Vec::new();
+        for (scene, v) in &points {
+            assets.push(b.bake(scene, *v, map)?.0.asset);
+            pb.inc(1);
+        }
+        let configs: Vec<Config<'_>> = points
+            .iter()
+            .zip(&assets)
+            .map(|((scene, _), asset)| Config {
+                scene,
+                asset: Some(asset),
+                settings: settings.clone(),
+                frames,
+            })
+            .collect();
+        let measured: Vec<FrameSummary> = measure_all(&b.ctx, &configs, &|| pb.inc(1))?;
+        pb.finish_and_clear();
+        let xs: Vec<f64> = points
+            .iter()
+            .zip(&assets)
+            .map(|((scene, _), asset)| match sw.key {
+                "static_triangles" => scene.triangle_counts().0 as f64,
+                "moving_objects" => scene.dynamic_objects.len() as f64,
+                _ => asset.manifest.vpl_count as f64,
+            })
+            .collect();
+        let fit_of = |f: &dyn Fn(&FrameSummary) -> f64| -> Option<PowerFit> {
+            let pts: Vec<(f64, f64)> = xs.iter().zip(&measured).map(|(x, m)| (*x, f(m))).collect();
+            power_fit(&pts)
+        };
+        let fu = fit_of(&|m| m.update_ms);
+        let fs = fit_of(&|m| m.shade_ms);
+        let ff = fit_of(&|m| m.frame_ms);
+        let show = |f: &Option<PowerFit>| {
+            f.map(|f| format!("{:.2} ({:.2})", f.exponent, f.r2))
+                .unwrap_or_else(|| "—".into())
+        };
+        let mut t = Table::new(
+            format!(
+                "Scaling with {} — corner_bunny, mode full, {size}², interleave 1, {map}² maps, median of {frames} frame(s) after a warm-up — times: {} — adapter: {}",
+                sw.title,
+                measured.first().map(|m| m.timing.as_str()).unwrap_or(""),
+                b.adapter
+            ),
+            &[
+                "x",
+                "static tris",
+                "moving objects",
+                "static VPLs",
+                "affected maps",
+                "update (ms)",
+                "shade+filter (ms)",
+                "frame (ms)",
+            ],
+        );
+        let mut rows = Vec::new();
+        for (k, ((scene, _), asset)) in points.iter().zip(&assets).enumerate() {
+            let m = &measured[k];
+            let (st, _) = scene.triangle_counts();
+            t.row(vec![
+                sig(xs[k]),
+                st.to_string(),
+                scene.dynamic_objects.len().to_string(),
+                asset.manifest.vpl_count.to_string(),
+                format!("{:.0}", m.affected_maps),
+                sig(m.update_ms),
+                sig(m.shade_ms),
+                sig(m.frame_ms),
+            ]);
+            rows.push(json!({
+                "x": xs[k],
+                "static_triangles": st,
+                "moving_objects": scene.dynamic_objects.len(),
+                "static_vpls": asset.manifest.vpl_count,
+                "stats": m.json(),
+            }));
+        }
+        let line = format!(
+            "Fitted exponents ({}): update **{}**, shade+filter **{}**, frame **{}** (k (R²); time ∝ x^k).",
+            sw.key,
+            show(&fu),
+            show(&fs),
+            show(&ff)
+        );
+        eprintln!("{line}");
+        t.notes.push(line);
+        if sw.key == "moving_objects" {
+            t.notes.push(
+                "corner_bunny has 13 balls: points beyond 13 add copies of them on the same paths \
+                 (more draws and update work, no new affected maps)."
+                    .into(),
+            );
+        }
+        let range = format!(
+            "{} … {}",
+            sig(xs.first().copied().unwrap_or(f64::NAN)),
+            sig(xs.last().copied().unwrap_or(f64::NAN))
+        );
+        summary.row(vec![sw.key.into(), range, show(&fu), show(&fs), show(&ff)]);
+        b.emit(&t);
+        let file = format!("scaling_{}.png", sw.key);
+        let curve = |name: &str, f: &Option<PowerFit>, get: &dyn Fn(&FrameSummary) -> f64| Curve {
+            name: format!(
+                "{name}{}",
+                f.map(|f| format!(" (k = {:.2})", f.exponent))
+                    .unwrap_or_default()
+            ),
+            points: xs
+                .iter()
+                .zip(&measured)
+                .map(|(x, m)| (*x, get(m)))
+                .collect(),
+            fit: f.map(|f| (f.scale, f.exponent)),
+        };
+        scaling(
+            &b.out.join(&file),
+            &format!(
+                "GPU time against {} ({})",
+                sw.title,
+                b.adapter.split(" (").next().unwrap_or(&b.adapter)
+            ),
+            sw.x_desc,
+            &[
+                curve("update", &fu, &|m| m.update_ms),
+                curve("shade+filter", &fs, &|m| m.shade_ms),
+                curve("frame", &ff, &|m| m.frame_ms),
+            ],
+        )?;
+        b.plot_written(&file, "scaling");
+        fits_json.push(json!({
+            "sweep": sw.key,
+            "update": fu,
+            "shade": fs,
+            "frame": ff,
+            "points": rows,
+        }));
+    }
+    b.emit(&summary);
+    b.write_json(
+        "scaling",
+        &json!({"adapter": b.adapter, "size": size, "frames": frames, "vpl_map_size": map, "sweeps": fits_json}),
+    )
+}
