@@ -224,9 +224,10 @@ pub struct RenderArgs {
     pub max_dynamic_vpls: u32,
     /// Interleaved VPL sampling: each pixel of an N×N block shades a disjoint
     /// 1/N² of the VPLs and a geometry-aware filter reconstructs the sum
-    /// (1: every pixel shades every VPL). Applies at the supersampled
-    /// resolution.
-    #[arg(long, default_value_t = 1, value_name = "N", value_parser = interleave_value)]
+    /// (1: every pixel shades every VPL). `auto` (the default): 4 from 256²
+    /// pixels on, else 1 (measured in docs/results.md, "Interleaved VPL
+    /// sampling"). Applies at the supersampled resolution.
+    #[arg(long, default_value = "auto", value_name = "N|auto", value_parser = interleave_value)]
     pub interleave: u32,
     /// GPU adapter to use (substring of its name; default: GIBAKE_ADAPTER or the first real GPU).
     #[arg(long)]
@@ -454,7 +455,8 @@ pub struct DemoArgs {
 /// Parses `--interleave` (1, 2, 4 or 8).
 fn interleave_value(s: &str) -> Result<u32, String> {
     match s.parse::<u32>() {
+        _ if s == "auto" => Ok(0),
         Ok(n) if [1, 2, 4, 8].contains(&n) => Ok(n),
-        _ => Err(format!("{s:?} is not one of 1, 2, 4, 8")),
+        _ => Err(format!("{s:?} is not one of auto, 1, 2, 4, 8")),
     }
 }

@@ -216,7 +216,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
             "width": a.width,
             "height": a.height,
             "ssaa": a.ssaa,
-            "interleave": a.interleave,
+            "interleave": renderer.interleave(),
             "setup_seconds": setup_s,
             "asset_upload_bytes": renderer.asset_bytes(),
             "frames": frames,

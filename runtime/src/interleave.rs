@@ -24,8 +24,30 @@ pub struct GpuInterleaveParams {
     pub _pad: u32,
 }
 
-/// The interleave values [`crate::RenderSettings::interleave`] accepts.
-pub const VALID: [u32; 4] = [1, 2, 4, 8];
+/// The interleave values [`crate::RenderSettings::interleave`] accepts
+/// (0: [`AUTO`]).
+pub const VALID: [u32; 5] = [AUTO, 1, 2, 4, 8];
+
+/// [`crate::RenderSettings::interleave`] = 0: chosen from the output size
+/// by [`effective`].
+pub const AUTO: u32 = 0;
+
+/// Output pixels from which [`AUTO`] interleaves 4×4: 256². Measured
+/// (`gibake bench interleave` and `quality`, docs/results.md): at 256² and
+/// `--vpls 664`, N = 4 shades in 0.08–0.17× the time of N = 1 at 1.00–1.08×
+/// its rel MSE and FLIP on the bundled scenes; at 64² the filter has too few
+/// neighbours on a surface and N = 4 cost up to 1.40× the rel MSE, so
+/// smaller outputs sum every VPL.
+pub const AUTO_MIN_PIXELS: u64 = 256 * 256;
+
+/// The interleave factor used for `setting` at `width × height`.
+pub fn effective(setting: u32, width: u32, height: u32) -> u32 {
+    match setting {
+        AUTO if u64::from(width) * u64::from(height) >= AUTO_MIN_PIXELS => 4,
+        AUTO => 1,
+        n => n,
+    }
+}
 
 /// The filter pass: pipeline, layout, uniform and the shade pass's
 /// intermediate texture.
@@ -155,5 +177,25 @@ impl InterleavePass {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, self.group.as_ref().expect("bound in Renderer::new"), &[]);
         pass.dispatch_workgroups(self.size[0].div_ceil(8), self.size[1].div_ceil(8), 1);
+    }
+}
+
+#[cfg(test)]
+mod auto_tests {
+    use super::*;
+
+    /// Automatic interleave: 4×4 from 256² pixels on, the exact sum below;
+    /// explicit factors pass through.
+    #[test]
+    fn auto_follows_the_output_size() {
+        assert_eq!(effective(AUTO, 256, 256), 4);
+        assert_eq!(effective(AUTO, 1280, 720), 4);
+        assert_eq!(effective(AUTO, 255, 256), 1);
+        assert_eq!(effective(AUTO, 64, 64), 1);
+        assert_eq!(effective(AUTO, u32::MAX, u32::MAX), 4);
+        for n in [1, 2, 4, 8] {
+            assert_eq!(effective(n, 64, 64), n);
+            assert_eq!(effective(n, 1024, 1024), n);
+        }
     }
 }

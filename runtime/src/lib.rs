@@ -136,8 +136,11 @@ pub struct RenderSettings {
     pub max_dynamic_vpls: u32,
     /// Interleaved VPL sampling: 1 (every pixel sums every VPL), 2, 4 or 8
     /// (each pixel of an N×N block sums a disjoint 1/N² of the VPLs, and a
-    /// geometry-aware filter over its neighbours reconstructs the sum).
-    /// Other values are [`RuntimeError::InvalidSetting`].
+    /// geometry-aware filter over its neighbours reconstructs the sum), or
+    /// 0 (the default: 4 from 256² output pixels on, else 1 — measured, see
+    /// docs/results.md; re-chosen on [`Renderer::resize`]). Other values are
+    /// [`RuntimeError::InvalidSetting`]. [`Renderer::interleave`] says which
+    /// factor is in use.
     pub interleave: u32,
 }
 
@@ -149,7 +152,7 @@ impl Default for RenderSettings {
             height: 480,
             shadow_map_size: 2048,
             mode: Mode::Full,
-            interleave: 1,
+            interleave: interleave::AUTO,
         }
     }
 }
@@ -436,7 +439,7 @@ impl Renderer {
         }
         if !interleave::VALID.contains(&settings.interleave) {
             return Err(RuntimeError::InvalidSetting(format!(
-                "interleave {} must be 1, 2, 4 or 8",
+                "interleave {} must be 0 (automatic), 1, 2, 4 or 8",
                 settings.interleave
             )));
         }
@@ -593,7 +596,7 @@ impl Renderer {
             atlas_cols: merge.as_ref().map(|m| m.atlas_cols()).unwrap_or(1),
             n_dynamic: dyn_vpls.as_ref().map(|d| d.slots()).unwrap_or(0),
             static_cols: baked.as_ref().map(|b| b.static_cols).unwrap_or(1),
-            interleave: settings.interleave,
+            interleave: interleave::effective(settings.interleave, settings.width, settings.height),
             _pad: [0; 3],
         };
         queue.write_buffer(&shade.uniform_buf, 0, bytemuck::bytes_of(&params));
@@ -649,8 +652,9 @@ impl Renderer {
         let gbuffer = gbuffer::GBuffer::new(device, w, h);
         let output = output.cloned().unwrap_or_else(|| own_output(device, w, h));
         let output_view = output.create_view(&Default::default());
-        let mut interleave = (settings.interleave > 1)
-            .then(|| interleave::InterleavePass::new(device, queue, [w, h], settings.interleave));
+        let n = interleave::effective(settings.interleave, w, h);
+        let mut interleave =
+            (n > 1).then(|| interleave::InterleavePass::new(device, queue, [w, h], n));
         let views = [&gbuffer.views[0], &gbuffer.views[1], &gbuffer.views[2]];
         let frame_group = frame_views.bind(device, shade, views, interleave.as_mut(), &output_view);
         Target {
@@ -720,6 +724,12 @@ impl Renderer {
         (self.settings.width, self.settings.height)
     }
 
+    /// The interleave factor in use (1, 2, 4 or 8; resolves
+    /// [`RenderSettings::interleave`] = 0 for the current size).
+    pub fn interleave(&self) -> u32 {
+        self.params.interleave
+    }
+
     /// Changes the output size: a new G-buffer and output (the renderer's
     /// own again, and its own G-buffer: a caller that provided either
     /// provides it again at the new size). The camera's aspect ratio is the
@@ -735,6 +745,7 @@ impl Renderer {
         self.settings.width = width;
         self.settings.height = height;
         self.params.size = [width, height];
+        self.params.interleave = interleave::effective(self.settings.interleave, width, height);
         queue.write_buffer(&self.shade.uniform_buf, 0, bytemuck::bytes_of(&self.params));
         self.target = Self::make_target(
             device,
