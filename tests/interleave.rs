@@ -158,7 +158,7 @@ fn invalid_interleave_is_a_typed_error() {
         &gibake_scenegen::corner_bunny(&Default::default()),
         "cb.glb",
     );
-    for n in [0, 3, 16] {
+    for n in [3, 5, 16] {
         let s = RenderSettings {
             width: 8,
             height: 8,
@@ -172,6 +172,31 @@ fn invalid_interleave_is_a_typed_error() {
             Ok(_) => panic!("interleave {n} accepted"),
         }
     }
+}
+
+/// Interleave 0 (the default) is automatic: the exact sum below 256²
+/// pixels, 4×4 from there on, re-chosen on resize.
+#[test]
+fn automatic_interleave_follows_the_output_size() {
+    let ctx = common::gpu();
+    let scene = gibake_eval::load(
+        &gibake_scenegen::corner_bunny(&Default::default()),
+        "cb.glb",
+    );
+    let s = RenderSettings {
+        width: 64,
+        height: 64,
+        mode: Mode::Direct,
+        ..Default::default()
+    };
+    assert_eq!(s.interleave, 0, "the default is automatic");
+    let mut r = gibake_runtime::Renderer::new(&ctx.device, &ctx.queue, &scene, None, &s)
+        .expect("automatic interleave is a valid setting");
+    assert_eq!(r.interleave(), 1);
+    r.resize(&ctx.device, &ctx.queue, 256, 256).expect("resize");
+    assert_eq!(r.interleave(), 4);
+    r.resize(&ctx.device, &ctx.queue, 255, 256).expect("resize");
+    assert_eq!(r.interleave(), 1);
 }
 
 #[test]
