@@ -338,7 +338,7 @@ pub struct BenchArgs {
     /// Frames measured per runtime configuration, after one warm-up frame
     /// (naive: at most 2; Table 1: at most 2; interleave: at most 4;
     /// scaling: at most 3; --quick: at most 2).
-    #[arg(long, default_value_t = 4, value_name = "N")]
+    #[arg(long, default_value_t = 3, value_name = "N")]
     pub frames: u32,
     /// A fast smoke run: fewer runs, frames, settings, smaller images and
     /// fewer samples (seconds, not minutes).
@@ -355,7 +355,7 @@ pub struct BenchArgs {
     pub scenes: Vec<BenchScene>,
     /// Random scenes (`gibake_scenegen::random`, seeds 0..N) added to the
     /// quality benchmark's scenes.
-    #[arg(long, default_value_t = 2, value_name = "N")]
+    #[arg(long, default_value_t = 1, value_name = "N")]
     pub random_scenes: u64,
     /// Static VPL budget of the interleave benchmark.
     #[arg(long, default_value_t = 664, value_name = "N")]
