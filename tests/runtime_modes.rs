@@ -202,14 +202,50 @@ fn full_mode_is_scale_invariant_and_finite_for_extreme_lights() {
     let base = load_bytes(gibake_scenegen::scaled("corner_bunny", 1.0).unwrap());
     let asset = bake(&ctx, &base, 128, 64);
     let reference_img = render(&ctx, &base, &asset, Mode::Full, 64, 0.7, 1);
-    for s in [1e-3f32, 1e3] {
-        let scene = load_bytes(gibake_scenegen::scaled("corner_bunny", s).unwrap());
-        let a = bake(&ctx, &scene, 128, 64);
-        assert_eq!(a.vpls.len(), asset.vpls.len(), "scale {s}: VPL count");
-        let img = render(&ctx, &scene, &a, Mode::Full, 64, 0.7, 1);
+    let scaled: Vec<(f32, Scene, Asset)> = [1e-3f32, 1e3]
+        .into_iter()
+        .map(|s| {
+            let scene = load_bytes(gibake_scenegen::scaled("corner_bunny", s).unwrap());
+            let a = bake(&ctx, &scene, 128, 64);
+            assert_eq!(a.vpls.len(), asset.vpls.len(), "scale {s}: VPL count");
+            (s, scene, a)
+        })
+        .collect();
+    for (s, scene, a) in &scaled {
+        let img = render(&ctx, scene, a, Mode::Full, 64, 0.7, 1);
         let e = rel_mse(&img, &reference_img);
         eprintln!("scale {s}: rel MSE against scale 1 = {e:.2e}");
         assert!(e < 1e-3, "scale {s}: rel MSE {e}");
+    }
+    // Interleaved sampling (issue 10): its filter's weights are
+    // dimensionless, so the interleaved image is scale-invariant too.
+    let il4 = |scene: &Scene, a: &Asset| {
+        let settings = RenderSettings {
+            width: 64,
+            height: 64,
+            shadow_map_size: 2048,
+            mode: Mode::Full,
+            interleave: 4,
+            ..Default::default()
+        };
+        let img = gibake_runtime::render_image(
+            &ctx.device,
+            &ctx.queue,
+            scene,
+            Some(a),
+            &settings,
+            0.7,
+            1,
+        )
+        .unwrap();
+        assert!(img.all_finite(), "interleave 4: non-finite pixels");
+        img
+    };
+    let reference_il4 = il4(&base, &asset);
+    for (s, scene, a) in &scaled {
+        let e = rel_mse(&il4(scene, a), &reference_il4);
+        eprintln!("interleave 4, scale {s}: rel MSE against scale 1 = {e:.2e}");
+        assert!(e < 1e-3, "interleave 4, scale {s}: rel MSE {e}");
     }
     for k in [1e-20f32, 1e20] {
         let mut scene = base.clone();

@@ -1,5 +1,6 @@
 //! A loaded `.gibake` asset on the GPU: static VPL records, the baked
-//! hemisphere maps (one `R32Float` array layer per stored map), the static
+//! hemisphere maps (one `R32Float` 2D atlas in the asset's own tile layout,
+//! `gibake_asset::atlas_grid`), the static
 //! primary shadow map and, only for scenes with moving objects, the static
 //! RSM metric plus each texel's share of its VPL's flux (for partial
 //! occlusion).
@@ -93,8 +94,8 @@ impl BakedGpu {
     ) -> Result<BakedGpu, RuntimeError> {
         let m = &asset.manifest;
         let max = device.limits().max_texture_dimension_2d;
-        // The baked maps as one 2D atlas in the asset's own layout (which
-        // holds far more maps than texture-array layers).
+        // The baked maps as one 2D atlas in the asset's own layout (a 2D
+        // atlas holds far more maps than a texture array has layers).
         let s = m.settings.vpl_map_size;
         let (cols, rows) = crate::atlas::layout(
             device,
