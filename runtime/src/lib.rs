@@ -392,22 +392,16 @@ fn check_size(device: &wgpu::Device, width: u32, height: u32) -> Result<(), Runt
 
 /// The renderer's own output texture.
 fn own_output(device: &wgpu::Device, width: u32, height: u32) -> wgpu::Texture {
-    device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("radiance"),
-        size: wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: OUTPUT_FORMAT,
-        usage: wgpu::TextureUsages::STORAGE_BINDING
+    gibake_gpu::util::texture_2d(
+        device,
+        "radiance",
+        width,
+        height,
+        OUTPUT_FORMAT,
+        wgpu::TextureUsages::STORAGE_BINDING
             | wgpu::TextureUsages::TEXTURE_BINDING
             | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    })
+    )
 }
 
 impl Renderer {

@@ -153,14 +153,7 @@ pub(super) fn error_vs_time(
                 .map(|p| Circle::new((p.ms, p.err), 7, BLACK.stroke_width(2))),
         )
         .map_err(|x| e(&x))?;
-    chart
-        .configure_series_labels()
-        .label_font((FAMILY, 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(|x| e(&x))?;
+    legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|x| e(&x))?;
     root.present().map_err(|x| e(&x))?;
     drop(chart);
     drop(root);
@@ -238,19 +231,26 @@ pub(super) fn scaling(
             }
         }
     }
-    chart
-        .configure_series_labels()
-        .label_font((FAMILY, 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()
-        .map_err(|x| e(&x))?;
+    legend(&mut chart, SeriesLabelPosition::UpperLeft).map_err(|x| e(&x))?;
     root.present().map_err(|x| e(&x))?;
     drop(chart);
     drop(root);
     gibake_image::write_rgb8_png(path, W, H, &rgb)?;
     Ok(())
+}
+
+/// Draws the legend box of `chart` at `pos` (the one legend style).
+fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    pos: SeriesLabelPosition,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    chart
+        .configure_series_labels()
+        .label_font((FAMILY, 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(pos)
+        .draw()
 }
 
 #[cfg(test)]
