@@ -44,6 +44,11 @@ fi
 if ! ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1'; then
   pkgs+=(libvulkan1)
 fi
+# A C++ compiler: nv-flip (mean FLIP in gibake-eval) builds NVIDIA's C++
+# implementation with the cc crate.
+if ! command -v c++ >/dev/null 2>&1; then
+  pkgs+=(g++)
+fi
 if [ "$want_node" = 1 ] && ! { command -v node >/dev/null 2>&1 && command -v npm >/dev/null 2>&1; }; then
   pkgs+=(nodejs npm)
 fi
