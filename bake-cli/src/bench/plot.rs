@@ -101,22 +101,15 @@ pub(super) fn error_vs_time(
     let root = BitMapBackend::with_buffer(&mut rgb, (W, H)).into_drawing_area();
     let e = |e: &dyn std::fmt::Display| anyhow!("plot {}: {e}", path.display());
     root.fill(&WHITE).map_err(|x| e(&x))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, (FAMILY, 18))
-        .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(70)
-        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-        .map_err(|x| e(&x))?;
-    chart
-        .configure_mesh()
-        .x_desc("time per frame (ms, log)")
-        .x_label_formatter(&axis_label)
-        .y_label_formatter(&axis_label)
-        .y_desc(y_desc)
-        .label_style((FAMILY, 13))
-        .draw()
-        .map_err(|x| e(&x))?;
+    let mut chart = log_log_chart(
+        &root,
+        title,
+        (x0, x1),
+        (y0, y1),
+        "time per frame (ms, log)",
+        y_desc,
+    )
+    .map_err(|x| e(&x))?;
     let mut front: Vec<(f64, f64)> = good
         .iter()
         .filter(|p| p.front)
@@ -185,22 +178,15 @@ pub(super) fn scaling(
     let root = BitMapBackend::with_buffer(&mut rgb, (W, H)).into_drawing_area();
     let e = |e: &dyn std::fmt::Display| anyhow!("plot {}: {e}", path.display());
     root.fill(&WHITE).map_err(|x| e(&x))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, (FAMILY, 18))
-        .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(70)
-        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-        .map_err(|x| e(&x))?;
-    chart
-        .configure_mesh()
-        .x_desc(x_desc)
-        .x_label_formatter(&axis_label)
-        .y_label_formatter(&axis_label)
-        .y_desc("GPU time per frame (ms, log)")
-        .label_style((FAMILY, 13))
-        .draw()
-        .map_err(|x| e(&x))?;
+    let mut chart = log_log_chart(
+        &root,
+        title,
+        (x0, x1),
+        (y0, y1),
+        x_desc,
+        "GPU time per frame (ms, log)",
+    )
+    .map_err(|x| e(&x))?;
     for (i, c) in curves.iter().enumerate() {
         let col = COLOURS[i % COLOURS.len()];
         let pts: Vec<(f64, f64)> = c
@@ -237,6 +223,38 @@ pub(super) fn scaling(
     drop(root);
     gibake_image::write_rgb8_png(path, W, H, &rgb)?;
     Ok(())
+}
+
+/// Log-log axes drawn into an in-memory bitmap.
+type LogLogChart<'a, 'b> =
+    ChartContext<'a, BitMapBackend<'b>, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
+/// A plotters drawing error of the bitmap backend.
+type PlotError<'b> = DrawingAreaErrorKind<<BitMapBackend<'b> as DrawingBackend>::ErrorType>;
+
+/// Log-log axes with the caption, labels and mesh every plot uses.
+fn log_log_chart<'a, 'b>(
+    root: &'a DrawingArea<BitMapBackend<'b>, plotters::coord::Shift>,
+    title: &str,
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+    x_desc: &str,
+    y_desc: &str,
+) -> Result<LogLogChart<'a, 'b>, PlotError<'b>> {
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, (FAMILY, 18))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .x_label_formatter(&axis_label)
+        .y_label_formatter(&axis_label)
+        .y_desc(y_desc)
+        .label_style((FAMILY, 13))
+        .draw()?;
+    Ok(chart)
 }
 
 /// Draws the legend box of `chart` at `pos` (the one legend style).
