@@ -33,9 +33,166 @@ pub struct SceneArgs {
     /// Pick the primary light by name when the scene has several.
     #[arg(long, value_name = "NAME")]
     pub light: Option<String>,
+    /// What the level needs that its file lacks (sun, moving objects).
+    #[command(flatten)]
+    pub level: LevelArgs,
+    /// The camera to render from.
+    #[command(flatten)]
+    pub camera: CameraArgs,
     /// Import budgets.
     #[command(flatten)]
     pub limits: crate::limits::LimitArgs,
+}
+
+impl SceneArgs {
+    /// The importer's options.
+    pub fn load_options(&self) -> gibake_scene::LoadOptions {
+        gibake_scene::LoadOptions {
+            light: self.light.clone(),
+            limits: self.limits.to_limits(),
+            sun: self.level.sun(),
+            camera: self.camera.choice(),
+            dynamic: self.level.dynamic.clone(),
+            bake_volume: self.level.bake_volume(),
+        }
+    }
+}
+
+/// Additions to a level as exported, without editing the file. Both change
+/// what is baked (the static-scene hash), so `bake` and `render` must be
+/// given the same ones.
+#[derive(Args, Debug, Clone, Default)]
+pub struct LevelArgs {
+    /// Add a directional primary light (for a level exported without one; it
+    /// replaces the file's lights): azimuth and elevation in degrees.
+    /// Azimuth turns clockwise seen from above (+Y) from −Z: 0 puts the sun
+    /// toward −Z, 90 toward +X; elevation is above the XZ plane, in (0, 90].
+    #[arg(long, value_name = "AZIMUTH,ELEVATION", value_parser = parse_sun, allow_hyphen_values = true)]
+    pub sun: Option<(f32, f32)>,
+    /// Irradiance of the --sun on a surface facing it, W/m².
+    #[arg(long, value_name = "W/M2", default_value_t = 1.0, requires = "sun")]
+    pub sun_irradiance: f32,
+    /// Linear RGB colour of the --sun (multiplies the irradiance).
+    #[arg(long, value_name = "R,G,B", value_parser = parse_rgb, requires = "sun")]
+    pub sun_color: Option<[f32; 3]>,
+    /// Mark nodes as moving objects by name (repeatable; glob: `*` any run,
+    /// `?` one character): a matching node and its children leave the
+    /// static scene and are drawn per frame. A pattern matching no node is
+    /// an error.
+    #[arg(long, value_name = "PATTERN")]
+    pub dynamic: Vec<String>,
+    /// The part of the level a directional light's shadow map and RSM cover
+    /// (world box; replaces a node marked `extras: {"bake_volume": true}`).
+    /// Default: the static geometry without outliers such as a distant
+    /// ground plane (docs/method.md, "Light views").
+    #[arg(long, value_name = "MINX,MINY,MINZ,MAXX,MAXY,MAXZ", value_parser = parse_box, allow_hyphen_values = true)]
+    pub bake_volume: Option<[f32; 6]>,
+}
+
+impl LevelArgs {
+    /// The `--bake-volume` as a box.
+    pub fn bake_volume(&self) -> Option<gibake_scene::Aabb> {
+        use gibake_runtime::glam::Vec3;
+        self.bake_volume.map(|v| gibake_scene::Aabb {
+            min: Vec3::new(v[0], v[1], v[2]),
+            max: Vec3::new(v[3], v[4], v[5]),
+        })
+    }
+
+    /// The `--sun` as the importer's type.
+    pub fn sun(&self) -> Option<gibake_scene::Sun> {
+        self.sun.map(|(az, el)| gibake_scene::Sun {
+            azimuth_deg: az,
+            elevation_deg: el,
+            irradiance: self.sun_irradiance,
+            color: self.sun_color.map_or(
+                gibake_runtime::glam::Vec3::ONE,
+                gibake_runtime::glam::Vec3::from,
+            ),
+        })
+    }
+}
+
+/// The camera of `render` and `reference` (default: the scene's first).
+#[derive(Args, Debug, Clone, Default)]
+pub struct CameraArgs {
+    /// Render from the scene's camera of this name (glTF camera or node name).
+    #[arg(long, value_name = "NAME", conflicts_with = "look_at")]
+    pub camera: Option<String>,
+    /// Render from a perspective camera at EYE looking at TARGET (world
+    /// coordinates, +Y up), vertical field of view FOV degrees (default 60).
+    #[arg(long, value_name = "EX,EY,EZ,TX,TY,TZ[,FOV]", value_parser = parse_look_at, allow_hyphen_values = true)]
+    pub look_at: Option<[f32; 7]>,
+}
+
+impl CameraArgs {
+    /// The importer's camera choice.
+    pub fn choice(&self) -> gibake_scene::CameraChoice {
+        use gibake_scene::CameraChoice;
+        match (&self.camera, &self.look_at) {
+            (Some(n), _) => CameraChoice::Named(n.clone()),
+            (None, Some(v)) => CameraChoice::LookAt {
+                eye: gibake_runtime::glam::Vec3::new(v[0], v[1], v[2]),
+                target: gibake_runtime::glam::Vec3::new(v[3], v[4], v[5]),
+                yfov_deg: v[6],
+            },
+            (None, None) => CameraChoice::First,
+        }
+    }
+}
+
+/// Comma-separated finite numbers, `min..=max` of them.
+fn parse_numbers(s: &str, min: usize, max: usize, what: &str) -> Result<Vec<f32>, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<f32>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| format!("`{}` is not a finite number (expected {what})", t.trim()))
+        })
+        .collect::<Result<_, _>>()?;
+    if v.len() < min || v.len() > max {
+        return Err(format!("expected {what}, got {} number(s)", v.len()));
+    }
+    Ok(v)
+}
+
+fn parse_sun(s: &str) -> Result<(f32, f32), String> {
+    let v = parse_numbers(s, 2, 2, "AZIMUTH,ELEVATION in degrees")?;
+    if !(v[1] > 0.0 && v[1] <= 90.0) {
+        return Err(format!(
+            "elevation {} must be in (0, 90] degrees above the horizon",
+            v[1]
+        ));
+    }
+    Ok((v[0], v[1]))
+}
+
+fn parse_box(s: &str) -> Result<[f32; 6], String> {
+    let v = parse_numbers(s, 6, 6, "MINX,MINY,MINZ,MAXX,MAXY,MAXZ")?;
+    if (0..3).any(|k| v[k] >= v[k + 3]) {
+        return Err("each minimum must be below its maximum".into());
+    }
+    Ok([v[0], v[1], v[2], v[3], v[4], v[5]])
+}
+
+fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
+    let v = parse_numbers(s, 3, 3, "R,G,B")?;
+    if v.iter().any(|c| *c < 0.0) {
+        return Err("colour components must be non-negative".into());
+    }
+    Ok([v[0], v[1], v[2]])
+}
+
+fn parse_look_at(s: &str) -> Result<[f32; 7], String> {
+    let v = parse_numbers(s, 6, 7, "EX,EY,EZ,TX,TY,TZ[,FOV]")?;
+    let fov = v.get(6).copied().unwrap_or(60.0);
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(format!("field of view {fov} must be in (0, 180) degrees"));
+    }
+    Ok([v[0], v[1], v[2], v[3], v[4], v[5], fov])
 }
 
 /// The commands.
@@ -74,6 +231,9 @@ pub struct BakeArgs {
     /// Pick the primary light by name when the scene has several.
     #[arg(long, value_name = "NAME")]
     pub light: Option<String>,
+    /// What the level needs that its file lacks (sun, moving objects).
+    #[command(flatten)]
+    pub level: LevelArgs,
     /// Import budgets.
     #[command(flatten)]
     pub limits: crate::limits::LimitArgs,

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use gibake_gpu::{GpuContext, GpuOptions};
-use gibake_scene::{LoadOptions, Scene};
+use gibake_scene::Scene;
 
 use crate::cli::{
     DiffArgs, InspectArgs, ModeArg, ReferenceArgs, RenderArgs, SceneArgs, TolerancePreset,
@@ -17,13 +17,7 @@ use crate::output::{bar, write_image_atomic};
 pub(crate) const CORNER_BUNNY: &[u8] = include_bytes!("../../data/corner_bunny.glb");
 
 pub(crate) fn load_scene(a: &SceneArgs) -> anyhow::Result<Scene> {
-    let scene = gibake_scene::load(
-        &a.scene,
-        &LoadOptions {
-            light: a.light.clone(),
-            limits: a.limits.to_limits(),
-        },
-    )?;
+    let scene = gibake_scene::load(&a.scene, &a.load_options())?;
     // The importer has logged each of `scene.warnings` once already.
     Ok(scene)
 }

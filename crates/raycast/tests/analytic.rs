@@ -43,6 +43,7 @@ fn triangle_scene(s: f32) -> Scene {
         dynamic_objects: vec![],
         animator: Animator::default(),
         warnings: vec![],
+        bake_volume: None,
     }
 }
 
@@ -164,4 +165,60 @@ fn bad_rays_and_empty_scenes_never_hit() {
     let rs = RayScene::build(&empty, 0.0);
     assert_eq!(rs.triangle_count(), 0);
     assert!(rs.intersect(o, Vec3::NEG_Z, f32::INFINITY).is_none());
+}
+
+/// Directions with exact zero components (an axis-aligned ray, a sun at
+/// azimuth 0) hit like any other: the BVH's slab tests once turned `0 · ∞`
+/// into NaN and rejected every box, so a sun at azimuth 0 lit nothing.
+#[test]
+fn directions_with_zero_components_hit() {
+    let scene = triangle_scene(1.0);
+    let rays = RayScene::build(&scene, 0.0);
+    let centroid = (A + B + C) / 3.0;
+    for d in [
+        Vec3::new(0.0, -0.6, -0.8),
+        Vec3::new(-0.6, 0.0, -0.8),
+        Vec3::new(0.0, 0.0, -1.0),
+        Vec3::new(-0.0, -0.0, -1.0),
+        Vec3::new(-0.0, -0.6, -0.8),
+    ] {
+        let o = centroid - d * 4.0;
+        let hit = rays.intersect(o, d, f32::INFINITY);
+        assert!(hit.is_some(), "direction {d} from {o} missed the triangle");
+        let t = plane_t(o, d);
+        assert!((f64::from(hit.unwrap().t) - t).abs() < 1e-4 * t, "{d}");
+        assert!(rays.occluded(o, d, f32::INFINITY), "{d}: any-hit missed");
+    }
+}
+
+/// A triangle wound clockwise (its winding normal points away from its
+/// vertex normals, as under a mirroring transform) keeps its shading normal
+/// on the viewer's side: it shades like the counter-clockwise original.
+#[test]
+fn clockwise_winding_keeps_the_shading_normal_facing_the_viewer() {
+    let n = (B - A).cross(C - A).normalize();
+    let mut ccw_scene = triangle_scene(1.0);
+    ccw_scene.static_meshes[0].normals = vec![n; 3];
+    let mut cw_scene = ccw_scene.clone();
+    cw_scene.static_meshes[0].indices = vec![0, 2, 1];
+    let ccw = RayScene::build(&ccw_scene, 0.0);
+    let cw = RayScene::build(&cw_scene, 0.0);
+    let centroid = (A + B + C) / 3.0;
+    for side in [1.0f32, -1.0] {
+        let o = centroid + n * (2.0 * side);
+        let d = (centroid - o).normalize();
+        let h1 = ccw.intersect(o, d, f32::INFINITY).unwrap();
+        let h2 = cw.intersect(o, d, f32::INFINITY).unwrap();
+        for h in [h1, h2] {
+            assert!(
+                h.geometric_normal.dot(-d) > 0.0,
+                "geometric normal faces the ray"
+            );
+            assert!(
+                h.shading_normal.dot(-d) > 0.99,
+                "shading normal {} faces the ray",
+                h.shading_normal
+            );
+        }
+    }
 }

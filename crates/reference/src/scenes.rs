@@ -190,6 +190,7 @@ pub fn static_scene(
         dynamic_objects: vec![],
         animator: Animator::default(),
         warnings: vec![],
+        bake_volume: None,
     }
 }
 

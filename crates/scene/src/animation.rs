@@ -173,7 +173,22 @@ impl Animator {
         }
     }
 
-    /// Number of nodes known to the animator (the glTF's node count).
+    /// Appends a root node fixed at `world` (a camera given on the command
+    /// line) and returns its index.
+    pub(crate) fn push_fixed_node(&mut self, world: Mat4) -> usize {
+        self.nodes.push(NodeData {
+            parent: None,
+            rest_matrix: world,
+            rest: decompose(world),
+            first_channel: 0,
+            channel_count: 0,
+            animated: false,
+        });
+        self.nodes.len() - 1
+    }
+
+    /// Number of nodes known to the animator (the glTF's node count, plus a
+    /// camera given on the command line).
     pub fn node_count(&self) -> usize {
         self.nodes.len()
     }

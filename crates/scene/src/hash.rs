@@ -1,6 +1,6 @@
 //! BLAKE3 hash of the static part of a scene: what a baked asset depends on.
-//! Covers the primary light, static meshes (positions, normals, uvs,
-//! indices), their materials and textures. Moving objects, the camera and
+//! Covers the primary light, the bake volume, static meshes (positions,
+//! normals, uvs, indices), their materials and textures. Moving objects, the camera and
 //! animations are not part of it: an asset stays valid when they change.
 
 use crate::{LightKind, Scene};
@@ -27,6 +27,12 @@ pub fn static_scene_hash(scene: &Scene) -> [u8; 32] {
         for c in v.to_array() {
             h.update(&c.to_le_bytes());
         }
+    }
+    if let Some(v) = &scene.bake_volume {
+        h.update(b"bake volume");
+        h.update(&f32_bytes(
+            v.min.to_array().into_iter().chain(v.max.to_array()),
+        ));
     }
     h.update(&(scene.static_meshes.len() as u64).to_le_bytes());
     for m in &scene.static_meshes {

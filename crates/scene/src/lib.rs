@@ -31,6 +31,7 @@ mod hash;
 mod import;
 pub mod limits;
 mod mesh;
+mod overrides;
 
 pub use animation::{Animator, Trs};
 pub use error::SceneError;
@@ -38,7 +39,8 @@ pub use hash::static_scene_hash;
 #[cfg(feature = "gltf")]
 pub use import::{LoadOptions, load, load_from_slice};
 pub use limits::Limits;
-pub use mesh::{Aabb, compute_normals};
+pub use mesh::{Aabb, DEGENERATE_SINE, compute_normals, drop_degenerate, is_degenerate};
+pub use overrides::{CameraChoice, Sun, glob_match};
 
 use glam::{Mat4, Vec2, Vec3};
 
@@ -218,6 +220,11 @@ pub struct Scene {
     pub animator: Animator,
     /// Warnings gathered while importing (skipped primitives, ignored inputs).
     pub warnings: Vec<String>,
+    /// The part of the level a directional light's maps cover across the
+    /// light (world space): a node marked `extras: {"bake_volume": true}`
+    /// or `--bake-volume`. `None`: chosen from the geometry without
+    /// outliers (`gibake_gpu::light_fit`). Part of the static-scene hash.
+    pub bake_volume: Option<Aabb>,
 }
 
 impl Scene {
@@ -233,6 +240,38 @@ impl Scene {
         (0..self.dynamic_objects.len())
             .map(|i| self.dynamic_transform(i, t))
             .collect()
+    }
+
+    /// Adds a moving object made of `meshes` (node-local positions, each with
+    /// its own material), placed at the fixed world matrix `world` until a
+    /// renderer moves it; returns its index in [`Scene::dynamic_objects`].
+    /// For tests and tools that give a level moving objects its file lacks;
+    /// degenerate triangles are dropped as the importer drops them.
+    pub fn add_dynamic_object(
+        &mut self,
+        name: &str,
+        meshes: Vec<(Mesh, Material)>,
+        world: Mat4,
+    ) -> usize {
+        let node = self.animator.push_fixed_node(world);
+        let mut object = DynamicObject {
+            name: name.to_string(),
+            node,
+            meshes: Vec::new(),
+            local_bounds: Aabb::EMPTY,
+        };
+        for (mut mesh, material) in meshes {
+            mesh::drop_degenerate(&mesh.positions, &mut mesh.indices);
+            for p in &mesh.positions {
+                object.local_bounds.grow(*p);
+            }
+            mesh.material = self.materials.len();
+            self.materials.push(material);
+            object.meshes.push(self.dynamic_meshes.len());
+            self.dynamic_meshes.push(mesh);
+        }
+        self.dynamic_objects.push(object);
+        self.dynamic_objects.len() - 1
     }
 
     /// World matrix of the camera node at time `t`.

@@ -39,6 +39,39 @@ impl Aabb {
         }
     }
 
+    /// Whether the ray `origin + t·dir`, `t > 0`, meets the box (slab test;
+    /// a ray starting inside meets it). False for an empty box.
+    pub fn ray_hits(&self, origin: Vec3, dir: Vec3) -> bool {
+        self.ray_entry(origin, dir).is_some()
+    }
+
+    /// The `t ≥ 0` at which the ray `origin + t·dir` enters the box (0 if it
+    /// starts inside), or `None` if it misses it or the box is empty.
+    pub fn ray_entry(&self, origin: Vec3, dir: Vec3) -> Option<f32> {
+        if self.is_empty() {
+            return None;
+        }
+        let (mut t0, mut t1) = (0.0f32, f32::INFINITY);
+        for k in 0..3 {
+            let inv = 1.0 / dir[k];
+            let (mut a, mut b) = (
+                (self.min[k] - origin[k]) * inv,
+                (self.max[k] - origin[k]) * inv,
+            );
+            if a > b {
+                std::mem::swap(&mut a, &mut b);
+            }
+            // NaN (0 · ∞ for a ray in the slab's plane) leaves the bound as is.
+            if a > t0 {
+                t0 = a;
+            }
+            if b < t1 {
+                t1 = b;
+            }
+        }
+        (t0 <= t1).then_some(t0)
+    }
+
     /// Centre of the box.
     pub fn center(&self) -> Vec3 {
         (self.min + self.max) * 0.5
@@ -69,6 +102,43 @@ impl Aabb {
         }
         b
     }
+}
+
+/// Largest `|e₁ × e₂| / max|e|²` (the sine of a triangle's smallest angle,
+/// about) of a triangle counted as degenerate: its vertices coincide or are
+/// collinear to within f32 rounding. Dimensionless, so the same triangles
+/// are dropped at every scene scale.
+pub const DEGENERATE_SINE: f64 = 1e-6;
+
+/// Whether the triangle `a, b, c` has (numerically) zero area: coincident or
+/// collinear vertices, or non-finite coordinates. Computed in f64.
+pub fn is_degenerate(a: Vec3, b: Vec3, c: Vec3) -> bool {
+    let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+    let (e1, e2, e3) = (b - a, c - a, c - b);
+    let cross = e1.cross(e2).length();
+    let longest = e1
+        .length_squared()
+        .max(e2.length_squared())
+        .max(e3.length_squared());
+    !(cross.is_finite() && longest.is_finite()) || cross <= DEGENERATE_SINE * longest
+}
+
+/// Removes the degenerate triangles ([`is_degenerate`]) of an indexed
+/// triangle list (indices must be in range); returns how many it removed.
+/// GPU rasterizers interpolate a zero-area triangle's attributes with a
+/// division by zero (NaN in a map), ray casters skip it: dropping it at
+/// import keeps every pass in agreement.
+pub fn drop_degenerate(positions: &[Vec3], indices: &mut Vec<u32>) -> usize {
+    let before = indices.len() / 3;
+    let mut kept = Vec::with_capacity(indices.len());
+    for t in indices.chunks_exact(3) {
+        let p = |k: usize| positions[t[k] as usize];
+        if !is_degenerate(p(0), p(1), p(2)) {
+            kept.extend_from_slice(t);
+        }
+    }
+    *indices = kept;
+    before - indices.len() / 3
 }
 
 /// Area-weighted vertex normals for an indexed triangle list. Vertices whose

@@ -351,7 +351,7 @@ fn missing_normals_are_computed() {
 }
 
 #[test]
-fn zero_normals_are_recomputed_with_warning_and_degenerates_are_kept() {
+fn zero_normals_are_recomputed_with_warning_and_degenerates_are_dropped() {
     let mut b = Builder::new();
     let pos = [
         [0.0, 0.0, 0.0],
@@ -366,7 +366,14 @@ fn zero_normals_are_recomputed_with_warning_and_degenerates_are_kept() {
     b.light_node(spot_light(), json!({}));
     let s = b.load().unwrap();
     let mesh = &s.static_meshes[0];
-    assert_eq!(mesh.indices.len(), 6, "degenerate triangle kept");
+    assert_eq!(mesh.indices.len(), 3, "degenerate triangle dropped");
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("skipped 1 degenerate triangle")),
+        "{:?}",
+        s.warnings
+    );
     for n in &mesh.normals {
         assert!(n.is_finite() && (n.length() - 1.0).abs() < 1e-5, "{n}");
     }

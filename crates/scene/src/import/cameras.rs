@@ -5,15 +5,83 @@ use gltf::json;
 use gltf::json::validation::Checked;
 
 use super::Ctx;
-use crate::{Camera, Projection, SceneError};
+use crate::animation::Animator;
+use crate::{Camera, CameraChoice, Projection, SceneError};
 
 impl<'a> Ctx<'a> {
-    pub(super) fn camera(&self, order: &[usize]) -> Result<Option<Camera>, SceneError> {
+    /// The camera `choice` asks for: the first camera node, one by name, or
+    /// a look-at camera (a fixed node appended to `animator`).
+    pub(super) fn camera(
+        &self,
+        order: &[usize],
+        choice: &CameraChoice,
+        animator: &mut Animator,
+    ) -> Result<Option<Camera>, SceneError> {
         let root = self.root;
-        let Some((node, ci)) = order
-            .iter()
-            .find_map(|&v| root.nodes[v].camera.map(|c| (v, c.value())))
-        else {
+        let found = match choice {
+            CameraChoice::First => order
+                .iter()
+                .find_map(|&v| root.nodes[v].camera.map(|c| (v, c.value()))),
+            CameraChoice::Named(want) => {
+                let with_camera = || {
+                    order
+                        .iter()
+                        .filter_map(|&v| root.nodes[v].camera.map(|c| (v, c.value())))
+                };
+                let by_camera = with_camera().find(|&(_, c)| {
+                    root.cameras.get(c).and_then(|c| c.name.as_deref()) == Some(want.as_str())
+                });
+                let by_node = || {
+                    with_camera()
+                        .find(|&(v, _)| root.nodes[v].name.as_deref() == Some(want.as_str()))
+                };
+                match by_camera.or_else(by_node) {
+                    Some(f) => Some(f),
+                    None => {
+                        let names: Vec<String> = with_camera()
+                            .map(|(v, c)| {
+                                root.cameras
+                                    .get(c)
+                                    .and_then(|c| c.name.clone())
+                                    .unwrap_or_else(|| self.node_name(v))
+                            })
+                            .collect();
+                        return Err(self.invalid(format!(
+                            "--camera '{want}': no camera of that name (cameras: {})",
+                            if names.is_empty() {
+                                "none".to_string()
+                            } else {
+                                names.join(", ")
+                            }
+                        )));
+                    }
+                }
+            }
+            CameraChoice::LookAt {
+                eye,
+                target,
+                yfov_deg,
+            } => {
+                if !(yfov_deg.is_finite() && *yfov_deg > 0.0 && *yfov_deg < 180.0) {
+                    return Err(self.invalid(format!(
+                        "--look-at field of view {yfov_deg} must be in (0, 180) degrees"
+                    )));
+                }
+                let world =
+                    CameraChoice::look_at_matrix(*eye, *target).map_err(|m| self.invalid(m))?;
+                let node = animator.push_fixed_node(world);
+                return Ok(Some(Camera {
+                    name: "--look-at".into(),
+                    node,
+                    projection: Projection::Perspective {
+                        yfov: yfov_deg.to_radians(),
+                        znear: (*target - *eye).length() * 1e-3,
+                        zfar: None,
+                    },
+                }));
+            }
+        };
+        let Some((node, ci)) = found else {
             return Ok(None);
         };
         let cam = root

@@ -8,9 +8,41 @@ use gltf::json::validation::Checked;
 
 use super::{Ctx, LoadOptions};
 use crate::animation::Animator;
-use crate::{Light, LightKind, SceneError};
+use crate::{Light, LightKind, SceneError, Sun};
 
 impl<'a> Ctx<'a> {
+    /// The `--sun` light; the file's own lights are ignored with a warning.
+    fn sun_light(
+        &mut self,
+        sun: &Sun,
+        order: &[usize],
+        defined: usize,
+    ) -> Result<Light, SceneError> {
+        sun.validate().map_err(|m| self.invalid(m))?;
+        let used = order
+            .iter()
+            .filter(|&&v| {
+                self.root.nodes[v]
+                    .extensions
+                    .as_ref()
+                    .is_some_and(|e| e.khr_lights_punctual.is_some())
+            })
+            .count();
+        if used > 0 || defined > 0 {
+            self.warn(format!(
+                "--sun replaces the file's {} KHR_lights_punctual light(s)",
+                used.max(defined)
+            ));
+        }
+        Ok(Light {
+            name: "--sun".into(),
+            kind: LightKind::Directional,
+            color: sun.color * sun.irradiance,
+            position: Vec3::ZERO,
+            direction: -sun.toward(),
+        })
+    }
+
     pub(super) fn primary_light(
         &mut self,
         order: &[usize],
@@ -32,6 +64,9 @@ impl<'a> Ctx<'a> {
             None => format!("light #{i}"),
         };
         let mut cands = Vec::new();
+        if let Some(sun) = &options.sun {
+            return self.sun_light(sun, order, lights.len());
+        }
         for &v in order {
             let Some(l) = root.nodes[v]
                 .extensions
@@ -84,7 +119,7 @@ impl<'a> Ctx<'a> {
                 )
             };
             return Err(self.invalid(format!(
-                "no KHR_lights_punctual spot or directional light{extra}; gibake needs exactly one as its primary light"
+                "no KHR_lights_punctual spot or directional light{extra}; gibake needs one as its primary light (add a sun with --sun AZIMUTH,ELEVATION)"
             )));
         }
 

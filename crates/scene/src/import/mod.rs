@@ -43,9 +43,10 @@ use gltf::json;
 
 use crate::animation::Animator;
 use crate::limits::{self, FileRefusal, Limits};
-use crate::mesh::compute_normals;
+use crate::mesh::{compute_normals, drop_degenerate};
+use crate::overrides::{CameraChoice, Sun, glob_match};
 use crate::{Aabb, DynamicObject, Material, Mesh, Scene, SceneError, Texture};
-use nodes::extras_dynamic;
+use nodes::{extras_dynamic, extras_flag};
 use precheck::{check_glb_header, precheck};
 
 /// Options for [`load`].
@@ -56,6 +57,17 @@ pub struct LoadOptions {
     /// Resource budgets (file sizes, accessor elements, texels, animation
     /// work, where external URIs may point).
     pub limits: Limits,
+    /// A directional primary light added to the level (`--sun`); it
+    /// replaces the file's lights, which are then ignored with a warning.
+    pub sun: Option<Sun>,
+    /// Which camera renders the scene (`--camera NAME`, `--look-at`).
+    pub camera: CameraChoice,
+    /// Glob patterns on node names (`--dynamic`): a matching node and its
+    /// descendants move (are left out of the static scene and the bake).
+    pub dynamic: Vec<String>,
+    /// The bake volume (`--bake-volume`, world space); replaces a volume
+    /// marked in the file ([`Scene::bake_volume`]).
+    pub bake_volume: Option<Aabb>,
 }
 
 /// Loads a `.gltf` (with its external buffers/images) or `.glb` file.
@@ -152,6 +164,26 @@ struct Ctx<'a> {
     texels_decoded: Cell<u64>,
 }
 
+/// Degenerate triangles dropped so far (one warning for all of them).
+#[derive(Default)]
+struct DegenerateCount {
+    count: usize,
+    meshes: usize,
+    first: String,
+}
+
+impl DegenerateCount {
+    fn note(&mut self, dropped: usize, mesh: &str) {
+        if dropped > 0 {
+            if self.count == 0 {
+                self.first = mesh.to_string();
+            }
+            self.count += dropped;
+            self.meshes += 1;
+        }
+    }
+}
+
 /// Per-import state for materials and textures.
 #[derive(Default)]
 struct MaterialTable {
@@ -203,6 +235,37 @@ impl<'a> Ctx<'a> {
         }
     }
 
+    /// Per node: whether a `--dynamic` pattern matches its name. A pattern
+    /// that matches no node is an error (a typo would silently bake the
+    /// object as static).
+    fn marked_dynamic(&self, patterns: &[String]) -> Result<Vec<bool>, SceneError> {
+        let nodes = &self.root.nodes;
+        let mut marked = vec![false; nodes.len()];
+        for pat in patterns {
+            let mut any = false;
+            for (i, n) in nodes.iter().enumerate() {
+                if n.name.as_deref().is_some_and(|name| glob_match(pat, name)) {
+                    marked[i] = true;
+                    any = true;
+                }
+            }
+            if !any {
+                let mut names: Vec<&str> = nodes
+                    .iter()
+                    .filter(|n| n.mesh.is_some() || n.children.is_some())
+                    .filter_map(|n| n.name.as_deref())
+                    .take(12)
+                    .collect();
+                names.dedup();
+                return Err(self.invalid(format!(
+                    "--dynamic '{pat}' matches no node name (patterns use * and ?; some node names: {})",
+                    if names.is_empty() { "none are named".to_string() } else { names.join(", ") }
+                )));
+            }
+        }
+        Ok(marked)
+    }
+
     fn build(mut self, options: &LoadOptions) -> Result<Scene, SceneError> {
         let root = self.root;
         let scene_index = match root.scene {
@@ -219,7 +282,8 @@ impl<'a> Ctx<'a> {
         let rest = self.rest_matrices()?;
         let channels = self.channels()?;
         let total_keys: u64 = channels.iter().map(|c| c.times.len() as u64).sum();
-        let animator = Animator::new(parents.clone(), rest, channels);
+        let mut animator = Animator::new(parents.clone(), rest, channels);
+        let marked = self.marked_dynamic(&options.dynamic)?;
 
         // Depth-first traversal in document order, computing dynamic flags.
         let n = root.nodes.len();
@@ -248,8 +312,10 @@ impl<'a> Ctx<'a> {
                 continue;
             }
             visited[v] = true;
-            let d =
-                parent_dynamic || extras_dynamic(&root.nodes[v].extras) || animator.is_animated(v);
+            let d = parent_dynamic
+                || marked[v]
+                || extras_dynamic(&root.nodes[v].extras)
+                || animator.is_animated(v);
             dynamic[v] = d;
             order.push(v);
             for c in root.nodes[v].children.iter().flatten().rev() {
@@ -258,14 +324,40 @@ impl<'a> Ctx<'a> {
         }
 
         let light = self.primary_light(&order, &dynamic, &animator, options)?;
-        let camera = self.camera(&order)?;
+        let camera = self.camera(&order, &options.camera, &mut animator)?;
 
         let mut table = MaterialTable::default();
+        let mut degenerate = DegenerateCount::default();
         let mut static_meshes = Vec::new();
         let mut dynamic_meshes = Vec::new();
         let mut dynamic_objects = Vec::new();
+        let mut volume = Aabb::EMPTY;
         for &v in &order {
             let node = &root.nodes[v];
+            if extras_flag(&node.extras, "bake_volume") {
+                // A bake volume: its mesh's bounds, or the unit cube
+                // [−1, 1]³ of an empty (as Blender draws an empty cube),
+                // in world space; not geometry.
+                let world = animator.world_matrix(v, 0.0);
+                let local = match node.mesh.map(|m| m.value()) {
+                    Some(mi) => {
+                        let node_label = node.name.clone().unwrap_or_else(|| format!("node #{v}"));
+                        let mut b = Aabb::EMPTY;
+                        for (_, p) in self.read_mesh(mi, &node_label, &mut table)? {
+                            for q in p.positions {
+                                b.grow(q);
+                            }
+                        }
+                        b
+                    }
+                    None => Aabb {
+                        min: Vec3::splat(-1.0),
+                        max: Vec3::ONE,
+                    },
+                };
+                volume = volume.union(&local.transformed(world));
+                continue;
+            }
             let Some(mesh_index) = node.mesh.map(|m| m.value()) else {
                 continue;
             };
@@ -287,7 +379,12 @@ impl<'a> Ctx<'a> {
                     meshes: Vec::new(),
                     local_bounds: Aabb::EMPTY,
                 };
-                for (name, p) in prims {
+                for (name, mut p) in prims {
+                    let dropped = drop_degenerate(&p.positions, &mut p.indices);
+                    degenerate.note(dropped, &name);
+                    if p.indices.is_empty() {
+                        continue;
+                    }
                     for &q in &p.positions {
                         object.local_bounds.grow(q);
                     }
@@ -311,9 +408,21 @@ impl<'a> Ctx<'a> {
             } else {
                 let world = animator.world_matrix(v, 0.0);
                 for (name, p) in prims {
-                    static_meshes.push(self.flatten(name, p, world)?);
+                    let mut mesh = self.flatten(name, p, world)?;
+                    let dropped = drop_degenerate(&mesh.positions, &mut mesh.indices);
+                    degenerate.note(dropped, &mesh.name);
+                    if !mesh.indices.is_empty() {
+                        static_meshes.push(mesh);
+                    }
                 }
             }
+        }
+
+        if degenerate.count > 0 {
+            self.warn(format!(
+                "skipped {} degenerate triangle(s) (zero area: coincident or collinear vertices) in {} mesh(es), first in {}",
+                degenerate.count, degenerate.meshes, degenerate.first
+            ));
         }
 
         let work = total_keys.saturating_mul(dynamic_objects.len() as u64);
@@ -335,6 +444,19 @@ impl<'a> Ctx<'a> {
             ));
         }
 
+        let bake_volume = match options.bake_volume {
+            Some(v) => Some(v),
+            None if !volume.is_empty() => Some(volume),
+            None => None,
+        };
+        if let Some(v) = &bake_volume {
+            if !(v.min.is_finite() && v.max.is_finite() && v.min.cmplt(v.max).all()) {
+                return Err(self.invalid(format!(
+                    "the bake volume ({}, {}, {})..({}, {}, {}) must be finite with min < max on every axis",
+                    v.min.x, v.min.y, v.min.z, v.max.x, v.max.y, v.max.z
+                )));
+            }
+        }
         Ok(Scene {
             source: self.path.to_path_buf(),
             light,
@@ -346,6 +468,7 @@ impl<'a> Ctx<'a> {
             dynamic_objects,
             animator,
             warnings: self.warnings,
+            bake_volume,
         })
     }
 }

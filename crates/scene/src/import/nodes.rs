@@ -8,10 +8,15 @@ use super::Ctx;
 use crate::SceneError;
 
 pub(super) fn extras_dynamic(extras: &json::Extras) -> bool {
+    extras_flag(extras, "dynamic")
+}
+
+/// Whether `extras` holds `{"<key>": true}`.
+pub(super) fn extras_flag(extras: &json::Extras, key: &str) -> bool {
     extras
         .as_ref()
         .and_then(|raw| serde_json::from_str::<serde_json::Value>(raw.get()).ok())
-        .and_then(|v| v.get("dynamic").and_then(|d| d.as_bool()))
+        .and_then(|v| v.get(key).and_then(|d| d.as_bool()))
         .unwrap_or(false)
 }
 
