@@ -45,6 +45,13 @@ fn fs_main(i: MeshVarying, @builtin(front_facing) front: bool) -> FsOut {
     if (dot(ng, to_eye) < 0.0) {
         ng = -ng;
     }
+    // The shading normal on the geometric normal's side, whatever the
+    // winding: a mesh wound clockwise, or drawn under a mirroring transform
+    // (which turns front faces into back faces), shades like the original
+    // (gibake_raycast::Hit does the same for the bake and the reference).
+    if (dot(ns, ng) < 0.0) {
+        ns = -ns;
+    }
     var o: FsOut;
     o.position = vec4<f32>(i.world, 1.0);
     o.normals = vec4<f32>(oct_encode(ns), oct_encode(ng));

@@ -90,16 +90,18 @@ fn primary_visibility(p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
     return lv_visibility(light_view, primary_static, primary_dynamic, has(FLAG_DYN_PRIMARY), p, ng, wi);
 }
 
+// Direct light with the shading normal's cosine, as engines shade: a light
+// behind the geometric plane but in front of the shading normal (a smooth
+// low-poly terminator) lights the point if the shadow map says so; the
+// shadow lookup offsets along the geometric normal on the light's side.
 fn direct_radiance(p: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
     let inc = light_incident(light, p);
-    if (dot(ng, inc.wi) <= 0.0) {
-        return vec3<f32>(0.0);
-    }
     let cos_s = max(dot(ns, inc.wi), 0.0);
     if (cos_s <= 0.0 || all(inc.irradiance == vec3<f32>(0.0))) {
         return vec3<f32>(0.0);
     }
-    return albedo * INV_PI * inc.irradiance * (cos_s * primary_visibility(p, ng, inc.wi));
+    let ng_light = select(ng, -ng, dot(ng, inc.wi) < 0.0);
+    return albedo * INV_PI * inc.irradiance * (cos_s * primary_visibility(p, ng_light, inc.wi));
 }
 
 // Distance stored for VPL i in direction texel c (min of its static map and

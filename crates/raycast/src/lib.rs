@@ -51,8 +51,8 @@ use obvhs::{
     triangle::Triangle,
 };
 
-/// A ray/surface intersection, in world space. Both normals are flipped so
-/// that the geometric normal faces the ray's origin.
+/// A ray/surface intersection, in world space. The geometric normal faces
+/// the ray's origin, the shading normal lies on its side.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     /// Distance along the ray, in units of the ray direction's length.
@@ -62,8 +62,9 @@ pub struct Hit {
     pub position: Vec3,
     /// Unit triangle normal, facing the ray origin.
     pub geometric_normal: Vec3,
-    /// Unit interpolated vertex normal, flipped together with the geometric
-    /// normal (it may still point away from the viewer; that is kept).
+    /// Unit interpolated vertex normal, flipped to the geometric normal's
+    /// side (it may still point slightly away from the viewer near a smooth
+    /// silhouette; that is kept).
     pub shading_normal: Vec3,
     /// Lambertian albedo at the hit ([`Scene::albedo`] of the mesh material at the
     /// interpolated texture coordinate).
@@ -77,6 +78,22 @@ pub struct Hit {
     pub triangle: u32,
     /// Index of the mesh in [`Scene::meshes_at`].
     pub mesh: u32,
+}
+
+/// The direction given to the BVH traversal: exact zero components (an
+/// axis-aligned light, a sun at azimuth 0) become ±10⁻²⁰ times the largest
+/// component, so that the box tests' `1/d` and `origin/d` stay finite (the
+/// scene is normalised to coordinates below 1) and no `0 · ∞` or `∞ − ∞`
+/// turns a slab test into NaN (which rejected every box: a sun at azimuth 0
+/// lit nothing). The deflection, 10⁻²⁰ rad, is far below f32 resolution. The watertight triangle test keeps the exact
+/// direction.
+fn bvh_direction(d: Vec3A) -> Vec3A {
+    let tiny = 1e-20 * d.abs().max_element();
+    Vec3A::new(
+        if d.x == 0.0 { tiny.copysign(d.x) } else { d.x },
+        if d.y == 0.0 { tiny.copysign(d.y) } else { d.y },
+        if d.z == 0.0 { tiny.copysign(d.z) } else { d.z },
+    )
 }
 
 /// One triangle as stored for shading.
@@ -417,7 +434,7 @@ impl<'s> RayScene<'s> {
             return None;
         }
         let wt = WatertightRay::new(o, d);
-        let ray = Ray::new(o, d, t_min, t_max);
+        let ray = Ray::new(o, bvh_direction(d), t_min, t_max);
         let mut best: Option<(usize, f32, Vec3)> = None;
         let mut hit = obvhs::ray::RayHit::none();
         bvh.ray_traverse(ray, &mut hit, |r, id| {
@@ -451,6 +468,12 @@ impl<'s> RayScene<'s> {
         }
         if ng.dot(-dir) < 0.0 {
             ng = -ng;
+        }
+        // The shading normal on the geometric normal's side: a mesh wound
+        // clockwise or under a mirroring transform (its winding normal and
+        // vertex normals disagree) shades like the original, as the
+        // runtime's G-buffer does.
+        if ns.dot(ng) < 0.0 {
             ns = -ns;
         }
         let uv = tri.uv.map(|uv| uv[0] * b.x + uv[1] * b.y + uv[2] * b.z);
@@ -492,7 +515,7 @@ impl<'s> RayScene<'s> {
             return false;
         }
         let wt = WatertightRay::new(o, d);
-        let ray = Ray::new(o, d, 0.0, t_max);
+        let ray = Ray::new(o, bvh_direction(d), 0.0, t_max);
         !bvh.ray_traverse_miss(ray, |r, id| {
             match wt.intersect(&self.tris[id].v, 0.0, r.tmax) {
                 Some((t, _)) => t,

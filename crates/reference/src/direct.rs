@@ -9,8 +9,10 @@ use glam::Vec3;
 
 /// Irradiance `E` (W/m², RGB) arriving from the primary light of `rs`'s scene
 /// at surface point `p` with geometric normal `ng` and shading normal `ns`,
-/// shadowed. Zero when the light is behind the geometric normal
-/// (`dot(ng, ω) ≤ 0`).
+/// shadowed. The cosine is the shading normal's, as engines use it: a light
+/// behind the geometric plane but in front of the shading normal (the
+/// terminator of a smooth-shaded low-poly surface) still lights the point
+/// if the shadow ray, offset to the light's side of the surface, reaches it.
 ///
 /// Spot: `E = I · spot_attenuation(−ω) · max(0, ns·ω) / d²`.
 /// Directional: `ω = −direction`, `E = E₀ · max(0, ns·ω)`.
@@ -27,14 +29,14 @@ pub fn irradiance(rs: &RayScene<'_>, p: Vec3, ng: Vec3, ns: Vec3) -> Vec3 {
             let w = (l.as_dvec3() / d).as_vec3();
             let cos_g = ng.dot(w);
             let cos_s = ns.dot(w).max(0.0);
-            if cos_g.is_nan() || cos_g <= 0.0 || cos_s <= 0.0 {
+            if cos_g.is_nan() || cos_s <= 0.0 {
                 return Vec3::ZERO;
             }
             let att = light.spot_attenuation(-w);
             if att.is_nan() || att <= 0.0 {
                 return Vec3::ZERO;
             }
-            let origin = rs.offset_point(p, ng);
+            let origin = rs.offset_point(p, toward(ng, cos_g));
             let to_light = light.position - origin;
             let dist = to_light.length();
             if !(dist > 0.0 && dist.is_finite()) {
@@ -52,16 +54,22 @@ pub fn irradiance(rs: &RayScene<'_>, p: Vec3, ng: Vec3, ns: Vec3) -> Vec3 {
             let w = (-light.direction).normalize_or_zero();
             let cos_g = ng.dot(w);
             let cos_s = ns.dot(w).max(0.0);
-            if cos_g.is_nan() || cos_g <= 0.0 || cos_s <= 0.0 {
+            if cos_g.is_nan() || cos_s <= 0.0 {
                 return Vec3::ZERO;
             }
-            let origin = rs.offset_point(p, ng);
+            let origin = rs.offset_point(p, toward(ng, cos_g));
             if rs.occluded(origin, w, f32::INFINITY) {
                 return Vec3::ZERO;
             }
             sanitize(light.color.as_dvec3() * cos_s as f64)
         }
     }
+}
+
+/// The geometric normal on the light's side (`cos_g = ng · ω`): the side a
+/// shadow ray starts from.
+fn toward(ng: Vec3, cos_g: f32) -> Vec3 {
+    if cos_g < 0.0 { -ng } else { ng }
 }
 
 /// Outgoing radiance at `hit` due to the primary light alone:
