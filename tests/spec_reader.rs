@@ -249,14 +249,15 @@ fn reader_refuses_damaged_assets() {
     }
 
     // A major version this reader does not know.
-    let copy = copy_asset(&asset, work.path(), "major3.gibake");
+    let next = gibake_asset::FORMAT_MAJOR + 1;
+    let copy = copy_asset(&asset, work.path(), "major_next.gibake");
     let mut m = std::fs::read(copy.join("manifest.bin")).unwrap();
-    m[8] = 3;
+    m[8..10].copy_from_slice(&next.to_le_bytes());
     std::fs::write(copy.join("manifest.bin"), m).unwrap();
     let r = read(&py, &copy);
     assert!(
-        r.code == Some(1) && r.stderr.contains("3.0 is not supported"),
-        "a 3.0 manifest must be refused by version\n{r}"
+        r.code == Some(1) && r.stderr.contains(&format!("{next}.0 is not supported")),
+        "a {next}.0 manifest must be refused by version\n{r}"
     );
 
     // A file the manifest lists, removed.

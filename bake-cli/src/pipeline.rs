@@ -76,6 +76,8 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
     let scene = load_scene(&SceneArgs {
         scene: scene_path.clone(),
         light: a.light.clone(),
+        level: a.level.clone(),
+        camera: Default::default(),
         limits: a.limits.clone(),
     })?;
     let load_s = total.elapsed().as_secs_f64();
@@ -138,6 +140,8 @@ struct Outcome {
 struct Baked {
     vpls: u32,
     maps: u32,
+    /// VPLs dropped because their hemisphere sees nothing.
+    dropped: usize,
     threshold: f32,
     has_dynamic: bool,
     stages: Vec<(String, f64)>,
@@ -162,6 +166,7 @@ impl Outcome {
         if let Some(b) = &self.baked {
             j["vpls"] = json!(b.vpls);
             j["maps_stored"] = json!(b.maps);
+            j["vpls_dropped"] = json!(b.dropped);
             j["threshold"] = json!(b.threshold);
             j["has_dynamic"] = json!(b.has_dynamic);
             j["stages"] = json!(
@@ -184,10 +189,15 @@ impl Outcome {
             (Some(b), reasons) => {
                 let why = reasons.clone().unwrap_or_default().join("; ");
                 eprintln!(
-                    "baked {}: {} VPLs ({} maps stored), threshold {:.3e}; reason: {why}",
+                    "baked {}: {} VPLs ({} maps stored{}), threshold {:.3e}; reason: {why}",
                     asset.display(),
                     b.vpls,
                     b.maps,
+                    if b.dropped > 0 {
+                        format!("; {} more dropped: their light reaches nothing", b.dropped)
+                    } else {
+                        String::new()
+                    },
                     b.threshold
                 );
                 for (n, s) in &b.stages {
@@ -280,6 +290,7 @@ fn bake_stale(
         baked: Some(Baked {
             vpls: m.vpl_count,
             maps: o.asset.stored_map_count() as u32,
+            dropped: o.dropped_vpls,
             threshold: m.settings.threshold,
             has_dynamic: m.has_dynamic,
             stages,
@@ -421,6 +432,8 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
             let scene = load_scene(&SceneArgs {
                 scene: scene_path.clone(),
                 light: a.light.clone(),
+                level: a.level.clone(),
+                camera: Default::default(),
                 limits: a.limits.clone(),
             })?;
             let load_s = t.elapsed().as_secs_f64();

@@ -469,8 +469,7 @@ impl Renderer {
         let (view, primary_static, own_static) = match &baked {
             Some(b) => (b.view, b.primary.clone(), None),
             None => {
-                let view =
-                    LightView::new(&scene.light, &scene.full_bounds(), settings.shadow_map_size);
+                let view = LightView::for_scene(scene, settings.shadow_map_size);
                 let pass = ShadowPass::new(device, &scene_gpu, view);
                 let mut enc = device.create_command_encoder(&Default::default());
                 pass.encode(&mut enc, &scene_gpu, &[&scene_gpu.static_draws], None);

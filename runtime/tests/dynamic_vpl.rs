@@ -182,6 +182,7 @@ fn cpu_rsm(ctx: &GpuContext, scene: &Scene, f: &Frame) -> Rsm {
         normal: vec![Vec3::ZERO; n],
         flux: vec![Vec3::ZERO; n],
         area: vec![0.0; n],
+        reach: vec![1.0; n],
     };
     for i in 0..n {
         let dm = pos[4 * i + 3];

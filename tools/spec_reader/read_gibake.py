@@ -48,13 +48,13 @@ except ImportError as e:  # pragma: no cover - environment problem
     sys.exit(2)
 
 MAGIC = b"GIBAKE\x00\x01"
-READER_MAJOR = 2
+READER_MAJOR = 3
 READER_MINOR = 0
 MAX_PAYLOAD = 16 * 1024 * 1024
 NO_MAP = 0xFFFFFFFF
 RECORD = 48
 NODES_PER_VPL = 84
-VPL_ORIGIN_OFFSET = 0.05
+VPL_ORIGIN_OFFSET = 0.2
 
 VPL_DTYPE = np.dtype(
     [

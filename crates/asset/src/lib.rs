@@ -47,7 +47,7 @@ pub use tolerance::{MAX_TOLERANCE, ToleranceError, parse_tolerance};
 /// Magic bytes at the start of `manifest.bin`.
 pub const MAGIC: [u8; 8] = *b"GIBAKE\0\x01";
 /// Format major version: readers reject any other major.
-pub const FORMAT_MAJOR: u16 = 2;
+pub const FORMAT_MAJOR: u16 = 3;
 /// Format minor version: additive changes only.
 pub const FORMAT_MINOR: u16 = 0;
 

@@ -9,11 +9,12 @@ use gibake_asset::{
 };
 use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::passes::shadow::ShadowPass;
-use gibake_gpu::{GpuContext, LightView, readback};
+use gibake_gpu::{GpuContext, LightView, hemisphere, readback};
 use gibake_raycast::RayScene;
 use gibake_scene::Scene;
 
 use crate::cluster::{ClusterTarget, NO_VPL, cluster};
+use crate::reach::Reach;
 use crate::rsm::render_rsm;
 
 /// What to bake.
@@ -91,6 +92,12 @@ pub struct BakeOutput {
     pub asset: Asset,
     /// Stage times, in order.
     pub stages: Vec<StageTime>,
+    /// VPLs the clustering made but dropped because their hemisphere sees
+    /// no surface and no moving object (they carry light to nothing).
+    pub dropped_vpls: usize,
+    /// What the bake warns about (also logged): geometry the light's maps
+    /// leave out, texels coarse against the level.
+    pub warnings: Vec<String>,
 }
 
 fn check(what: &str, v: u32, max: u32) -> Result<(), BakeError> {
@@ -100,6 +107,55 @@ fn check(what: &str, v: u32, max: u32) -> Result<(), BakeError> {
         )));
     }
     Ok(())
+}
+
+/// What a user should know about the light's maps of `scene`: static
+/// triangles the directional fit leaves out (a distant ground plane), and a
+/// shadow-map texel coarse against the level's geometry (wider than half the
+/// median edge of the static triangles inside the view: shadows will be
+/// blurred or leak). Both are dimensionless tests.
+pub fn light_view_warnings(scene: &Scene, view: &LightView, opts: &BakeOptions) -> Vec<String> {
+    let mut out = Vec::new();
+    if let Some(f) = gibake_gpu::light_fit::fit(scene) {
+        if f.left_out > 0 {
+            let how = match f.source {
+                gibake_gpu::light_fit::FitSource::BakeVolume => "outside the bake volume",
+                _ => "far outside the rest of the level (outliers such as a distant ground plane)",
+            };
+            out.push(format!(
+                "{} static triangle(s) lie {how}, first in mesh '{}': the light's shadow map and RSM leave them out (they get unshadowed direct light and bounce none); give --bake-volume or mark a node with extras {{\"bake_volume\": true}} to choose the covered part",
+                f.left_out,
+                f.left_out_mesh.unwrap_or_default()
+            ));
+        }
+    }
+    if view.directional {
+        let mut edges: Vec<f32> = Vec::new();
+        for m in &scene.static_meshes {
+            for t in m.indices.chunks_exact(3) {
+                let p = |k: usize| m.positions[t[k] as usize];
+                let size = view.size as f32;
+                let inside = view
+                    .texel_coords(p(0))
+                    .is_some_and(|c| c.x >= 0.0 && c.y >= 0.0 && c.x <= size && c.y <= size);
+                if inside {
+                    edges.push((p(1) - p(0)).length().max((p(2) - p(1)).length()));
+                }
+            }
+        }
+        if !edges.is_empty() {
+            edges.sort_by(f32::total_cmp);
+            let median = edges[edges.len() / 2];
+            let texel = view.texel_scale;
+            if texel > 0.5 * median {
+                out.push(format!(
+                    "the shadow-map texel ({texel:.3e} scene units at --shadow-map-size {}) is coarse against the level (median triangle edge {median:.3e}): shadows will be blurred or leak; raise --shadow-map-size or give --bake-volume",
+                    opts.shadow_map_size
+                ));
+            }
+        }
+    }
+    out
 }
 
 /// The static part of `scene` only (moving objects removed).
@@ -211,7 +267,11 @@ fn bake_with(
 
     // The light view covers the moving objects' swept bounds too, so the
     // runtime can merge them into the same maps.
-    let view = LightView::new(&scene.light, &scene.full_bounds(), opts.shadow_map_size);
+    let view = LightView::for_scene(scene, opts.shadow_map_size);
+    let warnings = light_view_warnings(scene, &view, opts);
+    for w in &warnings {
+        tracing::warn!("{}: {w}", scene.source.display());
+    }
 
     // Primary shadow map of the static geometry (GPU, the runtime's pass).
     progress.begin("shadow map", 0);
@@ -229,23 +289,33 @@ fn bake_with(
     progress.end();
     lap("shadow map", &mut stages);
 
-    // RSM by ray casting.
+    // RSM by ray casting, with how much of each texel's light reaches a
+    // surface (static geometry or where moving objects can be).
     progress.begin("RSM", 0);
+    let reach = Reach {
+        rays: &rays,
+        moving: scene.dynamic_swept_bounds(),
+    };
     let rsm_view = view.resized(opts.rsm_size);
-    let rsm = render_rsm(&rays, &scene.light, &rsm_view);
+    let rsm = render_rsm(&rays, &scene.light, &rsm_view, Some(&reach));
     progress.end();
     lap("rsm", &mut stages);
 
-    // Quadtree clustering.
+    // Quadtree clustering; a VPL whose hemisphere sees nothing carries light
+    // to nothing and is dropped (crate::reach).
     progress.begin("clustering", 0);
-    let clusters = cluster(&rsm, opts.target);
-    progress.end();
-    lap("clustering", &mut stages);
+    let mut clusters = cluster(&rsm, opts.target);
     if clusters.vpls.is_empty() {
         return Err(BakeError::NothingLit {
             path: scene.source.clone(),
         });
     }
+    let dropped = clusters.retain(|_, c| {
+        let origin = hemisphere::vpl_origin(c.anchor, c.normal, c.area);
+        reach.sees_anything(origin, c.normal)
+    });
+    progress.end();
+    lap("clustering", &mut stages);
 
     let mut vpls: Vec<VplRecord> = clusters
         .vpls
@@ -336,5 +406,13 @@ fn bake_with(
         vpl_maps: maps,
         rsm: rsm_data,
     };
-    Ok((BakeOutput { asset, stages }, shard_maps))
+    Ok((
+        BakeOutput {
+            asset,
+            stages,
+            dropped_vpls: dropped,
+            warnings,
+        },
+        shard_maps,
+    ))
 }

@@ -34,6 +34,7 @@
 //! | `sum_normal`    | `Σ normal` (vec3) over lit texels                     |
 //! | `sum_footprint` | `Σ footprint` over lit texels ([`Rsm::footprint`])    |
 //! | `sum_flux`      | `Σ (r + g + b)` of flux over lit texels               |
+//! | `sum_reaching`  | `Σ (r + g + b) · reach` over lit texels               |
 //!
 //! A texel is `total = 1`, `lit = 0|1`, `mean = metric`, `m2 = 0`. A
 //! parent folds its children in Morton order with the pairwise merge of
@@ -56,7 +57,8 @@
 //!   Nn    = max(0, 1 − |sum_normal| / N)  normal spread (≈ half the
 //!                                         angular variance of the normals)
 //!   M     = 1 if the node also holds non-lit texels, else 0
-//!   share = sum_flux / Σflux(whole map)   the node's part of the light
+//!   share = sum_reaching / Σ(whole map)   the node's part of the light
+//!                                         that reaches a surface
 //! ```
 //!
 //! (`f64`, rounded to `f32`; NaN counts as `+∞`.) Under
@@ -99,6 +101,20 @@
 //! large *and* it carries much light, and the dim silhouettes and cone rims
 //! stay coarser still.
 //!
+//! **VPLs where the light goes (reaching flux).** `reach` is the fraction
+//! of a texel's cosine-distributed hemisphere that meets the static
+//! geometry or the moving objects' swept bounds ([`crate::reach`], 4 rays
+//! per lit texel); `share` counts only that reaching part. On a level lit
+//! from outside — an arena whose roof takes most of the sun, a town whose
+//! open ground faces the sky — the flux on surfaces that bounce into the sky
+//! no longer decides where the budget goes: a small sunlit patch inside,
+//! whose light all lands on walls, gets VPLs in proportion to the light it
+//! bounces (measured in docs/method.md, "Real levels"). When nothing in the
+//! map reaches a surface at all, `share` falls back to the flux. The
+//! clusters' flux, position and normal are still those of all their texels
+//! (the light is what it is; only the budget moved), and a VPL whose
+//! hemisphere then sees nothing is dropped by the bake.
+//!
 //! **Scale invariance.** Scaling the scene by `s` scales metric by `s`,
 //! `Var` by `s²` and footprints by `s`; normals, flux and hence `share` are
 //! unchanged. Every term, hence every score and every split, is unchanged:
@@ -139,18 +155,23 @@
 //! splittable leaves keyed by `e` (ties: shallower node first, then the
 //! smaller Morton code of its grid cell), so nodes are split in
 //! non-increasing `e`. It pops the top leaf while fewer than `n` leaves
-//! have lit texels, except that a split that would overshoot `n` by at least
-//! as much as the current count falls short is not made (a split adds at
-//! most three VPLs, so the result is within one VPL of `n`). If the map has
-//! fewer than `n` lit texels, every lit texel becomes a VPL.
+//! *count* — have lit texels whose light reaches something (`sum_reaching >
+//! 0`; any lit texel when nothing in the map reaches anything) — except
+//! that a split that would overshoot `n` by at least as much as the current
+//! count falls short is not made (a split adds at most three VPLs, so the
+//! count is within one of `n`). Leaves with lit texels whose light reaches
+//! nothing are still emitted (the bake's probe drops them), but they do not
+//! take a useful VPL's place in the budget. If the map has fewer than `n`
+//! lit texels, every lit texel becomes a VPL.
 //!
-//! The reported [`Clustering::threshold`] is `e_last`, the capped score of
-//! the last split, or the next `f32` above it, whichever makes
-//! `Threshold(t)` give the VPL count nearer to the one returned (the two
-//! differ only when the refinement stopped inside a run of equal `e`). If it
-//! stopped at the end of such a run, `Threshold(t)` reproduces the result
-//! exactly. With no split, it is the next `f32` above the largest unsplit
-//! `e` (`+∞` if none).
+//! The reported [`Clustering::threshold`] reproduces the result with
+//! `Threshold(t)`: if the refinement stopped at the end of a run of equal
+//! `e`, any `t` in `(e_next, e_last]` does (`e_next` the largest unsplit
+//! `e`), and the reported `t` is the geometric middle of that gap, so that
+//! a score moved by rounding (the same scene in other units) still falls
+//! on the same side; if it stopped inside a run, `t` is in the gap above
+//! or below the run, whichever gives the count nearer to the one returned.
+//! With no split, it is above the largest unsplit `e` (`+∞` if none).
 //!
 //! # Slot order and [`cluster_cut`] (the GPU twin)
 //!
@@ -219,6 +240,41 @@ pub struct Clustering {
     pub rects: Vec<(u32, u32, u32, u32)>,
     /// The threshold used (for `--vpls N`: the one that was found).
     pub threshold: f32,
+}
+
+impl Clustering {
+    /// Keeps the VPLs for which `keep(index, vpl)` holds, in order; the
+    /// texels of the others map to [`NO_VPL`]. Returns how many were removed.
+    pub fn retain(&mut self, mut keep: impl FnMut(usize, &Cluster) -> bool) -> usize {
+        let mut new_index = vec![NO_VPL; self.vpls.len()];
+        let mut next = 0u32;
+        for (i, v) in self.vpls.iter().enumerate() {
+            if keep(i, v) {
+                new_index[i] = next;
+                next += 1;
+            }
+        }
+        let removed = self.vpls.len() - next as usize;
+        if removed == 0 {
+            return 0;
+        }
+        let mut i = 0;
+        self.vpls.retain(|_| {
+            i += 1;
+            new_index[i - 1] != NO_VPL
+        });
+        let mut i = 0;
+        self.rects.retain(|_| {
+            i += 1;
+            new_index[i - 1] != NO_VPL
+        });
+        for t in &mut self.texel_vpl {
+            if *t != NO_VPL {
+                *t = new_index[*t as usize];
+            }
+        }
+        removed
+    }
 }
 
 /// `texel_vpl` value of texels that belong to no VPL.
@@ -453,9 +509,9 @@ impl Greedy<'_> {
         let kids = self
             .pyramid
             .children(node)
-            .filter(|&c| self.moments(c).has_flux())
+            .filter(|&c| self.pyramid.counts(&self.moments(c)))
             .count() as i64;
-        kids - i64::from(self.moments(node).has_flux())
+        kids - i64::from(self.pyramid.counts(&self.moments(node)))
     }
 
     fn split(&mut self, entry: Entry) {
@@ -488,12 +544,14 @@ fn cluster_count(rsm: &Rsm, pyramid: &Pyramid, n: u32) -> Clustering {
         pyramid,
         split,
         heap: BinaryHeap::new(),
-        count: u64::from(pyramid.moments(rsm, pyramid.root()).has_flux()),
+        count: u64::from(pyramid.counts(&pyramid.moments(rsm, pyramid.root()))),
     };
     g.push(pyramid.root(), f32::INFINITY);
 
     // Splits in non-increasing capped score.
     let mut last_e: Option<f32> = None;
+    // The capped score of the run before the current one.
+    let mut prev_e: Option<f32> = None;
     let mut group_start = g.count;
     while g.count < n {
         let Some(&top) = g.heap.peek() else { break };
@@ -503,6 +561,7 @@ fn cluster_count(rsm: &Rsm, pyramid: &Pyramid, n: u32) -> Clustering {
         }
         g.heap.pop();
         if last_e != Some(top.e) {
+            prev_e = last_e;
             last_e = Some(top.e);
             group_start = g.count;
         }
@@ -513,11 +572,25 @@ fn cluster_count(rsm: &Rsm, pyramid: &Pyramid, n: u32) -> Clustering {
     let result = g.count;
     debug_assert_eq!(result, vpls.len() as u64);
 
+    // Any threshold in the gap between two consecutive capped scores splits
+    // the same nodes; the geometric middle of the gap keeps that true when a
+    // score moves by rounding (the same scene in other units).
+    let middle = |hi: f32, lo: f32| -> f32 {
+        let m = if lo > 0.0 {
+            (f64::from(hi) * f64::from(lo)).sqrt() as f32
+        } else {
+            hi * 0.5
+        };
+        if m > lo && m <= hi { m } else { hi }
+    };
     let threshold = match last_e {
-        None => g.heap.peek().map_or(f32::INFINITY, |top| top.e.next_up()),
+        None => g
+            .heap
+            .peek()
+            .map_or(f32::INFINITY, |top| top.e.next_up().max(top.e * 2.0)),
         Some(e) => {
-            // Threshold(e) = finish the run of equal e; Threshold(next_up(e))
-            // = the count before the run started.
+            // Finish the run of equal e: Threshold(t ≤ e) splits it whole;
+            // a t above e stops before it.
             while let Some(&top) = g.heap.peek() {
                 if top.e < e {
                     break;
@@ -527,9 +600,13 @@ fn cluster_count(rsm: &Rsm, pyramid: &Pyramid, n: u32) -> Clustering {
             }
             let with_run = g.count;
             if with_run.abs_diff(result) <= group_start.abs_diff(result) {
-                e
+                let next = g.heap.peek().map_or(0.0, |top| top.e);
+                middle(e, next)
             } else {
-                e.next_up()
+                match prev_e {
+                    Some(p) => middle(p, e).max(e.next_up()),
+                    None => e.next_up().max(e * 2.0),
+                }
             }
         }
     };

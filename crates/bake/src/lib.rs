@@ -17,6 +17,7 @@ pub mod bake;
 pub mod budget;
 pub mod cluster;
 pub mod near_field;
+pub mod reach;
 pub mod rsm;
 pub mod uptodate;
 pub mod vplmap;

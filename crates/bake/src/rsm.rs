@@ -1,6 +1,7 @@
 //! The reflective shadow map (RSM) of the static geometry, as read back to
 //! the CPU for clustering.
 
+use crate::reach::Reach;
 use gibake_gpu::LightView;
 use gibake_raycast::RayScene;
 use gibake_scene::Light;
@@ -28,6 +29,10 @@ pub struct Rsm {
     pub flux: Vec<Vec3>,
     /// Surface area the texel covers (world units²).
     pub area: Vec<f32>,
+    /// Fraction of the texel's reflected light that reaches a surface
+    /// ([`crate::reach`]; 1 where it was not measured). The clustering
+    /// spends its budget by `flux · reach`.
+    pub reach: Vec<f32>,
 }
 
 impl Rsm {
@@ -43,8 +48,8 @@ impl Rsm {
     }
 }
 
-/// One RSM texel: metric, position, normal, flux, area.
-type TexelSample = (f32, Vec3, Vec3, Vec3, f32);
+/// One RSM texel: metric, position, normal, flux, area, reach.
+type TexelSample = (f32, Vec3, Vec3, Vec3, f32, f32);
 
 /// Smallest cosine between a surface and the light used for the area a
 /// texel covers (dimensionless, so scale-invariant): grazing texels would
@@ -53,10 +58,18 @@ pub const MIN_AREA_COSINE: f32 = 0.05;
 
 /// Renders the RSM of the static geometry in `rays` by casting one ray per
 /// texel centre (exact and deterministic on every machine). Radiometry:
-/// spot `Φ = albedo · I(ω) · Ω_texel`, directional `Φ = albedo · E · A_texel`;
+/// spot `Φ = albedo · I(ω) · Ω_texel · s`, directional `Φ = albedo · E ·
+/// A_texel · s`, `s = cos_s / cos_g` the shading normal's cosine over the
+/// geometric one (1 on flat-shaded surfaces; at most `1/MIN_AREA_COSINE`);
 /// area `= Ω·d²/cos θ` (spot) or `A_texel/cos θ` (directional), with
-/// `cos θ ≥` [`MIN_AREA_COSINE`].
-pub fn render_rsm(rays: &RayScene<'_>, light: &Light, view: &LightView) -> Rsm {
+/// `cos θ ≥` [`MIN_AREA_COSINE`]. With `reach`, each lit texel's
+/// [`Rsm::reach`] is measured ([`Reach::texel_reach`]); without, it is 1.
+pub fn render_rsm(
+    rays: &RayScene<'_>,
+    light: &Light,
+    view: &LightView,
+    reach: Option<&Reach<'_, '_>>,
+) -> Rsm {
     let size = view.size;
     let n = (size * size) as usize;
     let rows: Vec<Vec<TexelSample>> = (0..size)
@@ -66,22 +79,42 @@ pub fn render_rsm(rays: &RayScene<'_>, light: &Light, view: &LightView) -> Rsm {
                 .map(|x| {
                     let (o, d) = view.texel_ray(x, y);
                     let Some(hit) = rays.intersect(o, d, f32::INFINITY) else {
-                        return (f32::INFINITY, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0);
+                        return (f32::INFINITY, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0, 0.0);
                     };
                     let p = hit.position;
                     let ns = hit.shading_normal;
-                    let cos_s = hit.geometric_normal.dot(-d).max(MIN_AREA_COSINE);
+                    let cos_g = hit.geometric_normal.dot(-d);
+                    // The shading normal's irradiance over the geometric
+                    // area (as the reference and the runtime shade):
+                    // cos_s / cos_g, 1 on flat-shaded surfaces, bounded.
+                    let shading = (ns.dot(-d).max(0.0) / cos_g.max(f32::MIN_POSITIVE))
+                        .min(1.0 / MIN_AREA_COSINE);
+                    let cos_a = cos_g.max(MIN_AREA_COSINE);
                     let measure = view.texel_measure(d);
                     let (flux, area) = if view.directional {
-                        (hit.albedo * light.color * measure, measure / cos_s)
+                        (
+                            hit.albedo * light.color * (measure * shading),
+                            measure / cos_a,
+                        )
                     } else {
                         let dist = (p - light.position).length();
                         let i = light.color * light.spot_attenuation(d);
-                        (hit.albedo * i * measure, measure * dist * dist / cos_s)
+                        (
+                            hit.albedo * i * (measure * shading),
+                            measure * dist * dist / cos_a,
+                        )
                     };
                     let flux = if flux.is_finite() { flux } else { Vec3::ZERO };
                     let area = if area.is_finite() { area } else { 0.0 };
-                    (view.metric(p), p, ns, flux, area)
+                    let lit = flux.max_element() > 0.0;
+                    let r = match reach {
+                        Some(r) if lit => {
+                            let index = u64::from(y) * u64::from(size) + u64::from(x);
+                            r.texel_reach(index, p, hit.geometric_normal, ns)
+                        }
+                        _ => 1.0,
+                    };
+                    (view.metric(p), p, ns, flux, area, r)
                 })
                 .collect()
         })
@@ -94,14 +127,16 @@ pub fn render_rsm(rays: &RayScene<'_>, light: &Light, view: &LightView) -> Rsm {
         normal: Vec::with_capacity(n),
         flux: Vec::with_capacity(n),
         area: Vec::with_capacity(n),
+        reach: Vec::with_capacity(n),
     };
     for row in rows {
-        for (m, p, nn, f, a) in row {
+        for (m, p, nn, f, a, r) in row {
             rsm.metric.push(m);
             rsm.position.push(p);
             rsm.normal.push(nn);
             rsm.flux.push(f);
             rsm.area.push(a);
+            rsm.reach.push(r);
         }
     }
     rsm

@@ -133,7 +133,7 @@ pub fn differences(
     if r.is_empty() {
         // Same light and settings: the light view differs only when the
         // moving objects' swept bounds changed the fitted frustum.
-        let v = LightView::new(&scene.light, &scene.full_bounds(), opts.shadow_map_size);
+        let v = LightView::for_scene(scene, opts.shadow_map_size);
         let same = v.record() == m.light_view;
         if !same {
             r.push("the light's view changed (the moving objects' swept bounds changed)".into());

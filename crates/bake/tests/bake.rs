@@ -11,6 +11,7 @@ use std::sync::OnceLock;
 
 use gibake_asset::{Asset, NO_MAP};
 use gibake_bake::cluster::{ClusterTarget, cluster};
+use gibake_bake::reach::Reach;
 use gibake_bake::rsm::render_rsm;
 use gibake_bake::{BakeOptions, NoProgress, bake, static_only};
 use gibake_gpu::{GpuContext, LightView, hemisphere};
@@ -264,21 +265,37 @@ fn vpl_flux_sums_to_the_rsm_reflected_power() {
         let opts = small_options();
         let stat = static_only(scene);
         let rays = RayScene::build(&stat, 0.0);
-        let view = LightView::new(&scene.light, &scene.full_bounds(), opts.shadow_map_size)
-            .resized(opts.rsm_size);
-        let rsm = render_rsm(&rays, &scene.light, &view);
+        let view = LightView::for_scene(scene, opts.shadow_map_size).resized(opts.rsm_size);
+        let reach = Reach {
+            rays: &rays,
+            moving: scene.dynamic_swept_bounds(),
+        };
+        let rsm = render_rsm(&rays, &scene.light, &view, Some(&reach));
         let texel_total: f64 = rsm.flux.iter().map(|f| flux_sum(f.to_array())).sum();
         assert!(texel_total > 0.0, "{name}: the RSM reflects nothing");
 
-        let clusters = cluster(&rsm, opts.target);
+        let mut clusters = cluster(&rsm, opts.target);
         let cluster_total: f64 = clusters
+            .vpls
+            .iter()
+            .map(|c| flux_sum(c.flux.to_array()))
+            .sum();
+        // The bake drops the VPLs whose light reaches nothing: the asset
+        // carries the flux of the others.
+        clusters.retain(|_, c| {
+            reach.sees_anything(
+                gibake_gpu::hemisphere::vpl_origin(c.anchor, c.normal, c.area),
+                c.normal,
+            )
+        });
+        let kept_total: f64 = clusters
             .vpls
             .iter()
             .map(|c| flux_sum(c.flux.to_array()))
             .sum();
         let asset_total: f64 = asset.vpls.iter().map(|v| flux_sum(v.flux)).sum();
         let e_cluster = (cluster_total - texel_total).abs() / texel_total;
-        let e_asset = (asset_total - texel_total).abs() / texel_total;
+        let e_asset = (asset_total - kept_total).abs() / kept_total;
         println!(
             "flux {name}: RSM {texel_total:.6e} W, {} clusters {cluster_total:.6e} W (rel err {e_cluster:.2e}), \
              asset {} VPLs {asset_total:.6e} W (rel err {e_asset:.2e})",
@@ -291,7 +308,7 @@ fn vpl_flux_sums_to_the_rsm_reflected_power() {
         );
         assert!(
             e_asset <= 1e-4,
-            "{name}: asset VPL flux off by {e_asset:.2e}"
+            "{name}: asset VPL flux off by {e_asset:.2e} from the kept clusters'"
         );
 
         // The RSM stored for the dynamic merge carries the same light.
@@ -305,14 +322,32 @@ fn vpl_flux_sums_to_the_rsm_reflected_power() {
             e_stored <= 1e-4,
             "{name}: stored RSM flux off by {e_stored:.2e}"
         );
-        // Every lit texel belongs to a VPL, and the VPL indices agree.
+        // Every lit texel belongs to the VPL the clustering gave it (none if
+        // that VPL was dropped), and the kept VPLs' texels carry their flux.
+        let mut per_vpl = vec![0.0f64; asset.vpls.len()];
         for (t, (&vpl, f)) in stored.vpl.iter().zip(&stored.flux).enumerate() {
-            if flux_sum(*f) > 0.0 {
-                assert!(
-                    (vpl as usize) < asset.vpls.len(),
-                    "{name}: lit RSM texel {t} maps to no VPL"
-                );
+            let want = clusters.texel_vpl[t];
+            let want = if want == gibake_bake::cluster::NO_VPL {
+                u32::MAX
+            } else {
+                want
+            };
+            assert_eq!(
+                vpl, want,
+                "{name}: RSM texel {t} maps to VPL {vpl}, the clustering said {want}"
+            );
+            if flux_sum(*f) > 0.0 && vpl != u32::MAX {
+                per_vpl[vpl as usize] += flux_sum(*f);
             }
+        }
+        for (i, v) in asset.vpls.iter().enumerate() {
+            let e = (per_vpl[i] - flux_sum(v.flux)).abs() / flux_sum(v.flux).max(1e-30);
+            assert!(
+                e <= 1e-4,
+                "{name}: VPL {i}'s texels carry {} W, the VPL {}",
+                per_vpl[i],
+                flux_sum(v.flux)
+            );
         }
     }
 }
@@ -343,18 +378,29 @@ fn plane_scene(albedo: f32, light: impl FnOnce(&mut Builder)) -> Scene {
     scene
 }
 
-/// Total VPL flux per channel (f64).
-fn total_vpl_flux(asset: &Asset) -> DVec3 {
-    asset
+/// Total flux per channel (f64) of the VPLs the clustering makes, before the
+/// bake drops those whose light reaches nothing (the bake's front part).
+fn total_cluster_flux(scene: &Scene, opts: &BakeOptions) -> DVec3 {
+    let stat = static_only(scene);
+    let rays = RayScene::build(&stat, 0.0);
+    let view = LightView::for_scene(scene, opts.shadow_map_size).resized(opts.rsm_size);
+    let rsm = render_rsm(&rays, &scene.light, &view, None);
+    cluster(&rsm, opts.target)
         .vpls
         .iter()
-        .map(|v| Vec3::from_array(v.flux).as_dvec3())
+        .map(|c| c.flux.as_dvec3())
         .sum()
 }
 
-/// A single plane needs no visibility: nothing stored, nothing for the
+/// A single plane bounces its light into the sky: the bake drops every VPL
+/// (their hemispheres see nothing), stores no map and nothing for the
 /// dynamic merge.
 fn assert_plane_stores_nothing(asset: &Asset, what: &str) {
+    assert!(
+        asset.vpls.is_empty(),
+        "{what}: {} VPLs kept, but a lone plane's bounce reaches nothing",
+        asset.vpls.len()
+    );
     assert!(!asset.manifest.has_dynamic && asset.rsm.is_none(), "{what}");
     assert_eq!(
         asset.manifest.map_count, 0,
@@ -379,12 +425,12 @@ fn directional_light_on_a_plane_reflects_a_e_a_cos() {
     });
     let asset = run_bake(&scene, &small_options());
     let expected = f64::from(a) * e * 100.0 * theta.cos();
-    let got = total_vpl_flux(&asset);
+    let got = total_cluster_flux(&scene, &small_options());
     for c in 0..3 {
         let err = (got[c] - expected).abs() / expected;
         if c == 0 {
             println!(
-                "flux directional plane: {} VPLs, {:.4} W per channel, expected a·E·A·cos30° = {expected:.4} W, \
+                "flux directional plane: {} VPLs kept, {:.4} W per channel, expected a·E·A·cos30° = {expected:.4} W, \
                  rel err {err:.2e}",
                 asset.vpls.len(),
                 got[c]
@@ -427,12 +473,12 @@ fn spot_light_on_a_plane_reflects_a_i_times_the_cone() {
         .sum();
     let cone = 2.0 * std::f64::consts::PI * (1.0 - outer.cos());
     let expected = f64::from(a) * intensity * solid;
-    let got = total_vpl_flux(&asset);
+    let got = total_cluster_flux(&scene, &small_options());
     for c in 0..3 {
         let err = (got[c] - expected).abs() / expected;
         if c == 0 {
             println!(
-                "flux spot plane: {} VPLs, {:.5} W per channel, expected a·I·∫att dω = {expected:.5} W \
+                "flux spot plane: {} VPLs kept, {:.5} W per channel, expected a·I·∫att dω = {expected:.5} W \
                  (∫att dω = {solid:.5} sr, hard cone {cone:.5} sr), rel err {err:.2e}",
                 asset.vpls.len(),
                 got[c]
@@ -541,7 +587,7 @@ fn gpu_primary_map_matches_cpu_rays() {
         let (scene, asset) = small_bake(name);
         let size = small_options().shadow_map_size;
         assert_eq!(asset.primary_depth.size, size);
-        let view = LightView::new(&scene.light, &scene.full_bounds(), size);
+        let view = LightView::for_scene(scene, size);
         let stat = static_only(scene);
         let rays = RayScene::build(&stat, 0.0);
         let (mut hits, mut hit_ok, mut misses, mut miss_ok) = (0usize, 0usize, 0usize, 0usize);

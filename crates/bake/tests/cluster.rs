@@ -39,6 +39,7 @@ fn build_rsm(
         normal: vec![Vec3::ZERO; n],
         flux: vec![Vec3::ZERO; n],
         area: vec![0.0; n],
+        reach: vec![1.0; n],
     };
     for y in 0..size {
         for x in 0..size {
@@ -209,6 +210,7 @@ fn scaled(rsm: &Rsm, light: &Light, bounds: &Aabb, s: f32) -> Rsm {
         normal: rsm.normal.clone(),
         flux: rsm.flux.clone(),
         area: rsm.area.iter().map(|a| a * s * s).collect(),
+        reach: rsm.reach.clone(),
     }
 }
 

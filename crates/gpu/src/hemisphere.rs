@@ -9,7 +9,7 @@ use crate::orthonormal_basis;
 
 /// Fraction of the VPL's disk radius by which its origin sits off its
 /// surface (must match `VPL_ORIGIN_OFFSET` in hemisphere.wgsl).
-pub const VPL_ORIGIN_OFFSET: f32 = 0.05;
+pub const VPL_ORIGIN_OFFSET: f32 = 0.2;
 
 /// Direction in the VPL frame (z along the normal) → `[−1, 1]²`.
 pub fn encode(d_local: Vec3) -> Vec2 {

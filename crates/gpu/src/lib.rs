@@ -5,12 +5,14 @@
 //! - [`shaders`]: the shared WGSL (types, radiometry, projections) and how
 //!   passes compose it.
 //! - [`LightView`]: the primary light's projection (CPU twin of
-//!   `projection.wgsl`).
+//!   `projection.wgsl`), and [`light_fit`]: which part of a level a
+//!   directional light's maps cover.
 //! - [`readback`]: texture/buffer copies to the CPU.
 //! - [`mesh`]: scene meshes uploaded as GPU buffers.
 
 mod context;
 pub mod hemisphere;
+pub mod light_fit;
 mod light_view;
 pub mod mesh;
 pub mod passes;

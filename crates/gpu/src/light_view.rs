@@ -16,7 +16,7 @@
 //! which scales with the scene, so nothing depends on scene units.
 
 use gibake_asset::LightViewRecord;
-use gibake_scene::{Aabb, Light, LightKind};
+use gibake_scene::{Aabb, Light, LightKind, Scene};
 use glam::{Mat4, Vec3, Vec4};
 
 /// Largest spot half-angle a single perspective map covers.
@@ -171,27 +171,51 @@ impl LightView {
                     lo = lo.min(l);
                     hi = hi.max(l);
                 }
-                let extent = (hi - lo).max_element().max(f32::MIN_POSITIVE);
-                let margin = extent * 0.01;
-                let half_w = ((hi.x - lo.x).max(hi.y - lo.y)) * 0.5 + margin;
-                let cx = (lo.x + hi.x) * 0.5;
-                let cy = (lo.y + hi.y) * 0.5;
-                let front = lo.z - margin;
-                let depth = hi.z - lo.z + 2.0 * margin;
-                let origin = t * cx + b * cy + dir * front;
-                let view = look_to(origin, dir);
-                let proj = orthographic_reversed_z(half_w, half_w, 0.0, depth);
-                let texel = 2.0 * half_w / size_f;
-                LightView {
-                    directional: true,
-                    view_proj: proj * view,
-                    origin,
-                    direction: dir,
-                    texel_scale: texel,
-                    size,
-                    texel_area: texel * texel,
-                }
+                LightView::directional(dir, lo, hi, size)
             }
+        }
+    }
+
+    /// The view of `scene`'s light with a `size × size` map: a directional
+    /// light's extent chosen by [`crate::light_fit::fit`] (a bake volume, or
+    /// the static geometry without outliers, plus the moving objects' swept
+    /// bounds), a spot light's cone reaching every surface. The one
+    /// definition of "the light view of a scene", for the bake and for the
+    /// runtime's direct mode without an asset.
+    pub fn for_scene(scene: &Scene, size: u32) -> LightView {
+        match crate::light_fit::fit(scene) {
+            Some(f) => LightView::directional(scene.light.direction.normalize(), f.lo, f.hi, size),
+            None => LightView::new(&scene.light, &scene.full_bounds(), size),
+        }
+    }
+
+    /// An orthographic view along unit `dir` covering the light-space box
+    /// `[lo, hi]` (`x, y` along [`orthonormal_basis`] of `dir`, `z` along
+    /// `dir`) with a 1% margin.
+    pub fn directional(dir: Vec3, lo: Vec3, hi: Vec3, size: u32) -> LightView {
+        let (t, b) = orthonormal_basis(dir);
+        // Margins per direction: across the light 1% of the wider side,
+        // along it 1% of the depth range (a deep level must not widen the
+        // map).
+        let across = (hi.x - lo.x).max(hi.y - lo.y).max(f32::MIN_POSITIVE);
+        let half_w = across * 0.5 * 1.02;
+        let depth_margin = (hi.z - lo.z).max(across * 1e-3) * 0.01;
+        let cx = (lo.x + hi.x) * 0.5;
+        let cy = (lo.y + hi.y) * 0.5;
+        let front = lo.z - depth_margin;
+        let depth = hi.z - lo.z + 2.0 * depth_margin;
+        let origin = t * cx + b * cy + dir * front;
+        let view = look_to(origin, dir);
+        let proj = orthographic_reversed_z(half_w, half_w, 0.0, depth);
+        let texel = 2.0 * half_w / size as f32;
+        LightView {
+            directional: true,
+            view_proj: proj * view,
+            origin,
+            direction: dir,
+            texel_scale: texel,
+            size,
+            texel_area: texel * texel,
         }
     }
 

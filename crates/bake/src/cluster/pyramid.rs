@@ -47,6 +47,9 @@ pub(crate) struct Moments {
     pub sum_footprint: f64,
     /// `Σ (flux.r + flux.g + flux.b)` over lit texels.
     pub sum_flux: f64,
+    /// `Σ (flux.r + flux.g + flux.b) · reach` over lit texels: the flux
+    /// that reaches a surface ([`Rsm::reach`]); what the score weighs.
+    pub sum_reaching: f64,
 }
 
 impl Moments {
@@ -67,6 +70,8 @@ impl Moments {
             sum_normal: [f64::from(n.x), f64::from(n.y), f64::from(n.z)],
             sum_footprint: f64::from(rsm.footprint(i)),
             sum_flux: texel_weight(rsm, i),
+            sum_reaching: texel_weight(rsm, i)
+                * f64::from(rsm.reach.get(i).copied().unwrap_or(1.0)),
         }
     }
 
@@ -99,6 +104,7 @@ impl Moments {
             ],
             sum_footprint: self.sum_footprint + o.sum_footprint,
             sum_flux: self.sum_flux + o.sum_flux,
+            sum_reaching: self.sum_reaching + o.sum_reaching,
         }
     }
 
@@ -108,16 +114,17 @@ impl Moments {
     }
 
     /// The node's split score, or `None` if it can never be split (a single
-    /// texel, or no lit texel). `S = max(D, Nn, M) · share` with
+    /// texel, or no lit texel). `S = max(D, Nn, M) · share²` with
     ///
     /// - depth term `D = Var(metric) / (map_size · mean footprint)²`,
     /// - normal term `Nn = 1 − |Σ normal| / lit`,
     /// - mixed term `M = 1` if the node also holds texels that are not lit,
-    /// - `share = sum_flux / total_flux` (`total_flux`: the whole map's),
+    /// - `share = sum_reaching / total` (`total`: the whole map's; the flux
+    ///   instead when nothing in the map reaches a surface),
     ///
     /// all over lit texels, evaluated in `f64` and rounded to `f32` (NaN
     /// counts as `+∞`).
-    pub fn score(&self, map_size: u32, total_flux: f64) -> Option<f32> {
+    pub fn score(&self, map_size: u32, total_flux: f64, by_reach: bool) -> Option<f32> {
         if self.total <= 1 || self.lit == 0 {
             return None;
         }
@@ -134,7 +141,11 @@ impl Moments {
         let [x, y, z] = self.sum_normal;
         let normal = (1.0 - (x * x + y * y + z * z).sqrt() / n).max(0.0);
         let mixed = if self.lit < self.total { 1.0 } else { 0.0 };
-        let share = self.sum_flux / total_flux;
+        let share = if by_reach {
+            self.sum_reaching
+        } else {
+            self.sum_flux
+        } / total_flux;
         // share², not share: see "Why share squared" in cluster.rs.
         let s = depth.max(normal).max(mixed) * share * share;
         Some(if s.is_nan() { f32::INFINITY } else { s as f32 })
@@ -168,6 +179,9 @@ pub(crate) struct Pyramid {
     moments: Vec<Vec<Moments>>,
     /// `Σ (flux.r + flux.g + flux.b)` over all lit texels (the root's).
     total_flux: f64,
+    /// Whether scores weigh the reaching flux (else the flux: nothing in
+    /// the map reaches a surface).
+    by_reach: bool,
 }
 
 impl Pyramid {
@@ -205,6 +219,7 @@ impl Pyramid {
             children,
             moments: Vec::new(),
             total_flux: 0.0,
+            by_reach: true,
         };
         let texel_level = pyramid.texel_level();
         let mut moments: Vec<Vec<Moments>> = vec![Vec::new(); texel_level as usize];
@@ -233,14 +248,31 @@ impl Pyramid {
             moments[level as usize] = grid;
         }
         pyramid.moments = moments;
-        pyramid.total_flux = pyramid.moments(rsm, pyramid.root()).sum_flux;
+        let root = pyramid.moments(rsm, pyramid.root());
+        // Nothing reaches anything (a lone floor under the sun): weigh by
+        // flux, so the rule still spreads the VPLs.
+        pyramid.by_reach = root.sum_reaching > 0.0;
+        pyramid.total_flux = if pyramid.by_reach {
+            root.sum_reaching
+        } else {
+            root.sum_flux
+        };
         pyramid
     }
 
     /// The split score of `node` ([`Moments::score`] with this map's size
     /// and total flux).
     pub fn score(&self, rsm: &Rsm, node: Node) -> Option<f32> {
-        self.moments(rsm, node).score(self.size, self.total_flux)
+        self.moments(rsm, node)
+            .score(self.size, self.total_flux, self.by_reach)
+    }
+
+    /// Whether a leaf with these moments counts against a VPL budget: it has
+    /// lit texels and, when the map's light reaches anything, some of its
+    /// own does (a leaf whose light reaches nothing is dropped after the
+    /// clustering, so it must not take a useful VPL's place).
+    pub fn counts(&self, m: &Moments) -> bool {
+        m.has_flux() && (!self.by_reach || m.sum_reaching > 0.0)
     }
 
     /// Number of columns (= rows) of the grid at `level`.

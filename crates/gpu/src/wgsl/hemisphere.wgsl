@@ -10,7 +10,7 @@
 // VPL_ORIGIN_OFFSET × its disk radius sqrt(area/π): scale-invariant, and it
 // lifts clusters on curved surfaces off the surface they sit on.
 
-const VPL_ORIGIN_OFFSET: f32 = 0.05;
+const VPL_ORIGIN_OFFSET: f32 = 0.2;
 
 fn hemi_encode(d_local: vec3<f32>) -> vec2<f32> {
     let z = max(d_local.z, 0.0);

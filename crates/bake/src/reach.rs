@@ -1,0 +1,130 @@
+//! Where reflected light can go: the part of a surface point's hemisphere
+//! that sees the static geometry or the moving objects' swept bounds.
+//!
+//! Light a surface reflects into the sky reaches nothing. On a level lit
+//! from outside — a sun over an arena with roof openings, a town — most of
+//! the primary light's flux lands on roofs and open ground whose
+//! hemisphere is mostly sky, while the light that matters bounces off a
+//! small sunlit patch inside. Two measurements steer the VPL budget there:
+//!
+//! - [`texel_reach`]: per RSM texel, the fraction of `RAYS_PER_TEXEL`
+//!   cosine-distributed rays about its normal that hit something. The
+//!   clustering spends its budget by each node's *reaching* flux
+//!   `Σ flux · reach` instead of its flux (cluster.rs, "VPLs where the light
+//!   goes").
+//! - [`sees_anything`]: whether a VPL's hemisphere, probed with the map
+//!   projection at `PROBE_SIZE²` directions from its map origin, sees any
+//!   static surface or the moving objects' swept bounds. A VPL that sees
+//!   nothing carries light to nothing and is dropped before its map, its
+//!   near-field tree and its runtime cost exist.
+//!
+//! Both are deterministic (fixed directions per texel from a hash of its
+//! index) and scale-invariant (directions only; ray offsets are the ray
+//! caster's, relative to the scene's size).
+
+use gibake_gpu::hemisphere;
+use gibake_raycast::RayScene;
+use gibake_scene::Aabb;
+use glam::Vec3;
+
+/// Rays per RSM texel for [`texel_reach`] (2 × 2 strata).
+pub const RAYS_PER_TEXEL: u32 = 4;
+
+/// Directions per axis of a VPL's [`sees_anything`] probe (the hemisphere
+/// map's projection at this size: 256 directions, texel centres).
+pub const PROBE_SIZE: u32 = 16;
+
+/// What reflected light can reach: the static geometry (through `rays`) and
+/// the moving objects' swept bounds (empty box: none).
+pub struct Reach<'a, 's> {
+    /// The static geometry.
+    pub rays: &'a RayScene<'s>,
+    /// Where moving objects can be over the animation.
+    pub moving: Aabb,
+}
+
+/// SplitMix64 finaliser (seeds the per-texel jitter).
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// An orthonormal basis `(t, b)` completing unit `n` (Duff et al. 2017).
+fn basis(n: Vec3) -> (Vec3, Vec3) {
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        Vec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
+/// Cosine-distributed direction about `n` for `(u1, u2) ∈ [0, 1)²`
+/// (Malley: a uniform disk sample lifted to the hemisphere).
+fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
+    let r = u1.sqrt();
+    let phi = std::f32::consts::TAU * u2;
+    let (t, b) = basis(n);
+    let z = (1.0 - u1).max(0.0).sqrt();
+    (t * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize_or_zero()
+}
+
+impl Reach<'_, '_> {
+    /// Whether the ray from `origin` (already offset off its surface) along
+    /// `dir` meets the static geometry or the swept bounds.
+    fn hits(&self, origin: Vec3, dir: Vec3) -> bool {
+        self.moving.ray_hits(origin, dir) || self.rays.occluded(origin, dir, f32::INFINITY)
+    }
+
+    /// The fraction of texel `index`'s reflected light that reaches
+    /// something: `RAYS_PER_TEXEL` stratified cosine-distributed rays about
+    /// the shading normal `ns` from `p`, offset along the geometric normal
+    /// `ng` (both facing the light); a direction below the geometric plane
+    /// reaches nothing.
+    pub fn texel_reach(&self, index: u64, p: Vec3, ng: Vec3, ns: Vec3) -> f32 {
+        let origin = self.rays.offset_point(p, ng);
+        let h = mix(index);
+        let (j1, j2) = (
+            (h >> 40) as f32 * (1.0 / 16_777_216.0),
+            ((h >> 16) & 0xff_ffff) as f32 * (1.0 / 16_777_216.0),
+        );
+        let mut hit = 0u32;
+        for k in 0..RAYS_PER_TEXEL {
+            let (sx, sy) = ((k % 2) as f32, (k / 2) as f32);
+            let d = cosine_direction(ns, (sx + j1) * 0.5, (sy + j2) * 0.5);
+            if d.dot(ng) > 0.0 && self.hits(origin, d) {
+                hit += 1;
+            }
+        }
+        hit as f32 / RAYS_PER_TEXEL as f32
+    }
+
+    /// Whether a VPL at `origin` (its map origin, off its surface) with
+    /// normal `n` sees anything in its hemisphere (see the module docs).
+    pub fn sees_anything(&self, origin: Vec3, n: Vec3) -> bool {
+        let origin = self.rays.offset_point(origin, n);
+        (0..PROBE_SIZE * PROBE_SIZE).any(|k| {
+            let d = hemisphere::texel_direction(n, k % PROBE_SIZE, k / PROBE_SIZE, PROBE_SIZE);
+            self.hits(origin, d)
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cosine_directions_are_unit_and_above() {
+        for n in [Vec3::Y, Vec3::NEG_Z, Vec3::new(0.3, -0.5, 0.8).normalize()] {
+            for i in 0..64 {
+                let d = cosine_direction(n, (i % 8) as f32 / 8.0, (i / 8) as f32 / 8.0);
+                assert!((d.length() - 1.0).abs() < 1e-5);
+                assert!(d.dot(n) >= -1e-6, "{d} below {n}");
+            }
+        }
+    }
+}

@@ -1,0 +1,341 @@
+//! Which part of a level the directional light's maps cover.
+//!
+//! A directional light's shadow map and RSM are orthographic views along
+//! the light. Fitted to every vertex, one distant ground plane (a town's
+//! 2 km outer ground, a skybox floor) makes every texel coarse: on a real
+//! level the shadow texel grew to 1.3 m and the RSM texel to 5.3 m, and
+//! shadows leaked. [`fit`] chooses the view's extent across the light (its
+//! light-space `x, y`) from the geometry that matters:
+//!
+//! 1. a **bake volume** the artist gives ([`Scene::bake_volume`]: a glTF
+//!    node marked `extras: {"bake_volume": true}`, or `--bake-volume`),
+//!    else
+//! 2. the static triangles **without outliers**. A triangle spanning at
+//!    least a quarter of the full extent is *large*; the *core* is the
+//!    extent of all the others. When the full extent is more than
+//!    `OUTLIER_RATIO` = 8 times the core on an axis, the large triangles
+//!    are outliers (a 2 km ground plane around a 125 m town is 16×); the
+//!    view then covers the core grown by a quarter of its size per side,
+//!    and the large triangles are clipped to it. Triangles wholly outside
+//!    are left out: they get no shadow and no VPL (their direct light is
+//!    unshadowed), and [`LightFit::left_out`] counts them for a warning.
+//!    A room of six quads around a detailed object is at most a few times
+//!    its core and keeps the full extent; a bare hall 8× wider than its one
+//!    detailed statue would be cut — hence the warning, and the bake volume
+//!    to say otherwise.
+//!
+//! Either way the moving objects' swept bounds are added (the runtime merges
+//! them into the same maps), and the depth range along the light always
+//! covers *every* static surface, so a caster outside the fitted extent
+//! still shadows what is inside it. An orthographic view keeps a caster
+//! and its shadow at the same light-space `x, y`, so no shadow cast inside
+//! the extent is lost. Everything is dimensionless (fractions of extents):
+//! the same level in millimetres gets the same fit.
+//!
+//! Spot lights keep their cone (the map's extent is the cone, not the
+//! geometry); their far plane covers every surface.
+
+use gibake_scene::{Aabb, LightKind, Scene};
+use glam::Vec3;
+
+use crate::light_view::orthonormal_basis;
+
+/// A triangle spanning at least this fraction of the full extent (on
+/// either axis across the light) is large: a candidate outlier.
+pub const LARGE_TRIANGLE: f32 = 0.25;
+
+/// The full extent counts as outlier-free while it is at most this many
+/// times the core (the extent of the triangles that are not large) on both
+/// axes.
+pub const OUTLIER_RATIO: f32 = 8.0;
+
+/// Growth of the core on each side when outliers are cut, as a fraction of
+/// its size.
+pub const OUTLIER_MARGIN: f32 = 0.25;
+
+/// Where the view's extent across the light came from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FitSource {
+    /// Every static surface (no outlier, or a spot light).
+    All,
+    /// The scene's bake volume.
+    BakeVolume,
+    /// The static triangles without outliers.
+    WithoutOutliers,
+}
+
+/// A directional view's box in light space: `x, y` across the light (along
+/// [`orthonormal_basis`] of its direction), `z` along it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightFit {
+    /// Light-space minimum.
+    pub lo: Vec3,
+    /// Light-space maximum.
+    pub hi: Vec3,
+    /// What decided `x, y`.
+    pub source: FitSource,
+    /// Static triangles wholly outside the extent across the light.
+    pub left_out: usize,
+    /// The first mesh with a triangle left out, for messages.
+    pub left_out_mesh: Option<String>,
+}
+
+impl LightFit {
+    /// The world-space width of the wider side across the light.
+    pub fn width(&self) -> f32 {
+        (self.hi.x - self.lo.x).max(self.hi.y - self.lo.y)
+    }
+}
+
+fn to_light(p: Vec3, t: Vec3, b: Vec3, d: Vec3) -> Vec3 {
+    Vec3::new(p.dot(t), p.dot(b), p.dot(d))
+}
+
+fn grow(lo: &mut Vec3, hi: &mut Vec3, p: Vec3) {
+    *lo = lo.min(p);
+    *hi = hi.max(p);
+}
+
+fn box_corners(b: &Aabb) -> impl Iterator<Item = Vec3> + '_ {
+    (0..8).map(move |i| {
+        Vec3::new(
+            if i & 1 == 0 { b.min.x } else { b.max.x },
+            if i & 2 == 0 { b.min.y } else { b.max.y },
+            if i & 4 == 0 { b.min.z } else { b.max.z },
+        )
+    })
+}
+
+/// The light-space box of a directional light's view of `scene` (see the
+/// module docs). `None` for spot lights and scenes without static vertices.
+pub fn fit(scene: &Scene) -> Option<LightFit> {
+    if !matches!(scene.light.kind, LightKind::Directional) {
+        return None;
+    }
+    let d = scene.light.direction.normalize();
+    let (t, b) = orthonormal_basis(d);
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    // Every triangle's light-space box.
+    let mut boxes = Vec::new();
+    for m in &scene.static_meshes {
+        for tri in m.indices.chunks_exact(3) {
+            let (mut tlo, mut thi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            for &i in tri {
+                grow(
+                    &mut tlo,
+                    &mut thi,
+                    to_light(m.positions[i as usize], t, b, d),
+                );
+            }
+            grow(&mut lo, &mut hi, tlo);
+            grow(&mut lo, &mut hi, thi);
+            boxes.push((tlo, thi));
+        }
+    }
+    if !lo.is_finite() || boxes.is_empty() {
+        return None;
+    }
+    let moving = scene.dynamic_swept_bounds();
+    let (mut mlo, mut mhi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    if !moving.is_empty() {
+        for c in box_corners(&moving) {
+            grow(&mut mlo, &mut mhi, to_light(c, t, b, d));
+        }
+    }
+    // Across the light: the volume, or the static extent without outliers.
+    let (mut xy_lo, mut xy_hi, source) = if let Some(v) = &scene.bake_volume {
+        let (mut vlo, mut vhi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for c in box_corners(v) {
+            grow(&mut vlo, &mut vhi, to_light(c, t, b, d));
+        }
+        (vlo, vhi, FitSource::BakeVolume)
+    } else {
+        let full = hi - lo;
+        let (mut clo, mut chi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for (tlo, thi) in &boxes {
+            let e = *thi - *tlo;
+            if e.x < LARGE_TRIANGLE * full.x && e.y < LARGE_TRIANGLE * full.y {
+                grow(&mut clo, &mut chi, *tlo);
+                grow(&mut clo, &mut chi, *thi);
+            }
+        }
+        let core = chi - clo;
+        let outliers =
+            clo.is_finite() && (full.x > OUTLIER_RATIO * core.x || full.y > OUTLIER_RATIO * core.y);
+        if outliers {
+            let m = core.max(Vec3::splat(core.x.max(core.y))) * OUTLIER_MARGIN;
+            (
+                (clo - m).max(lo),
+                (chi + m).min(hi),
+                FitSource::WithoutOutliers,
+            )
+        } else {
+            (lo, hi, FitSource::All)
+        }
+    };
+    if !moving.is_empty() {
+        xy_lo = xy_lo.min(mlo);
+        xy_hi = xy_hi.max(mhi);
+    }
+    // Along the light: every static surface and the moving objects.
+    let (z_lo, z_hi) = if moving.is_empty() {
+        (lo.z, hi.z)
+    } else {
+        (lo.z.min(mlo.z), hi.z.max(mhi.z))
+    };
+    let mut left_out = 0;
+    let mut left_out_mesh = None;
+    if source != FitSource::All {
+        let mut k = 0;
+        for m in &scene.static_meshes {
+            for _ in m.indices.chunks_exact(3) {
+                let (tlo, thi) = boxes[k];
+                k += 1;
+                if thi.x < xy_lo.x || tlo.x > xy_hi.x || thi.y < xy_lo.y || tlo.y > xy_hi.y {
+                    left_out += 1;
+                    left_out_mesh.get_or_insert_with(|| m.name.clone());
+                }
+            }
+        }
+    }
+    Some(LightFit {
+        lo: Vec3::new(xy_lo.x, xy_lo.y, z_lo),
+        hi: Vec3::new(xy_hi.x, xy_hi.y, z_hi),
+        source,
+        left_out,
+        left_out_mesh,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gibake_scene::{Animator, Light, Material, Mesh};
+
+    /// A quad `[x0, x1] × [z0, z1]` at height `y` as two triangles.
+    fn quad(x0: f32, x1: f32, z0: f32, z1: f32, y: f32) -> Mesh {
+        Mesh {
+            name: format!("quad {x0}..{x1}"),
+            positions: vec![
+                Vec3::new(x0, y, z0),
+                Vec3::new(x1, y, z0),
+                Vec3::new(x1, y, z1),
+                Vec3::new(x0, y, z1),
+            ],
+            normals: vec![Vec3::Y; 4],
+            uvs: None,
+            indices: vec![0, 2, 1, 0, 3, 2],
+            material: 0,
+        }
+    }
+
+    /// `n × n` small quads over `[-half, half]²` (a detailed core).
+    fn detail(half: f32, n: u32, y: f32) -> Vec<Mesh> {
+        let s = 2.0 * half / n as f32;
+        (0..n * n)
+            .map(|k| {
+                let (i, j) = ((k % n) as f32, (k / n) as f32);
+                let x0 = -half + i * s;
+                let z0 = -half + j * s;
+                quad(
+                    x0,
+                    x0 + s * 0.8,
+                    z0,
+                    z0 + s * 0.8,
+                    y + (k % 3) as f32 * 0.1 * s,
+                )
+            })
+            .collect()
+    }
+
+    fn scene(meshes: Vec<Mesh>, scale: f32) -> Scene {
+        let meshes = meshes
+            .into_iter()
+            .map(|mut m| {
+                for p in &mut m.positions {
+                    *p *= scale;
+                }
+                m
+            })
+            .collect();
+        Scene {
+            source: "fit".into(),
+            light: Light {
+                name: "sun".into(),
+                kind: LightKind::Directional,
+                color: Vec3::ONE,
+                position: Vec3::ZERO,
+                direction: Vec3::new(0.3, -0.8, 0.2).normalize(),
+            },
+            camera: None,
+            materials: vec![Material {
+                name: "grey".into(),
+                base_color: Vec3::splat(0.5),
+                texture: None,
+            }],
+            textures: vec![],
+            static_meshes: meshes,
+            dynamic_meshes: vec![],
+            dynamic_objects: vec![],
+            animator: Animator::default(),
+            warnings: vec![],
+            bake_volume: None,
+        }
+    }
+
+    #[test]
+    fn a_lone_plane_and_a_room_around_detail_keep_the_full_extent() {
+        let plane = fit(&scene(vec![quad(-5.0, 5.0, -5.0, 5.0, 0.0)], 1.0)).unwrap();
+        assert_eq!(plane.source, FitSource::All);
+        // A 4 m floor (two large triangles) around a 1 m detailed object.
+        let mut room = detail(0.5, 8, 0.0);
+        room.push(quad(-2.0, 2.0, -2.0, 2.0, 0.0));
+        let f = fit(&scene(room, 1.0)).unwrap();
+        assert_eq!(f.source, FitSource::All);
+        assert_eq!(f.left_out, 0);
+    }
+
+    #[test]
+    fn a_distant_ground_plane_is_left_out_at_every_scale() {
+        let mut town = detail(60.0, 12, 0.0);
+        town.push(quad(-1000.0, 1000.0, -1000.0, 1000.0, -0.5));
+        let f = fit(&scene(town.clone(), 1.0)).unwrap();
+        assert_eq!(f.source, FitSource::WithoutOutliers);
+        let all = fit(&scene(
+            vec![quad(-1000.0, 1000.0, -1000.0, 1000.0, -0.5)],
+            1.0,
+        ))
+        .unwrap();
+        assert!(
+            f.width() < 0.2 * all.width(),
+            "fitted {} against the plane's {}",
+            f.width(),
+            all.width()
+        );
+        // The plane's two triangles overlap the core: clipped, not left out.
+        assert_eq!(f.left_out, 0);
+        for s in [1e-3f32, 1e3] {
+            let g = fit(&scene(town.clone(), s)).unwrap();
+            assert_eq!(g.source, f.source, "scale {s}");
+            assert!(
+                ((g.width() / s) / f.width() - 1.0).abs() < 1e-4,
+                "scale {s}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_bake_volume_decides_the_extent_and_counts_what_it_leaves_out() {
+        let mut meshes = detail(10.0, 6, 0.0);
+        meshes.push(quad(40.0, 41.0, 40.0, 41.0, 0.0));
+        let mut s = scene(meshes, 1.0);
+        s.bake_volume = Some(Aabb {
+            min: Vec3::new(-10.0, -1.0, -10.0),
+            max: Vec3::new(10.0, 1.0, 10.0),
+        });
+        let f = fit(&s).unwrap();
+        assert_eq!(f.source, FitSource::BakeVolume);
+        assert_eq!(f.left_out, 2, "the far quad's two triangles");
+        assert!(f.left_out_mesh.unwrap().starts_with("quad 40"));
+    }
+}
