@@ -7,9 +7,13 @@
 //!   C    A's transport, visibility averaged over K flux-sampled own texels
 //!   D    per-texel: K flux-sampled texels, each with own transport + vis
 //!   E    A without visibility (rsm)
-//! usage: vpl_diag SEED... [--vpls N] [--size S]
+//! usage: vpl_diag SEED|BUNDLED|LEVEL... [--vpls N] [--size S]
+//! (LEVEL: a name in data/levels/levels.json; its camera and moving
+//! objects as `eval_levels` loads them). VPLs as the bake makes them:
+//! reach-weighted clustering, VPLs that see nothing dropped.
 
 use gibake_bake::cluster::{ClusterTarget, cluster};
+use gibake_bake::reach::Reach;
 use gibake_bake::rsm::render_rsm;
 use gibake_gpu::{LightView, hemisphere};
 use gibake_raycast::RayScene;
@@ -58,26 +62,29 @@ fn main() {
     );
     println!("   then F1 (sub-points, vis from B) F2 (sub-points, own vis)");
     for s in seeds {
-        let (bytes, info) = if let Ok(seed) = s.parse::<u64>() {
+        let list = gibake_eval::levels::bundled_list();
+        let levels = gibake_eval::levels::read_specs(&list).unwrap();
+        let (scene, info) = if let Ok(seed) = s.parse::<u64>() {
             let (b, i) = gibake_scenegen::random(seed, &Default::default());
-            (b, i.to_string())
+            (gibake_eval::load(&b, "x.glb"), i.to_string())
+        } else if let Some(l) = levels.iter().find(|l| l.name == s) {
+            (l.load(list.parent().unwrap()).unwrap(), l.what.clone())
         } else {
-            (
-                gibake_scenegen::by_name(&s).unwrap()(&Default::default()),
-                s.clone(),
-            )
+            let b = gibake_scenegen::by_name(&s).unwrap()(&Default::default());
+            (gibake_eval::load(&b, "x.glb"), s.clone())
         };
-        let scene = gibake_scene::load_from_slice(
-            &bytes,
-            std::path::Path::new("x.glb"),
-            &Default::default(),
-        )
-        .unwrap();
         let stat = gibake_bake::static_only(&scene);
         let rays = RayScene::build(&stat, 0.0);
-        let view = LightView::new(&scene.light, &scene.full_bounds(), 2048).resized(512);
-        let rsm = render_rsm(&rays, &scene.light, &view);
-        let cl = cluster(&rsm, ClusterTarget::Count(vpls));
+        let reach = Reach {
+            rays: &rays,
+            moving: scene.dynamic_swept_bounds(),
+        };
+        let view = LightView::for_scene(&scene, 2048).resized(512);
+        let rsm = render_rsm(&rays, &scene.light, &view, Some(&reach));
+        let mut cl = cluster(&rsm, ClusterTarget::Count(vpls));
+        cl.retain(|_, c| {
+            reach.sees_anything(hemisphere::vpl_origin(c.anchor, c.normal, c.area), c.normal)
+        });
         // Texels per VPL with flux weights.
         let mut members: Vec<Vec<(usize, f32)>> = vec![Vec::new(); cl.vpls.len()];
         for (t, &v) in cl.texel_vpl.iter().enumerate() {

@@ -18,6 +18,7 @@
 
 pub mod fit;
 pub mod flip;
+pub mod levels;
 pub mod pareto;
 
 use gibake_asset::Asset;
@@ -193,10 +194,28 @@ pub fn render(
     )?)
 }
 
-/// The reference's indirect part (one bounce minus direct only) and the
-/// standard error of its mean per channel, estimated from two independent
-/// halves of the one-bounce samples (seeds 0 and 1).
-pub fn reference_indirect(scene: &Scene, s: &EvalSettings) -> Result<(Image, Vec3), EvalError> {
+/// The reference's images: direct + one bounce (the mean of two independent
+/// halves of the samples, seeds 0 and 1), direct only (seed 2), and the
+/// standard error of the one-bounce image's mean per channel, estimated
+/// from the two halves.
+pub struct ReferenceImages {
+    /// Direct light plus one bounce (path depth 3).
+    pub one_bounce: Image,
+    /// Direct light only (path depth 2).
+    pub direct: Image,
+    /// Standard error of `one_bounce`'s mean radiance per channel.
+    pub noise: Vec3,
+}
+
+impl ReferenceImages {
+    /// The indirect part: one bounce minus direct only.
+    pub fn indirect(&self) -> Image {
+        self.one_bounce.sub(&self.direct)
+    }
+}
+
+/// Renders the reference images of `scene` (see [`ReferenceImages`]).
+pub fn reference_images(scene: &Scene, s: &EvalSettings) -> Result<ReferenceImages, EvalError> {
     let r = |depth, spp, seed| {
         gibake_reference::render(
             scene,
@@ -223,7 +242,18 @@ pub fn reference_indirect(scene: &Scene, s: &EvalSettings) -> Result<(Image, Vec
         var += (*p - *q) * (*p - *q) * 0.25;
     }
     let n = a.pixels.len().max(1) as f32;
-    Ok((full.sub(&direct), (var / (n * n)).map(f32::sqrt)))
+    Ok(ReferenceImages {
+        one_bounce: full,
+        direct,
+        noise: (var / (n * n)).map(f32::sqrt),
+    })
+}
+
+/// The reference's indirect part (one bounce minus direct only) and the
+/// standard error of its mean per channel (see [`reference_images`]).
+pub fn reference_indirect(scene: &Scene, s: &EvalSettings) -> Result<(Image, Vec3), EvalError> {
+    let r = reference_images(scene, s)?;
+    Ok((r.indirect(), r.noise))
 }
 
 /// Box blur of radius `r` (clamped at the borders).
@@ -260,7 +290,7 @@ pub fn indirect_error(ours: &Image, reference: &Image, r: u32) -> f64 {
     rmse / mean.max(f64::MIN_POSITIVE)
 }
 
-fn bias(ours: Vec3, reference: Vec3) -> [f32; 3] {
+pub(crate) fn bias(ours: Vec3, reference: Vec3) -> [f32; 3] {
     let b = ours / reference.max(Vec3::splat(f32::MIN_POSITIVE)) - Vec3::ONE;
     b.to_array()
 }

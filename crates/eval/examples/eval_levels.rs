@@ -1,0 +1,53 @@
+//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--out DIR]`
+//! Judges the real levels of data/levels/levels.json (all, or those named)
+//! against the CPU reference; prints one line per level and, with --out,
+//! writes reference | full | rsm | error pictures.
+fn main() {
+    let mut s = gibake_eval::EvalSettings {
+        size: 128,
+        spp: 512,
+        blur: 4,
+        ..Default::default()
+    };
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut it = args.iter();
+    let mut names = Vec::new();
+    let mut out = None;
+    while let Some(a) = it.next() {
+        let mut num = || {
+            it.next()
+                .expect("a value")
+                .parse::<u32>()
+                .expect("a number")
+        };
+        match a.as_str() {
+            "--size" => s.size = num(),
+            "--spp" => s.spp = num(),
+            "--vpls" => s.vpls = num(),
+            "--blur" => s.blur = num(),
+            "--rsm" => s.rsm_size = num(),
+            "--map" => s.vpl_map_size = num(),
+            "--ssaa" => s.ssaa = num(),
+            "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
+            _ => names.push(a.clone()),
+        }
+    }
+    let list = gibake_eval::levels::bundled_list();
+    let dir = list.parent().unwrap().to_path_buf();
+    let specs = gibake_eval::levels::read_specs(&list).unwrap();
+    let ctx = gibake_gpu::GpuContext::new(&Default::default()).unwrap();
+    for spec in specs
+        .iter()
+        .filter(|l| names.is_empty() || names.contains(&l.name))
+    {
+        let scene = spec.load(&dir).unwrap();
+        let t = std::time::Instant::now();
+        let (e, images) = gibake_eval::levels::judge_level(&ctx, &scene, &spec.name, &s).unwrap();
+        println!("{} ({:.0} s)", e.line(), t.elapsed().as_secs_f64());
+        if let Some(d) = &out {
+            std::fs::create_dir_all(d).unwrap();
+            gibake_eval::levels::write_panel(&images, &d.join(format!("{}.png", spec.name)))
+                .unwrap();
+        }
+    }
+}
