@@ -1048,8 +1048,8 @@ pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf
         }
     }
 
-    if let (Some(ra), Some(rb)) = (&a.rsm, &b.rsm) {
-        if ra.size == rb.size && ra.metric.len() == rb.metric.len() {
+    if let (Some(ra), Some(rb)) = (&a.rsm, &b.rsm)
+        && ra.size == rb.size && ra.metric.len() == rb.metric.len() {
             let d = diffs(&ra.metric, &rb.metric);
             let flux = |c: usize| -> Vec<f32> {
                 ra.flux
@@ -1077,6 +1077,5 @@ pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf
                 written.push(write_exr(dir, "rsm.diff.exr", n, n, ch)?);
             }
         }
-    }
     Ok(written)
 }
