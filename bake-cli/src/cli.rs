@@ -211,6 +211,12 @@ pub struct RenderArgs {
     /// Write per-pass timings and counts as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub stats: Option<PathBuf>,
+    /// PNG frames: scale radiance by this before the tone curve. Default:
+    /// the first frame's automatic exposure (its 99th-percentile luminance
+    /// maps to 0.8), kept for every frame of a sequence; give a fixed value
+    /// to compare modes or runs. EXR frames are never exposed.
+    #[arg(long, value_name = "SCALE")]
+    pub exposure: Option<f32>,
     /// Supersampling: render at N× the resolution and box-filter down.
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=8))]
     pub ssaa: u32,

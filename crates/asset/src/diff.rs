@@ -1049,33 +1049,35 @@ pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf
     }
 
     if let (Some(ra), Some(rb)) = (&a.rsm, &b.rsm)
-        && ra.size == rb.size && ra.metric.len() == rb.metric.len() {
-            let d = diffs(&ra.metric, &rb.metric);
-            let flux = |c: usize| -> Vec<f32> {
-                ra.flux
-                    .iter()
-                    .zip(&rb.flux)
-                    .map(|(x, y)| abs_diff(x[c], y[c]))
-                    .collect()
-            };
-            let (r, g, bl) = (flux(0), flux(1), flux(2));
-            let v: Vec<f32> = ra
-                .vpl
+        && ra.size == rb.size
+        && ra.metric.len() == rb.metric.len()
+    {
+        let d = diffs(&ra.metric, &rb.metric);
+        let flux = |c: usize| -> Vec<f32> {
+            ra.flux
                 .iter()
-                .zip(&rb.vpl)
-                .map(|(x, y)| if x == y { 0.0 } else { 1.0 })
-                .collect();
-            if [&d, &r, &g, &bl, &v].iter().any(|c| nonzero(c)) {
-                let n = ra.size as usize;
-                let ch = vec![
-                    ("Z", Samples::F32(d)),
-                    ("flux.R", Samples::F32(r)),
-                    ("flux.G", Samples::F32(g)),
-                    ("flux.B", Samples::F32(bl)),
-                    ("vpl", Samples::F32(v)),
-                ];
-                written.push(write_exr(dir, "rsm.diff.exr", n, n, ch)?);
-            }
+                .zip(&rb.flux)
+                .map(|(x, y)| abs_diff(x[c], y[c]))
+                .collect()
+        };
+        let (r, g, bl) = (flux(0), flux(1), flux(2));
+        let v: Vec<f32> = ra
+            .vpl
+            .iter()
+            .zip(&rb.vpl)
+            .map(|(x, y)| if x == y { 0.0 } else { 1.0 })
+            .collect();
+        if [&d, &r, &g, &bl, &v].iter().any(|c| nonzero(c)) {
+            let n = ra.size as usize;
+            let ch = vec![
+                ("Z", Samples::F32(d)),
+                ("flux.R", Samples::F32(r)),
+                ("flux.G", Samples::F32(g)),
+                ("flux.B", Samples::F32(bl)),
+                ("vpl", Samples::F32(v)),
+            ];
+            written.push(write_exr(dir, "rsm.diff.exr", n, n, ch)?);
         }
+    }
     Ok(written)
 }

@@ -291,20 +291,22 @@ fn validate_manifest(
     }
     let vpls_size = m.vpl_count as u64 * VPL_RECORD_BYTES as u64;
     if let Some(f) = m.files.iter().find(|f| f.name == FILE_VPLS)
-        && f.size != vpls_size {
-            return bad(format!(
-                "`{FILE_VPLS}` is listed with {} bytes but vpl_count {} needs {vpls_size}",
-                f.size, m.vpl_count
-            ));
-        }
+        && f.size != vpls_size
+    {
+        return bad(format!(
+            "`{FILE_VPLS}` is listed with {} bytes but vpl_count {} needs {vpls_size}",
+            f.size, m.vpl_count
+        ));
+    }
     let nodes_size = vpls_size * NODES_PER_VPL as u64;
     if let Some(f) = m.files.iter().find(|f| f.name == FILE_VPL_NODES)
-        && f.size != nodes_size {
-            return bad(format!(
-                "`{FILE_VPL_NODES}` is listed with {} bytes but vpl_count {} needs {nodes_size}",
-                f.size, m.vpl_count
-            ));
-        }
+        && f.size != nodes_size
+    {
+        return bad(format!(
+            "`{FILE_VPL_NODES}` is listed with {} bytes but vpl_count {} needs {nodes_size}",
+            f.size, m.vpl_count
+        ));
+    }
     Ok(())
 }
 

@@ -36,12 +36,13 @@ impl<'a> Ctx<'a> {
                 }
                 let zfar = p.zfar.filter(|z| z.is_finite());
                 if let Some(z) = zfar
-                    && z <= p.znear {
-                        return Err(bad(&format!(
-                            "zfar {z} must be greater than znear {}",
-                            p.znear
-                        )));
-                    }
+                    && z <= p.znear
+                {
+                    return Err(bad(&format!(
+                        "zfar {z} must be greater than znear {}",
+                        p.znear
+                    )));
+                }
                 Projection::Perspective {
                     yfov: p.yfov,
                     znear: p.znear,
