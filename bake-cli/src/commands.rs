@@ -305,6 +305,9 @@ pub(crate) struct BarProgress {
 }
 
 impl gibake_bake::BakeProgress for BarProgress {
+    fn memory_limit(&self) -> Option<u64> {
+        Some(crate::limits::memory())
+    }
     fn begin(&self, stage: &str, total: u64) {
         if self.quiet {
             return;

@@ -353,6 +353,9 @@ struct BatchProgress {
 }
 
 impl BakeProgress for BatchProgress {
+    fn memory_limit(&self) -> Option<u64> {
+        Some(crate::limits::memory())
+    }
     fn begin(&self, stage: &str, total: u64) {
         if self.quiet {
             return;

@@ -627,8 +627,10 @@ pub fn load(dir: &Path) -> Result<Asset, AssetError> {
 /// Default of [`load_with_limit`]'s budget: 1 GiB of decoded map data.
 pub const DEFAULT_MAX_DECODED_BYTES: u64 = 1 << 30;
 
-/// Bytes the maps of an asset with this manifest decode to (every sample
-/// 4 bytes, the atlas counted twice: decoded, then split into layers).
+/// Bytes the maps of an asset with this manifest decode to at their peak
+/// (every sample 4 bytes; the atlas counted twice: decoded, then split into
+/// layers; the RSM 8 times a texel: its 5 decoded channels, and the 3 flux
+/// channels again while they are interleaved into RGB).
 pub fn decoded_bytes(m: &Manifest) -> u64 {
     let s = &m.settings;
     let sq = |n: u32| n as u64 * n as u64;
@@ -638,14 +640,16 @@ pub fn decoded_bytes(m: &Manifest) -> u64 {
         samples = samples.saturating_add(aw.saturating_mul(ah).saturating_mul(2));
     }
     if m.has_dynamic {
-        samples = samples.saturating_add(sq(s.rsm_size).saturating_mul(5));
+        samples = samples.saturating_add(sq(s.rsm_size).saturating_mul(8));
     }
     samples.saturating_mul(4)
 }
 
 /// Like [`load`], refusing (before reading any map) an asset whose maps
-/// decode to more than `max_decoded_bytes` ([`decoded_bytes`]): a small,
-/// highly compressed EXR cannot make the reader allocate gigabytes.
+/// decode to more than `max_decoded_bytes` ([`decoded_bytes`] plus the
+/// files' own bytes, held meanwhile, plus EXR channels the reader does not
+/// use, from the headers): a small, highly compressed EXR cannot make the
+/// reader allocate gigabytes.
 /// A read that fails because a writer swapped the asset mid-read is done
 /// again (`gibake_output::read_stable`): a reader sees the old asset or the
 /// new one.
@@ -679,6 +683,39 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
             .unwrap_or(&[])
     };
     let s = &manifest.settings;
+    // Again with what is now known, before any decoding: the files' bytes
+    // (held while the maps are decoded from them), and channels the reader
+    // does not use (a newer minor may add some), decoded too, from the EXR
+    // headers.
+    let files: u64 = contents.iter().map(|(_, b)| b.len() as u64).sum();
+    let need = need.saturating_add(files);
+    let mut extra = 0u64;
+    for (name, expected) in [
+        (
+            FILE_PRIMARY_DEPTH,
+            4 * s.shadow_map_size as u64 * s.shadow_map_size as u64,
+        ),
+        (FILE_VPL_MAPS, {
+            let (w, h) = atlas_dims(&manifest);
+            4 * w * h
+        }),
+        (FILE_RSM, 20 * s.rsm_size as u64 * s.rsm_size as u64),
+    ] {
+        let bytes = take(name);
+        if !bytes.is_empty() {
+            let declared = exrio::declared_bytes(bytes).unwrap_or(0);
+            extra = extra.saturating_add(declared.saturating_sub(expected));
+        }
+    }
+    if need.saturating_add(extra) > max_decoded_bytes {
+        return Err(AssetError::invalid(
+            dir.join(FILE_MANIFEST),
+            format!(
+                "reading the asset takes {} bytes (its files {files}, EXR channels this reader does not use {extra}, the maps the rest), over the memory limit of {max_decoded_bytes} bytes (raise it with --max-memory)",
+                need.saturating_add(extra)
+            ),
+        ));
+    }
 
     let path = dir.join(FILE_VPLS);
     let vpls = decode_vpls(take(FILE_VPLS), &path, manifest.map_count, Records::Vpls)?;

@@ -425,9 +425,21 @@ fn manifest_difference(a: &Manifest, b: &Manifest) -> Option<String> {
         return Some("baked from a different static scene (static-scene hash differs)".into());
     }
     if a.settings != b.settings {
+        let show = |s: &crate::BakeSettings| {
+            format!(
+                "RSM {}, VPL maps {}, shadow map {}, threshold {}, {}",
+                s.rsm_size,
+                s.vpl_map_size,
+                s.shadow_map_size,
+                s.threshold,
+                s.vpl_budget
+                    .map_or_else(|| "--threshold".to_string(), |n| format!("--vpls {n}"))
+            )
+        };
         return Some(format!(
-            "baked with different settings ({:?} against {:?})",
-            b.settings, a.settings
+            "baked with different settings ({} against {})",
+            show(&b.settings),
+            show(&a.settings)
         ));
     }
     if a.provenance.baker_version != b.provenance.baker_version {
