@@ -47,7 +47,7 @@ mod registry;
 pub mod signals;
 mod stale;
 
-pub use dir::DirWriter;
+pub use dir::{DirWriter, NO_EXCHANGE_ENV, Swap};
 pub use file::FileWriter;
 pub use lock::OutputLock;
 pub use names::{MAX_KEY_BYTES, lock_path};
