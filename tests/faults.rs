@@ -38,7 +38,7 @@ fn scene_with_light(dir: &Path, name: &str, light: &str) -> PathBuf {
         serde_json::from_slice(&glb[20..20 + json_len]).expect("glb json");
     json["extensions"]["KHR_lights_punctual"]["lights"][0]["name"] = light.into();
     let mut j = serde_json::to_vec(&json).unwrap();
-    while j.len() % 4 != 0 {
+    while !j.len().is_multiple_of(4) {
         j.push(b' ');
     }
     let rest = &glb[20 + json_len..];

@@ -123,10 +123,10 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
     if a.frames == 0 {
         bail!("--frames must be at least 1");
     }
-    if let Some(e) = a.exposure {
-        if !(e.is_finite() && e > 0.0) {
-            bail!("--exposure must be a positive number, got {e}");
-        }
+    if let Some(e) = a.exposure
+        && !(e.is_finite() && e > 0.0)
+    {
+        bail!("--exposure must be a positive number, got {e}");
     }
     check_render_outputs(&a)?;
     let mode = mode_of(a.mode);

@@ -265,7 +265,8 @@ fn invert4(m: &[f32; 16]) -> Option<[[f64; 4]; 4]> {
     }
     for c in 0..4 {
         let p = (c..4).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
-        if !(a[p][c].abs() > 1e-300) || !a[p][c].is_finite() {
+        let pivot = a[p][c];
+        if pivot.is_nan() || pivot.abs() <= 1e-300 || !pivot.is_finite() {
             return None;
         }
         a.swap(c, p);
@@ -273,11 +274,12 @@ fn invert4(m: &[f32; 16]) -> Option<[[f64; 4]; 4]> {
         for x in a[c].iter_mut() {
             *x /= d;
         }
-        for r in 0..4 {
+        let pivot_row = a[c];
+        for (r, row) in a.iter_mut().enumerate() {
             if r != c {
-                let f = a[r][c];
-                for k in 0..8 {
-                    a[r][k] -= f * a[c][k];
+                let f = row[c];
+                for (x, p) in row.iter_mut().zip(pivot_row) {
+                    *x -= f * p;
                 }
             }
         }
@@ -307,7 +309,7 @@ fn light_volume_diagonal(view_proj: &[f32; 16]) -> Option<f64> {
         for (r, out) in w.iter_mut().enumerate() {
             *out = (0..4).map(|c| inv[r][c] * clip[c]).sum();
         }
-        if !(w[3].abs() > 1e-300) {
+        if w[3].is_nan() || w[3].abs() <= 1e-300 {
             return None;
         }
         for k in 0..3 {
