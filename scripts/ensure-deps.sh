@@ -9,7 +9,9 @@
 # numpy, OpenEXR and blake3 for the spec reader (tools/spec_reader,
 # tests/spec_reader.rs); Debian's own pip is externally managed, hence the
 # venv. With --deny, also cargo-deny (cargo install --locked) for the
-# dependency check of .ci/run. Every step is skipped when already done.
+# dependency check of .ci/run. With --faults, also strace (fault injection
+# in tests/faults.rs; unshare comes with util-linux). Every step is skipped
+# when already done.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -17,13 +19,15 @@ want_node=0
 want_slurm=0
 want_python=0
 want_deny=0
+want_faults=0
 for arg in "$@"; do
   case "$arg" in
     --node) want_node=1 ;;
     --slurm) want_slurm=1 ;;
     --python) want_python=1 ;;
     --deny) want_deny=1 ;;
-    *) echo "ensure-deps: unknown option $arg (known: --node --slurm --python --deny)" >&2; exit 2 ;;
+    --faults) want_faults=1 ;;
+    *) echo "ensure-deps: unknown option $arg (known: --node --slurm --python --deny --faults)" >&2; exit 2 ;;
   esac
 done
 
@@ -51,6 +55,12 @@ if ! command -v c++ >/dev/null 2>&1; then
 fi
 if [ "$want_node" = 1 ] && ! { command -v node >/dev/null 2>&1 && command -v npm >/dev/null 2>&1; }; then
   pkgs+=(nodejs npm)
+fi
+if [ "$want_faults" = 1 ] && ! command -v strace >/dev/null 2>&1; then
+  pkgs+=(strace)
+fi
+if [ "$want_faults" = 1 ] && ! command -v unshare >/dev/null 2>&1; then
+  pkgs+=(util-linux)
 fi
 if [ "$want_slurm" = 1 ] && ! { command -v slurmctld >/dev/null 2>&1 && command -v slurmd >/dev/null 2>&1 && command -v sbatch >/dev/null 2>&1 && command -v munged >/dev/null 2>&1; }; then
   pkgs+=(slurm-wlm munge)

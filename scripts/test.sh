@@ -6,10 +6,11 @@
 # Slurm (slurm-wlm, munge) is installed for the one-node cluster test,
 # tests/pipeline_slurm.rs, which fails when it cannot start. A Python venv
 # (target/pyenv: numpy, OpenEXR, blake3) is made for tests/spec_reader.rs,
-# which reads a baked asset with tools/spec_reader/read_gibake.py.
+# which reads a baked asset with tools/spec_reader/read_gibake.py. strace is
+# installed for the fault injection of tests/faults.rs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/ensure-deps.sh --node --slurm --python
+bash scripts/ensure-deps.sh --node --slurm --python --faults
 echo "== glTF validator on data/*.glb"
 (cd data/validate && npm ci --silent --no-audit --no-fund && node validate.mjs ../*.glb)
 echo "== cargo test"

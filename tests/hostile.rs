@@ -317,11 +317,11 @@ fn bake_replaces_only_gibake_assets_and_only_their_files() {
     let dir = tempfile::tempdir().expect("tempdir");
     let scene = write_json(dir.path(), "s.gltf", &base_scene());
     // A user's directory with a file that merely has the manifest's name.
-    let user = dir.path().join("user");
+    let user = dir.path().join("user.gibake");
     std::fs::create_dir(&user).expect("mkdir");
     std::fs::write(user.join("manifest.bin"), b"my own data").expect("write");
     std::fs::write(user.join("thesis.tex"), b"precious").expect("write");
-    assert_bad(&bake_tiny(&scene, &user), &["user", "magic"]);
+    assert_bad(&bake_tiny(&scene, &user), &["user.gibake", "magic"]);
     assert_eq!(names(&user), ["manifest.bin", "thesis.tex"]);
     assert_eq!(
         std::fs::read(user.join("manifest.bin")).expect("read"),
@@ -341,7 +341,7 @@ fn bake_replaces_only_gibake_assets_and_only_their_files() {
     assert_bad(&bake_tiny(&scene, &scene), &["s.gltf"]);
     assert!(scene.is_file());
     // No temporary left anywhere.
-    assert_eq!(names(dir.path()), ["a.gibake", "s.gltf", "user"]);
+    assert_eq!(names(dir.path()), ["a.gibake", "s.gltf", "user.gibake"]);
 }
 
 #[test]

@@ -36,6 +36,7 @@ mod report;
 mod runtime;
 mod scaling;
 mod table1;
+mod text;
 
 use crate::cli::{BenchArgs, BenchScene, BenchWhich};
 use crate::output::write_atomic;

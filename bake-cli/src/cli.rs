@@ -257,20 +257,28 @@ pub struct BakeArgs {
     /// `gibake merge` joins the N parts into the single bake's bytes.
     #[arg(long, value_name = "K/N", value_parser = parse_shard, conflicts_with = "out_dir")]
     pub shard: Option<(u32, u32)>,
-    /// Number of VPLs to make (the result has N ± 2%). Default 256 unless --threshold is given.
-    #[arg(long, value_name = "N", conflicts_with = "threshold")]
+    /// Number of VPLs to make (the result has N ± 2%), 1 to 1048576.
+    /// Default 256 unless --threshold is given.
+    #[arg(long, value_name = "N", conflicts_with = "threshold",
+          value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
     pub vpls: Option<u32>,
-    /// Quadtree split threshold (dimensionless; smaller → more VPLs).
-    #[arg(long, value_name = "X")]
+    /// Quadtree split threshold (dimensionless, finite, ≥ 0; smaller → more
+    /// VPLs). The VPL count is known only after clustering: the memory
+    /// budget (--max-memory) is checked again then, before any map is made.
+    #[arg(long, value_name = "X", value_parser = threshold_value)]
     pub threshold: Option<f32>,
-    /// Reflective shadow map resolution.
-    #[arg(long, default_value_t = 512, value_name = "N")]
+    /// Reflective shadow map resolution, 8 to 8192.
+    #[arg(long, default_value_t = 512, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(8..=8192))]
     pub rsm_size: u32,
-    /// Hemisphere shadow map resolution per VPL.
-    #[arg(long, default_value_t = 128, value_name = "N")]
+    /// Hemisphere shadow map resolution per VPL, 4 to 2048.
+    #[arg(long, default_value_t = 128, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(4..=2048))]
     pub vpl_map_size: u32,
-    /// Primary shadow map resolution.
-    #[arg(long, default_value_t = 2048, value_name = "N")]
+    /// Primary shadow map resolution, 16 to 16384 (and at most the GPU's
+    /// largest texture).
+    #[arg(long, default_value_t = 2048, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(16..=16384))]
     pub shadow_map_size: u32,
     /// Print the summary as JSON on stdout: the decision ("baked" or
     /// "up_to_date") and why, counts, per-stage times; a batch gives one
@@ -280,6 +288,15 @@ pub struct BakeArgs {
     /// GPU adapter to use (substring of its name).
     #[arg(long)]
     pub adapter: Option<String>,
+}
+
+/// Parses `--threshold`: a finite number ≥ 0 (what it costs is bounded by
+/// the memory budget, checked once clustering has counted the VPLs).
+fn threshold_value(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(t) if t.is_finite() && t >= 0.0 => Ok(t),
+        _ => Err(format!("`{s}` is not a finite number ≥ 0")),
+    }
 }
 
 /// Parses `K/N` (0-based shard K of N).
@@ -371,6 +388,12 @@ pub struct RenderArgs {
     /// Write per-pass timings and counts as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub stats: Option<PathBuf>,
+    /// PNG frames: scale radiance by this before the tone curve. Default:
+    /// the first frame's automatic exposure (its 99th-percentile luminance
+    /// maps to 0.8), kept for every frame of a sequence; give a fixed value
+    /// to compare modes or runs. EXR frames are never exposed.
+    #[arg(long, value_name = "SCALE")]
+    pub exposure: Option<f32>,
     /// Supersampling: render at N× the resolution and box-filter down.
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=8))]
     pub ssaa: u32,

@@ -22,21 +22,6 @@ pub(crate) fn load_scene(a: &SceneArgs) -> anyhow::Result<Scene> {
     Ok(scene)
 }
 
-pub(crate) fn check_output_dir(path: &Path) -> anyhow::Result<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    if !dir.is_dir() {
-        bail!(
-            "{}: the output directory {} does not exist",
-            path.display(),
-            dir.display()
-        );
-    }
-    Ok(())
-}
-
 pub(crate) fn check_size(width: u32, height: u32) -> anyhow::Result<()> {
     for (flag, v) in [("--width", width), ("--height", height)] {
         if v == 0 || v > 16384 {
@@ -85,6 +70,14 @@ fn frame_path(path: &Path, frame: u32, frames: u32) -> PathBuf {
     path.with_file_name(format!("{stem}_{frame:04}.{ext}"))
 }
 
+/// The `--mode` value as typed on the command line.
+fn mode_name(m: ModeArg) -> String {
+    use clap::ValueEnum;
+    m.to_possible_value()
+        .map(|v| v.get_name().to_string())
+        .unwrap_or_default()
+}
+
 fn mode_of(m: ModeArg) -> gibake_runtime::Mode {
     match m {
         ModeArg::Full => gibake_runtime::Mode::Full,
@@ -124,9 +117,10 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
     if a.frames == 0 {
         bail!("--frames must be at least 1");
     }
-    check_output_dir(&a.output)?;
-    if let Some(stats) = &a.stats {
-        check_output_dir(stats)?;
+    if let Some(e) = a.exposure
+        && !(e.is_finite() && e > 0.0)
+    {
+        bail!("--exposure must be a positive number, got {e}");
     }
     check_render_outputs(&a)?;
     let mode = mode_of(a.mode);
@@ -135,7 +129,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         (None, gibake_runtime::Mode::Direct) => None,
         (None, _) => bail!(
             "--mode {} needs a baked asset: run `gibake bake {} -o OUT.gibake` and pass --bake OUT.gibake",
-            format!("{:?}", a.mode).to_lowercase(),
+            mode_name(a.mode),
             a.scene.scene.display()
         ),
     };
@@ -166,6 +160,9 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
     ctx.wait()?;
     let setup_s = t0.elapsed().as_secs_f64();
     let mut frames = Vec::new();
+    // PNG frames: one exposure for the whole sequence (--exposure, or the
+    // first frame's automatic one), so a sequence does not flicker.
+    let mut exposure = a.exposure;
     for f in 0..a.frames {
         let t = a.time + f as f32 / a.fps;
         let start = Instant::now();
@@ -181,7 +178,8 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         let frame_s = start.elapsed().as_secs_f64();
         let img = renderer.read_output(&ctx.device, &ctx.queue, a.ssaa)?;
         let out = frame_path(&a.output, f, a.frames);
-        write_image_atomic(&img, &out)?;
+        let e = *exposure.get_or_insert_with(|| img.auto_exposure());
+        write_image_atomic(&img, &out, Some(e))?;
         let gpu_ms: f64 = stats.passes.iter().map(|(_, ms)| ms).sum();
         eprintln!(
             "wrote {} (t = {t:.3} s, GPU {gpu_ms:.2} ms, wall {:.3} s)",
@@ -190,7 +188,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         );
         frames.push(serde_json::json!({
             "time": t,
-            "output": out,
+            "output": crate::guard::lossy(&out),
             "wall_seconds": frame_s,
             "timing": stats.timing,
             "passes_ms": stats.passes.iter().map(|(n, ms)| serde_json::json!({"pass": n, "ms": ms})).collect::<Vec<_>>(),
@@ -205,8 +203,9 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
     if let Some(stats) = &a.stats {
         let json = serde_json::json!({
             "adapter": ctx.record.to_string(),
-            "scene": a.scene.scene,
-            "mode": format!("{:?}", a.mode).to_lowercase(),
+            "scene": crate::guard::lossy(&a.scene.scene),
+            "mode": mode_name(a.mode),
+            "png_exposure": exposure,
             "width": a.width,
             "height": a.height,
             "ssaa": a.ssaa,
@@ -235,11 +234,13 @@ fn check_render_outputs(a: &RenderArgs) -> anyhow::Result<()> {
     for f in &frames {
         crate::output::check_extension("-o", f, &["exr", "png"])?;
         crate::output::check_not_input("-o", f, &inputs)?;
+        crate::guard::check_file_output("-o", f)?;
         outputs.push(("-o", f));
     }
     if let Some(stats) = &a.stats {
         crate::output::check_extension("--stats", stats, &["json"])?;
         crate::output::check_not_input("--stats", stats, &inputs)?;
+        crate::guard::check_file_output("--stats", stats)?;
         outputs.push(("--stats", stats));
     }
     crate::output::check_distinct(&outputs)?;
@@ -252,9 +253,9 @@ pub(crate) fn reference(a: ReferenceArgs) -> anyhow::Result<ExitCode> {
     if a.spp == 0 {
         bail!("--spp must be at least 1");
     }
-    check_output_dir(&a.output)?;
     crate::output::check_extension("-o", &a.output, &["exr", "png"])?;
     crate::output::check_not_input("-o", &a.output, &[&a.scene.scene])?;
+    crate::guard::check_file_output("-o", &a.output)?;
     let scene = load_scene(&a.scene)?;
     let settings = gibake_reference::Settings {
         width: a.width,
@@ -270,7 +271,7 @@ pub(crate) fn reference(a: ReferenceArgs) -> anyhow::Result<ExitCode> {
     };
     let start = Instant::now();
     let img = run_reference(&scene, &settings)?;
-    write_image_atomic(&img, &a.output)?;
+    write_image_atomic(&img, &a.output, None)?;
     eprintln!(
         "wrote {} ({:.2} s, {} spp)",
         a.output.display(),
@@ -298,6 +299,9 @@ pub(crate) struct BarProgress {
 }
 
 impl gibake_bake::BakeProgress for BarProgress {
+    fn memory_limit(&self) -> Option<u64> {
+        Some(crate::limits::memory())
+    }
     fn begin(&self, stage: &str, total: u64) {
         if self.quiet {
             return;

@@ -74,6 +74,7 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
     let t = Instant::now();
     let pb = crate::output::bar(a.frames as u64, "frames");
     let mut timing = String::new();
+    let mut exposure = None;
     for f in 0..a.frames {
         let time = f as f32 / 15.0;
         let camera = gibake_runtime::CameraMatrices::from_scene(&scene, time, a.width, a.height)?;
@@ -92,9 +93,11 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
             }
         }
         let img = renderer.read_output(&ctx.device, &ctx.queue, 1)?;
-        write_image_atomic(&img, &a.output.join(format!("frame_{f:03}.png")))?;
+        // One exposure for the sequence: the first frame's.
+        let e = *exposure.get_or_insert_with(|| img.auto_exposure());
+        write_image_atomic(&img, &a.output.join(format!("frame_{f:03}.png")), Some(e))?;
         if f == 0 {
-            write_image_atomic(&img, &a.output.join("frame_000.exr"))?;
+            write_image_atomic(&img, &a.output.join("frame_000.exr"), None)?;
             first = Some(img);
         }
         pb.inc(1);
@@ -132,8 +135,8 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         },
     )?;
     let ref_s = t.elapsed().as_secs_f64();
-    write_image_atomic(&reference, &a.output.join("reference_000.exr"))?;
-    write_image_atomic(&reference, &a.output.join("reference_000.png"))?;
+    write_image_atomic(&reference, &a.output.join("reference_000.exr"), None)?;
+    write_image_atomic(&reference, &a.output.join("reference_000.png"), exposure)?;
     let err = gibake_image::rel_mse(first.as_ref().expect("at least one frame"), &reference);
     crate::outln!(
         "\nframe 0 against the CPU reference (one bounce, {} spp, {ref_s:.1} s): rel MSE {err:.4}",

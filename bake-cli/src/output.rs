@@ -5,8 +5,8 @@
 //! same command (the same file, or a file inside an input asset directory);
 //! `-o` of an image is `.exr` or `.png`, `--stats` is `.json`; the outputs of
 //! one command are distinct; every write goes to a uniquely named temporary
-//! sibling (`tempfile`, unique per process and call) that is renamed into
-//! place, and removed on every failure path.
+//! sibling (`gibake_output::FileWriter`: exclusive, under the output's
+//! lock) that is renamed into place, and removed on every failure path.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -134,58 +134,41 @@ fn file_key(p: &Path) -> FileKey {
     FileKey::Path(normalised(p))
 }
 
-/// A uniquely named, empty temporary file next to `path` (removed when
-/// dropped unless persisted). Short names, so a valid `path` whose name is
-/// near the 255-byte limit still works.
-fn temp_sibling(path: &Path, ext: &str) -> anyhow::Result<tempfile::NamedTempFile> {
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    tempfile::Builder::new()
-        .prefix(".gibake-")
-        .suffix(&format!(".tmp.{ext}"))
-        .tempfile_in(dir)
-        .with_context(|| format!("{}: cannot create a temporary file", path.display()))
-}
-
-/// Moves a finished temporary file into place; on failure the temporary
-/// file is removed (dropped).
-fn persist(tmp: tempfile::NamedTempFile, path: &Path) -> anyhow::Result<()> {
-    tmp.persist(path).map(|_| ()).map_err(|e| {
-        let err = e.error;
-        drop(e.file);
-        anyhow::Error::new(err).context(format!(
-            "{}: cannot move the finished file into place",
-            path.display()
-        ))
-    })
+/// Opens the writer of the output file `path`: its lock (saying so when
+/// another gibake process holds it) and an exclusive temporary sibling.
+fn writer(path: &Path) -> anyhow::Result<gibake_output::FileWriter> {
+    Ok(gibake_output::FileWriter::create(
+        path,
+        &mut crate::guard::say_waiting(path),
+    )?)
 }
 
 /// Writes `img` (EXR or PNG by extension; anything else is refused) through
 /// a temporary file in the same directory and a rename, so a failure never
-/// leaves a half-written file that looks valid, nor a temporary file.
-pub fn write_image_atomic(img: &Image, path: &Path) -> anyhow::Result<()> {
+/// leaves a half-written file that looks valid, nor a temporary file. PNG
+/// previews use `exposure` (`None`: the image's own automatic exposure).
+pub fn write_image_atomic(img: &Image, path: &Path, exposure: Option<f32>) -> anyhow::Result<()> {
     check_extension("-o", path, &["exr", "png"])?;
     let ext = extension(path).unwrap_or_default();
-    let tmp = temp_sibling(path, &ext)?;
+    let out = writer(path)?;
     let r = if ext == "png" {
-        img.write_png(tmp.path(), None)
+        img.write_png(out.path(), exposure)
     } else {
-        img.write_exr(tmp.path())
+        img.write_exr(out.path())
     };
     r.with_context(|| format!("writing {}", path.display()))?;
-    persist(tmp, path)
+    out.commit()?;
+    Ok(())
 }
 
 /// Writes bytes through a temporary sibling and a rename.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let ext = extension(path).unwrap_or_else(|| "out".into());
-    let mut tmp = temp_sibling(path, &ext)?;
-    tmp.write_all(bytes)
-        .and_then(|()| tmp.as_file().sync_all())
+    let mut out = writer(path)?;
+    out.file()
+        .write_all(bytes)
         .with_context(|| format!("{}: cannot write", path.display()))?;
-    persist(tmp, path)
+    out.commit()?;
+    Ok(())
 }
 
 /// Prints `text` and a newline on stdout. A reader that closed the pipe

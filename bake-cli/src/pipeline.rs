@@ -22,7 +22,8 @@ use indicatif::{MultiProgress, ProgressBar};
 use serde_json::json;
 
 use crate::cli::{BakeArgs, MergeArgs, SceneArgs};
-use crate::commands::{BarProgress, check_output_dir, load_scene};
+use crate::commands::{BarProgress, load_scene};
+use crate::guard::lossy;
 use crate::output::bar;
 
 /// Environment variable that overrides the baker version recorded in (and
@@ -69,8 +70,15 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
             a.scenes.len()
         );
     };
-    check_output_dir(&output)?;
+    if a.shard.is_some() {
+        crate::guard::check_part_output(&output)?;
+    } else {
+        crate::guard::check_asset_output("-o", &output)?;
+    }
     crate::output::check_not_input("-o", &output, &[scene_path])?;
+    // One writer per output from here on: a second bake of the same output
+    // waits, then finds it up to date.
+    let _lock = crate::guard::lock_output(&output)?;
     let opts = options(&a);
     let total = Instant::now();
     let scene = load_scene(&SceneArgs {
@@ -158,7 +166,7 @@ impl Outcome {
 
     fn json(&self, asset: &Path) -> serde_json::Value {
         let mut j = json!({
-            "asset": asset,
+            "asset": lossy(asset),
             "decision": self.decision(),
             "reasons": self.reasons.clone().unwrap_or_default(),
             "check_seconds": self.check_s,
@@ -321,7 +329,7 @@ fn shard(
     let stored = o.part.maps.iter().filter(|m| m.is_some()).count();
     if a.json {
         let j = json!({
-            "part": output,
+            "part": lossy(output),
             "shard": shard.index,
             "shards": shard.count,
             "vpls": vpls,
@@ -356,6 +364,9 @@ struct BatchProgress {
 }
 
 impl BakeProgress for BatchProgress {
+    fn memory_limit(&self) -> Option<u64> {
+        Some(crate::limits::memory())
+    }
     fn begin(&self, stage: &str, total: u64) {
         if self.quiet {
             return;
@@ -409,6 +420,9 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
     }
     std::fs::create_dir_all(dir)
         .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
+    for (_, out) in &outs {
+        crate::guard::check_asset_output("--out-dir", out)?;
+    }
     let opts = options(a);
     let total = Instant::now();
     let ctx = GpuContext::new(&GpuOptions {
@@ -437,15 +451,16 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
                 limits: a.limits.clone(),
             })?;
             let load_s = t.elapsed().as_secs_f64();
+            let _lock = crate::guard::lock_output(out)?;
             bake_one(&ctx, &scene, out, &opts, a.force, &progress, load_s)
         })();
         progress.end();
         let seconds = t.elapsed().as_secs_f64();
         let mut j = match &r {
             Ok(o) => o.json(out),
-            Err(e) => json!({"asset": out, "decision": "failed", "error": format!("{e:#}")}),
+            Err(e) => json!({"asset": lossy(out), "decision": "failed", "error": format!("{e:#}")}),
         };
-        j["scene"] = json!(scene_path);
+        j["scene"] = json!(lossy(scene_path));
         j["seconds"] = json!(seconds);
         if !a.json {
             let line = match &r {
@@ -475,7 +490,7 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
     let total_s = total.elapsed().as_secs_f64();
     if a.json {
         let j = json!({
-            "out_dir": dir,
+            "out_dir": lossy(dir),
             "adapter": ctx.record.to_string(),
             "scenes": results,
             "baked": baked,
@@ -507,7 +522,10 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
 
 /// `gibake merge PART... -o OUT.gibake`.
 pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
-    check_output_dir(&a.output)?;
+    crate::guard::check_asset_output("-o", &a.output)?;
+    let inputs: Vec<&Path> = a.parts.iter().map(PathBuf::as_path).collect();
+    crate::output::check_not_input("-o", &a.output, &inputs)?;
+    let _lock = crate::guard::lock_output(&a.output)?;
     let t = Instant::now();
     // One part's front data in memory at a time (plus every shard's maps).
     let mut merger = gibake_asset::Merger::default();
@@ -520,8 +538,8 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
     let m = &asset.manifest;
     if a.json {
         let j = json!({
-            "asset": a.output,
-            "parts": a.parts,
+            "asset": lossy(&a.output),
+            "parts": a.parts.iter().map(|p| lossy(p)).collect::<Vec<_>>(),
             "vpls": asset.vpls.len(),
             "maps_stored": asset.stored_map_count(),
             "seconds": seconds,

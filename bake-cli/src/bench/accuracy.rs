@@ -84,7 +84,14 @@ pub(super) fn bench_accuracy(b: &mut Bench, seeds: u64) -> anyhow::Result<()> {
     b.emit(&t);
     b.write_json(
         "accuracy",
-        &json!({ "settings": format!("{s:?}"), "scenes": rows }),
+        &json!({
+            "settings": {
+                "size": s.size, "spp": s.spp, "vpls": s.vpls, "rsm_size": s.rsm_size,
+                "vpl_map_size": s.vpl_map_size, "time": s.time, "blur": s.blur,
+                "ssaa": s.ssaa, "max_dynamic_vpls": s.max_dynamic_vpls,
+            },
+            "scenes": rows,
+        }),
     )?;
     Ok(())
 }

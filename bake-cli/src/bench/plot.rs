@@ -1,31 +1,22 @@
 //! The plots of `gibake bench`, drawn with `plotters` (its bitmap backend,
 //! into memory) and written as PNG by `gibake_image::write_rgb8_png`, so the
 //! workspace holds one PNG encoder. Text is drawn with the DejaVu Sans font embedded in the
-//! binary (`bake-cli/assets/`, its licence beside it) through plotters'
-//! `ab_glyph` feature, so no system font or fontconfig is needed.
+//! binary (`bake-cli/assets/`, its licence beside it) by [`super::text`]
+//! (skrifa and ab_glyph_rasterizer, not plotters' font features, whose
+//! `ttf-parser` is unmaintained), so no system font or fontconfig is needed.
 
 use std::path::Path;
-use std::sync::Once;
 
 use anyhow::anyhow;
 use plotters::prelude::*;
 
-const FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
+use super::text::TextBitmap;
+
+/// The font family the plots ask for (one font is embedded: see [`super::text`]).
 const FAMILY: &str = "sans-serif";
 /// Plot size in pixels.
 const W: u32 = 900;
 const H: u32 = 600;
-
-/// Registers the embedded font once (plotters' font registry is global).
-fn register_font() -> anyhow::Result<()> {
-    static ONCE: Once = Once::new();
-    let mut result = Ok(());
-    ONCE.call_once(|| {
-        result = plotters::style::register_font(FAMILY, FontStyle::Normal, FONT)
-            .map_err(|_| anyhow!("the embedded plot font does not load"));
-    });
-    result
-}
 
 const COLOURS: [RGBColor; 8] = [
     RGBColor(31, 119, 180),
@@ -90,7 +81,6 @@ pub(super) fn error_vs_time(
     y_desc: &str,
     points: &[Point],
 ) -> anyhow::Result<()> {
-    register_font()?;
     let good: Vec<&Point> = points
         .iter()
         .filter(|p| p.ms > 0.0 && p.err > 0.0 && p.ms.is_finite() && p.err.is_finite())
@@ -98,7 +88,7 @@ pub(super) fn error_vs_time(
     let (x0, x1) = log_range(good.iter().map(|p| p.ms));
     let (y0, y1) = log_range(good.iter().map(|p| p.err));
     let mut rgb = vec![0u8; (W * H * 3) as usize];
-    let root = BitMapBackend::with_buffer(&mut rgb, (W, H)).into_drawing_area();
+    let root = TextBitmap(BitMapBackend::with_buffer(&mut rgb, (W, H))).into_drawing_area();
     let e = |e: &dyn std::fmt::Display| anyhow!("plot {}: {e}", path.display());
     root.fill(&WHITE).map_err(|x| e(&x))?;
     let mut chart = log_log_chart(
@@ -171,11 +161,10 @@ pub(super) fn scaling(
     x_desc: &str,
     curves: &[Curve],
 ) -> anyhow::Result<()> {
-    register_font()?;
     let (x0, x1) = log_range(curves.iter().flat_map(|c| c.points.iter().map(|p| p.0)));
     let (y0, y1) = log_range(curves.iter().flat_map(|c| c.points.iter().map(|p| p.1)));
     let mut rgb = vec![0u8; (W * H * 3) as usize];
-    let root = BitMapBackend::with_buffer(&mut rgb, (W, H)).into_drawing_area();
+    let root = TextBitmap(BitMapBackend::with_buffer(&mut rgb, (W, H))).into_drawing_area();
     let e = |e: &dyn std::fmt::Display| anyhow!("plot {}: {e}", path.display());
     root.fill(&WHITE).map_err(|x| e(&x))?;
     let mut chart = log_log_chart(
@@ -227,13 +216,13 @@ pub(super) fn scaling(
 
 /// Log-log axes drawn into an in-memory bitmap.
 type LogLogChart<'a, 'b> =
-    ChartContext<'a, BitMapBackend<'b>, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
+    ChartContext<'a, TextBitmap<'b>, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
 /// A plotters drawing error of the bitmap backend.
-type PlotError<'b> = DrawingAreaErrorKind<<BitMapBackend<'b> as DrawingBackend>::ErrorType>;
+type PlotError<'b> = DrawingAreaErrorKind<<TextBitmap<'b> as DrawingBackend>::ErrorType>;
 
 /// Log-log axes with the caption, labels and mesh every plot uses.
 fn log_log_chart<'a, 'b>(
-    root: &'a DrawingArea<BitMapBackend<'b>, plotters::coord::Shift>,
+    root: &'a DrawingArea<TextBitmap<'b>, plotters::coord::Shift>,
     title: &str,
     (x0, x1): (f64, f64),
     (y0, y1): (f64, f64),

@@ -149,7 +149,8 @@ pub struct VplDiff {
 /// Comparison of one map (or one RSM channel, or all hemisphere maps).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MapDiff {
-    /// `primary_depth`, `vpl_maps`, `rsm.D`, `rsm.flux.R`, … `rsm.vpl`.
+    /// `primary_depth`, `vpl_maps`, `rsm.D`, `rsm.flux.R`, `rsm.flux.G`,
+    /// `rsm.flux.B` (the RSM's VPL-index channel is not compared as numbers).
     pub name: String,
     /// Whether both exist with the same dimensions (else see `note`).
     pub comparable: bool,
@@ -227,7 +228,16 @@ fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
-fn scene_diagonal(a: &[VplRecord], b: &[VplRecord]) -> f64 {
+/// The scene's diagonal, the yardstick of VPL positions: the diagonal of
+/// the volume the light view of A covers (its clip volume mapped back to
+/// world space; the light view is fitted to the scene's bounds, whatever the
+/// bake's settings), so two bakes of one scene get the same yardstick.
+/// Falls back to the bounding box of both assets' VPLs when the light view
+/// cannot be inverted.
+fn scene_diagonal(view: &crate::LightViewRecord, a: &[VplRecord], b: &[VplRecord]) -> f64 {
+    if let Some(d) = light_volume_diagonal(&view.view_proj) {
+        return d;
+    }
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for v in a.iter().chain(b) {
         for k in 0..3 {
@@ -240,6 +250,76 @@ fn scene_diagonal(a: &[VplRecord], b: &[VplRecord]) -> f64 {
     }
     let d = dist(lo, hi);
     if d.is_finite() && d > 0.0 { d } else { 1.0 }
+}
+
+/// Inverse of a 4×4 column-major matrix (Gauss–Jordan with partial
+/// pivoting, f64), `None` when singular or not finite.
+fn invert4(m: &[f32; 16]) -> Option<[[f64; 4]; 4]> {
+    // a[row][col]
+    let mut a = [[0f64; 8]; 4];
+    for (r, row) in a.iter_mut().enumerate() {
+        for c in 0..4 {
+            row[c] = m[c * 4 + r] as f64;
+        }
+        row[4 + r] = 1.0;
+    }
+    for c in 0..4 {
+        let p = (c..4).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
+        let pivot = a[p][c];
+        if pivot.is_nan() || pivot.abs() <= 1e-300 || !pivot.is_finite() {
+            return None;
+        }
+        a.swap(c, p);
+        let d = a[c][c];
+        for x in a[c].iter_mut() {
+            *x /= d;
+        }
+        let pivot_row = a[c];
+        for (r, row) in a.iter_mut().enumerate() {
+            if r != c {
+                let f = row[c];
+                for (x, p) in row.iter_mut().zip(pivot_row) {
+                    *x -= f * p;
+                }
+            }
+        }
+    }
+    let mut inv = [[0f64; 4]; 4];
+    for r in 0..4 {
+        for c in 0..4 {
+            inv[r][c] = a[r][4 + c];
+        }
+    }
+    Some(inv)
+}
+
+/// Diagonal of the bounding box of the light view's clip volume (x, y in
+/// [−1, 1], depth in [0, 1]) in world space.
+fn light_volume_diagonal(view_proj: &[f32; 16]) -> Option<f64> {
+    let inv = invert4(view_proj)?;
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for corner in 0..8 {
+        let clip = [
+            if corner & 1 == 0 { -1.0 } else { 1.0 },
+            if corner & 2 == 0 { -1.0 } else { 1.0 },
+            if corner & 4 == 0 { 0.0 } else { 1.0 },
+            1.0,
+        ];
+        let mut w = [0f64; 4];
+        for (r, out) in w.iter_mut().enumerate() {
+            *out = (0..4).map(|c| inv[r][c] * clip[c]).sum();
+        }
+        if w[3].is_nan() || w[3].abs() <= 1e-300 {
+            return None;
+        }
+        for k in 0..3 {
+            let p = w[k] / w[3];
+            lo[k] = lo[k].min(p);
+            hi[k] = hi[k].max(p);
+        }
+    }
+    let d = dist(lo, hi);
+    (d.is_finite() && d > 0.0).then_some(d)
 }
 
 /// Nearest point of `to` (restricted to `live`) within `radius` of `p`,
@@ -294,8 +374,8 @@ impl Grid {
     }
 }
 
-fn match_vpls(a: &[VplRecord], b: &[VplRecord]) -> Matching {
-    let diag = scene_diagonal(a, b);
+fn match_vpls(view: &crate::LightViewRecord, a: &[VplRecord], b: &[VplRecord]) -> Matching {
+    let diag = scene_diagonal(view, a, b);
     let radius = MATCH_RADIUS * diag;
     if a.len() == b.len() && a.iter().zip(b).all(|(x, y)| dist(pos(x), pos(y)) <= radius) {
         return Matching {
@@ -492,17 +572,6 @@ impl Acc {
         }
     }
 
-    fn add_u32(&mut self, a: u32, b: u32) {
-        self.texels += 1;
-        self.finite += 1;
-        let d = (a as f64 - b as f64).abs();
-        self.sum_sq += d * d;
-        self.max_abs = self.max_abs.max(d);
-        if a != b {
-            self.over += 1;
-        }
-    }
-
     fn merge(&mut self, o: &Acc) {
         self.texels += o.texels;
         self.finite += o.finite;
@@ -538,6 +607,32 @@ impl Acc {
             within_tolerance: self.over as f64 <= tol.max_texels_over * self.texels as f64,
         }
     }
+}
+
+/// `rsm.vpl` holds VPL indices, not quantities: its numbers are not
+/// differenced. A texel agrees when both are empty, or when its VPL in A is
+/// matched (by the VPL matching) to its VPL in B; the rest are counted
+/// "over" (no maximum or RMS difference: they would mean nothing).
+fn compare_index_maps(a: &[u32], b: &[u32], m: &Matching, tol: &Tolerance) -> MapDiff {
+    let mut partner: HashMap<u32, u32> = HashMap::with_capacity(m.pairs.len());
+    for &(i, j) in &m.pairs {
+        partner.insert(i as u32, j as u32);
+    }
+    let mut acc = Acc::default();
+    for (&x, &y) in a.iter().zip(b) {
+        acc.texels += 1;
+        let same = if x == u32::MAX || y == u32::MAX {
+            x == y
+        } else {
+            partner.get(&x) == Some(&y)
+        };
+        if !same {
+            acc.over += 1;
+        }
+    }
+    let mut r = acc.report("rsm.vpl", tol);
+    r.note = "VPL indices: compared through the VPL matching, not as numbers".into();
+    r
 }
 
 fn not_comparable(name: &str, note: String) -> MapDiff {
@@ -642,11 +737,7 @@ fn compare_maps(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> Vec<MapD
                 }
                 out.push(acc.report(name, tol));
             }
-            let mut acc = Acc::default();
-            for (&x, &y) in ra.vpl.iter().zip(&rb.vpl) {
-                acc.add_u32(x, y);
-            }
-            out.push(acc.report("rsm.vpl", tol));
+            out.push(compare_index_maps(&ra.vpl, &rb.vpl, m, tol));
         }
     }
     out
@@ -654,14 +745,25 @@ fn compare_maps(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> Vec<MapD
 
 // ---------------------------------------------------------------- diff
 
-fn field<T: fmt::Debug + PartialEq>(out: &mut Vec<FieldDiff>, name: &str, a: &T, b: &T) {
+fn field<T: fmt::Display + PartialEq>(out: &mut Vec<FieldDiff>, name: &str, a: &T, b: &T) {
     if a != b {
         out.push(FieldDiff {
             field: name.into(),
-            a: format!("{a:?}"),
-            b: format!("{b:?}"),
+            a: a.to_string(),
+            b: b.to_string(),
         });
     }
+}
+
+/// A VPL budget as the command line gives it.
+fn budget(b: Option<u32>) -> String {
+    b.map_or_else(|| "none (--threshold)".into(), |n| format!("--vpls {n}"))
+}
+
+/// Numbers as a bracketed, comma-separated list.
+fn numbers(v: &[f32]) -> String {
+    let items: Vec<String> = v.iter().map(|x| x.to_string()).collect();
+    format!("[{}]", items.join(", "))
 }
 
 fn close_arrays(out: &mut Vec<FieldDiff>, name: &str, a: &[f32], b: &[f32], rel_tol: f32) {
@@ -673,8 +775,8 @@ fn close_arrays(out: &mut Vec<FieldDiff>, name: &str, a: &[f32], b: &[f32], rel_
     if !ok {
         out.push(FieldDiff {
             field: name.into(),
-            a: format!("{a:?}"),
-            b: format!("{b:?}"),
+            a: numbers(a),
+            b: numbers(b),
         });
     }
 }
@@ -714,7 +816,12 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
     if let Some(f) = settings.last_mut().filter(|f| f.field == "threshold") {
         (f.a, f.b) = (sa.threshold.to_string(), sb.threshold.to_string());
     }
-    field(&mut settings, "vpl_budget", &sa.vpl_budget, &sb.vpl_budget);
+    field(
+        &mut settings,
+        "vpl_budget",
+        &budget(sa.vpl_budget),
+        &budget(sb.vpl_budget),
+    );
     for f in &settings {
         differences.push(format!("settings: {} {} vs {}", f.field, f.a, f.b));
     }
@@ -751,7 +858,14 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
         }
     });
     if static_scene_hash.is_some() {
-        differences.push("static scene hash differs: baked from different static scenes".into());
+        // First: every other difference follows from it.
+        differences.insert(
+            0,
+            format!(
+                "different scenes: A was baked from `{}`, B from `{}`, and their static parts differ (static-scene hash); what follows compares two different scenes",
+                pa.scene_name, pb.scene_name
+            ),
+        );
     }
 
     let mut light_view = Vec::new();
@@ -801,7 +915,7 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
         differences.push(format!("light view: {} differs", f.field));
     }
 
-    let matching = match_vpls(&a.vpls, &b.vpls);
+    let matching = match_vpls(&ma.light_view, &a.vpls, &b.vpls);
     let vpls = compare_vpls(&a.vpls, &b.vpls, &matching, tol);
     if vpls.unmatched_a > 0 || vpls.unmatched_b > 0 {
         differences.push(format!(
@@ -850,7 +964,16 @@ impl fmt::Display for DiffReport {
         if self.equal() {
             writeln!(f, "EQUAL within tolerance")?;
         } else {
-            writeln!(f, "DIFFERENT: {} difference(s)", self.differences.len())?;
+            let scenes = if self.static_scene_hash.is_some() {
+                " (DIFFERENT SCENES)"
+            } else {
+                ""
+            };
+            writeln!(
+                f,
+                "DIFFERENT{scenes}: {} difference(s)",
+                self.differences.len()
+            )?;
             for d in &self.differences {
                 writeln!(f, "  - {d}")?;
             }
@@ -1032,7 +1155,7 @@ pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf
 
     let size = a.manifest.settings.vpl_map_size;
     if size == b.manifest.settings.vpl_map_size {
-        let matching = match_vpls(&a.vpls, &b.vpls);
+        let matching = match_vpls(&a.manifest.light_view, &a.vpls, &b.vpls);
         let texels = size as usize * size as usize;
         let inf = vec![f32::INFINITY; texels];
         let mut layers = Vec::new();
@@ -1048,34 +1171,35 @@ pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf
         }
     }
 
-    if let (Some(ra), Some(rb)) = (&a.rsm, &b.rsm) {
-        if ra.size == rb.size && ra.metric.len() == rb.metric.len() {
-            let d = diffs(&ra.metric, &rb.metric);
-            let flux = |c: usize| -> Vec<f32> {
-                ra.flux
-                    .iter()
-                    .zip(&rb.flux)
-                    .map(|(x, y)| abs_diff(x[c], y[c]))
-                    .collect()
-            };
-            let (r, g, bl) = (flux(0), flux(1), flux(2));
-            let v: Vec<f32> = ra
-                .vpl
+    if let (Some(ra), Some(rb)) = (&a.rsm, &b.rsm)
+        && ra.size == rb.size
+        && ra.metric.len() == rb.metric.len()
+    {
+        let d = diffs(&ra.metric, &rb.metric);
+        let flux = |c: usize| -> Vec<f32> {
+            ra.flux
                 .iter()
-                .zip(&rb.vpl)
-                .map(|(x, y)| if x == y { 0.0 } else { 1.0 })
-                .collect();
-            if [&d, &r, &g, &bl, &v].iter().any(|c| nonzero(c)) {
-                let n = ra.size as usize;
-                let ch = vec![
-                    ("Z", Samples::F32(d)),
-                    ("flux.R", Samples::F32(r)),
-                    ("flux.G", Samples::F32(g)),
-                    ("flux.B", Samples::F32(bl)),
-                    ("vpl", Samples::F32(v)),
-                ];
-                written.push(write_exr(dir, "rsm.diff.exr", n, n, ch)?);
-            }
+                .zip(&rb.flux)
+                .map(|(x, y)| abs_diff(x[c], y[c]))
+                .collect()
+        };
+        let (r, g, bl) = (flux(0), flux(1), flux(2));
+        let v: Vec<f32> = ra
+            .vpl
+            .iter()
+            .zip(&rb.vpl)
+            .map(|(x, y)| if x == y { 0.0 } else { 1.0 })
+            .collect();
+        if [&d, &r, &g, &bl, &v].iter().any(|c| nonzero(c)) {
+            let n = ra.size as usize;
+            let ch = vec![
+                ("Z", Samples::F32(d)),
+                ("flux.R", Samples::F32(r)),
+                ("flux.G", Samples::F32(g)),
+                ("flux.B", Samples::F32(bl)),
+                ("vpl", Samples::F32(v)),
+            ];
+            written.push(write_exr(dir, "rsm.diff.exr", n, n, ch)?);
         }
     }
     Ok(written)

@@ -50,6 +50,9 @@ pub enum AssetError {
         /// Static scene hash of the scene (hex, first 16 digits).
         scene_hash: String,
     },
+    /// Writing the output failed (lock, temporary, swap).
+    #[error(transparent)]
+    Output(#[from] gibake_output::OutputError),
 }
 
 impl AssetError {
@@ -74,6 +77,7 @@ impl AssetError {
             AssetError::Io { path, .. }
             | AssetError::Invalid { path, .. }
             | AssetError::NotSupported { path, .. } => Some(path),
+            AssetError::Output(e) => Some(&e.path),
             AssetError::SceneMismatch { .. } => None,
         }
     }

@@ -209,6 +209,26 @@ pub(crate) fn decode_any(bytes: &[u8], path: &Path) -> std::result::Result<(), A
     depth.and(rsm).map(|_| ())
 }
 
+/// Bytes all channels of the EXR `bytes` decode to, from its header alone
+/// (`None`: no readable header; the decoder then reports the damage).
+pub(crate) fn declared_bytes(bytes: &[u8]) -> Option<u64> {
+    let meta = std::panic::catch_unwind(|| MetaData::read_from_buffered(Cursor::new(bytes), false))
+        .ok()?
+        .ok()?;
+    let mut total = 0u64;
+    for h in &meta.headers {
+        let texels = h.layer_size.width() as u64 * h.layer_size.height() as u64;
+        for c in &h.channels.list {
+            let per = match c.sample_type {
+                SampleType::F16 => 2,
+                SampleType::F32 | SampleType::U32 => 4,
+            };
+            total = total.saturating_add(texels.saturating_mul(per));
+        }
+    }
+    Some(total)
+}
+
 impl Samples {
     pub(crate) fn into_f32(self) -> Vec<f32> {
         match self {

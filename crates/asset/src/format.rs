@@ -4,7 +4,7 @@
 
 use std::fs;
 use std::io::{Read, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use crate::exrio::{self, Kind, Samples};
 use crate::{
@@ -290,29 +290,37 @@ fn validate_manifest(
         }
     }
     let vpls_size = m.vpl_count as u64 * VPL_RECORD_BYTES as u64;
-    if let Some(f) = m.files.iter().find(|f| f.name == FILE_VPLS) {
-        if f.size != vpls_size {
-            return bad(format!(
-                "`{FILE_VPLS}` is listed with {} bytes but vpl_count {} needs {vpls_size}",
-                f.size, m.vpl_count
-            ));
-        }
+    if let Some(f) = m.files.iter().find(|f| f.name == FILE_VPLS)
+        && f.size != vpls_size
+    {
+        return bad(format!(
+            "`{FILE_VPLS}` is listed with {} bytes but vpl_count {} needs {vpls_size}",
+            f.size, m.vpl_count
+        ));
     }
     let nodes_size = vpls_size * NODES_PER_VPL as u64;
-    if let Some(f) = m.files.iter().find(|f| f.name == FILE_VPL_NODES) {
-        if f.size != nodes_size {
-            return bad(format!(
-                "`{FILE_VPL_NODES}` is listed with {} bytes but vpl_count {} needs {nodes_size}",
-                f.size, m.vpl_count
-            ));
-        }
+    if let Some(f) = m.files.iter().find(|f| f.name == FILE_VPL_NODES)
+        && f.size != nodes_size
+    {
+        return bad(format!(
+            "`{FILE_VPL_NODES}` is listed with {} bytes but vpl_count {} needs {nodes_size}",
+            f.size, m.vpl_count
+        ));
     }
     Ok(())
 }
 
+/// The checks of a manifest's values that do not need its file list
+/// (settings, light view, counts): what a shard part's front manifest must
+/// pass so that its merge can be written.
+pub(crate) fn validate_settings(m: &Manifest, path: &Path) -> Result<(), AssetError> {
+    validate_manifest(m, FORMAT_MINOR, path, false)
+}
+
 fn load_manifest_inner(dir: &Path) -> Result<(Manifest, u16), AssetError> {
     let path = dir.join(FILE_MANIFEST);
-    let bytes = read_capped(&path, (HEADER_BYTES + TRAILER_BYTES) as u64 + MAX_PAYLOAD)?;
+    let bytes = read_capped(&path, (HEADER_BYTES + TRAILER_BYTES) as u64 + MAX_PAYLOAD)
+        .map_err(|e| crate::what::explain(dir, e))?;
     let (m, minor) = decode_manifest(&bytes, &path)?;
     validate_manifest(&m, minor, &path, true)?;
     Ok((m, minor))
@@ -329,11 +337,13 @@ pub fn load_manifest(dir: &Path) -> Result<Manifest, AssetError> {
 /// without decoding the maps: what an up-to-date check needs to trust an
 /// existing asset, at the cost of hashing its bytes once.
 pub fn verify_files(dir: &Path) -> Result<Manifest, AssetError> {
-    let (m, _) = load_manifest_inner(dir)?;
-    for entry in &m.files {
-        read_verified(dir, entry)?;
-    }
-    Ok(m)
+    gibake_output::read_stable(dir, || {
+        let (m, _) = load_manifest_inner(dir)?;
+        for entry in &m.files {
+            read_verified(dir, entry)?;
+        }
+        Ok(m)
+    })
 }
 
 /// Compares the asset's static scene hash with `hash` (the static scene hash
@@ -418,7 +428,64 @@ fn read_verified(dir: &Path, entry: &FileEntry) -> Result<Vec<u8>, AssetError> {
     Ok(buf)
 }
 
-fn decode_vpls(bytes: &[u8], path: &Path, map_count: u32) -> Result<Vec<VplRecord>, AssetError> {
+/// What a record array holds: the VPLs of `vpls.bin`, or the near-field
+/// nodes of `vpl_nodes.bin` (named by VPL and node in messages).
+#[derive(Clone, Copy)]
+enum Records {
+    Vpls,
+    Nodes,
+}
+
+impl Records {
+    fn name(self, i: usize) -> String {
+        match self {
+            Records::Vpls => format!("VPL {i}"),
+            Records::Nodes => format!(
+                "near-field node {} of VPL {} (record {i})",
+                i % NODES_PER_VPL,
+                i / NODES_PER_VPL
+            ),
+        }
+    }
+}
+
+/// The spec's tile rule: the VPLs that store a map hold the tiles
+/// `0, 1, …, map_count − 1` in record order, each tile exactly one VPL.
+fn check_tiles(vpls: &[VplRecord], map_count: u32) -> Result<(), String> {
+    let mut next = 0u32;
+    for (i, v) in vpls.iter().enumerate() {
+        if v.map == NO_MAP {
+            continue;
+        }
+        if v.map != next {
+            let first = vpls[..i].iter().position(|w| w.map == v.map);
+            return Err(match first {
+                Some(j) => format!(
+                    "VPL {i} uses hemisphere map tile {} that VPL {j} already uses (each tile belongs to exactly one VPL)",
+                    v.map
+                ),
+                None => format!(
+                    "VPL {i} uses hemisphere map tile {}, but the VPLs with maps must use tiles 0, 1, 2, … in record order (expected {next})",
+                    v.map
+                ),
+            });
+        }
+        next += 1;
+    }
+    if next != map_count {
+        return Err(format!(
+            "{next} VPLs use a hemisphere map but map_count is {map_count}"
+        ));
+    }
+    Ok(())
+}
+
+fn decode_vpls(
+    bytes: &[u8],
+    path: &Path,
+    map_count: u32,
+    what: Records,
+) -> Result<Vec<VplRecord>, AssetError> {
     let mut out = Vec::with_capacity(bytes.len() / VPL_RECORD_BYTES);
     for (i, chunk) in bytes.chunks_exact(VPL_RECORD_BYTES).enumerate() {
         let mut w = [0u32; 12];
@@ -439,28 +506,39 @@ fn decode_vpls(bytes: &[u8], path: &Path, map_count: u32) -> Result<Vec<VplRecor
             flux: [f(8), f(9), f(10)],
             map: w[11],
         };
-        check_vpl(&rec, i, map_count).map_err(|m| AssetError::invalid(path, m))?;
+        check_vpl(&rec, &what.name(i), map_count).map_err(|m| AssetError::invalid(path, m))?;
         out.push(rec);
     }
     Ok(out)
 }
 
-fn check_vpl(rec: &VplRecord, i: usize, map_count: u32) -> Result<(), String> {
-    let floats = rec
-        .position
-        .iter()
-        .chain(&rec.normal)
-        .chain(&rec.flux)
-        .chain([&rec.area]);
-    if !floats.clone().all(|x| x.is_finite()) {
-        return Err(format!("VPL {i} holds a value that is not finite: {rec:?}"));
+fn check_vpl(rec: &VplRecord, name: &str, map_count: u32) -> Result<(), String> {
+    let fields = [
+        ("position.x", rec.position[0]),
+        ("position.y", rec.position[1]),
+        ("position.z", rec.position[2]),
+        ("area", rec.area),
+        ("normal.x", rec.normal[0]),
+        ("normal.y", rec.normal[1]),
+        ("normal.z", rec.normal[2]),
+        ("flux.r", rec.flux[0]),
+        ("flux.g", rec.flux[1]),
+        ("flux.b", rec.flux[2]),
+    ];
+    if let Some((f, v)) = fields.iter().find(|(_, v)| !v.is_finite()) {
+        return Err(format!("{name}: {f} is {v} (not finite)"));
     }
-    if rec.area < 0.0 || rec.flux.iter().any(|&x| x < 0.0) {
-        return Err(format!("VPL {i} has a negative area or flux: {rec:?}"));
+    if let Some((f, v)) = fields
+        .iter()
+        .find(|(f, v)| (*f == "area" || f.starts_with("flux")) && *v < 0.0)
+    {
+        return Err(format!(
+            "{name}: {f} is {v}; areas and fluxes are never negative"
+        ));
     }
     if rec.map != NO_MAP && rec.map >= map_count {
         return Err(format!(
-            "VPL {i} refers to hemisphere map {} but only {map_count} are stored",
+            "{name} refers to hemisphere map {} but only {map_count} are stored",
             rec.map
         ));
     }
@@ -549,8 +627,10 @@ pub fn load(dir: &Path) -> Result<Asset, AssetError> {
 /// Default of [`load_with_limit`]'s budget: 1 GiB of decoded map data.
 pub const DEFAULT_MAX_DECODED_BYTES: u64 = 1 << 30;
 
-/// Bytes the maps of an asset with this manifest decode to (every sample
-/// 4 bytes, the atlas counted twice: decoded, then split into layers).
+/// Bytes the maps of an asset with this manifest decode to at their peak
+/// (every sample 4 bytes; the atlas counted twice: decoded, then split into
+/// layers; the RSM 8 times a texel: its 5 decoded channels, and the 3 flux
+/// channels again while they are interleaved into RGB).
 pub fn decoded_bytes(m: &Manifest) -> u64 {
     let s = &m.settings;
     let sq = |n: u32| n as u64 * n as u64;
@@ -560,15 +640,24 @@ pub fn decoded_bytes(m: &Manifest) -> u64 {
         samples = samples.saturating_add(aw.saturating_mul(ah).saturating_mul(2));
     }
     if m.has_dynamic {
-        samples = samples.saturating_add(sq(s.rsm_size).saturating_mul(5));
+        samples = samples.saturating_add(sq(s.rsm_size).saturating_mul(8));
     }
     samples.saturating_mul(4)
 }
 
 /// Like [`load`], refusing (before reading any map) an asset whose maps
-/// decode to more than `max_decoded_bytes` ([`decoded_bytes`]): a small,
-/// highly compressed EXR cannot make the reader allocate gigabytes.
+/// decode to more than `max_decoded_bytes` ([`decoded_bytes`] plus the
+/// files' own bytes, held meanwhile, plus EXR channels the reader does not
+/// use, from the headers): a small, highly compressed EXR cannot make the
+/// reader allocate gigabytes.
+/// A read that fails because a writer swapped the asset mid-read is done
+/// again (`gibake_output::read_stable`): a reader sees the old asset or the
+/// new one.
 pub fn load_with_limit(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
+    gibake_output::read_stable(dir, || load_once(dir, max_decoded_bytes))
+}
+
+fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
     let (manifest, _minor) = load_manifest_inner(dir)?;
     let need = decoded_bytes(&manifest);
     if need > max_decoded_bytes {
@@ -594,11 +683,45 @@ pub fn load_with_limit(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, Asse
             .unwrap_or(&[])
     };
     let s = &manifest.settings;
+    // Again with what is now known, before any decoding: the files' bytes
+    // (held while the maps are decoded from them), and channels the reader
+    // does not use (a newer minor may add some), decoded too, from the EXR
+    // headers.
+    let files: u64 = contents.iter().map(|(_, b)| b.len() as u64).sum();
+    let need = need.saturating_add(files);
+    let mut extra = 0u64;
+    for (name, expected) in [
+        (
+            FILE_PRIMARY_DEPTH,
+            4 * s.shadow_map_size as u64 * s.shadow_map_size as u64,
+        ),
+        (FILE_VPL_MAPS, {
+            let (w, h) = atlas_dims(&manifest);
+            4 * w * h
+        }),
+        (FILE_RSM, 20 * s.rsm_size as u64 * s.rsm_size as u64),
+    ] {
+        let bytes = take(name);
+        if !bytes.is_empty() {
+            let declared = exrio::declared_bytes(bytes).unwrap_or(0);
+            extra = extra.saturating_add(declared.saturating_sub(expected));
+        }
+    }
+    if need.saturating_add(extra) > max_decoded_bytes {
+        return Err(AssetError::invalid(
+            dir.join(FILE_MANIFEST),
+            format!(
+                "reading the asset takes {} bytes (its files {files}, EXR channels this reader does not use {extra}, the maps the rest), over the memory limit of {max_decoded_bytes} bytes (raise it with --max-memory)",
+                need.saturating_add(extra)
+            ),
+        ));
+    }
 
     let path = dir.join(FILE_VPLS);
-    let vpls = decode_vpls(take(FILE_VPLS), &path, manifest.map_count)?;
+    let vpls = decode_vpls(take(FILE_VPLS), &path, manifest.map_count, Records::Vpls)?;
+    check_tiles(&vpls, manifest.map_count).map_err(|m| AssetError::invalid(&path, m))?;
     let path = dir.join(FILE_VPL_NODES);
-    let vpl_nodes = decode_vpls(take(FILE_VPL_NODES), &path, 0)?;
+    let vpl_nodes = decode_vpls(take(FILE_VPL_NODES), &path, 0, Records::Nodes)?;
 
     let path = dir.join(FILE_PRIMARY_DEPTH);
     let n = s.shadow_map_size as usize;
@@ -608,7 +731,7 @@ pub fn load_with_limit(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, Asse
         .next()
         .map(Samples::into_f32)
         .unwrap_or_default();
-    no_nan(&data, &path, "channel D")?;
+    no_nan(&data, &path, "channel Z")?;
     let primary_depth = Map {
         size: s.shadow_map_size,
         data,
@@ -630,7 +753,7 @@ pub fn load_with_limit(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, Asse
             .map(Samples::into_f32)
             .unwrap_or_default();
         let layers = atlas_to_layers(&atlas, manifest.map_count, s.vpl_map_size);
-        no_nan(&layers, &path, "channel D")?;
+        no_nan(&layers, &path, "channel Z")?;
         layers
     } else {
         Vec::new()
@@ -654,7 +777,7 @@ pub fn load_with_limit(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, Asse
         let metric = next()?.into_f32();
         let (r, g, b) = (next()?.into_f32(), next()?.into_f32(), next()?.into_f32());
         let vpl = next()?.into_u32();
-        no_nan(&metric, &path, "channel D")?;
+        no_nan(&metric, &path, "channel Z")?;
         for (c, name) in [(&r, "flux.R"), (&g, "flux.G"), (&b, "flux.B")] {
             no_nan(c, &path, &format!("channel {name}"))?;
         }
@@ -764,9 +887,11 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
         return bad("vpl_maps holds NaN".into());
     }
     for (i, r) in asset.vpls.iter().enumerate() {
-        check_vpl(r, i, map_count)
+        check_vpl(r, &Records::Vpls.name(i), map_count)
             .map_err(|e| AssetError::invalid(dir, format!("cannot write: {e}")))?;
     }
+    check_tiles(&asset.vpls, map_count)
+        .map_err(|e| AssetError::invalid(dir, format!("cannot write: {e}")))?;
     if asset.vpl_nodes.len() != asset.vpls.len() * NODES_PER_VPL {
         return bad(format!(
             "vpl_nodes holds {} records but {} VPLs need {}",
@@ -776,7 +901,8 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
         ));
     }
     for (i, r) in asset.vpl_nodes.iter().enumerate() {
-        check_vpl(r, i, 0).map_err(|e| AssetError::invalid(dir, format!("cannot write: {e}")))?;
+        check_vpl(r, &Records::Nodes.name(i), 0)
+            .map_err(|e| AssetError::invalid(dir, format!("cannot write: {e}")))?;
     }
     validate_manifest(&m, FORMAT_MINOR, dir, false).map_err(|e| match e {
         AssetError::Invalid { message, .. } => {
@@ -787,24 +913,13 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
     Ok(m)
 }
 
-/// What is at the output path of [`write()`].
-#[derive(Debug, PartialEq)]
-enum Target {
-    /// Nothing.
-    Absent,
-    /// An empty directory.
-    Empty,
-    /// A gibake asset (its `manifest.bin` starts with [`MAGIC`]); `foreign`
-    /// lists the files in it that the format does not own.
-    Asset { foreign: Vec<std::ffi::OsString> },
-}
-
 /// The names of the files an asset directory's format owns: the fixed names
 /// and, if the old manifest can be decoded, every plain name it lists.
 fn owned_names(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = [
         FILE_MANIFEST,
         FILE_VPLS,
+        FILE_VPL_NODES,
         FILE_PRIMARY_DEPTH,
         FILE_VPL_MAPS,
         FILE_RSM,
@@ -837,13 +952,13 @@ fn has_magic(path: &Path) -> bool {
         && head == MAGIC
 }
 
-/// What is at `dir`: absent, an empty directory or a gibake asset (judged
-/// by the magic bytes of its `manifest.bin`); anything else is an error and
-/// is left untouched.
-fn check_target(dir: &Path) -> Result<Target, AssetError> {
+/// Whether `dir` may receive an asset: absent, an empty directory or a
+/// gibake asset (judged by the magic bytes of its `manifest.bin`); anything
+/// else is an error and is left untouched.
+fn check_target(dir: &Path) -> Result<(), AssetError> {
     let meta = match fs::symlink_metadata(dir) {
         Ok(m) => m,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Target::Absent),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
         Err(e) => return Err(AssetError::io(dir, e)),
     };
     if !meta.is_dir() {
@@ -852,12 +967,12 @@ fn check_target(dir: &Path) -> Result<Target, AssetError> {
             "exists and is not a directory; refusing to replace it with an asset",
         ));
     }
-    let entries: Vec<std::ffi::OsString> = fs::read_dir(dir)
+    let empty = fs::read_dir(dir)
         .map_err(|e| AssetError::io(dir, e))?
-        .filter_map(|e| e.ok().map(|e| e.file_name()))
-        .collect();
-    if entries.is_empty() {
-        return Ok(Target::Empty);
+        .next()
+        .is_none();
+    if empty {
+        return Ok(());
     }
     let manifest = dir.join(FILE_MANIFEST);
     if manifest.exists() && !has_magic(&manifest) {
@@ -872,22 +987,7 @@ fn check_target(dir: &Path) -> Result<Target, AssetError> {
             "exists and is not a gibake asset (no manifest.bin); refusing to replace it",
         ));
     }
-    let owned = owned_names(dir);
-    let foreign = entries
-        .into_iter()
-        .filter(|n| !n.to_str().is_some_and(|n| owned.iter().any(|o| o == n)))
-        .collect();
-    Ok(Target::Asset { foreign })
-}
-
-fn sibling(dir: &Path, suffix: &str) -> Result<PathBuf, AssetError> {
-    let name = dir
-        .file_name()
-        .ok_or_else(|| AssetError::invalid(dir, "not a valid asset directory name"))?;
-    let mut tmp = std::ffi::OsString::from(".");
-    tmp.push(name);
-    tmp.push(format!(".{suffix}-{}", std::process::id()));
-    Ok(dir.with_file_name(tmp))
+    Ok(())
 }
 
 fn write_file(path: &Path, bytes: &[u8]) -> Result<(), AssetError> {
@@ -902,11 +1002,14 @@ type Hook<'a> = &'a mut dyn FnMut(&str) -> std::io::Result<()>;
 /// Writes `asset` to the directory `dir` (conventionally `NAME.gibake`).
 ///
 /// Everything is written into a temporary sibling directory
-/// (`.NAME.gibake.tmp-<pid>`), `manifest.bin` last, then renamed into place.
-/// An existing `dir` is replaced only if it is a gibake asset (has
-/// `manifest.bin`) or empty; anything else is refused and left untouched.
-/// On failure the temporary directory is removed and no asset is left at
-/// `dir` (an asset that was there before stays as it was).
+/// (`.NAME.gibake.XXXXXX.tmp`, created exclusively), `manifest.bin` last,
+/// then swapped with the old asset in one step under the output's lock
+/// (`gibake_output::DirWriter`): at every instant `dir` is the old asset or
+/// the new one, complete. An existing `dir` is replaced only if it is a
+/// gibake asset (has `manifest.bin` with the magic bytes) or empty; anything
+/// else is refused and left untouched. Files in an old asset directory that
+/// the format does not own are kept. On failure the temporary directory is
+/// removed and the old asset (if any) stays as it was.
 ///
 /// `manifest.files`, `vpl_count`, `map_count` and `has_dynamic` are filled
 /// in from the data (the in-memory `asset` is not changed); the data must be
@@ -917,22 +1020,24 @@ pub fn write(asset: &Asset, dir: &Path) -> Result<(), AssetError> {
     write_with_hook(asset, dir, &mut |_| Ok(()))
 }
 
+/// Checks, before any work, that [`write()`] may put an asset at `dir`:
+/// absent, an empty directory or a gibake asset (anything else is an
+/// [`AssetError::Invalid`] saying what is there).
+pub fn check_output(dir: &Path) -> Result<(), AssetError> {
+    check_target(dir).map(|_| ())
+}
+
 fn write_with_hook(asset: &Asset, dir: &Path, hook: Hook<'_>) -> Result<(), AssetError> {
     let mut manifest = prepare_manifest(asset, dir)?;
     check_target(dir)?;
-    let tmp = sibling(dir, "tmp")?;
-    if fs::symlink_metadata(&tmp).is_ok() {
-        fs::remove_dir_all(&tmp).map_err(|e| AssetError::io(&tmp, e))?;
-    }
-    fs::create_dir(&tmp).map_err(|e| AssetError::io(&tmp, e))?;
-    let result = write_into(asset, &mut manifest, &tmp, hook).and_then(|()| {
-        hook("rename").map_err(|e| AssetError::io(dir, e))?;
-        replace(&tmp, dir)
-    });
-    if result.is_err() {
-        let _ = fs::remove_dir_all(&tmp);
-    }
-    result
+    let owned = owned_names(dir).into_iter().map(Into::into).collect();
+    let out = gibake_output::DirWriter::create(dir, owned, &mut |_| {})?;
+    // Under the lock: what is there now is what gets replaced.
+    check_target(dir)?;
+    write_into(asset, &mut manifest, out.path(), hook)?;
+    hook("rename").map_err(|e| AssetError::io(dir, e))?;
+    out.commit()?;
+    Ok(())
 }
 
 fn write_into(
@@ -989,64 +1094,6 @@ fn write_into(
     hook(FILE_MANIFEST).map_err(|e| AssetError::io(&path, e))?;
     let bytes = encode_manifest(manifest, &path)?;
     write_file(&path, &bytes)
-}
-
-/// Moves the finished temporary directory to `dir`, replacing an existing
-/// asset there (moved aside first, restored if the final rename fails).
-///
-/// When the old asset directory also holds files the format does not own
-/// (a user's notes, a scene), the directory itself is kept: the old
-/// `manifest.bin` is removed first (so a half-replaced directory is never
-/// taken for an asset), the new files are moved in one by one, owned files
-/// the new asset does not have are removed, and `manifest.bin` comes last.
-fn replace(tmp: &Path, dir: &Path) -> Result<(), AssetError> {
-    match check_target(dir)? {
-        Target::Absent => fs::rename(tmp, dir).map_err(|e| AssetError::io(dir, e)),
-        Target::Empty => {
-            fs::remove_dir(dir).map_err(|e| AssetError::io(dir, e))?;
-            fs::rename(tmp, dir).map_err(|e| AssetError::io(dir, e))
-        }
-        Target::Asset { foreign } if foreign.is_empty() => {
-            let old = sibling(dir, "old")?;
-            if fs::symlink_metadata(&old).is_ok() {
-                fs::remove_dir_all(&old).map_err(|e| AssetError::io(&old, e))?;
-            }
-            fs::rename(dir, &old).map_err(|e| AssetError::io(dir, e))?;
-            if let Err(e) = fs::rename(tmp, dir) {
-                let _ = fs::rename(&old, dir);
-                return Err(AssetError::io(dir, e));
-            }
-            // The new asset is in place; a leftover hidden `.old` directory is harmless.
-            let _ = fs::remove_dir_all(&old);
-            Ok(())
-        }
-        Target::Asset { .. } => replace_in_place(tmp, dir),
-    }
-}
-
-/// [`replace`] for an asset directory that also holds foreign files.
-fn replace_in_place(tmp: &Path, dir: &Path) -> Result<(), AssetError> {
-    let owned = owned_names(dir);
-    let manifest = dir.join(FILE_MANIFEST);
-    fs::remove_file(&manifest).map_err(|e| AssetError::io(&manifest, e))?;
-    let mut new_names = Vec::new();
-    for e in fs::read_dir(tmp).map_err(|e| AssetError::io(tmp, e))? {
-        let e = e.map_err(|e| AssetError::io(tmp, e))?;
-        new_names.push(e.file_name().to_string_lossy().into_owned());
-    }
-    for name in new_names.iter().filter(|n| *n != FILE_MANIFEST) {
-        let to = dir.join(name);
-        fs::rename(tmp.join(name), &to).map_err(|e| AssetError::io(&to, e))?;
-    }
-    for name in owned.iter().filter(|n| !new_names.contains(n)) {
-        let p = dir.join(name);
-        if fs::symlink_metadata(&p).is_ok_and(|m| m.is_file()) {
-            fs::remove_file(&p).map_err(|e| AssetError::io(&p, e))?;
-        }
-    }
-    fs::rename(tmp.join(FILE_MANIFEST), &manifest).map_err(|e| AssetError::io(&manifest, e))?;
-    let _ = fs::remove_dir(tmp);
-    Ok(())
 }
 
 /// Helpers for tests of this crate and its users; not part of the format.

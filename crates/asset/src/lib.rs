@@ -5,7 +5,8 @@
 //! The types below are the in-memory model shared by the baker
 //! (`gibake-bake`) and the runtime (`gibake-runtime`). The functions:
 //!
-//! - [`write()`]: atomic write (temporary sibling directory, manifest last, rename);
+//! - [`write()`]: atomic write (temporary sibling directory, manifest last,
+//!   one-step swap under the output's lock: `gibake-output`); [`check_output`];
 //! - [`load`] / [`load_manifest`]: read and verify everything (magic, version,
 //!   checksums, counts, sizes, values) without panicking on any input;
 //! - [`check_scene_hash`]: refuse an asset baked from a different static scene;
@@ -24,6 +25,7 @@ mod format;
 mod inspect;
 mod shard;
 mod tolerance;
+mod what;
 
 pub use diff::{
     DiffReport, FieldDiff, MapDiff, Tolerance, VplDiff, VplMismatch, diff, write_diff_images,
@@ -33,9 +35,9 @@ pub use error::AssetError;
 pub use format::testing;
 pub use format::{
     DEFAULT_MAX_DECODED_BYTES, FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM, FILE_VPL_MAPS,
-    FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE, VPL_RECORD_BYTES, atlas_grid, check_scene_hash,
-    check_scene_hash_for, decoded_bytes, layers_to_atlas, load, load_manifest, load_with_limit,
-    verify_files, write,
+    FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE, VPL_RECORD_BYTES, atlas_grid, check_output,
+    check_scene_hash, check_scene_hash_for, decoded_bytes, layers_to_atlas, load, load_manifest,
+    load_with_limit, verify_files, write,
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
 pub use shard::{

@@ -173,6 +173,9 @@ fn check_part(part: &ShardPart, path: &Path) -> Result<(), AssetError> {
     }
     let a = &part.front;
     let s = &a.manifest.settings;
+    // Every setting the merge's write will check, checked here, so a shard
+    // with a setting the merge refuses fails itself, before it is stored.
+    crate::format::validate_settings(&a.manifest, path)?;
     if !a.vpl_maps.is_empty() || a.vpls.iter().any(|v| v.map != NO_MAP) {
         return bad("the front part holds hemisphere maps; a part keeps them apart".into());
     }
@@ -336,7 +339,8 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
 }
 
 /// Writes `part` to the file `path` through a temporary sibling and a
-/// rename, so a failure never leaves a half-written part. An existing `path`
+/// rename (`gibake_output::FileWriter`), so a failure never leaves a
+/// half-written part. An existing `path`
 /// is replaced only when it is a part file (starts with [`PART_MAGIC`]);
 /// anything else there is refused and left untouched.
 pub fn write_part(part: &ShardPart, path: &Path) -> Result<(), AssetError> {
@@ -366,23 +370,14 @@ pub fn write_part(part: &ShardPart, path: &Path) -> Result<(), AssetError> {
         Err(e) => return Err(AssetError::io(path, e)),
     }
     let bytes = encode_part(part, path)?;
-    let name = path
-        .file_name()
-        .ok_or_else(|| AssetError::invalid(path, "not a valid file name"))?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(name);
-    tmp_name.push(format!(".tmp-{}", std::process::id()));
-    let tmp = path.with_file_name(tmp_name);
-    let result = (|| {
-        let mut f = fs::File::create(&tmp).map_err(|e| AssetError::io(&tmp, e))?;
-        f.write_all(&bytes).map_err(|e| AssetError::io(&tmp, e))?;
-        f.sync_all().map_err(|e| AssetError::io(&tmp, e))?;
-        fs::rename(&tmp, path).map_err(|e| AssetError::io(path, e))
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
-    }
-    result
+    // A temporary created exclusively (never a stale file or link of that
+    // name), under the part's lock, renamed into place.
+    let mut out = gibake_output::FileWriter::create(path, &mut |_| {})?;
+    out.file()
+        .write_all(&bytes)
+        .map_err(|e| AssetError::io(path, e))?;
+    out.commit()?;
+    Ok(())
 }
 
 /// Reads and verifies a part file (magic, version, length, checksum, and
@@ -430,9 +425,21 @@ fn manifest_difference(a: &Manifest, b: &Manifest) -> Option<String> {
         return Some("baked from a different static scene (static-scene hash differs)".into());
     }
     if a.settings != b.settings {
+        let show = |s: &crate::BakeSettings| {
+            format!(
+                "RSM {}, VPL maps {}, shadow map {}, threshold {}, {}",
+                s.rsm_size,
+                s.vpl_map_size,
+                s.shadow_map_size,
+                s.threshold,
+                s.vpl_budget
+                    .map_or_else(|| "--threshold".to_string(), |n| format!("--vpls {n}"))
+            )
+        };
         return Some(format!(
-            "baked with different settings ({:?} against {:?})",
-            b.settings, a.settings
+            "baked with different settings ({} against {})",
+            show(&b.settings),
+            show(&a.settings)
         ));
     }
     if a.provenance.baker_version != b.provenance.baker_version {

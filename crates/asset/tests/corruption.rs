@@ -80,7 +80,12 @@ fn a_missing_file_is_an_io_error_naming_it() {
         let orig = std::fs::read(&path).unwrap();
         std::fs::remove_file(&path).unwrap();
         let e = expect_err_naming(&dir, &name, "missing");
-        assert!(matches!(e, AssetError::Io { .. }), "{e:?}");
+        if name == "manifest.bin" {
+            // A directory without a manifest is said to be no asset.
+            assert!(e.to_string().contains("not a baked gibake asset"), "{e}");
+        } else {
+            assert!(matches!(e, AssetError::Io { .. }), "{e:?}");
+        }
         std::fs::write(&path, &orig).unwrap();
     }
 }
@@ -385,8 +390,73 @@ fn scene_hash_mismatch_names_asset_and_scene() {
 fn a_directory_that_is_no_asset_is_an_error() {
     let tmp = tempfile::tempdir().unwrap();
     let e = load(tmp.path()).unwrap_err();
-    assert!(matches!(e, AssetError::Io { .. }));
-    assert!(e.to_string().contains("manifest.bin"), "{e}");
+    assert!(matches!(e, AssetError::Invalid { .. }));
+    assert!(
+        e.to_string()
+            .contains("a directory without manifest.bin: not a baked gibake asset"),
+        "{e}"
+    );
     let e = load(&tmp.path().join("nope.gibake")).unwrap_err();
-    assert!(e.to_string().contains("nope.gibake"), "{e}");
+    assert!(e.to_string().contains("nope.gibake: does not exist"), "{e}");
+    // A file given as an asset: a scene, a shard part, anything else.
+    let scene = tmp.path().join("level.glb");
+    std::fs::write(&scene, b"glTF\x02\0\0\0").unwrap();
+    let e = load(&scene).unwrap_err().to_string();
+    assert!(e.contains("a scene, not a baked asset"), "{e}");
+    let part = tmp.path().join("part.0");
+    std::fs::write(&part, gibake_asset::PART_MAGIC).unwrap();
+    let e = load(&part).unwrap_err().to_string();
+    assert!(
+        e.contains("a shard part") && e.contains("gibake merge"),
+        "{e}"
+    );
+    let other = tmp.path().join("notes.txt");
+    std::fs::write(&other, b"hello").unwrap();
+    let e = load(&other).unwrap_err().to_string();
+    assert!(e.contains("a file, not a baked asset"), "{e}");
+    assert!(!e.contains("os error"), "{e}");
+}
+
+#[test]
+fn two_vpls_sharing_a_map_tile_and_bad_nodes_are_named() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = fresh(tmp.path());
+    let asset = load(&dir).unwrap();
+    let with_map: Vec<usize> = (0..asset.vpls.len())
+        .filter(|&i| asset.vpls[i].map != NO_MAP)
+        .collect();
+    assert!(with_map.len() >= 2, "the sample stores maps");
+    // VPL b points at VPL a's tile (the manifest's checksums re-sealed).
+    let (a, b) = (with_map[0], with_map[1]);
+    let good = std::fs::read(dir.join("vpls.bin")).unwrap();
+    let mut bytes = good.clone();
+    let tile = asset.vpls[a].map.to_le_bytes();
+    bytes[48 * b + 44..48 * b + 48].copy_from_slice(&tile);
+    replace_signed(&dir, "vpls.bin", &bytes);
+    let msg = load(&dir).unwrap_err().to_string();
+    assert!(
+        msg.contains("vpls.bin")
+            && msg.contains(&format!("VPL {b} uses hemisphere map tile"))
+            && msg.contains(&format!("VPL {a} already uses")),
+        "{msg}"
+    );
+    replace_signed(&dir, "vpls.bin", &good);
+    // The writer refuses the same.
+    let mut dup = asset.clone();
+    dup.vpls[b].map = dup.vpls[a].map;
+    let e = write(&dup, &tmp.path().join("dup.gibake")).unwrap_err();
+    assert!(e.to_string().contains("already uses"), "{e}");
+    // A bad near-field node is named as a node of its VPL, without Rust
+    // debug text.
+    let nodes = std::fs::read(dir.join("vpl_nodes.bin")).unwrap();
+    let mut bytes = nodes.clone();
+    let rec = NODES_PER_VPL + 5;
+    bytes[48 * rec..48 * rec + 4].copy_from_slice(&f32::INFINITY.to_bits().to_le_bytes());
+    replace_signed(&dir, "vpl_nodes.bin", &bytes);
+    let msg = load(&dir).unwrap_err().to_string();
+    assert!(
+        msg.contains("near-field node 5 of VPL 1") && msg.contains("position.x is inf"),
+        "{msg}"
+    );
+    assert!(!msg.contains("VplRecord") && !msg.contains('{'), "{msg}");
 }

@@ -104,7 +104,12 @@ fn changed_settings_and_scene_hash_are_reported() {
     assert!(r.static_scene_hash.is_some());
     let text = r.to_string();
     assert!(text.contains("threshold 0.05 vs 0.1"), "{text}");
-    assert!(text.contains("static scene hash differs"), "{text}");
+    // Different scenes lead: the first line and the first difference.
+    assert!(text.starts_with("DIFFERENT (DIFFERENT SCENES)"), "{text}");
+    assert!(r.differences[0].starts_with("different scenes"), "{r}");
+    // Settings read as on the command line, never as Rust debug text.
+    assert!(text.contains("vpl_budget --vpls"), "{text}");
+    assert!(!text.contains("Some(") && !text.contains("None"), "{text}");
 }
 
 #[test]
@@ -228,11 +233,18 @@ fn rsm_presence_and_channels_are_compared() {
         "{r}"
     );
     let mut c = a.clone();
+    let before = (
+        c.rsm.as_ref().unwrap().vpl[0],
+        c.rsm.as_ref().unwrap().vpl[1],
+    );
     c.rsm.as_mut().unwrap().vpl[0] = 3;
     c.rsm.as_mut().unwrap().vpl[1] = 4;
+    let changed = u64::from(before.0 != 3) + u64::from(before.1 != 4);
     let r = diff(&a, &c, &Tolerance::same_machine());
     let v = r.maps.iter().find(|m| m.name == "rsm.vpl").unwrap();
-    assert!(!v.within_tolerance && v.over >= 1, "{r}");
+    // Indices are compared as VPLs, not as numbers: a count, no "max abs".
+    assert_eq!(v.over, changed, "{r}");
+    assert!(!v.within_tolerance && v.max_abs == 0.0, "{r}");
 }
 
 #[test]
@@ -329,4 +341,28 @@ fn inspect_reports_counts_sizes_and_statistics() {
 
     let s = inspect(&sample_asset(false)).to_string();
     assert!(s.contains("not stored (no moving objects)"), "{s}");
+}
+
+#[test]
+fn the_scene_diagonal_is_the_scenes_not_the_vpl_samples() {
+    // Two bakes of one scene with other VPLs: one yardstick, from the light
+    // view (fitted to the scene), whatever the VPLs are.
+    let mut a = sample_asset(false);
+    // An orthographic light view of the box [-2, 2]² × [0, 4].
+    let mut m = [0f32; 16];
+    (m[0], m[5], m[10], m[15]) = (0.5, 0.5, 0.25, 1.0);
+    a.manifest.light_view.view_proj = m;
+    let mut b = a.clone();
+    b.vpls.truncate(b.vpls.len() / 2);
+    let mut c = a.clone();
+    for v in &mut c.vpls {
+        v.position[0] *= 0.5;
+    }
+    let tol = Tolerance::another_gpu();
+    let d1 = diff(&a, &b, &tol).vpls.scene_diagonal;
+    let d2 = diff(&a, &c, &tol).vpls.scene_diagonal;
+    let d3 = diff(&a, &a, &tol).vpls.scene_diagonal;
+    assert_eq!(d1.to_bits(), d2.to_bits());
+    assert_eq!(d1.to_bits(), d3.to_bits());
+    assert!((d1 - 48f64.sqrt()).abs() < 1e-9, "{d1}");
 }

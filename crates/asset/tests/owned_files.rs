@@ -50,7 +50,11 @@ fn decoding_budget_and_regular_files() {
     assert!(need > 0);
     let e = load_with_limit(&dir, need - 1).unwrap_err();
     assert!(e.to_string().contains("--max-memory"), "{e}");
-    load_with_limit(&dir, need).unwrap();
+    // The files' bytes are held while the maps are decoded: counted too.
+    let files: u64 = m.files.iter().map(|f| f.size).sum();
+    let e = load_with_limit(&dir, need + files - 1).unwrap_err();
+    assert!(e.to_string().contains("its files"), "{e}");
+    load_with_limit(&dir, need + files).unwrap();
     // A FIFO in place of a map is refused without blocking.
     let vpls = dir.join(FILE_VPLS);
     std::fs::remove_file(&vpls).unwrap();
@@ -76,4 +80,57 @@ fn a_manifest_promising_gigabytes_of_maps_is_refused_before_any_map_is_read() {
         e.to_string().contains("--max-memory") && e.to_string().contains("manifest.bin"),
         "{e}"
     );
+}
+
+#[test]
+fn exr_channels_the_reader_does_not_use_count_in_the_budget() {
+    use exr::prelude::*;
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = written(tmp.path(), &sample_asset(true));
+    let m = load_manifest(&dir).unwrap();
+    let files: u64 = m.files.iter().map(|f| f.size).sum();
+    load_with_limit(&dir, decoded_bytes(&m) + files).expect("the manifest's own estimate fits");
+    // The same RSM with 200 extra channels (a few KB on disk, compressed):
+    // 200 × RSM² × 4 bytes more when decoded.
+    let asset = load(&dir).unwrap();
+    let r = asset.rsm.as_ref().unwrap();
+    let n = r.size as usize;
+    let mut list: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+    list.push(AnyChannel::new("Z", FlatSamples::F32(r.metric.clone())));
+    for (c, name) in ["flux.R", "flux.G", "flux.B"].iter().enumerate() {
+        let v = r.flux.iter().map(|f| f[c]).collect();
+        list.push(AnyChannel::new(*name, FlatSamples::F32(v)));
+    }
+    list.push(AnyChannel::new("vpl", FlatSamples::U32(r.vpl.clone())));
+    for k in 0..200 {
+        list.push(AnyChannel::new(
+            format!("extra{k:03}").as_str(),
+            FlatSamples::F32(vec![0.0; n * n]),
+        ));
+    }
+    let layer = Layer::new(
+        (n, n),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(list),
+    );
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(&mut bytes)
+        .unwrap();
+    replace_signed(&dir, "rsm.exr", &bytes.into_inner());
+    let m = load_manifest(&dir).unwrap();
+    let need = decoded_bytes(&m) + m.files.iter().map(|f| f.size).sum::<u64>();
+    let extra = 200 * (n * n * 4) as u64;
+    let e = load_with_limit(&dir, need + extra - 1)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("channels this reader does not use") && e.contains("--max-memory"),
+        "{e}"
+    );
+    assert!(e.contains(&format!("does not use {extra}")), "{e}");
+    // Within the budget they are read (and ignored), as the spec says.
+    load_with_limit(&dir, need + extra).expect("fits");
 }

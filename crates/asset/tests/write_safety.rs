@@ -154,12 +154,22 @@ fn a_read_only_parent_fails_cleanly() {
 #[test]
 fn a_stale_temporary_directory_is_cleaned_up() {
     let tmp = tempfile::tempdir().unwrap();
-    let stale = tmp
-        .path()
-        .join(format!(".scene.gibake.tmp-{}", std::process::id()));
+    // Left by a process killed while writing (no one holds the lock): the
+    // next writer of the same output removes it. Another output's temporary
+    // and a look-alike name are left alone.
+    let stale = tmp.path().join(".scene.gibake.k1Ll3d.tmp");
     std::fs::create_dir(&stale).unwrap();
     std::fs::write(stale.join("manifest.bin"), b"half").unwrap();
+    std::fs::write(tmp.path().join(".other.gibake.k1Ll3d.tmp"), b"x").unwrap();
+    std::fs::write(tmp.path().join(".scene.gibake.notes"), b"x").unwrap();
     let dir = written(tmp.path(), &sample_asset(false));
     load(&dir).unwrap();
-    assert_eq!(file_names(tmp.path()), ["scene.gibake"]);
+    assert_eq!(
+        file_names(tmp.path()),
+        [
+            ".other.gibake.k1Ll3d.tmp",
+            ".scene.gibake.notes",
+            "scene.gibake"
+        ]
+    );
 }

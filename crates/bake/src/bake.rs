@@ -49,6 +49,12 @@ pub trait BakeProgress: Sync {
     fn advance(&self, n: u64);
     /// The stage ended.
     fn end(&self);
+    /// The memory budget (bytes) the bake checks again once clustering has
+    /// counted the VPLs, before any near-field tree or map is made
+    /// ([`crate::budget::check_with`]); `None` (the default): no check.
+    fn memory_limit(&self) -> Option<u64> {
+        None
+    }
 }
 
 /// No progress output.
@@ -84,6 +90,9 @@ pub enum BakeError {
     /// GPU failure.
     #[error(transparent)]
     Gpu(#[from] gibake_gpu::GpuError),
+    /// The VPL count clustering found puts the bake over the memory budget.
+    #[error(transparent)]
+    OverBudget(#[from] Box<crate::budget::OverBudget>),
 }
 
 /// The baked asset and per-stage times.
@@ -316,6 +325,14 @@ fn bake_with(
     });
     progress.end();
     lap("clustering", &mut stages);
+    if let Some(limit) = progress.memory_limit() {
+        let n = clusters.vpls.len();
+        let mapped = match shard {
+            Some(s) => shard_range(n, s.index, s.count).len(),
+            None => n,
+        };
+        crate::budget::check_with(opts, n as u64, mapped as u64, limit)?;
+    }
 
     let mut vpls: Vec<VplRecord> = clusters
         .vpls
@@ -382,7 +399,14 @@ fn bake_with(
             rsm_size: opts.rsm_size,
             vpl_map_size: opts.vpl_map_size,
             shadow_map_size: opts.shadow_map_size,
-            threshold: clusters.threshold,
+            // Infinite when no node could split at all (e.g. a 1-texel
+            // RSM): every threshold gives this clustering, and the format
+            // stores a finite one.
+            threshold: if clusters.threshold.is_finite() {
+                clusters.threshold
+            } else {
+                f32::MAX
+            },
             vpl_budget: match opts.target {
                 ClusterTarget::Count(n) => Some(n),
                 ClusterTarget::Threshold(_) => None,

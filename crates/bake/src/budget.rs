@@ -10,8 +10,10 @@
 //! | primary shadow map: read-back, map and EXR encoding | 12 × shadow² |
 //!
 //! With `--vpls N` the VPL count is N + 2% (the clustering's tolerance);
-//! with `--threshold` it is not known before clustering and the hemisphere
-//! maps are left out of the estimate (documented in docs/robustness.md).
+//! with `--threshold` it is not known before clustering, so the maps are
+//! left out of the first estimate, and the bake checks again
+//! ([`check_with`]) once clustering has counted the VPLs, before any
+//! near-field tree or map exists (`BakeProgress::memory_limit`).
 
 use crate::BakeOptions;
 use crate::cluster::ClusterTarget;
@@ -102,6 +104,48 @@ pub fn check(opts: &BakeOptions, limit: u64) -> Result<MemoryEstimate, Box<OverB
     Ok(estimate)
 }
 
+/// Bytes per VPL besides its map: the record (48) and its near-field tree
+/// ([`gibake_asset::NODES_PER_VPL`] records of 48 bytes), twice (built,
+/// then encoded).
+const BYTES_PER_VPL: u64 = 2 * 48 * (1 + gibake_asset::NODES_PER_VPL as u64);
+
+/// The estimate again once clustering has made `vpls` VPLs, of which
+/// `mapped` get a hemisphere map in this run (all of them, or a shard's).
+pub fn estimate_with(opts: &BakeOptions, vpls: u64, mapped: u64) -> MemoryEstimate {
+    let e = estimate(opts);
+    let sq = |n: u32| n as u64 * n as u64;
+    MemoryEstimate {
+        rsm: e.rsm.saturating_add(vpls.saturating_mul(BYTES_PER_VPL)),
+        vpl_maps: mapped
+            .saturating_mul(sq(opts.vpl_map_size))
+            .saturating_mul(12),
+        shadow_map: e.shadow_map,
+    }
+}
+
+/// Checks the estimate with the VPL count clustering found (needed for
+/// `--threshold`, whose count is unknown up front) against `limit`, before
+/// any near-field tree or map is made.
+pub fn check_with(
+    opts: &BakeOptions,
+    vpls: u64,
+    mapped: u64,
+    limit: u64,
+) -> Result<MemoryEstimate, Box<OverBudget>> {
+    let estimate = estimate_with(opts, vpls, mapped);
+    if estimate.total() > limit {
+        return Err(Box::new(OverBudget {
+            estimate,
+            limit,
+            vpls,
+            vpl_map_size: opts.vpl_map_size,
+            rsm_size: opts.rsm_size,
+            shadow_map_size: opts.shadow_map_size,
+        }));
+    }
+    Ok(estimate)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -118,5 +162,19 @@ mod tests {
         assert!(e.to_string().contains("--max-memory"), "{e}");
         let small = check(&BakeOptions::default(), 2 << 30).expect("default fits");
         assert!(small.total() < 200 << 20, "{small:?}");
+    }
+
+    #[test]
+    fn a_threshold_that_makes_every_texel_a_vpl_is_refused_after_clustering() {
+        let opts = BakeOptions {
+            target: ClusterTarget::Threshold(1e-30),
+            ..BakeOptions::default()
+        };
+        // Up front the count is unknown: only the RSM and shadow map count.
+        assert!(check(&opts, 2 << 30).is_ok());
+        // 512² texels, each its own VPL: 17 GB of maps.
+        let e = check_with(&opts, 512 * 512, 512 * 512, 2 << 30).expect_err("over");
+        assert!(e.to_string().contains("262144 VPL maps"), "{e}");
+        assert!(check_with(&opts, 256, 256, 2 << 30).is_ok());
     }
 }

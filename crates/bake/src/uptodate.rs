@@ -3,7 +3,8 @@
 //!
 //! An asset is up to date when its manifest records exactly what a bake now
 //! would record as its inputs: the same static-scene hash, the same settings,
-//! the same baker version and the same adapter (name, backend, driver), and
+//! the same scene file name, the same baker version and the same adapter
+//! (name, backend, driver), and
 //! its files are intact (sizes and BLAKE3 checksums as listed). Because the
 //! bake is deterministic, a re-bake would then write the same bytes.
 //!
@@ -110,6 +111,19 @@ pub fn differences(
         _ => {}
     }
     let p = &m.provenance;
+    // The asset records the scene's file name: the same content under a new
+    // name would give other bytes, so it is not up to date either.
+    let name = scene
+        .source
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    if p.scene_name != name {
+        r.push(format!(
+            "the scene's file name changed ({} → {name}; the asset records it)",
+            p.scene_name
+        ));
+    }
     if p.baker_version != baker_version {
         r.push(format!(
             "baker version changed ({} → {baker_version})",

@@ -138,7 +138,11 @@ impl GpuContext {
         });
         if adapters.is_empty() {
             return Err(GpuError::NoAdapter {
-                backends: format!("{backends:?}"),
+                backends: backends
+                    .iter_names()
+                    .map(|(n, _)| n.to_lowercase())
+                    .collect::<Vec<_>>()
+                    .join(", "),
             });
         }
         let wanted = options

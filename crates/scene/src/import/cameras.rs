@@ -103,13 +103,13 @@ impl<'a> Ctx<'a> {
                     return Err(bad(&format!("znear {} must be positive", p.znear)));
                 }
                 let zfar = p.zfar.filter(|z| z.is_finite());
-                if let Some(z) = zfar {
-                    if z <= p.znear {
-                        return Err(bad(&format!(
-                            "zfar {z} must be greater than znear {}",
-                            p.znear
-                        )));
-                    }
+                if let Some(z) = zfar
+                    && z <= p.znear
+                {
+                    return Err(bad(&format!(
+                        "zfar {z} must be greater than znear {}",
+                        p.znear
+                    )));
                 }
                 Projection::Perspective {
                     yfov: p.yfov,
