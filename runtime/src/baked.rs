@@ -1,19 +1,21 @@
-//! A loaded `.gibake` asset on the GPU: static VPL records, the baked
-//! hemisphere maps (one `R32Float` 2D atlas in the asset's own tile layout,
-//! `gibake_asset::atlas_grid`), the static
-//! primary shadow map and, only for scenes with moving objects, the static
-//! RSM metric plus each texel's share of its VPL's flux (for partial
+//! A loaded `.gibake` asset on the GPU: static VPLs in the GPU's own
+//! layout ([`GpuVpl`], each VPL's map origin computed here, once, for
+//! shading and the merge alike), the baked hemisphere maps (one `R32Float`
+//! 2D atlas in the asset's own tile layout, `gibake_asset::atlas_grid`), the
+//! static primary shadow map and, only for scenes with moving objects, the
+//! static RSM metric plus each texel's share of its VPL's flux (for partial
 //! occlusion).
 
-use gibake_asset::{Asset, NO_MAP, VplRecord};
+use gibake_asset::{Asset, VplRecord};
 use gibake_gpu::LightView;
+use gibake_gpu::vpl::{GpuVpl, NO_MAP};
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
 use crate::RuntimeError;
 
 /// RSM data for the dynamic merge.
-pub struct RsmGpu {
+pub(crate) struct RsmGpu {
     /// Static metric per texel (`R32Float`).
     pub static_metric: wgpu::TextureView,
     /// `(vpl, share)` per texel; share is fixed point (2^24 = the whole VPL).
@@ -23,13 +25,13 @@ pub struct RsmGpu {
 }
 
 /// The asset's GPU resources.
-pub struct BakedGpu {
-    /// VPL records (CPU copy, for choosing the affected maps).
-    pub vpls: Vec<VplRecord>,
-    /// VPL records (`VplRecord` layout, storage), `position` replaced by the
-    /// map origin.
+pub(crate) struct BakedGpu {
+    /// The VPLs as uploaded (CPU copy, for choosing the affected maps):
+    /// `position` is the map origin.
+    pub vpls: Vec<GpuVpl>,
+    /// [`BakedGpu::vpls`] (storage).
     pub vpl_buf: wgpu::Buffer,
-    /// Near-field trees (`VplRecord` layout, `NODES_PER_VPL` per VPL).
+    /// Near-field trees ([`GpuVpl`] layout, `NODES_PER_VPL` per VPL).
     pub node_buf: wgpu::Buffer,
     /// Baked hemisphere maps, one 2D atlas (one +inf tile when none is stored).
     pub static_maps: wgpu::TextureView,
@@ -48,7 +50,7 @@ pub struct BakedGpu {
 }
 
 /// The light view stored in a manifest, at `size`.
-pub fn light_view(asset: &Asset, size: u32) -> LightView {
+pub(crate) fn light_view(asset: &Asset, size: u32) -> LightView {
     LightView::from_record(
         &asset.manifest.light_view,
         asset.manifest.settings.shadow_map_size,
@@ -87,7 +89,7 @@ fn r32_texture(
 
 impl BakedGpu {
     /// Uploads `asset`.
-    pub fn new(
+    pub(crate) fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         asset: &Asset,
@@ -141,38 +143,35 @@ impl BakedGpu {
             &pd.data,
         )
         .create_view(&Default::default());
-        let mut vpls = asset.vpls.clone();
-        // A VPL record with no stored map must say so.
-        for v in &mut vpls {
-            if v.map >= m.map_count {
-                v.map = NO_MAP;
-            }
-        }
         // On the GPU a VPL's position is its map origin (position lifted
         // along the normal, `hemisphere::vpl_origin`), computed once here
-        // rather than per pixel and VPL in the shader.
-        let gpu_vpls: Vec<VplRecord> = vpls
+        // rather than per pixel and VPL in the shader; a record with no
+        // stored map says so.
+        let vpls: Vec<GpuVpl> = asset
+            .vpls
             .iter()
             .map(|v| {
                 let n = Vec3::from_array(v.normal);
                 let o = gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
-                VplRecord {
+                GpuVpl {
                     position: o.to_array(),
-                    ..*v
+                    map: if v.map < m.map_count { v.map } else { NO_MAP },
+                    ..gpu_vpl(v)
                 }
             })
             .collect();
+        let nodes: Vec<GpuVpl> = asset.vpl_nodes.iter().map(gpu_vpl).collect();
         let vpl_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("static VPLs"),
-            contents: if gpu_vpls.is_empty() {
+            contents: if vpls.is_empty() {
                 &[0u8; 48]
             } else {
-                bytemuck::cast_slice(&gpu_vpls)
+                bytemuck::cast_slice(&vpls)
             },
             usage: wgpu::BufferUsages::STORAGE,
         });
         // Near-field trees, as stored (NODES_PER_VPL records per VPL).
-        let node_bytes = (asset.vpl_nodes.len() * 48) as u64;
+        let node_bytes = std::mem::size_of_val(nodes.as_slice()) as u64;
         let max_binding = device.limits().max_storage_buffer_binding_size;
         if node_bytes > max_binding {
             return Err(RuntimeError::DeviceLimit {
@@ -186,14 +185,16 @@ impl BakedGpu {
         }
         let node_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("static VPL near-field nodes"),
-            contents: if asset.vpl_nodes.is_empty() {
+            contents: if nodes.is_empty() {
                 &[0u8; 48]
             } else {
-                bytemuck::cast_slice(&asset.vpl_nodes)
+                bytemuck::cast_slice(&nodes)
             },
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let mut bytes = (atlas.len() * 4 + pd.data.len() * 4 + vpls.len() * 48) as u64 + node_bytes;
+        let mut bytes = (atlas.len() * 4 + pd.data.len() * 4) as u64
+            + std::mem::size_of_val(vpls.as_slice()) as u64
+            + node_bytes;
         let rsm = match &asset.rsm {
             Some(r) => {
                 let metric =
@@ -248,5 +249,17 @@ impl BakedGpu {
             rsm,
             bytes,
         })
+    }
+}
+
+/// A record of the asset's layout in the GPU's (the same values).
+fn gpu_vpl(v: &VplRecord) -> GpuVpl {
+    GpuVpl {
+        position: v.position,
+        area: v.area,
+        normal: v.normal,
+        texels: v.texels,
+        flux: v.flux,
+        map: v.map,
     }
 }

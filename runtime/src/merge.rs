@@ -17,7 +17,6 @@
 
 use std::ops::Range;
 
-use gibake_gpu::hemisphere;
 use gibake_gpu::mesh::{Draw, SceneGpu, lod_for};
 use gibake_gpu::passes::hemi_raster::{GpuHemiJob, HemiAtlas, HemiRasterPass, face_mask};
 use gibake_scene::Aabb;
@@ -28,7 +27,7 @@ use crate::baked::BakedGpu;
 
 /// Merge state of one renderer.
 pub(crate) struct VplMerge {
-    /// Per static VPL: (map origin, normal), computed once.
+    /// Per static VPL: (map origin, normal), as uploaded ([`BakedGpu::vpls`]).
     frames: Vec<(Vec3, Vec3)>,
     /// Every map is re-rendered from all geometry (`naive`).
     naive: bool,
@@ -78,13 +77,7 @@ impl VplMerge {
         let frames = baked
             .vpls
             .iter()
-            .map(|v| {
-                let n = Vec3::from_array(v.normal);
-                (
-                    hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area),
-                    n,
-                )
-            })
+            .map(|v| (v.position(), v.normal()))
             .collect();
         Ok(VplMerge {
             frames,

@@ -146,7 +146,7 @@ impl Row {
             shade_ms: Some(shade_ms(st)),
             frame_ms: frame_total(st),
             bake_seconds: None,
-            timing: st.timing.clone(),
+            timing: st.timing.to_string(),
             pareto_rel_mse: false,
             pareto_flip: false,
             pareto_indirect: false,

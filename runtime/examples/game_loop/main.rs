@@ -12,7 +12,48 @@
 use std::path::{Path, PathBuf};
 
 use gibake_runtime::glam::{Mat4, Vec3};
-use gibake_runtime::{CameraMatrices, FrameInput, Mode, RenderSettings, Renderer, wgpu};
+use gibake_runtime::{CameraMatrices, FrameInput, Image, Mode, RenderSettings, Renderer, wgpu};
+
+/// Copies an `Rgba32Float` texture to the CPU (what a game does for a
+/// screenshot; tools use `gibake_eval::frame::read_output`).
+fn read_back(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+) -> Result<Image, Box<dyn std::error::Error>> {
+    let (w, h) = (texture.width(), texture.height());
+    let row = (w * 16).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("screenshot"),
+        size: u64::from(row) * u64::from(h),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(row),
+                rows_per_image: None,
+            },
+        },
+        texture.size(),
+    );
+    queue.submit([encoder.finish()]);
+    buffer.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+    device.poll(wgpu::PollType::wait_indefinitely())?;
+    let data = buffer.slice(..).get_mapped_range()?;
+    let mut rgba = Vec::with_capacity((w * h * 4) as usize);
+    for y in 0..h as usize {
+        let start = y * row as usize;
+        let line: &[f32] = bytemuck::cast_slice(&data[start..start + w as usize * 16]);
+        rgba.extend_from_slice(line);
+    }
+    Ok(Image::from_rgba_f32(w, h, &rgba))
+}
 
 /// The game's camera: orbiting the scene's centre.
 fn orbit_camera(centre: Vec3, radius: f32, angle: f32, aspect: f32) -> CameraMatrices {
@@ -113,7 +154,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             stats.dynamic_vpl_slots,
             stats.timing
         );
-        let image = renderer.read_output(&device, &queue, 1)?;
+        let image = read_back(&device, &queue, renderer.output())?;
         image.write_exr(&out.join(format!("frame_{frame}.exr")))?;
     }
     println!("frames in {}", out.display());
