@@ -105,20 +105,23 @@ impl BakedGpu {
             m.map_count,
             s,
         )?;
-        let tile = (s as usize) * (s as usize);
-        let atlas = if m.map_count == 0 {
-            vec![f32::INFINITY; tile]
-        } else if asset.vpl_maps.len() == m.map_count as usize * tile {
-            gibake_asset::layers_to_atlas(&asset.vpl_maps, m.map_count, s).2
+        // The asset's atlas as it is; one +inf tile when no map is stored.
+        let one_tile;
+        let atlas: &[f32] = if m.map_count == 0 {
+            one_tile = vec![f32::INFINITY; (s as usize) * (s as usize)];
+            &one_tile
+        } else if asset.vpl_maps.count() == m.map_count && asset.vpl_maps.tile_size() == s {
+            asset.vpl_maps.texels()
         } else {
             return Err(RuntimeError::InvalidSetting(format!(
-                "the asset holds {} map texels for {} maps of {s}²",
-                asset.vpl_maps.len(),
+                "the asset holds {} maps of {}² for {} maps of {s}²",
+                asset.vpl_maps.count(),
+                asset.vpl_maps.tile_size(),
                 m.map_count
             )));
         };
         let (w, h) = (cols * s, rows * s);
-        let static_maps = r32_texture(device, queue, "baked VPL maps", w, h, &atlas)
+        let static_maps = r32_texture(device, queue, "baked VPL maps", w, h, atlas)
             .create_view(&Default::default());
         let pd = &asset.primary_depth;
         let rsm_size = asset.rsm.as_ref().map(|r| r.size).unwrap_or(0);

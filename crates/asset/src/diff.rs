@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::MapAtlas;
 use crate::exrio::{self, Samples};
-use crate::format::layers_to_atlas;
 use crate::{Asset, AssetError, NO_MAP, VplRecord};
 
 /// How far apart two assets may be and still count as equal.
@@ -567,16 +567,20 @@ fn compare_slices(a: &[f32], b: &[f32], tol: &Tolerance) -> Acc {
 }
 
 /// `(A's VPL index, A's map, B's map)`; `None`: not stored (all infinite).
-type MapPair<'a> = (usize, Option<&'a [f32]>, Option<&'a [f32]>);
+type MapPair = (usize, Option<Vec<f32>>, Option<Vec<f32>>);
 
 /// The hemisphere map pairs to compare: for each matched VPL pair where at
-/// least one side stores a map, `(A index, A map or None, B map or None)`.
-fn map_pairs<'a>(a: &'a Asset, b: &'a Asset, m: &Matching) -> Vec<MapPair<'a>> {
+/// least one side stores a map, `(A index, A map or None, B map or None)`,
+/// copied out of the atlases one pair at a time.
+fn map_pairs<'a>(
+    a: &'a Asset,
+    b: &'a Asset,
+    m: &'a Matching,
+) -> impl Iterator<Item = MapPair> + 'a {
     m.pairs
         .iter()
         .filter(|&&(i, j)| a.vpls[i].map != NO_MAP || b.vpls[j].map != NO_MAP)
         .map(|&(i, j)| (i, a.vpl_map_of(i), b.vpl_map_of(j)))
-        .collect()
 }
 
 fn compare_maps(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> Vec<MapDiff> {
@@ -606,7 +610,7 @@ fn compare_maps(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> Vec<MapD
         let mut total = Acc::default();
         let mut worst: Option<(usize, Acc)> = None;
         for (i, ma, mb) in map_pairs(a, b, m) {
-            let (ma, mb) = (ma.unwrap_or(&inf), mb.unwrap_or(&inf));
+            let (ma, mb) = (ma.as_deref().unwrap_or(&inf), mb.as_deref().unwrap_or(&inf));
             let acc = compare_slices(ma, mb, tol);
             total.merge(&acc);
             let better = |w: &(usize, Acc)| (acc.over, acc.max_abs) > (w.1.over, w.1.max_abs);
@@ -1035,15 +1039,13 @@ pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf
         let matching = match_vpls(&a.vpls, &b.vpls);
         let texels = size as usize * size as usize;
         let inf = vec![f32::INFINITY; texels];
-        let mut layers = Vec::new();
-        let mut count = 0u32;
-        for (_, ma, mb) in map_pairs(a, b, &matching) {
-            layers.extend(diffs(ma.unwrap_or(&inf), mb.unwrap_or(&inf)));
-            count += 1;
-        }
-        if nonzero(&layers) {
-            let (w, h, atlas) = layers_to_atlas(&layers, count, size);
-            let ch = vec![("Z", Samples::F32(atlas))];
+        let tiles: Vec<Vec<f32>> = map_pairs(a, b, &matching)
+            .map(|(_, ma, mb)| diffs(ma.as_deref().unwrap_or(&inf), mb.as_deref().unwrap_or(&inf)))
+            .collect();
+        let atlas = MapAtlas::from_maps(size, tiles.iter().map(|t| t.as_slice()));
+        if let Some(atlas) = atlas.filter(|_| tiles.iter().any(|t| nonzero(t))) {
+            let (w, h) = (atlas.width() as usize, atlas.height() as usize);
+            let ch = vec![("Z", Samples::F32(atlas.texels().to_vec()))];
             written.push(write_exr(dir, "vpl_maps.diff.exr", w, h, ch)?);
         }
     }

@@ -6,6 +6,7 @@ use std::fs;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 
+use crate::atlas::{MapAtlas, atlas_grid};
 use crate::exrio::{self, Kind, Samples};
 use crate::{
     Asset, AssetError, FORMAT_MAJOR, FORMAT_MINOR, FileEntry, MAGIC, Manifest, Map, NO_MAP,
@@ -47,24 +48,6 @@ type Limited = bincode::config::Configuration<
 
 fn bincode_config() -> Limited {
     bincode::config::standard().with_limit::<{ 1 << 24 }>()
-}
-
-/// The atlas grid of `map_count` maps: `(cols, rows)` with
-/// `cols = ceil(sqrt(map_count))` and `rows = ceil(map_count / cols)`;
-/// `(0, 0)` for no maps. Map `k` sits at column `k % cols`, row `k / cols`.
-pub fn atlas_grid(map_count: u32) -> (u32, u32) {
-    let n = map_count as u64;
-    if n == 0 {
-        return (0, 0);
-    }
-    let mut c = (n as f64).sqrt() as u64;
-    while c * c < n {
-        c += 1;
-    }
-    while c > 1 && (c - 1) * (c - 1) >= n {
-        c -= 1;
-    }
-    (c as u32, n.div_ceil(c) as u32)
 }
 
 fn hex16(h: &[u8; 32]) -> String {
@@ -501,40 +484,6 @@ fn no_nan(data: &[f32], path: &Path, what: &str) -> Result<(), AssetError> {
     }
 }
 
-/// Splits an atlas (`cols*size × rows*size`) into `count` layer-major maps.
-pub(crate) fn atlas_to_layers(atlas: &[f32], count: u32, size: u32) -> Vec<f32> {
-    let (cols, _) = atlas_grid(count);
-    let (s, cols) = (size as usize, cols as usize);
-    let w = cols * s;
-    let mut out = Vec::with_capacity(count as usize * s * s);
-    for k in 0..count as usize {
-        let (cx, cy) = (k % cols, k / cols);
-        for y in 0..s {
-            let start = (cy * s + y) * w + cx * s;
-            out.extend_from_slice(&atlas[start..start + s]);
-        }
-    }
-    out
-}
-
-/// Packs `count` layer-major maps of `size²` into an atlas (unused tiles
-/// +inf); returns `(width, height, texels)`.
-pub fn layers_to_atlas(layers: &[f32], count: u32, size: u32) -> (usize, usize, Vec<f32>) {
-    let (cols, rows) = atlas_grid(count);
-    let s = size as usize;
-    let (w, h) = (cols as usize * s, rows as usize * s);
-    let mut out = vec![f32::INFINITY; w * h];
-    for k in 0..count as usize {
-        let (cx, cy) = (k % cols as usize, k / cols as usize);
-        for y in 0..s {
-            let dst = (cy * s + y) * w + cx * s;
-            let src = (k * s + y) * s;
-            out[dst..dst + s].copy_from_slice(&layers[src..src + s]);
-        }
-    }
-    (w, h, out)
-}
-
 /// Loads the asset at `dir` and verifies everything: magic, version (another
 /// major is [`AssetError::NotSupported`] naming both versions), manifest
 /// length and checksum, every file's size and BLAKE3 against the manifest,
@@ -550,14 +499,14 @@ pub fn load(dir: &Path) -> Result<Asset, AssetError> {
 pub const DEFAULT_MAX_DECODED_BYTES: u64 = 1 << 30;
 
 /// Bytes the maps of an asset with this manifest decode to (every sample
-/// 4 bytes, the atlas counted twice: decoded, then split into layers).
+/// 4 bytes; the map atlas is kept as it is decoded).
 pub fn decoded_bytes(m: &Manifest) -> u64 {
     let s = &m.settings;
     let sq = |n: u32| n as u64 * n as u64;
     let (aw, ah) = atlas_dims(m);
     let mut samples = sq(s.shadow_map_size);
     if m.map_count > 0 {
-        samples = samples.saturating_add(aw.saturating_mul(ah).saturating_mul(2));
+        samples = samples.saturating_add(aw.saturating_mul(ah));
     }
     if m.has_dynamic {
         samples = samples.saturating_add(sq(s.rsm_size).saturating_mul(5));
@@ -624,16 +573,16 @@ pub fn load_with_limit(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, Asse
             h as usize,
             &[("Z", Kind::F32)],
         )?;
-        let atlas = data
+        let texels = data
             .into_iter()
             .next()
             .map(Samples::into_f32)
             .unwrap_or_default();
-        let layers = atlas_to_layers(&atlas, manifest.map_count, s.vpl_map_size);
-        no_nan(&layers, &path, "channel D")?;
-        layers
+        no_nan(&texels, &path, "channel Z")?;
+        MapAtlas::from_texels(s.vpl_map_size, manifest.map_count, texels)
+            .ok_or_else(|| AssetError::invalid(&path, "the atlas has the wrong number of texels"))?
     } else {
-        Vec::new()
+        MapAtlas::empty(s.vpl_map_size)
     };
 
     let rsm = if manifest.has_dynamic {
@@ -705,23 +654,21 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
     let mut m = asset.manifest.clone();
     m.files.clear();
     let s = &m.settings;
-    let size = s.vpl_map_size as usize;
-    let texels = size * size;
-    if texels == 0 {
+    if s.vpl_map_size == 0 {
         return bad("settings.vpl_map_size is 0".into());
     }
-    if !asset.vpl_maps.len().is_multiple_of(texels) {
+    let maps = &asset.vpl_maps;
+    if !maps.is_empty() && maps.tile_size() != s.vpl_map_size {
         return bad(format!(
-            "vpl_maps holds {} values, not a multiple of vpl_map_size² = {texels}",
-            asset.vpl_maps.len()
+            "vpl_maps holds maps of {}² but settings.vpl_map_size is {}",
+            maps.tile_size(),
+            s.vpl_map_size
         ));
     }
     let Ok(vpl_count) = u32::try_from(asset.vpls.len()) else {
         return bad(format!("{} VPLs are too many", asset.vpls.len()));
     };
-    let Ok(map_count) = u32::try_from(asset.vpl_maps.len() / texels) else {
-        return bad("too many hemisphere maps".into());
-    };
+    let map_count = maps.count();
     m.vpl_count = vpl_count;
     m.map_count = map_count;
     m.has_dynamic = asset.rsm.is_some();
@@ -760,7 +707,7 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
     if asset.primary_depth.data.iter().any(|x| x.is_nan()) {
         return bad("primary_depth holds NaN".into());
     }
-    if asset.vpl_maps.iter().any(|x| x.is_nan()) {
+    if maps.texels().iter().any(|x| x.is_nan()) {
         return bad("vpl_maps holds NaN".into());
     }
     for (i, r) in asset.vpls.iter().enumerate() {
@@ -956,9 +903,10 @@ fn write_into(
                 exrio::encode(n, n, vec![("Z", Samples::F32(d))]).map_err(exr_err)?
             }
             FILE_VPL_MAPS => {
-                let (w, h, atlas) =
-                    layers_to_atlas(&asset.vpl_maps, manifest.map_count, s.vpl_map_size);
-                exrio::encode(w, h, vec![("Z", Samples::F32(atlas))]).map_err(exr_err)?
+                let m = &asset.vpl_maps;
+                let texels = Samples::F32(m.texels().to_vec());
+                let (w, h) = (m.width() as usize, m.height() as usize);
+                exrio::encode(w, h, vec![("Z", texels)]).map_err(exr_err)?
             }
             _ => {
                 let Some(r) = &asset.rsm else { continue };

@@ -17,6 +17,7 @@
 
 use serde::{Deserialize, Serialize};
 
+mod atlas;
 mod diff;
 mod error;
 mod exrio;
@@ -25,6 +26,7 @@ mod inspect;
 mod shard;
 mod tolerance;
 
+pub use atlas::{MapAtlas, atlas_grid};
 pub use diff::{
     DiffReport, FieldDiff, MapDiff, Tolerance, VplDiff, VplMismatch, diff, write_diff_images,
 };
@@ -33,14 +35,13 @@ pub use error::AssetError;
 pub use format::testing;
 pub use format::{
     DEFAULT_MAX_DECODED_BYTES, FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM, FILE_VPL_MAPS,
-    FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE, VPL_RECORD_BYTES, atlas_grid, check_scene_hash,
-    check_scene_hash_for, decoded_bytes, layers_to_atlas, load, load_manifest, load_with_limit,
-    verify_files, write,
+    FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE, VPL_RECORD_BYTES, check_scene_hash,
+    check_scene_hash_for, decoded_bytes, load, load_manifest, load_with_limit, verify_files, write,
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
 pub use shard::{
     MAX_SHARDS, MergeError, Merger, PART_MAGIC, PART_VERSION, ShardMaps, ShardPart,
-    assign_map_layers, load_part, merge, shard_range, write_part,
+    assign_map_tiles, load_part, merge, shard_range, write_part,
 };
 pub use tolerance::{MAX_TOLERANCE, ToleranceError, parse_tolerance};
 
@@ -68,7 +69,7 @@ pub struct VplRecord {
     pub texels: u32,
     /// Flux (W, linear RGB); it emits flux/π · cos θ per steradian.
     pub flux: [f32; 3],
-    /// Layer of its hemisphere map in `vpl_maps.exr`, or [`NO_MAP`] when
+    /// Tile of its hemisphere map in `vpl_maps.exr`, or [`NO_MAP`] when
     /// its map sees no surface (every direction is unoccluded).
     pub map: u32,
 }
@@ -201,33 +202,30 @@ pub struct Asset {
     pub vpl_nodes: Vec<VplRecord>,
     /// Static primary shadow map (metric, shadow_map_size²).
     pub primary_depth: Map,
-    /// Hemisphere maps, `map_count` layers of `vpl_map_size²` distances
-    /// (INFINITY = no surface), layer-major.
-    pub vpl_maps: Vec<f32>,
+    /// Hemisphere maps, `map_count` maps of `vpl_map_size²` distances
+    /// (INFINITY = no surface), in the atlas layout of `vpl_maps.exr`
+    /// ([`MapAtlas`]).
+    pub vpl_maps: MapAtlas,
     /// RSM data for the dynamic merge, `None` without moving objects.
     pub rsm: Option<RsmData>,
 }
 
 impl Asset {
-    /// Number of stored hemisphere maps implied by the data
-    /// (`vpl_maps.len() / vpl_map_size²`, 0 when the size is 0).
+    /// Number of stored hemisphere maps.
     pub fn stored_map_count(&self) -> usize {
-        let n = self.manifest.settings.vpl_map_size as usize;
-        self.vpl_maps.len().checked_div(n * n).unwrap_or(0)
+        self.vpl_maps.count() as usize
     }
 
-    /// Hemisphere map `layer` (`vpl_map_size²` distances, row 0 at the top),
-    /// or `None` when the layer is not stored.
-    pub fn vpl_map(&self, layer: u32) -> Option<&[f32]> {
-        let n = self.manifest.settings.vpl_map_size as usize;
-        let texels = n * n;
-        let start = (layer as usize).checked_mul(texels)?;
-        self.vpl_maps.get(start..start.checked_add(texels)?)
+    /// A copy of hemisphere map `layer` (`vpl_map_size²` distances, row 0
+    /// at the top), or `None` when the layer is not stored.
+    pub fn vpl_map(&self, layer: u32) -> Option<Vec<f32>> {
+        self.vpl_maps.map(layer)
     }
 
-    /// The hemisphere map of VPL `vpl`, or `None` when it has no stored map
-    /// ([`NO_MAP`]: every direction is unoccluded) or the index is out of range.
-    pub fn vpl_map_of(&self, vpl: usize) -> Option<&[f32]> {
+    /// A copy of the hemisphere map of VPL `vpl`, or `None` when it has no
+    /// stored map ([`NO_MAP`]: every direction is unoccluded) or the index
+    /// is out of range.
+    pub fn vpl_map_of(&self, vpl: usize) -> Option<Vec<f32>> {
         let rec = self.vpls.get(vpl)?;
         if rec.map == NO_MAP {
             None

@@ -68,7 +68,7 @@ fn a_manifest_promising_gigabytes_of_maps_is_refused_before_any_map_is_read() {
     // whatever the (small, highly compressible) EXR files hold.
     let tmp = tempfile::tempdir().unwrap();
     let dir = written(tmp.path(), &sample_asset(true));
-    edit_manifest(&dir, |m| m.settings.vpl_map_size = 4096);
+    edit_manifest(&dir, |m| m.settings.vpl_map_size = 8192);
     let m = load_manifest(&dir).unwrap();
     assert!(decoded_bytes(&m) > DEFAULT_MAX_DECODED_BYTES, "{m:?}");
     let e = load(&dir).unwrap_err();

@@ -4,8 +4,8 @@
 use std::time::Instant;
 
 use gibake_asset::{
-    Asset, BakeSettings, MAX_SHARDS, Manifest, Map, NO_MAP, Provenance, RsmData, ShardMaps,
-    ShardPart, VplRecord, assign_map_layers, shard_range,
+    Asset, BakeSettings, MAX_SHARDS, Manifest, Map, MapAtlas, NO_MAP, Provenance, RsmData,
+    ShardMaps, ShardPart, VplRecord, assign_map_tiles, shard_range,
 };
 use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::passes::shadow::ShadowPass;
@@ -278,8 +278,13 @@ fn bake_with(
         progress.advance(1)
     });
     let (maps, shard_maps) = match shard {
-        Some(_) => (Vec::new(), each),
-        None => (assign_map_layers(&mut vpls, each), Vec::new()),
+        Some(_) => (MapAtlas::empty(opts.vpl_map_size), each),
+        None => {
+            let atlas = assign_map_tiles(&mut vpls, opts.vpl_map_size, each).ok_or_else(|| {
+                BakeError::InvalidSetting("the VPL maps do not fit one atlas in memory".into())
+            })?;
+            (atlas, Vec::new())
+        }
     };
     progress.end();
     lap("vpl maps", &mut stages);

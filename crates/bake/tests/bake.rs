@@ -192,19 +192,19 @@ fn visibility_agreement(name: &str) -> Agreement {
                 let c = hemisphere::texel_coords(n, to_x / dist, size);
                 let tx = (c.x.floor() as i64).clamp(0, i64::from(size) - 1);
                 let ty = (c.y.floor() as i64).clamp(0, i64::from(size) - 1);
-                let (lo, hi, inf) = neighbourhood(map, size, tx, ty, 2);
+                let (lo, hi, inf) = neighbourhood(&map, size, tx, ty, 2);
                 let any_finite = lo.is_finite();
                 if any_finite && (inf || hi > lo * 1.1) {
                     out.edge += 1;
                     continue;
                 }
-                let stored = texel(map, size, tx, ty).expect("in the map");
+                let stored = texel(&map, size, tx, ty).expect("in the map");
                 // Slope-scaled bias measured from the map: half the spread
                 // of the 3×3 texels around the lookup (a planar receiver
                 // changes its distance by at most that much between the
                 // texel centre and any point of the texel), plus 1e-3 of
                 // the distance.
-                let (lo3, hi3, _) = neighbourhood(map, size, tx, ty, 1);
+                let (lo3, hi3, _) = neighbourhood(&map, size, tx, ty, 1);
                 let spread = if lo3.is_finite() { hi3 - lo3 } else { 0.0 };
                 dist <= stored * (1.0 + 1e-3) + 0.5 * spread + 1e-3 * dist
             }
@@ -672,7 +672,9 @@ fn bake_is_deterministic_and_stores_only_what_is_needed() {
     let texels = (size * size) as usize;
     assert_eq!(s.manifest.vpl_count as usize, s.vpls.len());
     assert_eq!(s.stored_map_count(), s.manifest.map_count as usize);
-    assert_eq!(s.vpl_maps.len(), s.manifest.map_count as usize * texels);
+    assert_eq!(s.vpl_maps.count(), s.manifest.map_count);
+    assert_eq!(s.vpl_maps.tile_size(), size);
+    assert!(s.vpl_maps.maps().all(|m| m.len() == texels));
     // Map layers are used once each, in order.
     let layers: Vec<u32> = s
         .vpls
@@ -741,8 +743,6 @@ fn bake_of_664_vpls_at_default_sizes() {
         "Count(664) gave {n} VPLs"
     );
     assert_eq!(out.asset.manifest.vpl_count as usize, n);
-    assert_eq!(
-        out.asset.vpl_maps.len(),
-        out.asset.manifest.map_count as usize * 128 * 128
-    );
+    assert_eq!(out.asset.vpl_maps.count(), out.asset.manifest.map_count);
+    assert_eq!(out.asset.vpl_maps.tile_size(), 128);
 }

@@ -78,7 +78,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
         .collect();
     let map_count = layer as usize;
     let texels = (VPL_MAP * VPL_MAP) as usize;
-    let vpl_maps: Vec<f32> = (0..map_count * texels)
+    let layers: Vec<f32> = (0..map_count * texels)
         .map(|_| {
             if rng.f32() < 0.3 {
                 f32::INFINITY
@@ -87,6 +87,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
             }
         })
         .collect();
+    let vpl_maps = MapAtlas::from_maps(VPL_MAP, layers.chunks(texels)).expect("maps of VPL_MAP²");
     let primary: Vec<f32> = (0..(SHADOW * SHADOW) as usize)
         .map(|_| {
             if rng.f32() < 0.1 {
