@@ -218,7 +218,7 @@ fn reader_refuses_damaged_assets() {
     let reseal_cases: [(&str, &str, Option<&str>); 5] = [
         // One byte after the last field, same minor: refused.
         ("payload += b'\\x00'", "0", Some("after the last field")),
-        // The same from a newer minor (2.1): accepted and ignored.
+        // The same from a newer minor (3.1): accepted and ignored.
         ("payload += b'\\x00'", "1", None),
         // The file list cut short: refused.
         ("payload = payload[:-40]", "0", Some("payload ends inside")),
@@ -249,14 +249,14 @@ fn reader_refuses_damaged_assets() {
     }
 
     // A major version this reader does not know.
-    let copy = copy_asset(&asset, work.path(), "major3.gibake");
+    let copy = copy_asset(&asset, work.path(), "major4.gibake");
     let mut m = std::fs::read(copy.join("manifest.bin")).unwrap();
-    m[8] = 3;
+    m[8] = 4;
     std::fs::write(copy.join("manifest.bin"), m).unwrap();
     let r = read(&py, &copy);
     assert!(
-        r.code == Some(1) && r.stderr.contains("3.0 is not supported"),
-        "a 3.0 manifest must be refused by version\n{r}"
+        r.code == Some(1) && r.stderr.contains("4.0 is not supported"),
+        "a 4.0 manifest must be refused by version\n{r}"
     );
 
     // A file the manifest lists, removed.

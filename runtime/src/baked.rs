@@ -3,8 +3,8 @@
 //! shading and the merge alike), the baked hemisphere maps (one `R32Float`
 //! 2D atlas in the asset's own tile layout, `gibake_asset::atlas_grid`), the
 //! static primary shadow map and, only for scenes with moving objects, the
-//! static RSM metric plus each texel's share of its VPL's flux (for partial
-//! occlusion).
+//! static RSM metric plus each texel's share of its VPL's flux (baked; for
+//! partial occlusion).
 
 use gibake_asset::{Asset, VplRecord};
 use gibake_gpu::LightView;
@@ -203,24 +203,15 @@ impl BakedGpu {
                 let metric =
                     r32_texture(device, queue, "baked RSM metric", r.size, r.size, &r.metric)
                         .create_view(&Default::default());
-                // Each texel's share of its VPL's flux (sum of RGB), fixed point.
-                let mut total = vec![0.0f64; vpls.len()];
-                for (f, &v) in r.flux.iter().zip(&r.vpl) {
-                    if (v as usize) < total.len() {
-                        total[v as usize] += (f[0] + f[1] + f[2]) as f64;
-                    }
-                }
+                // (VPL, its share of the VPL's flux) per texel, as baked.
+                let n = vpls.len();
                 let info: Vec<[u32; 2]> = r
-                    .flux
+                    .vpl
                     .iter()
-                    .zip(&r.vpl)
-                    .map(|(f, &v)| {
-                        if (v as usize) < total.len() && total[v as usize] > 0.0 {
-                            let share = (f[0] + f[1] + f[2]) as f64 / total[v as usize];
-                            [
-                                v,
-                                (share * 16_777_216.0).round().clamp(0.0, 16_777_216.0) as u32,
-                            ]
+                    .zip(&r.share)
+                    .map(|(&v, &share)| {
+                        if (v as usize) < n {
+                            [v, share]
                         } else {
                             [u32::MAX, 0]
                         }

@@ -149,7 +149,7 @@ pub struct VplDiff {
 /// Comparison of one map (or one RSM channel, or all hemisphere maps).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MapDiff {
-    /// `primary_depth`, `vpl_maps`, `rsm.D`, `rsm.flux.R`, … `rsm.vpl`.
+    /// `primary_depth`, `vpl_maps`, `rsm.D`, `rsm.share`, `rsm.vpl`.
     pub name: String,
     /// Whether both exist with the same dimensions (else see `note`).
     pub comparable: bool,
@@ -558,6 +558,11 @@ fn not_comparable(name: &str, note: String) -> MapDiff {
     }
 }
 
+/// A fixed-point flux share as a fraction of its VPL.
+fn share_fraction(s: u32) -> f32 {
+    (f64::from(s) / f64::from(crate::SHARE_ONE)) as f32
+}
+
 fn compare_slices(a: &[f32], b: &[f32], tol: &Tolerance) -> Acc {
     let mut acc = Acc::default();
     for (&x, &y) in a.iter().zip(b) {
@@ -636,16 +641,12 @@ fn compare_maps(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> Vec<MapD
             )),
         (Some(ra), Some(rb)) => {
             out.push(compare_slices(&ra.metric, &rb.metric, tol).report("rsm.D", tol));
-            for (c, name) in ["rsm.flux.R", "rsm.flux.G", "rsm.flux.B"]
-                .iter()
-                .enumerate()
-            {
-                let mut acc = Acc::default();
-                for (x, y) in ra.flux.iter().zip(&rb.flux) {
-                    acc.add(x[c], y[c], tol);
-                }
-                out.push(acc.report(name, tol));
+            // Flux shares as fractions of their VPL (map tolerances apply).
+            let mut acc = Acc::default();
+            for (&x, &y) in ra.share.iter().zip(&rb.share) {
+                acc.add(share_fraction(x), share_fraction(y), tol);
             }
+            out.push(acc.report("rsm.share", tol));
             let mut acc = Acc::default();
             for (&x, &y) in ra.vpl.iter().zip(&rb.vpl) {
                 acc.add_u32(x, y);
@@ -1013,8 +1014,9 @@ fn write_exr(
 /// `primary_depth.diff.exr`; `vpl_maps.diff.exr`, an atlas (layout as in
 /// `vpl_maps.exr`) with one tile per matched VPL pair where either side
 /// stores a map, in A's VPL order (a missing map counts as all-infinite);
-/// `rsm.diff.exr` with channels `D`, `flux.R`, `flux.G`, `flux.B` and `vpl`
-/// (1 where the VPL index differs). Creates `dir` if needed; returns the
+/// `rsm.diff.exr` with channels `Z`, `share` (the difference of the flux
+/// shares, as fractions of their VPL) and `vpl` (1 where the VPL index
+/// differs). Creates `dir` if needed; returns the
 /// paths written (none when nothing differs).
 pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf>, AssetError> {
     std::fs::create_dir_all(dir).map_err(|e| AssetError::io(dir, e))?;
@@ -1053,27 +1055,23 @@ pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf
     if let (Some(ra), Some(rb)) = (&a.rsm, &b.rsm) {
         if ra.size == rb.size && ra.metric.len() == rb.metric.len() {
             let d = diffs(&ra.metric, &rb.metric);
-            let flux = |c: usize| -> Vec<f32> {
-                ra.flux
-                    .iter()
-                    .zip(&rb.flux)
-                    .map(|(x, y)| abs_diff(x[c], y[c]))
-                    .collect()
-            };
-            let (r, g, bl) = (flux(0), flux(1), flux(2));
+            let share: Vec<f32> = ra
+                .share
+                .iter()
+                .zip(&rb.share)
+                .map(|(&x, &y)| abs_diff(share_fraction(x), share_fraction(y)))
+                .collect();
             let v: Vec<f32> = ra
                 .vpl
                 .iter()
                 .zip(&rb.vpl)
                 .map(|(x, y)| if x == y { 0.0 } else { 1.0 })
                 .collect();
-            if [&d, &r, &g, &bl, &v].iter().any(|c| nonzero(c)) {
+            if [&d, &share, &v].iter().any(|c| nonzero(c)) {
                 let n = ra.size as usize;
                 let ch = vec![
                     ("Z", Samples::F32(d)),
-                    ("flux.R", Samples::F32(r)),
-                    ("flux.G", Samples::F32(g)),
-                    ("flux.B", Samples::F32(bl)),
+                    ("share", Samples::F32(share)),
                     ("vpl", Samples::F32(v)),
                 ];
                 written.push(write_exr(dir, "rsm.diff.exr", n, n, ch)?);

@@ -10,7 +10,7 @@ use crate::atlas::{MapAtlas, atlas_grid};
 use crate::exrio::{self, Kind, Samples};
 use crate::{
     Asset, AssetError, FORMAT_MAJOR, FORMAT_MINOR, FileEntry, MAGIC, Manifest, Map, NO_MAP,
-    NODES_PER_VPL, RsmData, VplRecord,
+    NODES_PER_VPL, RsmData, SHARE_ONE, VplRecord,
 };
 
 /// The manifest file name.
@@ -474,6 +474,15 @@ fn encode_vpls(vpls: &[VplRecord]) -> Vec<u8> {
     out
 }
 
+/// The first texel whose flux share is over [`SHARE_ONE`], or not 0
+/// though it belongs to no VPL.
+fn share_problem(share: &[u32], vpl: &[u32]) -> Option<usize> {
+    share
+        .iter()
+        .zip(vpl)
+        .position(|(&s, &v)| s > SHARE_ONE || (v == u32::MAX && s != 0))
+}
+
 fn no_nan(data: &[f32], path: &Path, what: &str) -> Result<(), AssetError> {
     match data.iter().position(|x| x.is_nan()) {
         None => Ok(()),
@@ -509,7 +518,7 @@ pub fn decoded_bytes(m: &Manifest) -> u64 {
         samples = samples.saturating_add(aw.saturating_mul(ah));
     }
     if m.has_dynamic {
-        samples = samples.saturating_add(sq(s.rsm_size).saturating_mul(5));
+        samples = samples.saturating_add(sq(s.rsm_size).saturating_mul(3));
     }
     samples.saturating_mul(4)
 }
@@ -588,25 +597,16 @@ pub fn load_with_limit(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, Asse
     let rsm = if manifest.has_dynamic {
         let path = dir.join(FILE_RSM);
         let n = s.rsm_size as usize;
-        let chans = [
-            ("Z", Kind::F32),
-            ("flux.R", Kind::F32),
-            ("flux.G", Kind::F32),
-            ("flux.B", Kind::F32),
-            ("vpl", Kind::U32),
-        ];
+        let chans = [("Z", Kind::F32), ("share", Kind::U32), ("vpl", Kind::U32)];
         let mut it = exrio::decode(take(FILE_RSM), &path, n, n, &chans)?.into_iter();
         let mut next = || {
             it.next()
                 .ok_or_else(|| AssetError::invalid(&path, "channel missing"))
         };
         let metric = next()?.into_f32();
-        let (r, g, b) = (next()?.into_f32(), next()?.into_f32(), next()?.into_f32());
+        let share = next()?.into_u32();
         let vpl = next()?.into_u32();
-        no_nan(&metric, &path, "channel D")?;
-        for (c, name) in [(&r, "flux.R"), (&g, "flux.G"), (&b, "flux.B")] {
-            no_nan(c, &path, &format!("channel {name}"))?;
-        }
+        no_nan(&metric, &path, "channel Z")?;
         if let Some(i) = vpl
             .iter()
             .position(|&v| v != u32::MAX && v >= manifest.vpl_count)
@@ -619,16 +619,19 @@ pub fn load_with_limit(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, Asse
                 ),
             ));
         }
-        let flux = r
-            .iter()
-            .zip(&g)
-            .zip(&b)
-            .map(|((r, g), b)| [*r, *g, *b])
-            .collect();
+        if let Some(i) = share_problem(&share, &vpl) {
+            return Err(AssetError::invalid(
+                &path,
+                format!(
+                    "channel share holds {} at texel {i} (VPL {}): over {SHARE_ONE}, or not 0 outside every VPL",
+                    share[i], vpl[i] as i64
+                ),
+            ));
+        }
         Some(RsmData {
             size: s.rsm_size,
             metric,
-            flux,
+            share,
             vpl,
         })
     } else {
@@ -683,25 +686,27 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
     }
     if let Some(r) = &asset.rsm {
         let n = s.rsm_size as usize * s.rsm_size as usize;
-        if r.size != s.rsm_size || r.metric.len() != n || r.flux.len() != n || r.vpl.len() != n {
+        if r.size != s.rsm_size || r.metric.len() != n || r.share.len() != n || r.vpl.len() != n {
             return bad(format!(
                 "rsm is {}² ({} / {} / {} values) but settings.rsm_size is {}",
                 r.size,
                 r.metric.len(),
-                r.flux.len(),
+                r.share.len(),
                 r.vpl.len(),
                 s.rsm_size
             ));
         }
-        if r.metric
-            .iter()
-            .chain(r.flux.iter().flatten())
-            .any(|x| x.is_nan())
-        {
+        if r.metric.iter().any(|x| x.is_nan()) {
             return bad("rsm holds NaN".into());
         }
         if let Some(v) = r.vpl.iter().find(|&&v| v != u32::MAX && v >= vpl_count) {
             return bad(format!("rsm refers to VPL {v} but there are {vpl_count}"));
+        }
+        if let Some(i) = share_problem(&r.share, &r.vpl) {
+            return bad(format!(
+                "rsm share {} at texel {i} is over {SHARE_ONE} or outside every VPL",
+                r.share[i]
+            ));
         }
     }
     if asset.primary_depth.data.iter().any(|x| x.is_nan()) {
@@ -911,15 +916,12 @@ fn write_into(
             _ => {
                 let Some(r) = &asset.rsm else { continue };
                 let n = r.size as usize;
-                let ch = |c: usize| Samples::F32(r.flux.iter().map(|f| f[c]).collect());
                 exrio::encode(
                     n,
                     n,
                     vec![
                         ("Z", Samples::F32(r.metric.clone())),
-                        ("flux.R", ch(0)),
-                        ("flux.G", ch(1)),
-                        ("flux.B", ch(2)),
+                        ("share", Samples::U32(r.share.clone())),
                         ("vpl", Samples::U32(r.vpl.clone())),
                     ],
                 )

@@ -48,7 +48,7 @@ pub use tolerance::{MAX_TOLERANCE, ToleranceError, parse_tolerance};
 /// Magic bytes at the start of `manifest.bin`.
 pub const MAGIC: [u8; 8] = *b"GIBAKE\0\x01";
 /// Format major version: readers reject any other major.
-pub const FORMAT_MAJOR: u16 = 2;
+pub const FORMAT_MAJOR: u16 = 3;
 /// Format minor version: additive changes only.
 pub const FORMAT_MINOR: u16 = 0;
 
@@ -183,10 +183,54 @@ pub struct RsmData {
     pub size: u32,
     /// Static metric per texel (INFINITY = empty).
     pub metric: Vec<f32>,
-    /// Reflected flux per texel (RGB).
-    pub flux: Vec<[f32; 3]>,
+    /// Per texel, its share of its VPL's flux (`R + G + B`), fixed point:
+    /// [`SHARE_ONE`] is the whole VPL; 0 for a texel of no VPL.
+    pub share: Vec<u32>,
     /// VPL index per texel (u32::MAX = none).
     pub vpl: Vec<u32>,
+}
+
+/// [`RsmData::share`] of a texel that holds its VPL's whole flux: 2²⁴.
+pub const SHARE_ONE: u32 = 1 << 24;
+
+impl RsmData {
+    /// The RSM data of `size²` texels with reflected `flux` (RGB) clustered
+    /// into `vpl_count` VPLs (`vpl`: index per texel, u32::MAX = none):
+    /// each texel's share of its VPL's flux, `(r + g + b) / Σ (r + g + b)`
+    /// over the VPL's texels (sums in f64, in texel order), rounded to
+    /// fixed point. Computed once, at bake time; partial occlusion adds the
+    /// shares of the texels a moving object hides.
+    pub fn from_flux(
+        size: u32,
+        metric: Vec<f32>,
+        flux: &[[f32; 3]],
+        vpl: Vec<u32>,
+        vpl_count: usize,
+    ) -> RsmData {
+        let mut total = vec![0.0f64; vpl_count];
+        for (f, &v) in flux.iter().zip(&vpl) {
+            if let Some(t) = total.get_mut(v as usize) {
+                *t += (f[0] + f[1] + f[2]) as f64;
+            }
+        }
+        let one = f64::from(SHARE_ONE);
+        let share = flux
+            .iter()
+            .zip(&vpl)
+            .map(|(f, &v)| match total.get(v as usize) {
+                Some(&t) if t > 0.0 => ((f[0] + f[1] + f[2]) as f64 / t * one)
+                    .round()
+                    .clamp(0.0, one) as u32,
+                _ => 0,
+            })
+            .collect();
+        RsmData {
+            size,
+            metric,
+            share,
+            vpl,
+        }
+    }
 }
 
 /// A whole baked asset in memory.
@@ -249,5 +293,30 @@ impl VplRecord {
     /// Luminance of the flux (Rec. 709 weights).
     pub fn flux_luminance(&self) -> f32 {
         0.2126 * self.flux[0] + 0.7152 * self.flux[1] + 0.0722 * self.flux[2]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each VPL's texel shares add up to the whole VPL (to within the
+    /// rounding of each); texels of no VPL, or of an unlit one, hold none.
+    #[test]
+    fn flux_shares_split_each_vpl() {
+        let flux = [
+            [1.0, 0.0, 0.0],
+            [0.5, 0.5, 1.0],
+            [3.0, 0.0, 0.0],
+            [2.0; 3],
+            [0.0; 3],
+        ];
+        let vpl = vec![0, 0, 1, u32::MAX, 2];
+        let r = RsmData::from_flux(1, vec![1.0; 5], &flux, vpl, 3);
+        assert_eq!(
+            r.share,
+            [SHARE_ONE / 3, 2 * SHARE_ONE / 3 + 1, SHARE_ONE, 0, 0]
+        );
+        assert!(r.share[0] + r.share[1] - SHARE_ONE <= 1);
     }
 }

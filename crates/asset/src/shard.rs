@@ -21,7 +21,7 @@ use crate::{Asset, AssetError, Manifest, Map, MapAtlas, NO_MAP, RsmData, VplReco
 /// Magic bytes at the start of a part file.
 pub const PART_MAGIC: [u8; 8] = *b"GIBKPART";
 /// Part format version: parts are transient, so any other version is refused.
-pub const PART_VERSION: u16 = 1;
+pub const PART_VERSION: u16 = 2;
 /// Largest shard count accepted.
 pub const MAX_SHARDS: u32 = 4096;
 /// Largest accepted part file (16 GiB).
@@ -112,7 +112,7 @@ struct PartPayload {
 struct RsmPayload {
     size: u32,
     metric: Vec<f32>,
-    flux: Vec<[f32; 3]>,
+    share: Vec<u32>,
     vpl: Vec<u32>,
 }
 
@@ -208,7 +208,7 @@ fn check_part(part: &ShardPart, path: &Path) -> Result<(), AssetError> {
     }
     if let Some(r) = &a.rsm {
         let n = s.rsm_size as usize * s.rsm_size as usize;
-        if r.size != s.rsm_size || r.metric.len() != n || r.flux.len() != n || r.vpl.len() != n {
+        if r.size != s.rsm_size || r.metric.len() != n || r.share.len() != n || r.vpl.len() != n {
             return bad(format!("RSM data is not rsm_size² = {n} texels"));
         }
     }
@@ -257,7 +257,7 @@ fn encode_part(part: &ShardPart, path: &Path) -> Result<Vec<u8>, AssetError> {
         rsm: a.rsm.as_ref().map(|r| RsmPayload {
             size: r.size,
             metric: r.metric.clone(),
-            flux: r.flux.clone(),
+            share: r.share.clone(),
             vpl: r.vpl.clone(),
         }),
         maps: part.maps.clone(),
@@ -326,7 +326,7 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
             rsm: p.rsm.map(|r| RsmData {
                 size: r.size,
                 metric: r.metric,
-                flux: r.flux,
+                share: r.share,
                 vpl: r.vpl,
             }),
         },
@@ -419,7 +419,7 @@ fn front_hash(a: &Asset) -> [u8; 32] {
         h.update(b"rsm");
         h.update(&r.size.to_le_bytes());
         h.update(bytemuck::cast_slice(&r.metric));
-        h.update(bytemuck::cast_slice(&r.flux));
+        h.update(bytemuck::cast_slice(&r.share));
         h.update(bytemuck::cast_slice(&r.vpl));
     }
     *h.finalize().as_bytes()

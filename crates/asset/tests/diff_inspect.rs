@@ -17,15 +17,7 @@ fn identical_assets_are_equal() {
         let names: Vec<&str> = r.maps.iter().map(|m| m.name.as_str()).collect();
         assert_eq!(
             names,
-            [
-                "primary_depth",
-                "vpl_maps",
-                "rsm.D",
-                "rsm.flux.R",
-                "rsm.flux.G",
-                "rsm.flux.B",
-                "rsm.vpl"
-            ]
+            ["primary_depth", "vpl_maps", "rsm.D", "rsm.share", "rsm.vpl"]
         );
         assert!(r.maps.iter().all(|m| m.over == 0 && m.max_abs == 0.0));
     }

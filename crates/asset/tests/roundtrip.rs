@@ -207,7 +207,7 @@ fn exr_files_have_the_documented_layout() {
         }
     }
 
-    // rsm.exr: D, flux.R/G/B f32, vpl u32.
+    // rsm.exr: Z f32, share u32, vpl u32.
     let img = read_exr(&dir.join("rsm.exr"));
     let r = asset.rsm.as_ref().unwrap();
     let mut names: Vec<String> = img.layer_data[0]
@@ -217,15 +217,15 @@ fn exr_files_have_the_documented_layout() {
         .map(|c| c.name.to_string())
         .collect();
     names.sort();
-    assert_eq!(names, ["Z", "flux.B", "flux.G", "flux.R", "vpl"]);
+    assert_eq!(names, ["Z", "share", "vpl"]);
     let FlatSamples::F32(m) = channel(&img, "Z") else {
         panic!()
     };
     assert_eq!(m, &r.metric);
-    let FlatSamples::F32(g) = channel(&img, "flux.G") else {
-        panic!()
+    let FlatSamples::U32(share) = channel(&img, "share") else {
+        panic!("share is not u32")
     };
-    assert!(g.iter().zip(&r.flux).all(|(a, b)| *a == b[1]));
+    assert_eq!(share, &r.share);
     let FlatSamples::U32(v) = channel(&img, "vpl") else {
         panic!("vpl is not u32")
     };

@@ -119,7 +119,11 @@ fn an_inconsistent_asset_is_refused_before_writing_anything() {
         ),
         (
             "rsm",
-            Box::new(|a| a.rsm.as_mut().unwrap().flux.truncate(3)),
+            Box::new(|a| a.rsm.as_mut().unwrap().share.truncate(3)),
+        ),
+        (
+            "share",
+            Box::new(|a| a.rsm.as_mut().unwrap().share[0] = SHARE_ONE + 1),
         ),
         ("not finite", Box::new(|a| a.vpls[4].flux[1] = f32::NAN)),
         ("hemisphere map 7", Box::new(|a| a.vpls[4].map = 7)),

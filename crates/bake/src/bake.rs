@@ -290,15 +290,15 @@ fn bake_with(
     lap("vpl maps", &mut stages);
 
     let has_dynamic = !scene.dynamic_objects.is_empty();
-    let rsm_data = has_dynamic.then(|| RsmData {
-        size: rsm.size,
-        metric: rsm.metric.clone(),
-        flux: rsm.flux.iter().map(|f| f.to_array()).collect(),
-        vpl: clusters
+    // Each texel's share of its VPL's flux, for partial occlusion.
+    let rsm_data = has_dynamic.then(|| {
+        let flux: Vec<[f32; 3]> = rsm.flux.iter().map(|f| f.to_array()).collect();
+        let texel_vpl = clusters
             .texel_vpl
             .iter()
             .map(|&v| if v == NO_VPL { u32::MAX } else { v })
-            .collect(),
+            .collect();
+        RsmData::from_flux(rsm.size, rsm.metric.clone(), &flux, texel_vpl, vpls.len())
     });
     let map_count = vpls.iter().filter(|v| v.map != NO_MAP).count() as u32;
     let manifest = Manifest {

@@ -294,25 +294,35 @@ fn vpl_flux_sums_to_the_rsm_reflected_power() {
             "{name}: asset VPL flux off by {e_asset:.2e}"
         );
 
-        // The RSM stored for the dynamic merge carries the same light.
+        // The RSM stored for the dynamic merge: each texel's share of its
+        // VPL's flux, in proportion to the light it reflects, adding up to
+        // the whole VPL.
         let stored = asset
             .rsm
             .as_ref()
             .expect("bundled scenes have moving objects");
-        let stored_total: f64 = stored.flux.iter().map(|f| flux_sum(*f)).sum();
-        let e_stored = (stored_total - texel_total).abs() / texel_total;
-        assert!(
-            e_stored <= 1e-4,
-            "{name}: stored RSM flux off by {e_stored:.2e}"
-        );
-        // Every lit texel belongs to a VPL, and the VPL indices agree.
-        for (t, (&vpl, f)) in stored.vpl.iter().zip(&stored.flux).enumerate() {
-            if flux_sum(*f) > 0.0 {
-                assert!(
-                    (vpl as usize) < asset.vpls.len(),
-                    "{name}: lit RSM texel {t} maps to no VPL"
-                );
-            }
+        let one = f64::from(gibake_asset::SHARE_ONE);
+        let mut sums = vec![0u64; asset.vpls.len()];
+        for (t, (&vpl, &share)) in stored.vpl.iter().zip(&stored.share).enumerate() {
+            let f = flux_sum(rsm.flux[t].to_array());
+            let Some(v) = asset.vpls.get(vpl as usize) else {
+                assert!(f == 0.0, "{name}: lit RSM texel {t} maps to no VPL");
+                assert_eq!(share, 0, "{name}: texel {t} of no VPL has a share");
+                continue;
+            };
+            sums[vpl as usize] += u64::from(share);
+            let expected = f / flux_sum(v.flux);
+            assert!(
+                (f64::from(share) / one - expected).abs() <= 1e-4 * expected + 1e-6,
+                "{name}: texel {t}'s share {share} of VPL {vpl}, expected {expected:.6}"
+            );
+        }
+        for (i, (sum, v)) in sums.iter().zip(&asset.vpls).enumerate() {
+            let slack = u64::from(v.texels) / 2 + 1;
+            assert!(
+                sum.abs_diff(u64::from(gibake_asset::SHARE_ONE)) <= slack,
+                "{name}: VPL {i}'s texel shares add up to {sum}"
+            );
         }
     }
 }
