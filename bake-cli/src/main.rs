@@ -3,7 +3,6 @@
 //! `gibake-reference`, ...). Exit codes: 0 success, 1 `diff` found a
 //! difference, 2 bad input or usage (every error message names the file).
 
-mod bench;
 mod cli;
 mod commands;
 mod demo;
@@ -27,7 +26,10 @@ fn run(cli: cli::Cli) -> anyhow::Result<ExitCode> {
         Command::Merge(a) => pipeline::merge(a),
         Command::Diff(a) => commands::diff(a),
         Command::Inspect(a) => commands::inspect(a),
-        Command::Bench(a) => bench::bench(a),
+        Command::Bench(a) => {
+            gibake_bench::run(&a)?;
+            Ok(ExitCode::SUCCESS)
+        }
     }
 }
 

@@ -1,28 +1,28 @@
 //! The plots of `gibake bench`, drawn with `plotters` (its bitmap backend,
 //! into memory) and written as PNG by `gibake_image::write_rgb8_png`, so the
 //! workspace holds one PNG encoder. Text is drawn with the DejaVu Sans font embedded in the
-//! binary (`bake-cli/assets/`, its licence beside it) through plotters'
+//! crate (`crates/bench/assets/`, its licence beside it) through plotters'
 //! `ab_glyph` feature, so no system font or fontconfig is needed.
 
 use std::path::Path;
 use std::sync::Once;
 
-use anyhow::anyhow;
+use crate::error::BenchError;
 use plotters::prelude::*;
 
-const FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
+const FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 const FAMILY: &str = "sans-serif";
 /// Plot size in pixels.
 const W: u32 = 900;
 const H: u32 = 600;
 
 /// Registers the embedded font once (plotters' font registry is global).
-fn register_font() -> anyhow::Result<()> {
+fn register_font() -> crate::Result<()> {
     static ONCE: Once = Once::new();
     let mut result = Ok(());
     ONCE.call_once(|| {
         result = plotters::style::register_font(FAMILY, FontStyle::Normal, FONT)
-            .map_err(|_| anyhow!("the embedded plot font does not load"));
+            .map_err(|_| BenchError::Invalid("the embedded plot font does not load".into()));
     });
     result
 }
@@ -89,7 +89,7 @@ pub(super) fn error_vs_time(
     title: &str,
     y_desc: &str,
     points: &[Point],
-) -> anyhow::Result<()> {
+) -> crate::Result<()> {
     register_font()?;
     let good: Vec<&Point> = points
         .iter()
@@ -99,7 +99,8 @@ pub(super) fn error_vs_time(
     let (y0, y1) = log_range(good.iter().map(|p| p.err));
     let mut rgb = vec![0u8; (W * H * 3) as usize];
     let root = BitMapBackend::with_buffer(&mut rgb, (W, H)).into_drawing_area();
-    let e = |e: &dyn std::fmt::Display| anyhow!("plot {}: {e}", path.display());
+    let e =
+        |e: &dyn std::fmt::Display| BenchError::Invalid(format!("plot {}: {e}", path.display()));
     root.fill(&WHITE).map_err(|x| e(&x))?;
     let mut chart = log_log_chart(
         &root,
@@ -170,13 +171,14 @@ pub(super) fn scaling(
     title: &str,
     x_desc: &str,
     curves: &[Curve],
-) -> anyhow::Result<()> {
+) -> crate::Result<()> {
     register_font()?;
     let (x0, x1) = log_range(curves.iter().flat_map(|c| c.points.iter().map(|p| p.0)));
     let (y0, y1) = log_range(curves.iter().flat_map(|c| c.points.iter().map(|p| p.1)));
     let mut rgb = vec![0u8; (W * H * 3) as usize];
     let root = BitMapBackend::with_buffer(&mut rgb, (W, H)).into_drawing_area();
-    let e = |e: &dyn std::fmt::Display| anyhow!("plot {}: {e}", path.display());
+    let e =
+        |e: &dyn std::fmt::Display| BenchError::Invalid(format!("plot {}: {e}", path.display()));
     root.fill(&WHITE).map_err(|x| e(&x))?;
     let mut chart = log_log_chart(
         &root,

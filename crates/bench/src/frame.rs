@@ -7,7 +7,7 @@
 
 use std::time::Instant;
 
-use anyhow::{Context, bail};
+use crate::error::{Context, bail};
 use gibake_asset::Asset;
 use gibake_gpu::GpuContext;
 use gibake_image::Image;
@@ -24,7 +24,7 @@ pub(super) fn new_renderer(
     scene: &Scene,
     asset: Option<&Asset>,
     settings: &RenderSettings,
-) -> anyhow::Result<Renderer> {
+) -> crate::Result<Renderer> {
     Renderer::new(&ctx.device, &ctx.queue, scene, asset, settings)
         .with_context(|| format!("setting up {}", scene.source.display()))
 }
@@ -103,7 +103,7 @@ pub(super) fn one_frame(
     r: &mut Renderer,
     scene: &Scene,
     t: f32,
-) -> anyhow::Result<(FrameStats, f64)> {
+) -> crate::Result<(FrameStats, f64)> {
     let start = Instant::now();
     r.prepare_at_time(&ctx.device, &ctx.queue, scene, t)?;
     let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -131,7 +131,7 @@ pub(super) fn measure_all(
     ctx: &GpuContext,
     configs: &[Config<'_>],
     on_frame: &dyn Fn(),
-) -> anyhow::Result<Vec<FrameSummary>> {
+) -> crate::Result<Vec<FrameSummary>> {
     let mut live = Vec::with_capacity(configs.len());
     for c in configs {
         let mut r = new_renderer(ctx, c.scene, c.asset, &c.settings)?;
@@ -171,7 +171,7 @@ pub(super) fn render_measured(
     ssaa: u32,
     interleave: u32,
     t: f32,
-) -> anyhow::Result<(Image, FrameStats)> {
+) -> crate::Result<(Image, FrameStats)> {
     let settings = RenderSettings {
         width: size * ssaa,
         height: size * ssaa,
