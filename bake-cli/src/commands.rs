@@ -161,6 +161,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         mode,
         max_dynamic_vpls: a.max_dynamic_vpls,
         interleave: a.interleave,
+        max_spawned: 0,
     };
     let t0 = Instant::now();
     // The scene's camera, checked before any GPU work.

@@ -29,10 +29,9 @@ pub(crate) struct BakedGpu {
     /// The VPLs as uploaded (CPU copy, for choosing the affected maps):
     /// `position` is the map origin.
     pub vpls: Vec<GpuVpl>,
-    /// [`BakedGpu::vpls`] (storage).
+    /// [`BakedGpu::vpls`], then their near-field trees (`NODES_PER_VPL`
+    /// [`GpuVpl`]s per VPL, in VPL order) (storage).
     pub vpl_buf: wgpu::Buffer,
-    /// Near-field trees ([`GpuVpl`] layout, `NODES_PER_VPL` per VPL).
-    pub node_buf: wgpu::Buffer,
     /// Baked hemisphere maps, one 2D atlas (one +inf tile when none is stored).
     pub static_maps: wgpu::TextureView,
     /// Tiles per row of [`BakedGpu::static_maps`].
@@ -164,40 +163,31 @@ impl BakedGpu {
             })
             .collect();
         let nodes: Vec<GpuVpl> = asset.vpl_nodes.iter().map(gpu_vpl).collect();
-        let vpl_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("static VPLs"),
-            contents: if vpls.is_empty() {
-                &[0u8; 48]
-            } else {
-                bytemuck::cast_slice(&vpls)
-            },
-            usage: wgpu::BufferUsages::STORAGE,
-        });
-        // Near-field trees, as stored (NODES_PER_VPL records per VPL).
-        let node_bytes = std::mem::size_of_val(nodes.as_slice()) as u64;
+        // The VPLs, then their near-field trees (NODES_PER_VPL records per
+        // VPL, as stored), in one storage buffer: shading binds four.
+        let records = [vpls.as_slice(), nodes.as_slice()].concat();
+        let vpl_bytes = std::mem::size_of_val(records.as_slice()) as u64;
         let max_binding = device.limits().max_storage_buffer_binding_size;
-        if node_bytes > max_binding {
+        if vpl_bytes > max_binding {
             return Err(RuntimeError::DeviceLimit {
                 what: format!(
-                    "the near-field nodes of the asset's {} VPLs (bytes in one storage binding; bake fewer VPLs)",
+                    "the asset's {} VPLs and their near-field nodes (bytes in one storage binding; bake fewer VPLs)",
                     vpls.len()
                 ),
-                needed: node_bytes,
+                needed: vpl_bytes,
                 limit: max_binding,
             });
         }
-        let node_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("static VPL near-field nodes"),
-            contents: if nodes.is_empty() {
+        let vpl_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("static VPLs and near-field nodes"),
+            contents: if records.is_empty() {
                 &[0u8; 48]
             } else {
-                bytemuck::cast_slice(&nodes)
+                bytemuck::cast_slice(&records)
             },
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let mut bytes = (atlas.len() * 4 + pd.data.len() * 4) as u64
-            + std::mem::size_of_val(vpls.as_slice()) as u64
-            + node_bytes;
+        let mut bytes = (atlas.len() * 4 + pd.data.len() * 4) as u64 + vpl_bytes;
         let rsm = match &asset.rsm {
             Some(r) => {
                 let metric =
@@ -234,7 +224,6 @@ impl BakedGpu {
         Ok(BakedGpu {
             vpls,
             vpl_buf,
-            node_buf,
             static_maps,
             static_cols: cols,
             map_size: s,

@@ -2,7 +2,7 @@
 //! (`dynamic_rsm.wgsl`), and the partial-occlusion pass that reads it
 //! (`occlusion.wgsl`). Only built when the scene has moving objects.
 
-use gibake_gpu::mesh::SceneGpu;
+use gibake_gpu::mesh::{Draw, SceneGpu};
 use gibake_gpu::util::{
     cleared_attachments, cleared_depth, draws_and_uniform_group, mesh_pipeline, texture_2d,
 };
@@ -96,11 +96,12 @@ impl DynamicRsmPass {
         }
     }
 
-    /// Records the pass (moving objects only).
+    /// Records the pass (the moving objects' `draws`).
     pub(crate) fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         scene_gpu: &SceneGpu,
+        draws: &[Draw],
         ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) -> u32 {
         let clears = [
@@ -123,8 +124,8 @@ impl DynamicRsmPass {
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
-        scene_gpu.draw(&mut pass, &scene_gpu.dynamic_draws, true);
-        scene_gpu.dynamic_draws.len() as u32
+        scene_gpu.draw(&mut pass, draws, true);
+        draws.len() as u32
     }
 }
 

@@ -15,7 +15,7 @@ use wgpu::util::DeviceExt;
 use super::{DynamicVplPass, GpuDynVpl};
 use crate::baked::BakedGpu;
 use crate::dynamic_rsm::DynamicRsmPass;
-use crate::plan::{Pass, PassSet};
+use crate::plan::Pass;
 use crate::stats::{FrameStats, Timer};
 
 const MAX_VPLS: u32 = 64;
@@ -119,16 +119,16 @@ fn run_pass(
     mut timer: Option<&mut Timer>,
 ) -> Vec<GpuDynVpl> {
     let mut enc = ctx.device.create_command_encoder(&Default::default());
-    f.rsm.encode(&mut enc, &f.scene_gpu, None);
+    f.rsm
+        .encode(&mut enc, &f.scene_gpu, &f.scene_gpu.dynamic_draws, None);
     if let Some(t) = timer.as_deref_mut() {
-        t.begin(
-            FrameStats::default(),
-            PassSet::default().with(Pass::DynamicVpls),
-        );
+        t.begin(FrameStats::default(), vec![(Pass::DynamicVpls, None)]);
     }
     pass.encode(
         &mut enc,
-        timer.as_deref().and_then(|t| t.compute(Pass::DynamicVpls)),
+        timer
+            .as_deref()
+            .and_then(|t| t.compute(Pass::DynamicVpls, None)),
     );
     if let Some(t) = timer.as_deref() {
         t.finish(&mut enc);

@@ -1,6 +1,6 @@
 //! The runtime's errors: none of them is a panic.
 
-use crate::{AssetError, GpuError, NoCamera, ObjectHandle};
+use crate::{AssetError, GpuError, NoCamera, ObjectHandle, ViewId};
 
 /// Runtime errors. None of them is a panic; the messages name no command
 /// line (a tool adds its own wording).
@@ -40,9 +40,18 @@ pub enum RuntimeError {
         /// Transforms given.
         got: usize,
     },
+    /// [`crate::Renderer::spawn`] past [`crate::RenderSettings::max_spawned`].
+    #[error("no room to spawn another moving object ({max} spawned at most; raise max_spawned)")]
+    TooManyObjects {
+        /// The settings' `max_spawned`.
+        max: u32,
+    },
     /// A handle that is not one of this renderer's moving objects.
     #[error("{0:?} is not a moving object of this renderer")]
     UnknownObject(ObjectHandle),
+    /// A view that is not one of this renderer's.
+    #[error("{0:?} is not a view of this renderer")]
+    UnknownView(ViewId),
     /// A caller-provided output texture does not fit.
     #[error("output target: {0}")]
     OutputTarget(String),

@@ -1,12 +1,14 @@
-//! What the game supplies each frame: the camera and the moving objects'
+//! What the game supplies each frame: the cameras and the moving objects'
 //! matrices, addressed by [`ObjectHandle`].
 
 use glam::Mat4;
 
-use crate::{CameraMatrices, Scene};
+use crate::{CameraMatrices, Scene, ViewId};
 
-/// A moving object of one [`Renderer`] (from [`Renderer::object`] or
-/// [`Renderer::objects`]).
+/// A moving object of one [`crate::Renderer`] (from
+/// [`crate::Renderer::object`] or [`crate::Renderer::objects`]). It stays
+/// valid across [`crate::Renderer::set_asset`] when the moving objects are
+/// the same, and dies with [`crate::Renderer::remove`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct ObjectHandle {
     pub(crate) renderer: u32,
@@ -14,7 +16,8 @@ pub struct ObjectHandle {
 }
 
 impl ObjectHandle {
-    /// Position of the object in the scene's `dynamic_objects`.
+    /// Position of the object in the scene's `dynamic_objects` (spawned
+    /// copies follow them, in spawn order).
     pub fn index(self) -> usize {
         self.index as usize
     }
@@ -25,20 +28,25 @@ impl ObjectHandle {
 pub struct FrameInput<'a> {
     /// The camera (the output's aspect ratio is the caller's to match).
     pub camera: CameraMatrices,
-    /// Either empty (objects stay where they are) or one world matrix per
-    /// moving object, in handle order ([`ObjectHandle::index`]).
+    /// Either empty (objects stay where they are), or one world matrix per
+    /// moving object in handle order ([`ObjectHandle::index`]), or one per
+    /// object the scene declares (spawned copies stay where they are).
     pub transforms: &'a [Mat4],
     /// World matrices of single objects, applied after `transforms`.
     pub moved: &'a [(ObjectHandle, Mat4)],
+    /// Cameras of the other views ([`crate::Renderer::add_view`]); a view
+    /// not listed keeps its last camera.
+    pub views: &'a [(ViewId, CameraMatrices)],
 }
 
 impl<'a> FrameInput<'a> {
-    /// A frame with `camera` and no object moved.
+    /// A frame with `camera` (the main view's) and no object moved.
     pub fn new(camera: CameraMatrices) -> FrameInput<'a> {
         FrameInput {
             camera,
             transforms: &[],
             moved: &[],
+            views: &[],
         }
     }
 
@@ -50,6 +58,11 @@ impl<'a> FrameInput<'a> {
     /// With single objects moved.
     pub fn moving(self, moved: &'a [(ObjectHandle, Mat4)]) -> FrameInput<'a> {
         FrameInput { moved, ..self }
+    }
+
+    /// With the cameras of other views.
+    pub fn views(self, views: &'a [(ViewId, CameraMatrices)]) -> FrameInput<'a> {
+        FrameInput { views, ..self }
     }
 }
 

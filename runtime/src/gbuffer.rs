@@ -25,14 +25,18 @@ pub(crate) struct GBuffer {
     pub textures: Vec<wgpu::Texture>,
     /// Their views.
     pub views: [wgpu::TextureView; 3],
+    /// The depth buffer (`Depth32Float`, reversed Z, `TEXTURE_BINDING`).
+    pub depth: wgpu::Texture,
     depth_view: wgpu::TextureView,
 }
 
 impl GBuffer {
     /// Allocates a `width × height` G-buffer.
     pub(crate) fn new(device: &wgpu::Device, width: u32, height: u32) -> GBuffer {
+        // Storage: rebuilt from the engine's depth instead (gbuffer_depth.rs).
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::STORAGE_BINDING
             | wgpu::TextureUsages::COPY_SRC;
         let textures: Vec<_> = GBUFFER_FORMATS
             .iter()
@@ -46,12 +50,13 @@ impl GBuffer {
             width,
             height,
             gibake_gpu::passes::shadow::DEPTH_FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
         );
         GBuffer {
             textures,
             views,
             depth_view: depth.create_view(&Default::default()),
+            depth,
         }
     }
 }

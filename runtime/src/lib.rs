@@ -30,7 +30,7 @@
 //! growth and returns typed errors ([`RuntimeError`]); [`Renderer::record`]
 //! only records. The frame lands in [`Renderer::output`] (linear radiance,
 //! [`OUTPUT_FORMAT`], sampleable) or in a texture the caller provides
-//! ([`Renderer::set_output_target`]); [`Renderer::resize`] changes its size.
+//! ([`Renderer::set_output`]); [`Renderer::resize`] changes its size.
 //!
 //! Per frame, only what moving objects cause is done (design brief, steps
 //! 4–8), all on the GPU, with no read-back:
@@ -51,30 +51,34 @@
 mod atlas;
 mod baked;
 mod camera;
+mod composite;
 mod dynamic_rsm;
 mod dynamic_vpl;
 mod error;
 mod frame;
 mod gbuffer;
+mod gbuffer_depth;
 mod interleave;
 mod light;
 mod merge;
 mod moving;
 mod plan;
+mod requirements;
 mod settings;
 mod shade;
 mod stats;
 mod view;
+mod world;
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
-use gibake_gpu::mesh::SceneGpu;
 use glam::Mat4;
 
 pub use camera::{CameraMatrices, NoCamera};
 pub use error::RuntimeError;
 pub use frame::{FrameInput, ObjectHandle, scene_transforms};
 pub use gbuffer::GBUFFER_FORMATS;
+pub use gbuffer_depth::{DepthGBuffer, NormalEncoding};
 pub use gibake_asset::{Asset, AssetError, load as load_asset};
 pub use gibake_gpu::GpuError;
 pub use gibake_image::Image;
@@ -85,61 +89,92 @@ pub use gibake_scene::{
 #[cfg(feature = "gltf")]
 pub use gibake_scene::{LoadOptions, load as load_scene};
 pub use plan::{FramePlan, Pass, PassSet, ShadeFlag};
+pub use requirements::Requirements;
 pub use settings::{Mode, RenderSettings};
 pub use stats::{FRAMES_IN_FLIGHT, FrameStats, Timing};
+pub use view::{OutputTarget, ViewId};
 pub use {glam, wgpu};
 
-use crate::baked::BakedGpu;
-use crate::gbuffer::GBufferPass;
-use crate::light::PrimaryLight;
-use crate::moving::{MovingPasses, UpdateInputs};
-use crate::shade::{GiSources, ShadeGi, ShadePass};
+use crate::shade::ShadePass;
 use crate::stats::Timer;
 use crate::view::View;
+use crate::world::World;
 
 /// Format of the renderer's output: linear radiance.
 pub const OUTPUT_FORMAT: wgpu::TextureFormat = shade::RADIANCE_FORMAT;
 
-/// Renders frames of one scene.
-pub struct Renderer {
-    id: u32,
-    settings: RenderSettings,
-    plan: FramePlan,
-    object_names: Vec<String>,
-    transforms: Vec<Mat4>,
-    scene_gpu: SceneGpu,
-    baked: Option<BakedGpu>,
-    light: PrimaryLight,
-    moving: MovingPasses,
-    gbuffer: GBufferPass,
-    shade: ShadePass,
-    gi: ShadeGi,
-    view: View,
-    timer: Timer,
+/// What [`Renderer::set_asset`] did to the [`ObjectHandle`]s.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reload {
+    /// The new scene has the same moving objects (names, in order): every
+    /// handle, matrix and visibility is kept.
+    HandlesKept,
+    /// The moving objects differ: old handles are refused from now on
+    /// ([`RuntimeError::UnknownObject`]); the objects start at time 0.
+    HandlesRenewed,
 }
 
-static NEXT_RENDERER: AtomicU32 = AtomicU32::new(0);
+/// The moving objects of a renderer: the scene's declared ones, then the
+/// spawned copies.
+struct Objects {
+    /// Handle namespace (a new one when the objects change).
+    id: u32,
+    /// How many the scene declares.
+    declared: usize,
+    names: Vec<String>,
+    /// The declared object each is drawn as.
+    template: Vec<usize>,
+    transforms: Vec<Mat4>,
+    /// Shown (not hidden, not removed).
+    shown: Vec<bool>,
+    removed: Vec<bool>,
+}
 
-/// Refuses material textures larger than the device's 2D limit.
-fn check_textures(device: &wgpu::Device, scene: &Scene) -> Result<(), RuntimeError> {
-    let limit = device.limits().max_texture_dimension_2d;
-    match scene
-        .textures
-        .iter()
-        .find(|t| t.width.max(t.height) > limit)
-    {
-        Some(t) => Err(RuntimeError::DeviceLimit {
-            what: format!("a {}×{} material texture", t.width, t.height),
-            needed: u64::from(t.width.max(t.height)),
-            limit: u64::from(limit),
-        }),
-        None => Ok(()),
+static NEXT_ID: AtomicU32 = AtomicU32::new(0);
+
+impl Objects {
+    fn of(scene: &Scene) -> Objects {
+        let n = scene.dynamic_objects.len();
+        Objects {
+            id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
+            declared: n,
+            names: scene
+                .dynamic_objects
+                .iter()
+                .map(|o| o.name.clone())
+                .collect(),
+            template: (0..n).collect(),
+            transforms: scene_transforms(scene, 0.0),
+            shown: vec![true; n],
+            removed: vec![false; n],
+        }
     }
+
+    /// The index of a live handle of these objects.
+    fn index(&self, h: ObjectHandle) -> Result<usize, RuntimeError> {
+        let i = h.index();
+        if h.renderer != self.id || i >= self.names.len() || self.removed[i] {
+            return Err(RuntimeError::UnknownObject(h));
+        }
+        Ok(i)
+    }
+}
+
+/// Renders frames of one scene, from one or more views.
+pub struct Renderer {
+    settings: RenderSettings,
+    objects: Objects,
+    world: World,
+    shade: ShadePass,
+    /// By [`ViewId`]; `None`: removed.
+    views: Vec<Option<View>>,
+    timer: Timer,
 }
 
 impl Renderer {
     /// Creates every GPU resource for `scene` (and `asset`, needed by every
-    /// mode but `Direct`) on the caller's device. The asset must have been
+    /// mode but `Direct`) on the caller's device, with one view
+    /// ([`ViewId::MAIN`]) of the settings' size. The asset must have been
     /// baked from this scene's static part. Moving objects start at their
     /// animation's time 0; the camera comes with the first
     /// [`Renderer::prepare`].
@@ -151,93 +186,88 @@ impl Renderer {
         settings: &RenderSettings,
     ) -> Result<Renderer, RuntimeError> {
         settings.check(device, asset.is_some())?;
-        let plan = FramePlan::new(settings, scene, asset)?;
-        if let Some(a) = asset {
-            let hash = gibake_scene::static_scene_hash(scene);
-            gibake_asset::check_scene_hash(&a.manifest, &hash, &scene.source)?;
-        }
-        check_textures(device, scene)?;
-        // The asset first: its limits are checked before any other upload.
-        let baked = asset.map(|a| BakedGpu::new(device, queue, a)).transpose()?;
-        let scene_gpu = SceneGpu::new(device, queue, scene, 0.0);
-        let light = PrimaryLight::new(
-            device,
-            queue,
-            scene,
-            &scene_gpu,
-            baked.as_ref(),
-            settings.shadow_map_size,
-        );
-        let moving = MovingPasses::new(
-            device,
-            &UpdateInputs {
-                plan: &plan,
-                scene_gpu: &scene_gpu,
-                baked: baked.as_ref(),
-                primary_view: light.view,
-                light_buf: &light.light_buf,
-                threshold: asset.map_or(0.0, |a| a.manifest.settings.threshold),
-                max_dynamic_vpls: settings.max_dynamic_vpls,
-                scene_diagonal: scene.full_bounds().diagonal(),
-            },
-        )?;
-        let gbuffer = GBufferPass::new(device, &scene_gpu);
+        Requirements::of(scene, asset, settings)?.check(&device.limits())?;
         let shade = ShadePass::new(device);
-        let gi = ShadeGi::new(
-            device,
-            &shade,
-            &GiSources {
-                plan: &plan,
-                baked: baked.as_ref(),
-                light: &light,
-                moving: &moving,
-            },
-        );
-        let view = View::new(
+        let world = World::new(device, queue, &shade, scene, asset, settings)?;
+        let main = View::new(
             device,
             queue,
-            (&shade, &gbuffer, &scene_gpu),
+            (&shade, &world.gbuffer, &world.scene_gpu),
             [settings.width, settings.height],
             settings.interleave,
         );
         Ok(Renderer {
-            id: NEXT_RENDERER.fetch_add(1, Ordering::Relaxed),
             settings: settings.clone(),
-            plan,
-            object_names: scene
-                .dynamic_objects
-                .iter()
-                .map(|o| o.name.clone())
-                .collect(),
-            transforms: scene_transforms(scene, 0.0),
-            scene_gpu,
-            baked,
-            light,
-            moving,
-            gbuffer,
+            objects: Objects::of(scene),
+            world,
             shade,
-            gi,
-            view,
+            views: vec![Some(main)],
             timer: Timer::new(device, queue),
         })
     }
 
-    /// The frame plan: which passes this renderer's frames have.
-    pub fn plan(&self) -> &FramePlan {
-        &self.plan
+    /// Replaces the scene and its asset (a re-bake, hot-reloaded) without
+    /// a new renderer: the views, their sizes and outputs stay; the frame
+    /// plan is made again. Everything is checked (and uploaded) before the
+    /// old data is let go: on an error the renderer is unchanged. While
+    /// both exist the GPU holds the old and the new asset.
+    pub fn set_asset(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene: &Scene,
+        asset: Option<&Asset>,
+    ) -> Result<Reload, RuntimeError> {
+        Requirements::of(scene, asset, &self.settings)?.check(&device.limits())?;
+        let world = World::new(device, queue, &self.shade, scene, asset, &self.settings)?;
+        self.world = world;
+        let same = scene
+            .dynamic_objects
+            .iter()
+            .map(|o| &o.name)
+            .eq(self.objects.names[..self.objects.declared].iter());
+        let reload = if same {
+            // The spawned copies again, in the new meshes.
+            let o = &self.objects;
+            for i in o.declared..o.names.len() {
+                self.world
+                    .scene_gpu
+                    .add_instance(queue, o.template[i], i, o.transforms[i]);
+            }
+            Reload::HandlesKept
+        } else {
+            self.objects = Objects::of(scene);
+            Reload::HandlesRenewed
+        };
+        self.world.show(&self.objects.shown);
+        for v in self.views.iter_mut().flatten() {
+            v.set_scene(device, &self.world.gbuffer, &self.world.scene_gpu);
+        }
+        Ok(reload)
     }
 
-    /// The moving objects: handle and name, in the scene's order.
+    /// The frame plan: which passes this renderer's frames have.
+    pub fn plan(&self) -> &FramePlan {
+        &self.world.plan
+    }
+
+    /// The moving objects: handle and name, in the scene's order (removed
+    /// ones left out).
     pub fn objects(&self) -> impl Iterator<Item = (ObjectHandle, &str)> + '_ {
-        self.object_names.iter().enumerate().map(|(i, n)| {
-            (
-                ObjectHandle {
-                    renderer: self.id,
-                    index: i as u32,
-                },
-                n.as_str(),
-            )
-        })
+        let o = &self.objects;
+        o.names
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| !o.removed[*i])
+            .map(|(i, n)| {
+                (
+                    ObjectHandle {
+                        renderer: o.id,
+                        index: i as u32,
+                    },
+                    n.as_str(),
+                )
+            })
     }
 
     /// The first moving object named `name`.
@@ -247,31 +277,144 @@ impl Renderer {
 
     /// The current world matrix of a moving object.
     pub fn transform(&self, object: ObjectHandle) -> Result<Mat4, RuntimeError> {
-        Ok(self.transforms[self.check_handle(object)?])
+        Ok(self.objects.transforms[self.objects.index(object)?])
     }
 
-    fn check_handle(&self, h: ObjectHandle) -> Result<usize, RuntimeError> {
-        if h.renderer != self.id || h.index() >= self.transforms.len() {
-            return Err(RuntimeError::UnknownObject(h));
+    /// Shows or hides a moving object: a hidden one is in no pass (no
+    /// shadow, no bounce, not seen) until shown again.
+    pub fn set_visible(&mut self, object: ObjectHandle, visible: bool) -> Result<(), RuntimeError> {
+        let i = self.objects.index(object)?;
+        self.objects.shown[i] = visible;
+        self.world.show(&self.objects.shown);
+        Ok(())
+    }
+
+    /// Whether a moving object is shown.
+    pub fn is_visible(&self, object: ObjectHandle) -> Result<bool, RuntimeError> {
+        Ok(self.objects.shown[self.objects.index(object)?])
+    }
+
+    /// Adds a copy of the moving object `like` (one of the scene's declared
+    /// ones, or a copy of one) at `transform`: a new moving object, shown,
+    /// with its own handle, name and matrix. At most
+    /// [`RenderSettings::max_spawned`] over the renderer's life
+    /// ([`RuntimeError::TooManyObjects`] past them).
+    pub fn spawn(
+        &mut self,
+        queue: &wgpu::Queue,
+        like: ObjectHandle,
+        transform: Mat4,
+    ) -> Result<ObjectHandle, RuntimeError> {
+        let o = &mut self.objects;
+        let template = o.template[o.index(like)?];
+        let index = o.names.len();
+        if index - o.declared >= self.settings.max_spawned as usize
+            || !self
+                .world
+                .scene_gpu
+                .add_instance(queue, template, index, transform)
+        {
+            return Err(RuntimeError::TooManyObjects {
+                max: self.settings.max_spawned,
+            });
         }
-        Ok(h.index())
+        o.names.push(o.names[template].clone());
+        o.template.push(template);
+        o.transforms.push(transform);
+        o.shown.push(true);
+        o.removed.push(false);
+        self.world.show(&o.shown);
+        Ok(ObjectHandle {
+            renderer: o.id,
+            index: index as u32,
+        })
     }
 
-    /// The output size in pixels.
+    /// Removes a moving object: it is in no pass any more and its handle is
+    /// refused from now on ([`RuntimeError::UnknownObject`]).
+    pub fn remove(&mut self, object: ObjectHandle) -> Result<(), RuntimeError> {
+        let i = self.objects.index(object)?;
+        self.objects.removed[i] = true;
+        self.objects.shown[i] = false;
+        self.world.show(&self.objects.shown);
+        Ok(())
+    }
+
+    fn view(&self, id: ViewId) -> Result<&View, RuntimeError> {
+        self.views
+            .get(id.0 as usize)
+            .and_then(Option::as_ref)
+            .ok_or(RuntimeError::UnknownView(id))
+    }
+
+    fn view_mut(&mut self, id: ViewId) -> Result<&mut View, RuntimeError> {
+        self.views
+            .get_mut(id.0 as usize)
+            .and_then(Option::as_mut)
+            .ok_or(RuntimeError::UnknownView(id))
+    }
+
+    fn main(&self) -> &View {
+        self.views[0]
+            .as_ref()
+            .expect("the main view is never removed")
+    }
+
+    /// Adds a view of `width × height` with `interleave` (as
+    /// [`RenderSettings::interleave`]): its own G-buffer, shading and
+    /// output, over the renderer's one copy of the asset and one per-frame
+    /// update. Its camera comes with [`FrameInput::views`].
+    pub fn add_view(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        width: u32,
+        height: u32,
+        interleave: u32,
+    ) -> Result<ViewId, RuntimeError> {
+        settings::check_interleave(interleave)?;
+        view::check_size(device, width, height, interleave)?;
+        let v = View::new(
+            device,
+            queue,
+            (&self.shade, &self.world.gbuffer, &self.world.scene_gpu),
+            [width, height],
+            interleave,
+        );
+        let id = ViewId(self.views.len() as u32);
+        self.views.push(Some(v));
+        Ok(id)
+    }
+
+    /// Removes a view added with [`Renderer::add_view`] (not the main one).
+    pub fn remove_view(&mut self, id: ViewId) -> Result<(), RuntimeError> {
+        self.view(id)?;
+        if id == ViewId::MAIN {
+            return Err(RuntimeError::InvalidSetting(
+                "the main view cannot be removed".into(),
+            ));
+        }
+        self.views[id.0 as usize] = None;
+        Ok(())
+    }
+
+    /// The main view's output size in pixels.
     pub fn size(&self) -> (u32, u32) {
-        self.view.size()
+        self.main().size()
     }
 
-    /// The interleave factor in use (1, 2, 4 or 8; resolves
+    /// A view's output size in pixels.
+    pub fn view_size(&self, id: ViewId) -> Result<(u32, u32), RuntimeError> {
+        Ok(self.view(id)?.size())
+    }
+
+    /// The main view's interleave factor (1, 2, 4 or 8; resolves
     /// [`RenderSettings::interleave`] = 0 for the current size).
     pub fn interleave(&self) -> u32 {
-        self.view.interleave()
+        self.main().interleave()
     }
 
-    /// Changes the output size: a new G-buffer and output (the renderer's
-    /// own again, and its own G-buffer: a caller that provided either
-    /// provides it again at the new size). The camera's aspect ratio is the
-    /// caller's to change.
+    /// Changes the main view's size ([`Renderer::resize_view`]).
     pub fn resize(
         &mut self,
         device: &wgpu::Device,
@@ -279,26 +422,54 @@ impl Renderer {
         width: u32,
         height: u32,
     ) -> Result<(), RuntimeError> {
-        view::check_size(device, width, height)?;
+        self.resize_view(device, queue, ViewId::MAIN, width, height)?;
         self.settings.width = width;
         self.settings.height = height;
-        self.view
-            .resize(device, queue, &self.shade, [width, height]);
         Ok(())
     }
 
-    /// Renders into the caller's `texture` from now on (`None`: the
-    /// renderer's own output again). It must be a 2D [`OUTPUT_FORMAT`]
-    /// texture of the output size with `STORAGE_BINDING` usage.
-    pub fn set_output_target(
+    /// Changes a view's size: a new G-buffer and output (the view's own
+    /// again, and its own G-buffer: a caller that provided either provides
+    /// it again at the new size). The camera's aspect ratio is the caller's
+    /// to change.
+    pub fn resize_view(
         &mut self,
         device: &wgpu::Device,
-        texture: Option<&wgpu::Texture>,
+        queue: &wgpu::Queue,
+        id: ViewId,
+        width: u32,
+        height: u32,
     ) -> Result<(), RuntimeError> {
-        self.view.set_output(device, &self.shade, texture)
+        let v = self.view(id)?;
+        view::check_size(device, width, height, v.interleave_setting())?;
+        let shade = &self.shade;
+        let v = self
+            .views
+            .get_mut(id.0 as usize)
+            .and_then(Option::as_mut)
+            .ok_or(RuntimeError::UnknownView(id))?;
+        v.resize(device, queue, shade, [width, height]);
+        Ok(())
     }
 
-    /// Prepares one frame: applies the camera and the moving objects'
+    /// Sends a view's frame to `target` from now on (checked first: on an
+    /// error nothing changes).
+    pub fn set_output(
+        &mut self,
+        device: &wgpu::Device,
+        id: ViewId,
+        target: OutputTarget<'_>,
+    ) -> Result<(), RuntimeError> {
+        let shade = &self.shade;
+        let v = self
+            .views
+            .get_mut(id.0 as usize)
+            .and_then(Option::as_mut)
+            .ok_or(RuntimeError::UnknownView(id))?;
+        v.set_output(device, shade, target)
+    }
+
+    /// Prepares one frame: applies the cameras and the moving objects'
     /// matrices, and uploads every table and grows every buffer the frame
     /// needs (the merge atlas included). On an error nothing of the frame is
     /// recorded differently from the last successful prepare's, except the
@@ -310,53 +481,49 @@ impl Renderer {
         frame: &FrameInput<'_>,
     ) -> Result<(), RuntimeError> {
         // Validate everything before changing anything.
-        let n = self.transforms.len();
-        if !frame.transforms.is_empty() && frame.transforms.len() != n {
+        let (n, declared) = (self.objects.transforms.len(), self.objects.declared);
+        let t = frame.transforms.len();
+        if t != 0 && t != n && t != declared {
             return Err(RuntimeError::TransformCount {
                 expected: n,
-                got: frame.transforms.len(),
+                got: t,
             });
         }
         for (h, _) in frame.moved {
-            self.check_handle(*h)?;
+            self.objects.index(*h)?;
         }
-        if !frame.transforms.is_empty() {
-            self.transforms.copy_from_slice(frame.transforms);
+        for (id, _) in frame.views {
+            self.view(*id)?;
         }
+        let o = &mut self.objects;
+        o.transforms[..t].copy_from_slice(frame.transforms);
         for (h, m) in frame.moved {
-            self.transforms[h.index()] = *m;
+            o.transforms[h.index()] = *m;
         }
-        if n > 0 {
-            self.scene_gpu
-                .set_dynamic_transforms(queue, &self.transforms);
+        let main = std::iter::once((ViewId::MAIN, frame.camera));
+        for (id, camera) in main.chain(frame.views.iter().copied()) {
+            self.view_mut(id)?.set_camera(queue, &camera);
         }
-        self.view.set_camera(queue, &frame.camera);
-        let atlas_grown = self
-            .moving
-            .prepare(device, queue, &self.scene_gpu, &self.transforms)?;
-        if atlas_grown {
-            let sources = GiSources {
-                plan: &self.plan,
-                baked: self.baked.as_ref(),
-                light: &self.light,
-                moving: &self.moving,
-            };
-            self.gi.atlas_changed(device, queue, &self.shade, &sources);
-        }
-        let affected = self.moving.affected();
-        let passes = self.plan.recorded(affected > 0, &[self.view.passes()]);
-        let update_draw_calls = self.moving.draw_calls();
-        let view_draws = if passes.has(Pass::GBuffer) {
-            (self.scene_gpu.static_draws.len() + self.scene_gpu.dynamic_draws.len()) as u32
-        } else {
-            0
-        };
+        let affected = self
+            .world
+            .prepare(device, queue, &self.shade, &self.objects.transforms)?;
+        let views: Vec<_> = self.views.iter().flatten().map(View::passes).collect();
+        let passes = self.world.plan.recorded(affected > 0, &views);
+        let update_draw_calls = self.world.moving.draw_calls();
+        let view_draws: u32 = self
+            .views
+            .iter()
+            .flatten()
+            .filter(|v| v.draws_gbuffer())
+            .map(|_| self.world.gbuffer_draw_calls())
+            .sum();
         let stats = FrameStats {
-            static_vpls: self.gi.static_vpls(),
-            dynamic_vpl_slots: self.moving.dynamic_vpl_slots(),
+            static_vpls: self.world.gi.static_vpls(),
+            dynamic_vpl_slots: self.world.moving.dynamic_vpl_slots(),
             affected_maps: affected,
             update_draw_calls,
             draw_calls: update_draw_calls + view_draws,
+            views: views.len() as u32,
             ..Default::default()
         };
         self.timer.begin(stats, passes);
@@ -384,16 +551,21 @@ impl Renderer {
     }
 
     /// Records the frame last prepared into `encoder`; uploads nothing:
-    /// the per-frame update once, then the view's G-buffer and shading.
+    /// the per-frame update once, then each view's G-buffer and shading.
     /// Submit it before the next [`Renderer::prepare`].
     pub fn record(&self, encoder: &mut wgpu::CommandEncoder) {
-        self.moving.record(encoder, &self.scene_gpu, &self.timer);
-        self.view.record(
-            encoder,
-            (&self.shade, &self.gbuffer, &self.scene_gpu),
-            &self.gi.group,
-            &self.timer,
-        );
+        let w = &self.world;
+        w.record_update(encoder, &self.timer);
+        for (k, v) in self.views.iter().flatten().enumerate() {
+            v.record(
+                encoder,
+                (&self.shade, &w.gbuffer, &w.scene_gpu),
+                &w.moving_draws,
+                &w.gi.group,
+                &self.timer,
+                k as u32,
+            );
+        }
         self.timer.finish(encoder);
     }
 
@@ -411,30 +583,42 @@ impl Renderer {
         self.timer.poll(device)
     }
 
-    /// The renderer's own G-buffer textures, in [`GBUFFER_FORMATS`] order.
+    /// The main view's own G-buffer textures, in [`GBUFFER_FORMATS`] order.
     pub fn gbuffer_textures(&self) -> &[wgpu::Texture] {
-        &self.view.gbuffer().textures
+        &self.main().gbuffer().textures
     }
 
-    /// The renderer's own G-buffer views, in [`GBUFFER_FORMATS`] order.
+    /// The main view's own G-buffer views, in [`GBUFFER_FORMATS`] order.
     pub fn gbuffer_views(&self) -> &[wgpu::TextureView; 3] {
-        &self.view.gbuffer().views
+        &self.main().gbuffer().views
     }
 
-    /// The frame's linear radiance ([`OUTPUT_FORMAT`], row 0 at the top,
-    /// `TEXTURE_BINDING` usage): the renderer's own texture, or the one given
-    /// to [`Renderer::set_output_target`].
+    /// The main view's own G-buffer depth (`Depth32Float`, reversed Z,
+    /// `TEXTURE_BINDING` usage): what a game can depth-test its own draws
+    /// against.
+    pub fn gbuffer_depth(&self) -> &wgpu::Texture {
+        &self.main().gbuffer().depth
+    }
+
+    /// The main view's linear radiance ([`OUTPUT_FORMAT`], row 0 at the
+    /// top, `TEXTURE_BINDING` usage): its own texture, or the storage
+    /// texture given to [`Renderer::set_output`].
     pub fn output(&self) -> &wgpu::Texture {
-        self.view.output()
+        self.main().output()
     }
 
     /// A view of [`Renderer::output`].
     pub fn output_view(&self) -> &wgpu::TextureView {
-        self.view.output_view()
+        self.main().output_view()
     }
 
-    /// Shades the game's own G-buffer instead of rendering one: three views
-    /// of output-sized textures in [`GBUFFER_FORMATS`] with
+    /// A view's linear radiance (as [`Renderer::output`]).
+    pub fn view_output(&self, id: ViewId) -> Result<&wgpu::Texture, RuntimeError> {
+        Ok(self.view(id)?.output())
+    }
+
+    /// Shades the game's own G-buffer in the main view instead of rendering
+    /// one: three views of output-sized textures in [`GBUFFER_FORMATS`] with
     /// `TEXTURE_BINDING` usage — 0: world position (xyz) and coverage (w = 1
     /// where a surface is, 0 elsewhere), 1: octahedral-encoded shading
     /// normal (xy) and geometric normal (zw), both facing the viewer (see
@@ -443,18 +627,40 @@ impl Renderer {
     /// [`Renderer::resize`], after which the caller provides its G-buffer
     /// again.
     pub fn use_external_gbuffer(&mut self, device: &wgpu::Device, views: [&wgpu::TextureView; 3]) {
-        self.view.use_external_gbuffer(device, &self.shade, views);
+        let shade = &self.shade;
+        if let Some(v) = self.views[0].as_mut() {
+            v.use_gbuffer_views(device, shade, views);
+        }
+    }
+
+    /// Rebuilds a view's G-buffer every frame from the engine's own depth,
+    /// normals and albedo ([`DepthGBuffer`]) and the frame camera's inverse
+    /// view-projection, instead of drawing the scene again; until the
+    /// view is resized.
+    pub fn use_depth_gbuffer(
+        &mut self,
+        device: &wgpu::Device,
+        id: ViewId,
+        src: &DepthGBuffer<'_>,
+    ) -> Result<(), RuntimeError> {
+        let shade = &self.shade;
+        let v = self
+            .views
+            .get_mut(id.0 as usize)
+            .and_then(Option::as_mut)
+            .ok_or(RuntimeError::UnknownView(id))?;
+        v.use_depth_gbuffer(device, shade, src)
     }
 
     /// Whether any resource for moving objects exists (merge maps, dynamic
     /// RSM, occlusion sums, merge atlas, dynamic VPLs). False for a scene
     /// without moving objects: nothing is allocated for them.
     pub fn has_dynamic_resources(&self) -> bool {
-        self.moving.exists()
+        self.world.moving.exists()
     }
 
     /// GPU bytes uploaded from the asset.
     pub fn asset_bytes(&self) -> u64 {
-        self.baked.as_ref().map_or(0, |b| b.bytes)
+        self.world.baked.as_ref().map_or(0, |b| b.bytes)
     }
 }

@@ -121,7 +121,7 @@ impl VplMerge {
         self.ranges.iter().filter(|(_, r)| !r.is_empty()).count() as u32
     }
 
-    /// Plans and uploads this frame's merge for the moving objects at
+    /// Plans and uploads this frame's merge for the `moving` draws shown at
     /// `transforms` (one per dynamic object). Returns whether the atlas was
     /// re-created (the caller rebinds it); an atlas over the device's limits
     /// is an error and leaves the old one in place.
@@ -130,16 +130,13 @@ impl VplMerge {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         scene_gpu: &SceneGpu,
+        moving: &[Draw],
         transforms: &[Mat4],
     ) -> Result<bool, RuntimeError> {
         let draws: Vec<&Draw> = if self.naive {
-            scene_gpu
-                .static_draws
-                .iter()
-                .chain(&scene_gpu.dynamic_draws)
-                .collect()
+            scene_gpu.static_draws.iter().chain(moving).collect()
         } else {
-            scene_gpu.dynamic_draws.iter().collect()
+            moving.iter().collect()
         };
         let boxes: Vec<Aabb> = draws
             .iter()

@@ -17,7 +17,7 @@
 //! objects (and not `naive`) none of it exists: no pass, no texture.
 
 use gibake_gpu::LightView;
-use gibake_gpu::mesh::SceneGpu;
+use gibake_gpu::mesh::{Draw, SceneGpu};
 use gibake_gpu::passes::shadow::ShadowPass;
 use glam::Mat4;
 
@@ -70,7 +70,10 @@ pub(crate) struct MovingPasses {
     rsm: Option<(DynamicRsmPass, OcclusionPass)>,
     vpls: Option<DynamicVplPass>,
     merge: Option<VplMerge>,
-    /// Draw calls of the moving objects (each of their passes draws them all).
+    /// Draw calls of this frame's VPL-map merge.
+    merge_draws: u32,
+    /// Draw calls of the moving objects shown this frame (each of their
+    /// passes draws them all).
     moving_draws: u32,
 }
 
@@ -121,6 +124,7 @@ impl MovingPasses {
             rsm,
             vpls,
             merge,
+            merge_draws: 0,
             moving_draws: i.scene_gpu.dynamic_draws.len() as u32,
         })
     }
@@ -130,21 +134,25 @@ impl MovingPasses {
         self.primary.is_some() || self.rsm.is_some() || self.vpls.is_some() || self.merge.is_some()
     }
 
-    /// Uploads this frame's merge tables for the moving objects at
-    /// `transforms` (their draw data is already on the GPU). Returns whether
-    /// the merge atlas was re-created (shading rebinds it); on an error the
-    /// last frame's tables stay.
+    /// Uploads this frame's merge tables for the moving objects' `draws`
+    /// shown, at `transforms` (their draw data is already on the GPU).
+    /// Returns whether the merge atlas was re-created (shading rebinds it);
+    /// on an error the last frame's tables stay.
     pub(crate) fn prepare(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         scene_gpu: &SceneGpu,
+        draws: &[Draw],
         transforms: &[Mat4],
     ) -> Result<bool, RuntimeError> {
-        match self.merge.as_mut() {
-            Some(m) => m.prepare(device, queue, scene_gpu, transforms),
-            None => Ok(false),
-        }
+        self.moving_draws = draws.len() as u32;
+        let grown = match self.merge.as_mut() {
+            Some(m) => m.prepare(device, queue, scene_gpu, draws, transforms)?,
+            None => false,
+        };
+        self.merge_draws = self.merge.as_ref().map_or(0, VplMerge::draw_calls);
+        Ok(grown)
     }
 
     /// VPL maps that get a merge tile this frame.
@@ -156,8 +164,7 @@ impl MovingPasses {
     pub(crate) fn draw_calls(&self) -> u32 {
         let primary = self.primary.as_ref().map_or(0, |_| self.moving_draws);
         let rsm = self.rsm.as_ref().map_or(0, |_| self.moving_draws);
-        let maps = self.merge.as_ref().map_or(0, VplMerge::draw_calls);
-        primary + rsm + maps
+        primary + rsm + self.merge_draws
     }
 
     /// Dynamic VPL slots shading reads.
@@ -187,21 +194,27 @@ impl MovingPasses {
         &self,
         encoder: &mut wgpu::CommandEncoder,
         scene_gpu: &SceneGpu,
+        draws: &[Draw],
         timer: &Timer,
     ) {
         if let Some(p) = &self.primary {
-            let ts = timer.render(Pass::PrimaryMerge);
-            p.encode(encoder, scene_gpu, &[&scene_gpu.dynamic_draws], ts);
+            let ts = timer.render(Pass::PrimaryMerge, None);
+            p.encode(encoder, scene_gpu, &[draws], ts);
         }
         if let Some((rsm, occlusion)) = &self.rsm {
-            rsm.encode(encoder, scene_gpu, timer.render(Pass::DynamicRsm));
-            occlusion.encode(encoder, timer.compute(Pass::Occlusion));
+            rsm.encode(
+                encoder,
+                scene_gpu,
+                draws,
+                timer.render(Pass::DynamicRsm, None),
+            );
+            occlusion.encode(encoder, timer.compute(Pass::Occlusion, None));
             if let Some(d) = &self.vpls {
-                d.encode(encoder, timer.compute(Pass::DynamicVpls));
+                d.encode(encoder, timer.compute(Pass::DynamicVpls, None));
             }
         }
         if let Some(m) = &self.merge {
-            m.record(encoder, timer.render(Pass::VplMaps));
+            m.record(encoder, timer.render(Pass::VplMaps, None));
         }
     }
 }

@@ -40,11 +40,14 @@ pub enum Pass {
     Shade,
     /// The interleaved-sampling filter (per view, interleave > 1).
     Interleave,
+    /// The view's radiance written or added into the caller's render target
+    /// (per view, only for such a target).
+    Composite,
 }
 
 impl Pass {
     /// Every pass, in recording order.
-    pub const ALL: [Pass; 8] = [
+    pub const ALL: [Pass; 9] = [
         Pass::PrimaryMerge,
         Pass::DynamicRsm,
         Pass::Occlusion,
@@ -53,6 +56,7 @@ impl Pass {
         Pass::GBuffer,
         Pass::Shade,
         Pass::Interleave,
+        Pass::Composite,
     ];
 
     /// Its name in stats and reports (`"primary merge"`, `"vpl maps"`, ...).
@@ -66,13 +70,17 @@ impl Pass {
             Pass::GBuffer => "gbuffer",
             Pass::Shade => "shade",
             Pass::Interleave => "interleave",
+            Pass::Composite => "composite",
         }
     }
 
     /// Whether it belongs to the per-frame update of the moving objects (the
     /// shared, once-per-frame part), not to a view's G-buffer and shading.
     pub fn is_update(self) -> bool {
-        !matches!(self, Pass::GBuffer | Pass::Shade | Pass::Interleave)
+        !matches!(
+            self,
+            Pass::GBuffer | Pass::Shade | Pass::Interleave | Pass::Composite
+        )
     }
 
     /// Position in [`Pass::ALL`].
@@ -224,7 +232,8 @@ impl FramePlan {
             .with_if(Pass::VplMaps, vpl_maps)
             .with(Pass::GBuffer)
             .with(Pass::Shade)
-            .with(Pass::Interleave);
+            .with(Pass::Interleave)
+            .with(Pass::Composite);
         use ShadeFlag as F;
         let mut flags = match mode {
             Mode::Direct => F::Direct as u32,
@@ -286,31 +295,49 @@ impl FramePlan {
         self.flags & flag as u32 != 0
     }
 
-    /// The passes one frame records: the planned update passes (the VPL
-    /// maps only when `vpl_maps_affected`), then per view its G-buffer
-    /// (unless external), shading, and the filter (interleave > 1).
-    pub fn recorded(&self, vpl_maps_affected: bool, views: &[ViewPasses]) -> PassSet {
-        let mut set = PassSet::default();
-        for p in self.passes.iter().filter(|p| p.is_update()) {
-            set = set.with_if(p, p != Pass::VplMaps || vpl_maps_affected);
+    /// The passes one frame records, each with its view: the planned
+    /// update passes once (the VPL maps only when `vpl_maps_affected`), then
+    /// per view its G-buffer (unless the caller provides one as it is),
+    /// shading, the filter (interleave > 1) and the composite (into a
+    /// caller's render target).
+    pub fn recorded(
+        &self,
+        vpl_maps_affected: bool,
+        views: &[ViewPasses],
+    ) -> Vec<(Pass, Option<u32>)> {
+        let mut list: Vec<(Pass, Option<u32>)> = self
+            .passes
+            .iter()
+            .filter(|p| p.is_update() && (*p != Pass::VplMaps || vpl_maps_affected))
+            .map(|p| (p, None))
+            .collect();
+        for (k, v) in views.iter().enumerate() {
+            let k = Some(k as u32);
+            for (on, p) in [
+                (v.gbuffer, Pass::GBuffer),
+                (true, Pass::Shade),
+                (v.interleave > 1, Pass::Interleave),
+                (v.composite, Pass::Composite),
+            ] {
+                if on {
+                    list.push((p, k));
+                }
+            }
         }
-        for v in views {
-            set = set
-                .with_if(Pass::GBuffer, !v.external_gbuffer)
-                .with(Pass::Shade)
-                .with_if(Pass::Interleave, v.interleave > 1);
-        }
-        set
+        list
     }
 }
 
 /// What decides a view's own passes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ViewPasses {
-    /// The caller provides the G-buffer.
-    pub external_gbuffer: bool,
+    /// The view records a G-buffer pass (its own, or one rebuilt from the
+    /// caller's depth and normals).
+    pub gbuffer: bool,
     /// The interleave factor in use.
     pub interleave: u32,
+    /// The view's radiance goes into the caller's render target.
+    pub composite: bool,
 }
 
 #[cfg(test)]
@@ -326,8 +353,8 @@ mod tests {
         assert!(Pass::ALL.windows(2).all(|w| w[0] < w[1]));
         assert_eq!(
             Pass::ALL.iter().filter(|p| !p.is_update()).count(),
-            3,
-            "G-buffer, shade, interleave are the view's"
+            4,
+            "G-buffer, shade, interleave, composite are the view's"
         );
     }
 

@@ -56,6 +56,10 @@ pub struct RenderSettings {
     /// [`RuntimeError::InvalidSetting`]. [`Renderer::interleave`] says which
     /// factor is in use.
     pub interleave: u32,
+    /// Most moving objects [`Renderer::spawn`] adds over the renderer's
+    /// life (copies of the scene's declared ones; room for their draws is
+    /// made at creation).
+    pub max_spawned: u32,
 }
 
 impl Default for RenderSettings {
@@ -67,6 +71,7 @@ impl Default for RenderSettings {
             shadow_map_size: 2048,
             mode: Mode::Full,
             interleave: interleave::AUTO,
+            max_spawned: 16,
         }
     }
 }
@@ -80,7 +85,8 @@ impl RenderSettings {
         device: &wgpu::Device,
         with_asset: bool,
     ) -> Result<(), RuntimeError> {
-        crate::view::check_size(device, self.width, self.height)?;
+        check_interleave(self.interleave)?;
+        crate::view::check_size(device, self.width, self.height, self.interleave)?;
         let limit = device.limits().max_texture_dimension_2d;
         if self.shadow_map_size == 0 {
             return Err(RuntimeError::InvalidSetting(
@@ -94,12 +100,16 @@ impl RenderSettings {
                 limit: u64::from(limit),
             });
         }
-        if !interleave::VALID.contains(&self.interleave) {
-            return Err(RuntimeError::InvalidSetting(format!(
-                "interleave {} must be 0 (automatic), 1, 2, 4 or 8",
-                self.interleave
-            )));
-        }
         Ok(())
     }
+}
+
+/// Refuses an interleave factor other than 0 (automatic), 1, 2, 4, 8.
+pub(crate) fn check_interleave(n: u32) -> Result<(), RuntimeError> {
+    if !interleave::VALID.contains(&n) {
+        return Err(RuntimeError::InvalidSetting(format!(
+            "interleave {n} must be 0 (automatic), 1, 2, 4 or 8"
+        )));
+    }
+    Ok(())
 }

@@ -128,7 +128,8 @@ pub(crate) struct GiInputs<'a> {
     pub light_view: &'a wgpu::Buffer,
     /// [`GpuGiParams`] uniform.
     pub params: &'a wgpu::Buffer,
-    /// Static VPLs ([`gibake_gpu::vpl::GpuVpl`]).
+    /// Static VPLs ([`gibake_gpu::vpl::GpuVpl`]), then their near-field
+    /// trees.
     pub vpls: Option<&'a wgpu::Buffer>,
     /// Per static VPL occluded fraction (fixed point 2^24).
     pub occlusion: Option<&'a wgpu::Buffer>,
@@ -140,8 +141,6 @@ pub(crate) struct GiInputs<'a> {
     pub atlas: Option<&'a wgpu::TextureView>,
     /// Dynamic VPL slots.
     pub dyn_vpls: Option<&'a wgpu::Buffer>,
-    /// Near-field trees of the static VPLs.
-    pub vpl_nodes: Option<&'a wgpu::Buffer>,
 }
 
 /// Bind group entries from `(binding, resource)` pairs.
@@ -183,7 +182,6 @@ impl ShadePass {
                 tex_entry(3),
                 tex_entry(4),
                 storage_entry(5),
-                storage_entry(6),
                 tex_entry(7),
                 tex_entry(8),
                 uniform_entry(9),
@@ -268,7 +266,6 @@ impl ShadePass {
                 (3, map(i.static_maps)),
                 (4, map(i.atlas)),
                 (5, dyn_vpls.as_entire_binding()),
-                (6, buf(i.vpl_nodes)),
                 (7, map(Some(i.primary_static))),
                 // Without moving objects shading never reads it (no
                 // `FLAG_DYN_PRIMARY`): the static map stands in.
@@ -363,7 +360,6 @@ impl ShadeGi {
                 static_maps: s.baked.map(|b| &b.static_maps),
                 atlas: m.atlas,
                 dyn_vpls: m.dyn_vpls,
-                vpl_nodes: s.baked.map(|b| &b.node_buf),
             },
         )
     }

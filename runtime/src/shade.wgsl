@@ -48,13 +48,12 @@ const VPL_MAX_SLOPE: f32 = 10.0;
 @group(0) @binding(4) var out_radiance: texture_storage_2d<rgba32float, write>;
 
 // Group 1: light and GI data, shared by every view.
-@group(1) @binding(0) var<storage, read> vpls: array<Vpl>;
+@group(1) @binding(0) var<storage, read> vpls: array<Vpl>;   // n_static VPLs, then their near-field trees
 @group(1) @binding(1) var<storage, read> occlusion: array<u32>;
 @group(1) @binding(2) var<storage, read> vpl_tile: array<u32>;
 @group(1) @binding(3) var static_maps: texture_2d<f32>;
 @group(1) @binding(4) var atlas: texture_2d<f32>;
 @group(1) @binding(5) var<storage, read> dyn_vpls: array<DynVpl>;
-@group(1) @binding(6) var<storage, read> vpl_nodes: array<Vpl>;   // near-field trees
 @group(1) @binding(7) var primary_static: texture_2d<f32>;
 @group(1) @binding(8) var primary_dynamic: texture_2d<f32>;
 @group(1) @binding(9) var<uniform> light: PrimaryLight;
@@ -183,12 +182,12 @@ fn static_vpl_irradiance(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ns: ve
     if (!is_near(x, origin, v.area)) {
         return vpl_irradiance(origin, v.normal, v.area, v.flux, x, ns, ng);
     }
-    let base = i * NODES_PER_VPL;
+    let base = params.n_static + i * NODES_PER_VPL;   // its tree, after the VPLs
     var e = vec3<f32>(0.0);
     for (var c1 = 0u; c1 < 4u; c1++) {
         let i1 = c1 % 2u;
         let j1 = c1 / 2u;
-        let n1 = vpl_nodes[base + j1 * 2u + i1];
+        let n1 = vpls[base + j1 * 2u + i1];
         if (n1.texels == 0u) {
             continue;
         }
@@ -199,7 +198,7 @@ fn static_vpl_irradiance(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ns: ve
         for (var c2 = 0u; c2 < 4u; c2++) {
             let i2 = 2u * i1 + c2 % 2u;
             let j2 = 2u * j1 + c2 / 2u;
-            let n2 = vpl_nodes[base + 4u + j2 * 4u + i2];
+            let n2 = vpls[base + 4u + j2 * 4u + i2];
             if (n2.texels == 0u) {
                 continue;
             }
@@ -210,7 +209,7 @@ fn static_vpl_irradiance(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ns: ve
             for (var c3 = 0u; c3 < 4u; c3++) {
                 let i3 = 2u * i2 + c3 % 2u;
                 let j3 = 2u * j2 + c3 / 2u;
-                e += node_irradiance(vpl_nodes[base + 20u + j3 * 8u + i3], x, ns, ng);
+                e += node_irradiance(vpls[base + 20u + j3 * 8u + i3], x, ns, ng);
             }
         }
     }

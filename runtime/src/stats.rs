@@ -16,7 +16,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::time::Instant;
 
-use crate::plan::{Pass, PassSet};
+use crate::plan::Pass;
 
 /// Read-back buffers in flight: figures are at most this many frames old
 /// when the caller polls every frame.
@@ -62,9 +62,12 @@ pub struct FrameStats {
     pub frame: u64,
     /// How the times were measured.
     pub timing: Timing,
-    /// Per pass `(pass, milliseconds)`, in recording order (GPU
-    /// timestamps; empty with [`Timing::Wall`]).
+    /// Per pass `(pass, milliseconds)`, in recording order: the update
+    /// passes once, then each view's G-buffer, shading, filter and
+    /// composite (GPU timestamps; empty with [`Timing::Wall`]).
     pub passes: Vec<(Pass, f64)>,
+    /// Views rendered.
+    pub views: u32,
     /// The frame's time: the sum of `passes`, or the wall time.
     pub frame_ms: f64,
     /// Static VPLs shaded.
@@ -90,7 +93,8 @@ impl FrameStats {
             .sum()
     }
 
-    /// Milliseconds of `pass` (0 when the frame did not record it).
+    /// Milliseconds of `pass`, summed over the views (0 when the frame did
+    /// not record it).
     pub fn pass_ms(&self, pass: Pass) -> f64 {
         self.passes
             .iter()
@@ -113,7 +117,8 @@ struct Slot {
     /// When the frame's GPU work was seen done (wall timing).
     done: Arc<std::sync::Mutex<Option<Instant>>>,
     stats: FrameStats,
-    passes: PassSet,
+    /// The passes recorded, with the view each belongs to.
+    passes: Vec<(Pass, Option<u32>)>,
     started: Option<Instant>,
 }
 
@@ -133,10 +138,12 @@ struct Queries {
     set: wgpu::QuerySet,
     resolve: wgpu::Buffer,
     period_ns: f64,
+    /// Passes that can be timed per frame.
+    capacity: u32,
 }
 
-/// Query pairs per frame: one per pass.
-const PASSES: u32 = Pass::ALL.len() as u32;
+/// Passes timed per frame: every pass of four views.
+const PASSES: u32 = 4 * Pass::ALL.len() as u32;
 
 impl Timer {
     /// A timer with GPU timestamps when the device has them.
@@ -157,6 +164,7 @@ impl Timer {
                     mapped_at_creation: false,
                 }),
                 period_ns: f64::from(queue.get_timestamp_period()),
+                capacity: PASSES,
             });
         let slots = (0..FRAMES_IN_FLIGHT)
             .map(|_| Slot {
@@ -171,7 +179,7 @@ impl Timer {
                 state: Arc::new(AtomicU8::new(IDLE)),
                 done: Arc::default(),
                 stats: FrameStats::default(),
-                passes: PassSet::default(),
+                passes: Vec::new(),
                 started: None,
             })
             .collect();
@@ -188,7 +196,7 @@ impl Timer {
     /// Starts frame N + 1 with its counts and the passes it records. A slot
     /// whose frame is still in flight after [`FRAMES_IN_FLIGHT`] frames is
     /// skipped: that frame gets no figures.
-    pub(crate) fn begin(&mut self, stats: FrameStats, passes: PassSet) {
+    pub(crate) fn begin(&mut self, stats: FrameStats, passes: Vec<(Pass, Option<u32>)>) {
         self.collect();
         self.frame += 1;
         self.counts = FrameStats {
@@ -213,9 +221,13 @@ impl Timer {
         self.current = Some(k);
     }
 
-    /// Timestamp writes of render pass `pass` this frame.
-    pub(crate) fn render(&self, pass: Pass) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
-        let (set, i) = self.query(pass)?;
+    /// Timestamp writes of render pass `pass` (of `view`) this frame.
+    pub(crate) fn render(
+        &self,
+        pass: Pass,
+        view: Option<u32>,
+    ) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
+        let (set, i) = self.query(pass, view)?;
         Some(wgpu::RenderPassTimestampWrites {
             query_set: set,
             beginning_of_pass_write_index: Some(i),
@@ -223,9 +235,13 @@ impl Timer {
         })
     }
 
-    /// Timestamp writes of compute pass `pass` this frame.
-    pub(crate) fn compute(&self, pass: Pass) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
-        let (set, i) = self.query(pass)?;
+    /// Timestamp writes of compute pass `pass` (of `view`) this frame.
+    pub(crate) fn compute(
+        &self,
+        pass: Pass,
+        view: Option<u32>,
+    ) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        let (set, i) = self.query(pass, view)?;
         Some(wgpu::ComputePassTimestampWrites {
             query_set: set,
             beginning_of_pass_write_index: Some(i),
@@ -233,16 +249,14 @@ impl Timer {
         })
     }
 
-    /// The query set and the first query of `pass` this frame (its rank
-    /// among the passes the frame records).
-    fn query(&self, pass: Pass) -> Option<(&wgpu::QuerySet, u32)> {
+    /// The query set and the first query of `pass` of `view` this frame
+    /// (its rank among the passes the frame records; past the query set's
+    /// capacity a pass is not timed).
+    fn query(&self, pass: Pass, view: Option<u32>) -> Option<(&wgpu::QuerySet, u32)> {
         let q = self.queries.as_ref()?;
         let slot = &self.slots[self.current?];
-        if !slot.passes.has(pass) {
-            return None;
-        }
-        let rank = slot.passes.iter().take_while(|p| *p != pass).count() as u32;
-        Some((&q.set, 2 * rank))
+        let rank = slot.passes.iter().position(|p| *p == (pass, view))? as u32;
+        (rank < q.capacity).then_some((&q.set, 2 * rank))
     }
 
     /// Ends the frame's commands: resolves its timestamps and has wgpu map
@@ -262,7 +276,7 @@ impl Timer {
         };
         match (&self.queries, &slot.readback) {
             (Some(q), Some(readback)) => {
-                let n = 2 * slot.passes.iter().count() as u32;
+                let n = 2 * (slot.passes.len() as u32).min(q.capacity);
                 let bytes = 8 * u64::from(n.max(1));
                 if n > 0 {
                     encoder.resolve_query_set(&q.set, 0..n, &q.resolve, 0);
@@ -290,15 +304,14 @@ impl Timer {
             let mut stats = slot.stats.clone();
             match (&self.queries, &slot.readback) {
                 (Some(q), Some(readback)) => {
-                    let n = slot.passes.iter().count();
+                    let n = slot.passes.len().min(q.capacity as usize);
                     let bytes = 16 * n.max(1) as u64;
                     if let Ok(data) = readback.slice(..bytes).get_mapped_range() {
                         let t: &[u64] = bytemuck::cast_slice(&data);
-                        stats.passes = slot
-                            .passes
+                        stats.passes = slot.passes[..n]
                             .iter()
                             .enumerate()
-                            .map(|(k, p)| {
+                            .map(|(k, &(p, _))| {
                                 let dt = t[2 * k + 1].saturating_sub(t[2 * k]);
                                 (p, dt as f64 * q.period_ns * 1e-6)
                             })

@@ -10,8 +10,8 @@ use gibake_bake::cluster::ClusterTarget;
 use gibake_gpu::GpuContext;
 use gibake_runtime::glam::{Mat4, Vec3};
 use gibake_runtime::{
-    Asset, CameraMatrices, FrameInput, Image, Mode, OUTPUT_FORMAT, RenderSettings, Renderer,
-    RuntimeError, Scene, wgpu,
+    Asset, CameraMatrices, FrameInput, Image, Mode, OUTPUT_FORMAT, OutputTarget, RenderSettings,
+    Renderer, RuntimeError, Scene, ViewId, wgpu,
 };
 
 const TIME: f32 = 0.7;
@@ -374,14 +374,17 @@ fn a_caller_provided_output_gets_the_frame_and_a_bad_one_is_an_error() {
         texture(32, 16, OUTPUT_FORMAT, good_usage),
         texture(32, 32, OUTPUT_FORMAT, wgpu::TextureUsages::TEXTURE_BINDING),
     ] {
-        let e = r.set_output_target(d, Some(&bad)).unwrap_err();
+        let e = r
+            .set_output(d, ViewId::MAIN, OutputTarget::Texture(&bad))
+            .unwrap_err();
         assert!(matches!(e, RuntimeError::OutputTarget(_)), "{e}");
         no_cli_flag(&e);
     }
     let frame = FrameInput::new(games_camera(32, 32));
     let own = draw(&mut r, &frame);
     let target = texture(32, 32, OUTPUT_FORMAT, good_usage);
-    r.set_output_target(d, Some(&target)).unwrap();
+    r.set_output(d, ViewId::MAIN, OutputTarget::Texture(&target))
+        .unwrap();
     let theirs = draw(&mut r, &frame);
     let data = gibake_gpu::readback::read_texture_f32_on(d, &f.ctx.queue, &target, 0, 4).unwrap();
     assert_eq!(Image::from_rgba_f32(32, 32, &data), own);

@@ -179,6 +179,7 @@ pub(super) fn render_measured(
         mode,
         max_dynamic_vpls: 64,
         interleave,
+        max_spawned: 0,
     };
     let mut r = new_renderer(&b.ctx, scene, asset, &settings)?;
     if !b.quick {

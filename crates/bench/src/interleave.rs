@@ -78,6 +78,7 @@ pub(super) fn bench_interleave(
                     mode: Mode::Full,
                     max_dynamic_vpls: 64,
                     interleave: il,
+                    max_spawned: 0,
                 },
                 frames,
             })

@@ -55,6 +55,7 @@ pub(super) fn bench_runtime(b: &mut Bench, heavy: u32) -> crate::Result<()> {
         mode,
         max_dynamic_vpls: 64,
         interleave: 1,
+        max_spawned: 0,
     };
     let mut configs = Vec::new();
     for (scene, (out, _)) in [&cb, &heavy_scene].into_iter().zip(&baked) {
