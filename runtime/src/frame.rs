@@ -1,9 +1,11 @@
 //! What the game supplies each frame: the cameras and the moving objects'
 //! matrices, addressed by [`ObjectHandle`].
 
+use std::sync::atomic::{AtomicU32, Ordering};
+
 use glam::Mat4;
 
-use crate::{CameraMatrices, Scene, ViewId};
+use crate::{CameraMatrices, RuntimeError, Scene, ViewId};
 
 /// A moving object of one [`crate::Renderer`] (from
 /// [`crate::Renderer::object`] or [`crate::Renderer::objects`]). It stays
@@ -70,4 +72,50 @@ impl<'a> FrameInput<'a> {
 /// animation, in handle order.
 pub fn scene_transforms(scene: &Scene, time: f32) -> Vec<Mat4> {
     scene.dynamic_transforms(time)
+}
+
+/// The moving objects of a renderer: the scene's declared ones, then the
+/// spawned copies.
+pub(crate) struct Objects {
+    /// Handle namespace (a new one when the objects change).
+    pub id: u32,
+    /// How many the scene declares.
+    pub declared: usize,
+    pub names: Vec<String>,
+    /// The declared object each is drawn as.
+    pub template: Vec<usize>,
+    pub transforms: Vec<Mat4>,
+    /// Shown (not hidden, not removed).
+    pub shown: Vec<bool>,
+    pub removed: Vec<bool>,
+}
+
+static NEXT_ID: AtomicU32 = AtomicU32::new(0);
+
+impl Objects {
+    pub(crate) fn of(scene: &Scene) -> Objects {
+        let n = scene.dynamic_objects.len();
+        Objects {
+            id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
+            declared: n,
+            names: scene
+                .dynamic_objects
+                .iter()
+                .map(|o| o.name.clone())
+                .collect(),
+            template: (0..n).collect(),
+            transforms: scene_transforms(scene, 0.0),
+            shown: vec![true; n],
+            removed: vec![false; n],
+        }
+    }
+
+    /// The index of a live handle of these objects.
+    pub(crate) fn index(&self, h: ObjectHandle) -> Result<usize, RuntimeError> {
+        let i = h.index();
+        if h.renderer != self.id || i >= self.names.len() || self.removed[i] {
+            return Err(RuntimeError::UnknownObject(h));
+        }
+        Ok(i)
+    }
 }

@@ -70,8 +70,6 @@ mod stats;
 mod view;
 mod world;
 
-use std::sync::atomic::{AtomicU32, Ordering};
-
 use glam::Mat4;
 
 pub use camera::{CameraMatrices, NoCamera};
@@ -95,6 +93,7 @@ pub use stats::{FRAMES_IN_FLIGHT, FrameStats, Timing};
 pub use view::{OutputTarget, ViewId};
 pub use {glam, wgpu};
 
+use crate::frame::Objects;
 use crate::shade::ShadePass;
 use crate::stats::Timer;
 use crate::view::View;
@@ -112,52 +111,6 @@ pub enum Reload {
     /// The moving objects differ: old handles are refused from now on
     /// ([`RuntimeError::UnknownObject`]); the objects start at time 0.
     HandlesRenewed,
-}
-
-/// The moving objects of a renderer: the scene's declared ones, then the
-/// spawned copies.
-struct Objects {
-    /// Handle namespace (a new one when the objects change).
-    id: u32,
-    /// How many the scene declares.
-    declared: usize,
-    names: Vec<String>,
-    /// The declared object each is drawn as.
-    template: Vec<usize>,
-    transforms: Vec<Mat4>,
-    /// Shown (not hidden, not removed).
-    shown: Vec<bool>,
-    removed: Vec<bool>,
-}
-
-static NEXT_ID: AtomicU32 = AtomicU32::new(0);
-
-impl Objects {
-    fn of(scene: &Scene) -> Objects {
-        let n = scene.dynamic_objects.len();
-        Objects {
-            id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
-            declared: n,
-            names: scene
-                .dynamic_objects
-                .iter()
-                .map(|o| o.name.clone())
-                .collect(),
-            template: (0..n).collect(),
-            transforms: scene_transforms(scene, 0.0),
-            shown: vec![true; n],
-            removed: vec![false; n],
-        }
-    }
-
-    /// The index of a live handle of these objects.
-    fn index(&self, h: ObjectHandle) -> Result<usize, RuntimeError> {
-        let i = h.index();
-        if h.renderer != self.id || i >= self.names.len() || self.removed[i] {
-            return Err(RuntimeError::UnknownObject(h));
-        }
-        Ok(i)
-    }
 }
 
 /// Renders frames of one scene, from one or more views.

@@ -34,10 +34,10 @@ impl Mode {
     }
 }
 
-/// Settings of a [`Renderer`].
+/// Settings of a [`crate::Renderer`].
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
-    /// Output width in pixels ([`Renderer::resize`] changes it).
+    /// Output width in pixels ([`crate::Renderer::resize`] changes it).
     pub width: u32,
     /// Output height in pixels.
     pub height: u32,
@@ -52,11 +52,11 @@ pub struct RenderSettings {
     /// (each pixel of an N×N block sums a disjoint 1/N² of the VPLs, and a
     /// geometry-aware filter over its neighbours reconstructs the sum), or
     /// 0 (the default: 4 from 256² output pixels on, else 1 — measured, see
-    /// docs/results.md; re-chosen on [`Renderer::resize`]). Other values are
-    /// [`RuntimeError::InvalidSetting`]. [`Renderer::interleave`] says which
+    /// docs/results.md; re-chosen on [`crate::Renderer::resize`]). Other values are
+    /// [`RuntimeError::InvalidSetting`]. [`crate::Renderer::interleave`] says which
     /// factor is in use.
     pub interleave: u32,
-    /// Most moving objects [`Renderer::spawn`] adds over the renderer's
+    /// Most moving objects [`crate::Renderer::spawn`] adds over the renderer's
     /// life (copies of the scene's declared ones; room for their draws is
     /// made at creation).
     pub max_spawned: u32,

@@ -26,9 +26,9 @@ impl ViewId {
 /// Where a view's frame goes ([`crate::Renderer::set_view_output`]).
 #[derive(Clone, Copy, Debug)]
 pub enum OutputTarget<'a> {
-    /// The view's own [`OUTPUT_FORMAT`] texture (the default).
+    /// The view's own [`crate::OUTPUT_FORMAT`] texture (the default).
     Own,
-    /// The caller's texture of the view's size: an [`OUTPUT_FORMAT`]
+    /// The caller's texture of the view's size: an [`crate::OUTPUT_FORMAT`]
     /// texture with `STORAGE_BINDING` usage is shaded into directly; an
     /// `Rgba16Float` or `Rgba32Float` one with `RENDER_ATTACHMENT` usage
     /// gets the radiance written by a composite pass.
@@ -61,7 +61,7 @@ pub(crate) struct View {
     source: Source,
     /// The interleave filter (interleave > 1 only).
     interleave: Option<InterleavePass>,
-    /// The view's own radiance texture ([`OUTPUT_FORMAT`]).
+    /// The view's own radiance texture ([`crate::OUTPUT_FORMAT`]).
     own: wgpu::Texture,
     /// The texture shading writes: the own one or the caller's storage
     /// texture.
