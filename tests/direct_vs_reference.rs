@@ -20,7 +20,7 @@ fn gpu_direct_matches_reference_direct_on_bundled_scenes() {
                 mode: gibake_runtime::Mode::Direct,
                 ..Default::default()
             };
-            let gpu = gibake_runtime::render_image(
+            let gpu = gibake_eval::frame::render_image(
                 &ctx.device,
                 &ctx.queue,
                 &scene,

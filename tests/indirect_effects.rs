@@ -109,7 +109,7 @@ fn frame(
     let mut enc = ctx.device.create_command_encoder(&Default::default());
     r.record(&mut enc);
     ctx.queue.submit([enc.finish()]);
-    let img = r.read_output(&ctx.device, &ctx.queue, 1).unwrap();
+    let img = gibake_eval::frame::read_output(&r, &ctx.device, &ctx.queue, 1).unwrap();
     assert!(img.all_finite());
     img
 }
@@ -294,8 +294,8 @@ fn a_scene_without_moving_objects_runs_no_dynamic_pass() {
             (0, 0, 0),
             "{mode:?}"
         );
-        if stats.timing == "gpu timestamps" {
-            let names: Vec<&str> = stats.passes.iter().map(|(n, _)| n.as_str()).collect();
+        if stats.timing == gibake_runtime::Timing::GpuTimestamps {
+            let names: Vec<&str> = stats.passes.iter().map(|(n, _)| n.name()).collect();
             assert_eq!(names, ["gbuffer", "shade"], "{mode:?}");
         }
         assert_eq!(stats.update_ms(), 0.0);

@@ -49,7 +49,7 @@ fn render(
         s.interleave = n;
     }
     let img =
-        gibake_runtime::render_image(&ctx.device, &ctx.queue, scene, Some(asset), &s, TIME, 1)
+        gibake_eval::frame::render_image(&ctx.device, &ctx.queue, scene, Some(asset), &s, TIME, 1)
             .unwrap();
     assert!(
         img.all_finite(),
@@ -252,15 +252,13 @@ fn shade_time_interleave_1_against_4() {
             r.record(&mut enc);
             ctx.queue.submit([enc.finish()]);
             let st = r.stats(&ctx.device);
-            let ms = |name: &str| {
-                st.passes
-                    .iter()
-                    .filter(|(n, _)| n == name)
-                    .map(|(_, t)| t)
-                    .sum::<f64>()
-            };
+            let ms = |pass| st.pass_ms(pass);
             if frame > 0 {
-                times[k].push((ms("shade"), ms("interleave"), st.timing.clone()));
+                times[k].push((
+                    ms(gibake_runtime::Pass::Shade),
+                    ms(gibake_runtime::Pass::Interleave),
+                    st.timing.to_string(),
+                ));
             }
         }
     }
@@ -317,8 +315,8 @@ fn an_external_gbuffer_is_filtered_like_the_own_one() {
     ext.record(&mut enc);
     ctx.queue.submit([enc.finish()]);
     let stats = own.stats(&ctx.device);
-    if stats.timing == "gpu timestamps" {
-        let names: Vec<_> = stats.passes.iter().map(|(n, _)| n.as_str()).collect();
+    if stats.timing == gibake_runtime::Timing::GpuTimestamps {
+        let names: Vec<_> = stats.passes.iter().map(|(n, _)| n.name()).collect();
         assert_eq!(
             names[names.len() - 3..],
             ["gbuffer", "shade", "interleave"],
@@ -327,8 +325,8 @@ fn an_external_gbuffer_is_filtered_like_the_own_one() {
         let upd: f64 = stats.passes[..names.len() - 3].iter().map(|p| p.1).sum();
         assert_eq!(stats.update_ms(), upd, "the filter is shading, not update");
     }
-    let a = own.read_output(&ctx.device, &ctx.queue, 1).unwrap();
-    let b = ext.read_output(&ctx.device, &ctx.queue, 1).unwrap();
+    let a = gibake_eval::frame::read_output(&own, &ctx.device, &ctx.queue, 1).unwrap();
+    let b = gibake_eval::frame::read_output(&ext, &ctx.device, &ctx.queue, 1).unwrap();
     assert!(a.mean().x > 0.0);
     assert!(a.all_finite());
     assert_eq!(a, b);

@@ -44,9 +44,16 @@ fn render(
         mode,
         ..Default::default()
     };
-    let img =
-        gibake_runtime::render_image(&ctx.device, &ctx.queue, scene, Some(asset), &s, time, ssaa)
-            .unwrap();
+    let img = gibake_eval::frame::render_image(
+        &ctx.device,
+        &ctx.queue,
+        scene,
+        Some(asset),
+        &s,
+        time,
+        ssaa,
+    )
+    .unwrap();
     assert!(img.all_finite(), "{mode:?}: non-finite pixels");
     img
 }
@@ -163,7 +170,7 @@ fn vpl_visibility_check(name: &str) {
                     gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
                 let nodes = &asset.vpl_nodes
                     [i * gibake_asset::NODES_PER_VPL..(i + 1) * gibake_asset::NODES_PER_VPL];
-                let ei = gibake_runtime::transport::static_vpl_irradiance(
+                let ei = gibake_eval::transport::static_vpl_irradiance(
                     v,
                     org,
                     nodes,
@@ -228,7 +235,7 @@ fn full_mode_is_scale_invariant_and_finite_for_extreme_lights() {
             interleave: 4,
             ..Default::default()
         };
-        let img = gibake_runtime::render_image(
+        let img = gibake_eval::frame::render_image(
             &ctx.device,
             &ctx.queue,
             scene,
@@ -294,15 +301,18 @@ fn an_external_gbuffer_is_shaded_like_the_own_one() {
     ext.record(&mut enc);
     ctx.queue.submit([enc.finish()]);
     let stats = ext.stats(&ctx.device);
-    if stats.timing == "gpu timestamps" {
+    if stats.timing == gibake_runtime::Timing::GpuTimestamps {
         assert!(
-            stats.passes.iter().all(|(n, _)| n != "gbuffer"),
+            stats
+                .passes
+                .iter()
+                .all(|(n, _)| *n != gibake_runtime::Pass::GBuffer),
             "{:?}",
             stats.passes
         );
     }
-    let a = own.read_output(&ctx.device, &ctx.queue, 1).unwrap();
-    let b = ext.read_output(&ctx.device, &ctx.queue, 1).unwrap();
+    let a = gibake_eval::frame::read_output(&own, &ctx.device, &ctx.queue, 1).unwrap();
+    let b = gibake_eval::frame::read_output(&ext, &ctx.device, &ctx.queue, 1).unwrap();
     assert!(a.mean().x > 0.0);
     assert_eq!(a, b);
 }

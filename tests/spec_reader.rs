@@ -218,7 +218,7 @@ fn reader_refuses_damaged_assets() {
     let reseal_cases: [(&str, &str, Option<&str>); 5] = [
         // One byte after the last field, same minor: refused.
         ("payload += b'\\x00'", "0", Some("after the last field")),
-        // The same from a newer minor (2.1): accepted and ignored.
+        // The same from a newer minor (3.1): accepted and ignored.
         ("payload += b'\\x00'", "1", None),
         // The file list cut short: refused.
         ("payload = payload[:-40]", "0", Some("payload ends inside")),

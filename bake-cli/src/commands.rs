@@ -149,6 +149,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         mode,
         max_dynamic_vpls: a.max_dynamic_vpls,
         interleave: a.interleave,
+        max_spawned: 0,
     };
     let t0 = Instant::now();
     // The scene's camera, checked before any GPU work.
@@ -176,11 +177,11 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         ctx.queue.submit([enc.finish()]);
         let stats = renderer.stats(&ctx.device);
         let frame_s = start.elapsed().as_secs_f64();
-        let img = renderer.read_output(&ctx.device, &ctx.queue, a.ssaa)?;
+        let img = gibake_eval::frame::read_output(&renderer, &ctx.device, &ctx.queue, a.ssaa)?;
         let out = frame_path(&a.output, f, a.frames);
         let e = *exposure.get_or_insert_with(|| img.auto_exposure());
         write_image_atomic(&img, &out, Some(e))?;
-        let gpu_ms: f64 = stats.passes.iter().map(|(_, ms)| ms).sum();
+        let gpu_ms = stats.frame_ms;
         eprintln!(
             "wrote {} (t = {t:.3} s, GPU {gpu_ms:.2} ms, wall {:.3} s)",
             out.display(),

@@ -85,14 +85,20 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         renderer.record(&mut enc);
         ctx.queue.submit([enc.finish()]);
         let stats = renderer.stats(&ctx.device);
-        timing = stats.timing.clone();
-        for (name, ms) in &stats.passes {
+        timing = stats.timing.to_string();
+        let times: Vec<(&str, f64)> = match stats.timing {
+            gibake_runtime::Timing::GpuTimestamps => {
+                stats.passes.iter().map(|(p, ms)| (p.name(), *ms)).collect()
+            }
+            gibake_runtime::Timing::Wall => vec![("frame", stats.frame_ms)],
+        };
+        for (name, ms) in times {
             match per_pass.iter_mut().find(|(n, _)| n == name) {
-                Some((_, v)) => v.push(*ms),
-                None => per_pass.push((name.clone(), vec![*ms])),
+                Some((_, v)) => v.push(ms),
+                None => per_pass.push((name.to_string(), vec![ms])),
             }
         }
-        let img = renderer.read_output(&ctx.device, &ctx.queue, 1)?;
+        let img = gibake_eval::frame::read_output(&renderer, &ctx.device, &ctx.queue, 1)?;
         // One exposure for the sequence: the first frame's.
         let e = *exposure.get_or_insert_with(|| img.auto_exposure());
         write_image_atomic(&img, &a.output.join(format!("frame_{f:03}.png")), Some(e))?;

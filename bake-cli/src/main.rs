@@ -13,7 +13,7 @@ macro_rules! eprintln {
     }};
 }
 
-mod bench;
+
 mod cli;
 mod commands;
 mod demo;
@@ -38,7 +38,10 @@ fn run(cli: cli::Cli) -> anyhow::Result<ExitCode> {
         Command::Merge(a) => pipeline::merge(a),
         Command::Diff(a) => commands::diff(a),
         Command::Inspect(a) => commands::inspect(a),
-        Command::Bench(a) => bench::bench(a),
+        Command::Bench(a) => {
+            gibake_bench::run(&a)?;
+            Ok(ExitCode::SUCCESS)
+        }
     }
 }
 

@@ -1,19 +1,21 @@
-//! A loaded `.gibake` asset on the GPU: static VPL records, the baked
-//! hemisphere maps (one `R32Float` 2D atlas in the asset's own tile layout,
-//! `gibake_asset::atlas_grid`), the static
-//! primary shadow map and, only for scenes with moving objects, the static
-//! RSM metric plus each texel's share of its VPL's flux (for partial
-//! occlusion).
+//! A loaded `.gibake` asset on the GPU: static VPLs in the GPU's own
+//! layout ([`GpuVpl`], each VPL's map origin computed here, once, for
+//! shading and the merge alike), the baked hemisphere maps (one `R32Float`
+//! 2D atlas in the asset's own tile layout, `gibake_asset::atlas_grid`), the
+//! static primary shadow map and, only for scenes with moving objects, the
+//! static RSM metric plus each texel's share of its VPL's flux (baked; for
+//! partial occlusion).
 
-use gibake_asset::{Asset, NO_MAP, VplRecord};
+use gibake_asset::{Asset, VplRecord};
 use gibake_gpu::LightView;
+use gibake_gpu::vpl::{GpuVpl, NO_MAP};
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
 use crate::RuntimeError;
 
 /// RSM data for the dynamic merge.
-pub struct RsmGpu {
+pub(crate) struct RsmGpu {
     /// Static metric per texel (`R32Float`).
     pub static_metric: wgpu::TextureView,
     /// `(vpl, share)` per texel; share is fixed point (2^24 = the whole VPL).
@@ -23,14 +25,13 @@ pub struct RsmGpu {
 }
 
 /// The asset's GPU resources.
-pub struct BakedGpu {
-    /// VPL records (CPU copy, for choosing the affected maps).
-    pub vpls: Vec<VplRecord>,
-    /// VPL records (`VplRecord` layout, storage), `position` replaced by the
-    /// map origin.
+pub(crate) struct BakedGpu {
+    /// The VPLs as uploaded (CPU copy, for choosing the affected maps):
+    /// `position` is the map origin.
+    pub vpls: Vec<GpuVpl>,
+    /// [`BakedGpu::vpls`], then their near-field trees (`NODES_PER_VPL`
+    /// [`GpuVpl`]s per VPL, in VPL order) (storage).
     pub vpl_buf: wgpu::Buffer,
-    /// Near-field trees (`VplRecord` layout, `NODES_PER_VPL` per VPL).
-    pub node_buf: wgpu::Buffer,
     /// Baked hemisphere maps, one 2D atlas (one +inf tile when none is stored).
     pub static_maps: wgpu::TextureView,
     /// Tiles per row of [`BakedGpu::static_maps`].
@@ -48,7 +49,7 @@ pub struct BakedGpu {
 }
 
 /// The light view stored in a manifest, at `size`.
-pub fn light_view(asset: &Asset, size: u32) -> LightView {
+pub(crate) fn light_view(asset: &Asset, size: u32) -> LightView {
     LightView::from_record(
         &asset.manifest.light_view,
         asset.manifest.settings.shadow_map_size,
@@ -87,7 +88,7 @@ fn r32_texture(
 
 impl BakedGpu {
     /// Uploads `asset`.
-    pub fn new(
+    pub(crate) fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         asset: &Asset,
@@ -103,20 +104,23 @@ impl BakedGpu {
             m.map_count,
             s,
         )?;
-        let tile = (s as usize) * (s as usize);
-        let atlas = if m.map_count == 0 {
-            vec![f32::INFINITY; tile]
-        } else if asset.vpl_maps.len() == m.map_count as usize * tile {
-            gibake_asset::layers_to_atlas(&asset.vpl_maps, m.map_count, s).2
+        // The asset's atlas as it is; one +inf tile when no map is stored.
+        let one_tile;
+        let atlas: &[f32] = if m.map_count == 0 {
+            one_tile = vec![f32::INFINITY; (s as usize) * (s as usize)];
+            &one_tile
+        } else if asset.vpl_maps.count() == m.map_count && asset.vpl_maps.tile_size() == s {
+            asset.vpl_maps.texels()
         } else {
             return Err(RuntimeError::InvalidSetting(format!(
-                "the asset holds {} map texels for {} maps of {s}²",
-                asset.vpl_maps.len(),
+                "the asset holds {} maps of {}² for {} maps of {s}²",
+                asset.vpl_maps.count(),
+                asset.vpl_maps.tile_size(),
                 m.map_count
             )));
         };
         let (w, h) = (cols * s, rows * s);
-        let static_maps = r32_texture(device, queue, "baked VPL maps", w, h, &atlas)
+        let static_maps = r32_texture(device, queue, "baked VPL maps", w, h, atlas)
             .create_view(&Default::default());
         let pd = &asset.primary_depth;
         let rsm_size = asset.rsm.as_ref().map(|r| r.size).unwrap_or(0);
@@ -141,82 +145,63 @@ impl BakedGpu {
             &pd.data,
         )
         .create_view(&Default::default());
-        let mut vpls = asset.vpls.clone();
-        // A VPL record with no stored map must say so.
-        for v in &mut vpls {
-            if v.map >= m.map_count {
-                v.map = NO_MAP;
-            }
-        }
         // On the GPU a VPL's position is its map origin (position lifted
         // along the normal, `hemisphere::vpl_origin`), computed once here
-        // rather than per pixel and VPL in the shader.
-        let gpu_vpls: Vec<VplRecord> = vpls
+        // rather than per pixel and VPL in the shader; a record with no
+        // stored map says so.
+        let vpls: Vec<GpuVpl> = asset
+            .vpls
             .iter()
             .map(|v| {
                 let n = Vec3::from_array(v.normal);
                 let o = gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
-                VplRecord {
+                GpuVpl {
                     position: o.to_array(),
-                    ..*v
+                    map: if v.map < m.map_count { v.map } else { NO_MAP },
+                    ..gpu_vpl(v)
                 }
             })
             .collect();
-        let vpl_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("static VPLs"),
-            contents: if gpu_vpls.is_empty() {
-                &[0u8; 48]
-            } else {
-                bytemuck::cast_slice(&gpu_vpls)
-            },
-            usage: wgpu::BufferUsages::STORAGE,
-        });
-        // Near-field trees, as stored (NODES_PER_VPL records per VPL).
-        let node_bytes = (asset.vpl_nodes.len() * 48) as u64;
+        let nodes: Vec<GpuVpl> = asset.vpl_nodes.iter().map(gpu_vpl).collect();
+        // The VPLs, then their near-field trees (NODES_PER_VPL records per
+        // VPL, as stored), in one storage buffer: shading binds four.
+        let records = [vpls.as_slice(), nodes.as_slice()].concat();
+        let vpl_bytes = std::mem::size_of_val(records.as_slice()) as u64;
         let max_binding = device.limits().max_storage_buffer_binding_size;
-        if node_bytes > max_binding {
+        if vpl_bytes > max_binding {
             return Err(RuntimeError::DeviceLimit {
                 what: format!(
-                    "the near-field nodes of the asset's {} VPLs (bytes in one storage binding; bake fewer VPLs)",
+                    "the asset's {} VPLs and their near-field nodes (bytes in one storage binding; bake fewer VPLs)",
                     vpls.len()
                 ),
-                needed: node_bytes,
+                needed: vpl_bytes,
                 limit: max_binding,
             });
         }
-        let node_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("static VPL near-field nodes"),
-            contents: if asset.vpl_nodes.is_empty() {
+        let vpl_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("static VPLs and near-field nodes"),
+            contents: if records.is_empty() {
                 &[0u8; 48]
             } else {
-                bytemuck::cast_slice(&asset.vpl_nodes)
+                bytemuck::cast_slice(&records)
             },
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let mut bytes = (atlas.len() * 4 + pd.data.len() * 4 + vpls.len() * 48) as u64 + node_bytes;
+        let mut bytes = (atlas.len() * 4 + pd.data.len() * 4) as u64 + vpl_bytes;
         let rsm = match &asset.rsm {
             Some(r) => {
                 let metric =
                     r32_texture(device, queue, "baked RSM metric", r.size, r.size, &r.metric)
                         .create_view(&Default::default());
-                // Each texel's share of its VPL's flux (sum of RGB), fixed point.
-                let mut total = vec![0.0f64; vpls.len()];
-                for (f, &v) in r.flux.iter().zip(&r.vpl) {
-                    if (v as usize) < total.len() {
-                        total[v as usize] += (f[0] + f[1] + f[2]) as f64;
-                    }
-                }
+                // (VPL, its share of the VPL's flux) per texel, as baked.
+                let n = vpls.len();
                 let info: Vec<[u32; 2]> = r
-                    .flux
+                    .vpl
                     .iter()
-                    .zip(&r.vpl)
-                    .map(|(f, &v)| {
-                        if (v as usize) < total.len() && total[v as usize] > 0.0 {
-                            let share = (f[0] + f[1] + f[2]) as f64 / total[v as usize];
-                            [
-                                v,
-                                (share * 16_777_216.0).round().clamp(0.0, 16_777_216.0) as u32,
-                            ]
+                    .zip(&r.share)
+                    .map(|(&v, &share)| {
+                        if (v as usize) < n {
+                            [v, share]
                         } else {
                             [u32::MAX, 0]
                         }
@@ -239,7 +224,6 @@ impl BakedGpu {
         Ok(BakedGpu {
             vpls,
             vpl_buf,
-            node_buf,
             static_maps,
             static_cols: cols,
             map_size: s,
@@ -248,5 +232,17 @@ impl BakedGpu {
             rsm,
             bytes,
         })
+    }
+}
+
+/// A record of the asset's layout in the GPU's (the same values).
+fn gpu_vpl(v: &VplRecord) -> GpuVpl {
+    GpuVpl {
+        position: v.position,
+        area: v.area,
+        normal: v.normal,
+        texels: v.texels,
+        flux: v.flux,
+        map: v.map,
     }
 }

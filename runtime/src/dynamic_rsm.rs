@@ -2,7 +2,7 @@
 //! (`dynamic_rsm.wgsl`), and the partial-occlusion pass that reads it
 //! (`occlusion.wgsl`). Only built when the scene has moving objects.
 
-use gibake_gpu::mesh::SceneGpu;
+use gibake_gpu::mesh::{Draw, SceneGpu};
 use gibake_gpu::util::{
     cleared_attachments, cleared_depth, draws_and_uniform_group, mesh_pipeline, texture_2d,
 };
@@ -17,30 +17,35 @@ pub(crate) const OCCLUSION_WGSL: &str = concat!(
 );
 
 /// Target formats of the dynamic RSM.
-pub const DYN_RSM_FORMATS: [wgpu::TextureFormat; 3] = [
+pub(crate) const DYN_RSM_FORMATS: [wgpu::TextureFormat; 3] = [
     wgpu::TextureFormat::Rgba32Float,
     wgpu::TextureFormat::Rgba16Float,
     wgpu::TextureFormat::Rgba16Float,
 ];
 
 /// The dynamic RSM pass and its targets.
-pub struct DynamicRsmPass {
+pub(crate) struct DynamicRsmPass {
     pipeline: wgpu::RenderPipeline,
     bind_group: wgpu::BindGroup,
-    /// Targets in [`DYN_RSM_FORMATS`] order.
-    pub textures: Vec<wgpu::Texture>,
+    /// Targets in [`DYN_RSM_FORMATS`] order (read back by tests).
+    #[cfg_attr(not(test), expect(dead_code))]
+    pub(crate) textures: Vec<wgpu::Texture>,
     /// Their views.
-    pub views: Vec<wgpu::TextureView>,
+    pub(crate) views: Vec<wgpu::TextureView>,
     depth_view: wgpu::TextureView,
     /// The light view (RSM size) uniform.
-    pub view_buf: wgpu::Buffer,
+    pub(crate) view_buf: wgpu::Buffer,
     /// Size.
-    pub size: u32,
+    pub(crate) size: u32,
 }
 
 impl DynamicRsmPass {
     /// Creates the pass for `view` (RSM resolution).
-    pub fn new(device: &wgpu::Device, scene_gpu: &SceneGpu, view: &LightView) -> DynamicRsmPass {
+    pub(crate) fn new(
+        device: &wgpu::Device,
+        scene_gpu: &SceneGpu,
+        view: &LightView,
+    ) -> DynamicRsmPass {
         let module =
             shaders::mesh_module(device, "dynamic_rsm.wgsl", include_str!("dynamic_rsm.wgsl"));
         let view_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -91,11 +96,12 @@ impl DynamicRsmPass {
         }
     }
 
-    /// Records the pass (moving objects only).
-    pub fn encode(
+    /// Records the pass (the moving objects' `draws`).
+    pub(crate) fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         scene_gpu: &SceneGpu,
+        draws: &[Draw],
         ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) -> u32 {
         let clears = [
@@ -118,23 +124,23 @@ impl DynamicRsmPass {
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
-        scene_gpu.draw(&mut pass, &scene_gpu.dynamic_draws, true);
-        scene_gpu.dynamic_draws.len() as u32
+        scene_gpu.draw(&mut pass, draws, true);
+        draws.len() as u32
     }
 }
 
 /// The partial-occlusion pass.
-pub struct OcclusionPass {
+pub(crate) struct OcclusionPass {
     pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
     /// Per static VPL occluded share (u32, fixed point 2^24).
-    pub occluded: wgpu::Buffer,
+    pub(crate) occluded: wgpu::Buffer,
     size: u32,
 }
 
 impl OcclusionPass {
     /// Creates the pass. `texel_info` holds `(vpl, share)` per RSM texel.
-    pub fn new(
+    pub(crate) fn new(
         device: &wgpu::Device,
         static_metric: &wgpu::TextureView,
         rsm: &DynamicRsmPass,
@@ -194,7 +200,7 @@ impl OcclusionPass {
     }
 
     /// Records: clear the sums, then one invocation per texel.
-    pub fn encode(
+    pub(crate) fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         ts: Option<wgpu::ComputePassTimestampWrites<'_>>,

@@ -61,7 +61,7 @@ pub(crate) const DYNAMIC_VPL_WGSL: &str = concat!(
 /// `dynamic_vpl.wgsl` (48 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct GpuDynVpl {
+pub(crate) struct GpuDynVpl {
     /// xyz position (flux-weighted mean), w = area.
     pub position: [f32; 4],
     /// xyz unit normal, w = 1 if this slot holds a VPL, else 0 (and the
@@ -94,7 +94,7 @@ struct GpuParams {
 }
 
 /// The slot-pyramid depth for `max_vpls` VPLs: `ceil(log4(max_vpls))`.
-pub fn depth_for(max_vpls: u32) -> u32 {
+pub(crate) fn depth_for(max_vpls: u32) -> u32 {
     let mut d = 0;
     while d < 16 && (1u64 << (2 * d)) < u64::from(max_vpls) {
         d += 1;
@@ -103,12 +103,12 @@ pub fn depth_for(max_vpls: u32) -> u32 {
 }
 
 /// Number of slots of depths `0..=max_depth`: `(4^(max_depth+1) − 1) / 3`.
-pub fn slot_count(max_depth: u32) -> u32 {
+pub(crate) fn slot_count(max_depth: u32) -> u32 {
     (((1u64 << (2 * (max_depth + 1))) - 1) / 3) as u32
 }
 
 /// The GPU clustering of the dynamic RSM into VPL slots.
-pub struct DynamicVplPass {
+pub(crate) struct DynamicVplPass {
     reduce: wgpu::ComputePipeline,
     slots_pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
@@ -116,8 +116,9 @@ pub struct DynamicVplPass {
     _params: wgpu::Buffer,
     /// [`DynamicVplPass::slots`] × [`GpuDynVpl`], in slot order (see the
     /// module docs). `STORAGE | COPY_SRC`.
-    pub vpls: wgpu::Buffer,
+    pub(crate) vpls: wgpu::Buffer,
     levels: u32,
+    #[cfg_attr(not(test), expect(dead_code))]
     max_depth: u32,
     slots: u32,
 }
@@ -168,7 +169,7 @@ impl DynamicVplPass {
     /// `GpuPrimaryLight` uniform, `threshold` the bake's effective threshold
     /// (`manifest.settings.threshold`), `max_vpls` the most VPLs wanted
     /// (rounded up to a power of 4).
-    pub fn new(
+    pub(crate) fn new(
         device: &wgpu::Device,
         rsm: &DynamicRsmPass,
         static_metric: &wgpu::TextureView,
@@ -306,19 +307,23 @@ impl DynamicVplPass {
     }
 
     /// Number of slots in [`DynamicVplPass::vpls`] (`(4^(max_depth+1) − 1)/3`).
-    pub fn slots(&self) -> u32 {
+    pub(crate) fn slots(&self) -> u32 {
         self.slots
     }
 
     /// The deepest slot level (`ceil(log4(max_vpls))`, at most log2 of the
     /// RSM size rounded up to a power of two).
-    pub fn max_depth(&self) -> u32 {
+    #[cfg(test)]
+    pub(crate) fn max_depth(&self) -> u32 {
         self.max_depth
     }
 
     /// Records the clustering (after the dynamic RSM pass of the same frame).
-    pub fn encode(&self, encoder: &mut wgpu::CommandEncoder, timer: Option<&crate::timer::Timer>) {
-        let ts = timer.and_then(|t| t.compute("dynamic vpls"));
+    pub(crate) fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        ts: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("dynamic vpls"),
             timestamp_writes: ts,
@@ -336,6 +341,10 @@ impl DynamicVplPass {
         pass.dispatch_workgroups(x, y, 1);
     }
 }
+
+#[cfg(test)]
+#[path = "dynamic_vpl_tests.rs"]
+mod gpu_tests;
 
 #[cfg(test)]
 mod tests {

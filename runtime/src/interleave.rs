@@ -15,7 +15,7 @@ use crate::shade::RADIANCE_FORMAT;
 /// Must match `InterleaveParams` in `interleave.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct GpuInterleaveParams {
+pub(crate) struct GpuInterleaveParams {
     /// Output size.
     pub size: [u32; 2],
     /// Interleave N (2, 4 or 8).
@@ -26,11 +26,11 @@ pub struct GpuInterleaveParams {
 
 /// The interleave values [`crate::RenderSettings::interleave`] accepts
 /// (0: [`AUTO`]).
-pub const VALID: [u32; 5] = [AUTO, 1, 2, 4, 8];
+pub(crate) const VALID: [u32; 5] = [AUTO, 1, 2, 4, 8];
 
 /// [`crate::RenderSettings::interleave`] = 0: chosen from the output size
 /// by [`effective`].
-pub const AUTO: u32 = 0;
+pub(crate) const AUTO: u32 = 0;
 
 /// Output pixels from which [`AUTO`] interleaves 4×4: 256². Measured
 /// (`gibake bench interleave` and `quality`, docs/results.md): at 256² and
@@ -38,10 +38,10 @@ pub const AUTO: u32 = 0;
 /// its rel MSE and FLIP on the bundled scenes; at 64² the filter has too few
 /// neighbours on a surface and N = 4 cost up to 1.40× the rel MSE, so
 /// smaller outputs sum every VPL.
-pub const AUTO_MIN_PIXELS: u64 = 256 * 256;
+pub(crate) const AUTO_MIN_PIXELS: u64 = 256 * 256;
 
 /// The interleave factor used for `setting` at `width × height`.
-pub fn effective(setting: u32, width: u32, height: u32) -> u32 {
+pub(crate) fn effective(setting: u32, width: u32, height: u32) -> u32 {
     match setting {
         AUTO if u64::from(width) * u64::from(height) >= AUTO_MIN_PIXELS => 4,
         AUTO => 1,
@@ -51,13 +51,13 @@ pub fn effective(setting: u32, width: u32, height: u32) -> u32 {
 
 /// The filter pass: pipeline, layout, uniform and the shade pass's
 /// intermediate texture.
-pub struct InterleavePass {
+pub(crate) struct InterleavePass {
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
     uniform_buf: wgpu::Buffer,
     /// `2·width × height` `Rgba32Float`: direct radiance in the left half,
     /// the interleaved irradiance estimate in the right half.
-    pub shaded: wgpu::TextureView,
+    pub(crate) shaded: wgpu::TextureView,
     group: Option<wgpu::BindGroup>,
     size: [u32; 2],
 }
@@ -66,7 +66,7 @@ const COMPUTE: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
 
 impl InterleavePass {
     /// Creates the pass and its intermediate texture for `size` and `n`.
-    pub fn new(
+    pub(crate) fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         size: [u32; 2],
@@ -141,7 +141,7 @@ impl InterleavePass {
 
     /// Binds the G-buffer views and the final output (again after the
     /// G-buffer changes).
-    pub fn bind(
+    pub(crate) fn bind(
         &mut self,
         device: &wgpu::Device,
         gbuffer: [&wgpu::TextureView; 3],
@@ -165,7 +165,7 @@ impl InterleavePass {
     }
 
     /// Records the pass.
-    pub fn encode(
+    pub(crate) fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,

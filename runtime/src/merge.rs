@@ -17,7 +17,6 @@
 
 use std::ops::Range;
 
-use gibake_gpu::hemisphere;
 use gibake_gpu::mesh::{Draw, SceneGpu, lod_for};
 use gibake_gpu::passes::hemi_raster::{GpuHemiJob, HemiAtlas, HemiRasterPass, face_mask};
 use gibake_scene::Aabb;
@@ -28,7 +27,7 @@ use crate::baked::BakedGpu;
 
 /// Merge state of one renderer.
 pub(crate) struct VplMerge {
-    /// Per static VPL: (map origin, normal), computed once.
+    /// Per static VPL: (map origin, normal), as uploaded ([`BakedGpu::vpls`]).
     frames: Vec<(Vec3, Vec3)>,
     /// Every map is re-rendered from all geometry (`naive`).
     naive: bool,
@@ -78,13 +77,7 @@ impl VplMerge {
         let frames = baked
             .vpls
             .iter()
-            .map(|v| {
-                let n = Vec3::from_array(v.normal);
-                (
-                    hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area),
-                    n,
-                )
-            })
+            .map(|v| (v.position(), v.normal()))
             .collect();
         Ok(VplMerge {
             frames,
@@ -128,7 +121,7 @@ impl VplMerge {
         self.ranges.iter().filter(|(_, r)| !r.is_empty()).count() as u32
     }
 
-    /// Plans and uploads this frame's merge for the moving objects at
+    /// Plans and uploads this frame's merge for the `moving` draws shown at
     /// `transforms` (one per dynamic object). Returns whether the atlas was
     /// re-created (the caller rebinds it); an atlas over the device's limits
     /// is an error and leaves the old one in place.
@@ -137,16 +130,13 @@ impl VplMerge {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         scene_gpu: &SceneGpu,
+        moving: &[Draw],
         transforms: &[Mat4],
     ) -> Result<bool, RuntimeError> {
         let draws: Vec<&Draw> = if self.naive {
-            scene_gpu
-                .static_draws
-                .iter()
-                .chain(&scene_gpu.dynamic_draws)
-                .collect()
+            scene_gpu.static_draws.iter().chain(moving).collect()
         } else {
-            scene_gpu.dynamic_draws.iter().collect()
+            moving.iter().collect()
         };
         let boxes: Vec<Aabb> = draws
             .iter()

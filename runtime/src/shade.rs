@@ -3,65 +3,67 @@
 //! partial occlusion, dynamic VPLs. Writes linear radiance (`Rgba32Float`),
 //! or, interleaved, direct radiance and an irradiance estimate side by side
 //! for [`crate::interleave::InterleavePass`] to filter.
+//!
+//! Two bind groups: group 0 is a view's (its G-buffer, size, interleave
+//! factor and output), group 1 the renderer's light and GI data shared by
+//! every view ([`GiInputs`], [`GpuGiParams`]).
 
 use gibake_gpu::shaders;
 
-/// The pass's WGSL: the dynamic VPL slot layout it reads, then its own.
-const SHADE_WGSL: &str = concat!(
-    include_str!("dyn_vpl.wgsl"),
-    "\n",
-    include_str!("shade.wgsl")
-);
+use crate::plan::ShadeFlag;
+
+/// The pass's WGSL: the flags (generated from [`ShadeFlag`]), the VPL and
+/// dynamic VPL slot layouts it reads, then its own.
+fn shade_wgsl() -> String {
+    [
+        ShadeFlag::wgsl().as_str(),
+        gibake_gpu::vpl::VPL_WGSL,
+        include_str!("dyn_vpl.wgsl"),
+        include_str!("shade.wgsl"),
+    ]
+    .join("\n")
+}
 
 /// Output format of shading.
-pub const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+pub(crate) const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
-/// Must match `ShadeParams` in `shade.wgsl`.
+/// A view's parameters (`ViewParams` in `shade.wgsl`).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct GpuShadeParams {
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct GpuViewParams {
     /// Output size.
     pub size: [u32; 2],
-    /// `FLAG_*` bits.
-    pub flags: u32,
-    /// Number of static VPLs.
-    pub n_static: u32,
-    /// Hemisphere map size.
-    pub map_size: u32,
-    /// Tiles per atlas row.
-    pub atlas_cols: u32,
-    /// Number of dynamic VPL slots.
-    pub n_dynamic: u32,
-    /// Tiles per row of the baked map atlas.
-    pub static_cols: u32,
     /// Interleave N: 1 shades every VPL at every pixel; N > 1 shades the
     /// VPLs `i ≡ k (mod N²)` at pixel `k = x mod N + N·(y mod N)` and writes
     /// direct radiance | irradiance side by side (see `interleave.rs`).
     pub interleave: u32,
     /// Padding (16-byte struct size).
-    pub _pad: [u32; 3],
+    pub _pad: u32,
 }
 
-/// Direct light.
-pub const FLAG_DIRECT: u32 = 1;
-/// Static VPLs.
-pub const FLAG_STATIC_VPL: u32 = 2;
-/// Dynamic VPLs.
-pub const FLAG_DYNAMIC_VPL: u32 = 4;
-/// VPL visibility from hemisphere maps (off in `rsm` mode).
-pub const FLAG_VISIBILITY: u32 = 8;
-/// Every VPL map is an atlas tile (`naive`).
-pub const FLAG_ATLAS_ONLY: u32 = 16;
-/// Moving objects drawn into the primary map.
-pub const FLAG_DYN_PRIMARY: u32 = 32;
-/// Partial occlusion of static VPLs.
-pub const FLAG_OCCLUSION: u32 = 64;
-/// Moving objects are merged into VPL map tiles (`vpl_tile` is bound).
-pub const FLAG_TILES: u32 = 128;
+/// The renderer's GI parameters (`GiParams` in `shade.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct GpuGiParams {
+    /// [`ShadeFlag`] bits ([`crate::FramePlan::shade_flags`]).
+    pub flags: u32,
+    /// Number of static VPLs.
+    pub n_static: u32,
+    /// Hemisphere map size.
+    pub map_size: u32,
+    /// Tiles per merge-atlas row.
+    pub atlas_cols: u32,
+    /// Number of dynamic VPL slots.
+    pub n_dynamic: u32,
+    /// Tiles per row of the baked map atlas.
+    pub static_cols: u32,
+    /// Padding (16-byte struct size).
+    pub _pad: [u32; 2],
+}
 
-/// The shading pass: pipeline, bind group layouts, uniform, and what is
-/// bound where a feature is absent (its fallbacks).
-pub struct ShadePass {
+/// The shading pass: pipeline, bind group layouts, and what is bound where
+/// a feature is absent (its fallbacks).
+pub(crate) struct ShadePass {
     pipeline: wgpu::ComputePipeline,
     /// Bound for absent storage inputs.
     fallback_buf: wgpu::Buffer,
@@ -69,18 +71,16 @@ pub struct ShadePass {
     fallback_dyn_vpls: wgpu::Buffer,
     /// A 1×1 `R32Float` texture bound for absent maps.
     fallback_map: wgpu::TextureView,
-    /// Layout of group 0 (G-buffer, primary maps, light, params, output).
-    pub frame_layout: wgpu::BindGroupLayout,
-    /// Layout of group 1 (VPL data and maps).
-    pub gi_layout: wgpu::BindGroupLayout,
-    /// `GpuShadeParams` uniform.
-    pub uniform_buf: wgpu::Buffer,
+    /// Layout of group 0 (a view: G-buffer, params, output).
+    view_layout: wgpu::BindGroupLayout,
+    /// Layout of group 1 (light and GI data).
+    gi_layout: wgpu::BindGroupLayout,
 }
 
 const COMPUTE: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
 
-fn tex_entry(binding: u32, dim: wgpu::TextureViewDimension) -> wgpu::BindGroupLayoutEntry {
-    gibake_gpu::util::texture_entry(binding, COMPUTE, dim)
+fn tex_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    gibake_gpu::util::texture_entry(binding, COMPUTE, wgpu::TextureViewDimension::D2)
 }
 
 fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
@@ -91,27 +91,45 @@ fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     gibake_gpu::util::storage_entry(binding, COMPUTE, true)
 }
 
-/// Frame inputs (group 0).
-pub struct FrameInputs<'a> {
-    /// The camera G-buffer's three views (see [`crate::gbuffer::GBUFFER_FORMATS`]).
+/// A uniform buffer holding `value`, writable.
+pub(crate) fn uniform<T: bytemuck::Pod>(
+    device: &wgpu::Device,
+    label: &str,
+    value: &T,
+) -> wgpu::Buffer {
+    use wgpu::util::DeviceExt;
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: bytemuck::bytes_of(value),
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+    })
+}
+
+/// A view's inputs (group 0).
+pub(crate) struct ViewInputs<'a> {
+    /// The camera G-buffer's three views (see [`crate::GBUFFER_FORMATS`]).
     pub gbuffer: [&'a wgpu::TextureView; 3],
-    /// Static primary shadow map (metric).
-    pub primary_static: &'a wgpu::TextureView,
-    /// Moving objects' primary shadow map (or any R32Float view when none).
-    pub primary_dynamic: &'a wgpu::TextureView,
-    /// `GpuPrimaryLight` uniform.
-    pub light: &'a wgpu::Buffer,
-    /// `GpuLightView` uniform of the primary maps.
-    pub light_view: &'a wgpu::Buffer,
+    /// [`GpuViewParams`] uniform.
+    pub params: &'a wgpu::Buffer,
     /// Output radiance view (`Rgba32Float`, storage binding).
     pub output: &'a wgpu::TextureView,
 }
 
-/// GI inputs (group 1); `None`: the feature is absent and the pass binds
-/// its fallback.
-#[derive(Default)]
-pub struct GiInputs<'a> {
-    /// Static VPL records.
+/// Light and GI inputs (group 1); `None`: the feature is absent and the
+/// pass binds its fallback.
+pub(crate) struct GiInputs<'a> {
+    /// Static primary shadow map (metric).
+    pub primary_static: &'a wgpu::TextureView,
+    /// Moving objects' primary shadow map (`None`: no moving objects).
+    pub primary_dynamic: Option<&'a wgpu::TextureView>,
+    /// `GpuPrimaryLight` uniform.
+    pub light: &'a wgpu::Buffer,
+    /// `GpuLightView` uniform of the primary maps.
+    pub light_view: &'a wgpu::Buffer,
+    /// [`GpuGiParams`] uniform.
+    pub params: &'a wgpu::Buffer,
+    /// Static VPLs ([`gibake_gpu::vpl::GpuVpl`]), then their near-field
+    /// trees.
     pub vpls: Option<&'a wgpu::Buffer>,
     /// Per static VPL occluded fraction (fixed point 2^24).
     pub occlusion: Option<&'a wgpu::Buffer>,
@@ -123,33 +141,33 @@ pub struct GiInputs<'a> {
     pub atlas: Option<&'a wgpu::TextureView>,
     /// Dynamic VPL slots.
     pub dyn_vpls: Option<&'a wgpu::Buffer>,
-    /// Near-field trees of the static VPLs.
-    pub vpl_nodes: Option<&'a wgpu::Buffer>,
+}
+
+/// Bind group entries from `(binding, resource)` pairs.
+fn entries<'a, const N: usize>(
+    r: [(u32, wgpu::BindingResource<'a>); N],
+) -> [wgpu::BindGroupEntry<'a>; N] {
+    r.map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
 }
 
 impl ShadePass {
     /// Creates the pass.
-    pub fn new(device: &wgpu::Device) -> ShadePass {
-        let module = shaders::module(device, "shade.wgsl", SHADE_WGSL);
-        use wgpu::TextureViewDimension::D2;
-        let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("shade frame"),
+    pub(crate) fn new(device: &wgpu::Device) -> ShadePass {
+        let module = shaders::module(device, "shade.wgsl", &shade_wgsl());
+        let view_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shade view"),
             entries: &[
-                tex_entry(0, D2),
-                tex_entry(1, D2),
-                tex_entry(2, D2),
-                tex_entry(3, D2),
-                tex_entry(4, D2),
-                uniform_entry(5),
-                uniform_entry(6),
-                uniform_entry(7),
+                tex_entry(0),
+                tex_entry(1),
+                tex_entry(2),
+                uniform_entry(3),
                 wgpu::BindGroupLayoutEntry {
-                    binding: 8,
-                    visibility: wgpu::ShaderStages::COMPUTE,
+                    binding: 4,
+                    visibility: COMPUTE,
                     ty: wgpu::BindingType::StorageTexture {
                         access: wgpu::StorageTextureAccess::WriteOnly,
                         format: RADIANCE_FORMAT,
-                        view_dimension: D2,
+                        view_dimension: wgpu::TextureViewDimension::D2,
                     },
                     count: None,
                 },
@@ -161,21 +179,19 @@ impl ShadePass {
                 storage_entry(0),
                 storage_entry(1),
                 storage_entry(2),
-                tex_entry(3, D2),
-                tex_entry(4, D2),
+                tex_entry(3),
+                tex_entry(4),
                 storage_entry(5),
-                storage_entry(6),
+                tex_entry(7),
+                tex_entry(8),
+                uniform_entry(9),
+                uniform_entry(10),
+                uniform_entry(11),
             ],
-        });
-        let uniform_buf = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("shade params"),
-            size: std::mem::size_of::<GpuShadeParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("shade"),
-            bind_group_layouts: &[Some(&frame_layout), Some(&gi_layout)],
+            bind_group_layouts: &[Some(&view_layout), Some(&gi_layout)],
             immediate_size: 0,
         });
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -207,111 +223,65 @@ impl ShadePass {
                 wgpu::TextureUsages::TEXTURE_BINDING,
             )
             .create_view(&Default::default()),
-            frame_layout,
+            view_layout,
             gi_layout,
-            uniform_buf,
         }
     }
 
-    /// Bind group 0.
-    pub fn frame_group(&self, device: &wgpu::Device, i: &FrameInputs<'_>) -> wgpu::BindGroup {
-        let g = i.gbuffer;
+    /// Bind group 0 of a view.
+    pub(crate) fn view_group(&self, device: &wgpu::Device, i: &ViewInputs<'_>) -> wgpu::BindGroup {
         let tv = wgpu::BindingResource::TextureView;
         device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("shade frame"),
-            layout: &self.frame_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: tv(g[0]),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: tv(g[1]),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: tv(g[2]),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: tv(i.primary_static),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: tv(i.primary_dynamic),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: i.light.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 6,
-                    resource: i.light_view.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 7,
-                    resource: self.uniform_buf.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 8,
-                    resource: tv(i.output),
-                },
-            ],
+            label: Some("shade view"),
+            layout: &self.view_layout,
+            entries: &entries([
+                (0, tv(i.gbuffer[0])),
+                (1, tv(i.gbuffer[1])),
+                (2, tv(i.gbuffer[2])),
+                (3, i.params.as_entire_binding()),
+                (4, tv(i.output)),
+            ]),
         })
     }
 
     /// Bind group 1, with fallbacks for what `i` lacks.
-    pub fn gi_group<'a>(&'a self, device: &wgpu::Device, i: &GiInputs<'a>) -> wgpu::BindGroup {
+    pub(crate) fn gi_group<'a>(
+        &'a self,
+        device: &wgpu::Device,
+        i: &GiInputs<'a>,
+    ) -> wgpu::BindGroup {
         let fb = &self.fallback_buf;
         let fm = &self.fallback_map;
         let buf = |b: Option<&'a wgpu::Buffer>| b.unwrap_or(fb).as_entire_binding();
         let map =
             |m: Option<&'a wgpu::TextureView>| wgpu::BindingResource::TextureView(m.unwrap_or(fm));
+        let dyn_vpls = i.dyn_vpls.unwrap_or(&self.fallback_dyn_vpls);
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shade gi"),
             layout: &self.gi_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: buf(i.vpls),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: buf(i.occlusion),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: buf(i.vpl_tile),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: map(i.static_maps),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 6,
-                    resource: buf(i.vpl_nodes),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: map(i.atlas),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: i
-                        .dyn_vpls
-                        .unwrap_or(&self.fallback_dyn_vpls)
-                        .as_entire_binding(),
-                },
-            ],
+            entries: &entries([
+                (0, buf(i.vpls)),
+                (1, buf(i.occlusion)),
+                (2, buf(i.vpl_tile)),
+                (3, map(i.static_maps)),
+                (4, map(i.atlas)),
+                (5, dyn_vpls.as_entire_binding()),
+                (7, map(Some(i.primary_static))),
+                // Without moving objects shading never reads it (no
+                // `FLAG_DYN_PRIMARY`): the static map stands in.
+                (8, map(Some(i.primary_dynamic.unwrap_or(i.primary_static)))),
+                (9, i.light.as_entire_binding()),
+                (10, i.light_view.as_entire_binding()),
+                (11, i.params.as_entire_binding()),
+            ]),
         })
     }
 
     /// Records the pass.
-    pub fn encode(
+    pub(crate) fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        frame: &wgpu::BindGroup,
+        view: &wgpu::BindGroup,
         gi: &wgpu::BindGroup,
         size: [u32; 2],
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
@@ -321,9 +291,95 @@ impl ShadePass {
             timestamp_writes: timestamps,
         });
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(0, view, &[]);
         pass.set_bind_group(1, gi, &[]);
         pass.dispatch_workgroups(size[0].div_ceil(8), size[1].div_ceil(8), 1);
+    }
+}
+
+/// The renderer's shading inputs shared by every view: the GI parameters
+/// and bind group 1.
+pub(crate) struct ShadeGi {
+    params: GpuGiParams,
+    params_buf: wgpu::Buffer,
+    /// Bind group 1.
+    pub group: wgpu::BindGroup,
+}
+
+/// What group 1 is built from.
+pub(crate) struct GiSources<'a> {
+    /// The frame plan (flags).
+    pub plan: &'a crate::FramePlan,
+    /// The asset on the GPU.
+    pub baked: Option<&'a crate::baked::BakedGpu>,
+    /// The primary light.
+    pub light: &'a crate::light::PrimaryLight,
+    /// The per-frame update.
+    pub moving: &'a crate::moving::MovingPasses,
+}
+
+impl ShadeGi {
+    /// Parameters and group 1 for `s`.
+    pub(crate) fn new(device: &wgpu::Device, shade: &ShadePass, s: &GiSources<'_>) -> ShadeGi {
+        let params = GpuGiParams {
+            flags: s.plan.shade_flags(),
+            n_static: s.baked.map_or(0, |b| b.vpls.len() as u32),
+            map_size: s.baked.map_or(1, |b| b.map_size),
+            atlas_cols: s.moving.atlas_cols(),
+            n_dynamic: s.moving.dynamic_vpl_slots(),
+            static_cols: s.baked.map_or(1, |b| b.static_cols),
+            _pad: [0; 2],
+        };
+        let params_buf = uniform(device, "shade gi params", &params);
+        let group = Self::group(device, shade, s, &params_buf);
+        ShadeGi {
+            params,
+            params_buf,
+            group,
+        }
+    }
+
+    fn group(
+        device: &wgpu::Device,
+        shade: &ShadePass,
+        s: &GiSources<'_>,
+        params: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        let m = s.moving.outputs();
+        shade.gi_group(
+            device,
+            &GiInputs {
+                primary_static: &s.light.static_map,
+                primary_dynamic: m.primary_dynamic,
+                light: &s.light.light_buf,
+                light_view: &s.light.view_buf,
+                params,
+                vpls: s.baked.map(|b| &b.vpl_buf),
+                occlusion: m.occlusion,
+                vpl_tile: m.vpl_tile,
+                static_maps: s.baked.map(|b| &b.static_maps),
+                atlas: m.atlas,
+                dyn_vpls: m.dyn_vpls,
+            },
+        )
+    }
+
+    /// Rebinds after the merge atlas was re-created.
+    pub(crate) fn atlas_changed(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        shade: &ShadePass,
+        s: &GiSources<'_>,
+    ) {
+        self.params.atlas_cols = s.moving.atlas_cols();
+        queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
+        self.group = Self::group(device, shade, s, &self.params_buf);
+    }
+
+    /// Static VPLs shaded.
+    pub(crate) fn static_vpls(&self) -> u32 {
+        self.params.n_static
     }
 }
 
@@ -333,7 +389,7 @@ mod tests {
     fn runtime_shaders_validate() {
         use gibake_gpu::shaders::{compose, compose_mesh, validate};
         for (name, src) in [
-            ("shade.wgsl", compose(super::SHADE_WGSL)),
+            ("shade.wgsl", compose(&super::shade_wgsl())),
             ("gbuffer.wgsl", compose_mesh(include_str!("gbuffer.wgsl"))),
             (
                 "dynamic_rsm.wgsl",
@@ -349,5 +405,14 @@ mod tests {
                 panic!("{name} does not validate:\n{e}");
             }
         }
+    }
+
+    /// The WGSL has no flag constant of its own: every `FLAG_` it uses is
+    /// generated from `ShadeFlag`.
+    #[test]
+    fn shade_wgsl_defines_no_flag_by_hand() {
+        let own = include_str!("../src/shade.wgsl");
+        assert!(!own.contains("const FLAG_"), "shade.wgsl defines a flag");
+        assert!(own.contains("FLAG_DIRECT"));
     }
 }

@@ -9,34 +9,28 @@
 // the disk's exitance Φ/A, beyond the disk's radius R it is the point
 // light's 1/d² to within (R/d)⁴/2 (1/(d² + A/π) would be 25% low at 2R).
 // Accumulates in f32; writes linear radiance.
-// Interleaved (params.interleave = N > 1): pixel (x, y) shades only the VPLs
+// Interleaved (view.interleave = N > 1): pixel (x, y) shades only the VPLs
 // i ≡ k (mod N²), k = (x mod N) + N·(y mod N), scaled by N² (VPLs are in
 // quadtree Morton order, so every subset is an even spread over the RSM), and
 // writes direct radiance at (x, y) and that irradiance estimate at
 // (x + width, y) of a 2·width-wide texture; interleave.wgsl filters it.
 
-struct ShadeParams {
+struct ViewParams {       // GpuViewParams in shade.rs
     size: vec2<u32>,
-    flags: u32,
+    interleave: u32,      // N: 1 shades every VPL at every pixel
+    _pad: u32,
+}
+
+struct GiParams {         // GpuGiParams in shade.rs
+    flags: u32,           // ShadeFlag bits (FLAG_* generated from shade flags in plan.rs)
     n_static: u32,
     map_size: u32,
     atlas_cols: u32,
     n_dynamic: u32,
-    static_cols: u32,   // tiles per row of the baked map atlas
-    interleave: u32,    // N: 1 shades every VPL at every pixel
+    static_cols: u32,     // tiles per row of the baked map atlas
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
-
-const FLAG_DIRECT: u32 = 1u;
-const FLAG_STATIC_VPL: u32 = 2u;
-const FLAG_DYNAMIC_VPL: u32 = 4u;
-const FLAG_VISIBILITY: u32 = 8u;      // use hemisphere maps (off: RSM mode)
-const FLAG_ATLAS_ONLY: u32 = 16u;     // naive: every map is an atlas tile
-const FLAG_DYN_PRIMARY: u32 = 32u;    // moving objects in the primary map
-const FLAG_OCCLUSION: u32 = 64u;      // partial occlusion of static VPLs
-const FLAG_TILES: u32 = 128u;         // moving objects merged into map tiles
 
 const NONE: u32 = 0xffffffffu;
 const OCCL_ONE: f32 = 16777216.0;     // 2^24: fixed-point 1.0 of occlusion sums
@@ -46,32 +40,25 @@ const VPL_NORMAL_OFFSET: f32 = 1.0;
 const VPL_DEPTH_BIAS: f32 = 1.0;
 const VPL_MAX_SLOPE: f32 = 10.0;
 
-struct Vpl {              // must match gibake_asset::VplRecord (48 bytes)
-    position: vec3<f32>,  // the VPL's map origin (hemisphere::vpl_origin)
-    area: f32,
-    normal: vec3<f32>,
-    texels: u32,
-    flux: vec3<f32>,
-    map: u32,
-}
-
+// Group 0: the view.
 @group(0) @binding(0) var g_position: texture_2d<f32>;
 @group(0) @binding(1) var g_normals: texture_2d<f32>;
 @group(0) @binding(2) var g_albedo: texture_2d<f32>;
-@group(0) @binding(3) var primary_static: texture_2d<f32>;
-@group(0) @binding(4) var primary_dynamic: texture_2d<f32>;
-@group(0) @binding(5) var<uniform> light: PrimaryLight;
-@group(0) @binding(6) var<uniform> light_view: LightView;
-@group(0) @binding(7) var<uniform> params: ShadeParams;
-@group(0) @binding(8) var out_radiance: texture_storage_2d<rgba32float, write>;
+@group(0) @binding(3) var<uniform> view: ViewParams;
+@group(0) @binding(4) var out_radiance: texture_storage_2d<rgba32float, write>;
 
-@group(1) @binding(0) var<storage, read> vpls: array<Vpl>;
+// Group 1: light and GI data, shared by every view.
+@group(1) @binding(0) var<storage, read> vpls: array<Vpl>;   // n_static VPLs, then their near-field trees
 @group(1) @binding(1) var<storage, read> occlusion: array<u32>;
 @group(1) @binding(2) var<storage, read> vpl_tile: array<u32>;
 @group(1) @binding(3) var static_maps: texture_2d<f32>;
 @group(1) @binding(4) var atlas: texture_2d<f32>;
 @group(1) @binding(5) var<storage, read> dyn_vpls: array<DynVpl>;
-@group(1) @binding(6) var<storage, read> vpl_nodes: array<Vpl>;   // near-field trees
+@group(1) @binding(7) var primary_static: texture_2d<f32>;
+@group(1) @binding(8) var primary_dynamic: texture_2d<f32>;
+@group(1) @binding(9) var<uniform> light: PrimaryLight;
+@group(1) @binding(10) var<uniform> light_view: LightView;
+@group(1) @binding(11) var<uniform> params: GiParams;
 
 // Near field (gibake_bake::near_field): a VPL, or a node of its tree, whose
 // receiver is nearer than NEAR_FIELD_RATIO × its disk radius √(A/π) is
@@ -197,12 +184,12 @@ fn static_vpl_irradiance(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ns: ve
     if (!is_near(x, origin, v.area)) {
         return vpl_irradiance(origin, v.normal, v.area, v.flux, x, ns, ng);
     }
-    let base = i * NODES_PER_VPL;
+    let base = params.n_static + i * NODES_PER_VPL;   // its tree, after the VPLs
     var e = vec3<f32>(0.0);
     for (var c1 = 0u; c1 < 4u; c1++) {
         let i1 = c1 % 2u;
         let j1 = c1 / 2u;
-        let n1 = vpl_nodes[base + j1 * 2u + i1];
+        let n1 = vpls[base + j1 * 2u + i1];
         if (n1.texels == 0u) {
             continue;
         }
@@ -213,7 +200,7 @@ fn static_vpl_irradiance(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ns: ve
         for (var c2 = 0u; c2 < 4u; c2++) {
             let i2 = 2u * i1 + c2 % 2u;
             let j2 = 2u * j1 + c2 / 2u;
-            let n2 = vpl_nodes[base + 4u + j2 * 4u + i2];
+            let n2 = vpls[base + 4u + j2 * 4u + i2];
             if (n2.texels == 0u) {
                 continue;
             }
@@ -224,7 +211,7 @@ fn static_vpl_irradiance(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ns: ve
             for (var c3 = 0u; c3 < 4u; c3++) {
                 let i3 = 2u * i2 + c3 % 2u;
                 let j3 = 2u * j2 + c3 / 2u;
-                e += node_irradiance(vpl_nodes[base + 20u + j3 * 8u + i3], x, ns, ng);
+                e += node_irradiance(vpls[base + 20u + j3 * 8u + i3], x, ns, ng);
             }
         }
     }
@@ -233,11 +220,11 @@ fn static_vpl_irradiance(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ns: ve
 
 @compute @workgroup_size(8, 8)
 fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if (any(gid.xy >= params.size)) {
+    if (any(gid.xy >= view.size)) {
         return;
     }
     let px = vec2<i32>(gid.xy);
-    let n = max(params.interleave, 1u);
+    let n = max(view.interleave, 1u);
     let stride = n * n;
     let k = (gid.x % n) + n * (gid.y % n);
     let pos = textureLoad(g_position, px, 0);
@@ -283,7 +270,7 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (stride > 1u) {
         textureStore(out_radiance, px, vec4<f32>(finite_or_zero3(direct), 1.0));
         let ex = finite_or_zero3(e * f32(stride));
-        textureStore(out_radiance, px + vec2<i32>(i32(params.size.x), 0), vec4<f32>(ex, 1.0));
+        textureStore(out_radiance, px + vec2<i32>(i32(view.size.x), 0), vec4<f32>(ex, 1.0));
         return;
     }
     var radiance = vec3<f32>(0.0);

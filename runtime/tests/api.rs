@@ -10,8 +10,8 @@ use gibake_bake::cluster::ClusterTarget;
 use gibake_gpu::GpuContext;
 use gibake_runtime::glam::{Mat4, Vec3};
 use gibake_runtime::{
-    Asset, CameraMatrices, FrameInput, Image, Mode, OUTPUT_FORMAT, RenderSettings, Renderer,
-    RuntimeError, Scene, wgpu,
+    Asset, CameraMatrices, FrameInput, Image, Mode, OUTPUT_FORMAT, OutputTarget, RenderSettings,
+    Renderer, RuntimeError, Scene, ViewId, wgpu,
 };
 
 const TIME: f32 = 0.7;
@@ -69,8 +69,27 @@ fn draw(r: &mut Renderer, frame: &FrameInput<'_>) -> Image {
     let mut enc = ctx.device.create_command_encoder(&Default::default());
     r.record(&mut enc);
     ctx.queue.submit([enc.finish()]);
-    r.read_output(&ctx.device, &ctx.queue, 1)
-        .expect("read back")
+    read(r)
+}
+
+/// The renderer's output, read back.
+fn read(r: &Renderer) -> Image {
+    let ctx = &fixture().ctx;
+    let out = r.output();
+    let data = gibake_gpu::readback::read_texture_f32_on(&ctx.device, &ctx.queue, out, 0, 4)
+        .expect("read back");
+    Image::from_rgba_f32(out.width(), out.height(), &data)
+}
+
+/// The scene's own frame at `time` through `prepare_at_time`.
+fn scene_frame(scene: &Scene, s: &RenderSettings, time: f32) -> Result<Image, RuntimeError> {
+    let f = fixture();
+    let mut r = Renderer::new(&f.ctx.device, &f.ctx.queue, scene, Some(&f.asset), s)?;
+    r.prepare_at_time(&f.ctx.device, &f.ctx.queue, scene, time)?;
+    let mut enc = f.ctx.device.create_command_encoder(&Default::default());
+    r.record(&mut enc);
+    f.ctx.queue.submit([enc.finish()]);
+    Ok(read(&r))
 }
 
 /// The scene's camera at `TIME`, rebuilt the way a game builds its own.
@@ -95,16 +114,7 @@ fn no_cli_flag(e: &RuntimeError) {
 fn a_scene_without_a_camera_renders_with_the_games_camera() {
     let f = fixture();
     let s = settings(48, 40);
-    let expected = gibake_runtime::render_image(
-        &f.ctx.device,
-        &f.ctx.queue,
-        &f.scene,
-        Some(&f.asset),
-        &s,
-        TIME,
-        1,
-    )
-    .unwrap();
+    let expected = scene_frame(&f.scene, &s, TIME).unwrap();
     let mut camless = f.scene.clone();
     camless.camera = None;
     let mut r = Renderer::new(&f.ctx.device, &f.ctx.queue, &camless, Some(&f.asset), &s)
@@ -117,16 +127,7 @@ fn a_scene_without_a_camera_renders_with_the_games_camera() {
     assert!(img.mean().x > 0.0, "black frame");
     assert_eq!(img, expected);
     // Only a tool that wants the scene's camera needs one.
-    let e = gibake_runtime::render_image(
-        &f.ctx.device,
-        &f.ctx.queue,
-        &camless,
-        Some(&f.asset),
-        &s,
-        TIME,
-        1,
-    )
-    .unwrap_err();
+    let e = scene_frame(&camless, &s, TIME).unwrap_err();
     assert!(matches!(e, RuntimeError::NoCamera(_)), "{e}");
     no_cli_flag(&e);
 }
@@ -373,14 +374,17 @@ fn a_caller_provided_output_gets_the_frame_and_a_bad_one_is_an_error() {
         texture(32, 16, OUTPUT_FORMAT, good_usage),
         texture(32, 32, OUTPUT_FORMAT, wgpu::TextureUsages::TEXTURE_BINDING),
     ] {
-        let e = r.set_output_target(d, Some(&bad)).unwrap_err();
+        let e = r
+            .set_output(d, ViewId::MAIN, OutputTarget::Texture(&bad))
+            .unwrap_err();
         assert!(matches!(e, RuntimeError::OutputTarget(_)), "{e}");
         no_cli_flag(&e);
     }
     let frame = FrameInput::new(games_camera(32, 32));
     let own = draw(&mut r, &frame);
     let target = texture(32, 32, OUTPUT_FORMAT, good_usage);
-    r.set_output_target(d, Some(&target)).unwrap();
+    r.set_output(d, ViewId::MAIN, OutputTarget::Texture(&target))
+        .unwrap();
     let theirs = draw(&mut r, &frame);
     let data = gibake_gpu::readback::read_texture_f32_on(d, &f.ctx.queue, &target, 0, 4).unwrap();
     assert_eq!(Image::from_rgba_f32(32, 32, &data), own);

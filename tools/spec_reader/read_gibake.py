@@ -12,8 +12,8 @@ another language. It
   map layers, the near-field tree's sums),
 - reads the EXR maps (header: single part, scan lines, ZIP, dimensions,
   channels; pixels: no NaN, atlas tiles, RSM `vpl` indices),
-- checks the RSM against the VPLs (texel counts, flux sums, each position at
-  its texel nearest to the flux-weighted centroid),
+- checks the RSM against the VPLs (texel counts, flux shares adding up to
+  each VPL, each position at its texel nearest to the flux-weighted centroid),
 - recomputes map lookups: the light view (VPL positions land on the primary
   shadow map's surface) and each stored hemisphere map (surface points
   reconstructed from the primary shadow map are not nearer to the VPL than
@@ -52,6 +52,8 @@ READER_MAJOR = 3
 READER_MINOR = 0
 MAX_PAYLOAD = 16 * 1024 * 1024
 NO_MAP = 0xFFFFFFFF
+# Fixed-point 1.0 of an RSM texel's flux share (`share` in rsm.exr).
+SHARE_ONE = 1 << 24
 RECORD = 48
 NODES_PER_VPL = 84
 VPL_ORIGIN_OFFSET = 0.2
@@ -608,13 +610,16 @@ def check_light_view(m: dict, vpls: np.ndarray, primary: np.ndarray) -> str:
 
 
 def check_rsm_vpls(m: dict, vpls: np.ndarray, rsm: dict) -> str:
-    """The RSM's `vpl` channel against vpls.bin: each VPL's `texels` is the
-    number of RSM texels clustered into it, its flux their sum, and its
-    position the world point of the one of them nearest to their flux-weighted
-    centroid."""
+    """The RSM's `vpl` and `share` channels against vpls.bin: each VPL's
+    `texels` is the number of RSM texels clustered into it, their flux
+    shares add up to the whole VPL (2^24, up to each share's rounding), a
+    texel of no VPL has none, and the VPL's position is the world point of
+    the one of its texels nearest to their flux-weighted centroid (the shares
+    are the weights: each is the texel's flux over the VPL's)."""
     lv = m["light_view"]
     size = rsm["Z"].shape[0]
     idx = rsm["vpl"].ravel()
+    share = rsm["share"].ravel().astype(np.int64)
     counts = np.bincount(idx[idx != NO_MAP], minlength=len(vpls))
     if not np.array_equal(counts, vpls["texels"].astype(np.int64)):
         i = int(np.argmax(counts != vpls["texels"]))
@@ -622,21 +627,22 @@ def check_rsm_vpls(m: dict, vpls: np.ndarray, rsm: dict) -> str:
             f"rsm.exr: {counts[i]} texels name VPL {i}, whose record says texels = "
             f"{vpls['texels'][i]}"
         )
-    flux = np.stack(
-        [rsm["flux.R"].ravel(), rsm["flux.G"].ravel(), rsm["flux.B"].ravel()], axis=1
-    ).astype(np.float64)
+    if (share > SHARE_ONE).any() or (share[idx == NO_MAP] != 0).any():
+        t = int(np.argmax((share > SHARE_ONE) | ((idx == NO_MAP) & (share != 0))))
+        raise AssetError(
+            f"rsm.exr: texel {t} has share {int(share[t])} (over 2^24, or outside every VPL)"
+        )
     points = lv_unproject(lv, rsm["Z"])
     order = np.argsort(idx, kind="stable")
     starts = np.searchsorted(idx[order], np.arange(len(vpls) + 1))
     tc, _ = lv_texel_coords(lv, vpls["position"].astype(np.float64), size)
     for i in range(len(vpls)):
         sel = order[starts[i] : starts[i + 1]]
-        total = flux[sel].sum(axis=0)
-        ref = vpls["flux"][i].astype(np.float64)
-        if (np.abs(total - ref) > 1e-4 * np.abs(ref) + 1e-12).any():
+        total = int(share[sel].sum())
+        if abs(total - SHARE_ONE) > len(sel) // 2 + 1:
             raise AssetError(
-                f"rsm.exr: the flux of VPL {i}'s texels sums to {total.tolist()}, "
-                f"vpls.bin says {ref.tolist()}"
+                f"rsm.exr: the flux shares of VPL {i}'s texels add up to {total}, "
+                f"not the whole VPL ({SHARE_ONE})"
             )
         x, y = (int(c) for c in np.floor(tc[i]))
         if not (0 <= x < size and 0 <= y < size) or idx[y * size + x] != i:
@@ -644,7 +650,7 @@ def check_rsm_vpls(m: dict, vpls: np.ndarray, rsm: dict) -> str:
                 f"vpls.bin: VPL {i}'s position does not project onto one of its own "
                 f"RSM texels (texel {x}, {y})"
             )
-        w = flux[sel].sum(axis=1)
+        w = share[sel].astype(np.float64)
         centroid = (points[sel] * w[:, None]).sum(axis=0) / w.sum()
         dist = np.linalg.norm(points[sel] - centroid, axis=1)
         own = np.linalg.norm(points[y * size + x] - centroid)
@@ -659,7 +665,7 @@ def check_rsm_vpls(m: dict, vpls: np.ndarray, rsm: dict) -> str:
                 "nearest to the flux-weighted centroid"
             )
     return (
-        f"{len(vpls)} VPLs: texel counts, flux sums and positions match their "
+        f"{len(vpls)} VPLs: texel counts, flux shares and positions match their "
         "RSM texels"
     )
 
@@ -797,9 +803,7 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
             rs,
             {
                 "Z": "f32",
-                "flux.R": "f32",
-                "flux.G": "f32",
-                "flux.B": "f32",
+                "share": "u32",
                 "vpl": "u32",
             },
         )

@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::MapAtlas;
 use crate::exrio::{self, Samples};
-use crate::format::layers_to_atlas;
 use crate::{Asset, AssetError, NO_MAP, VplRecord};
 
 /// How far apart two assets may be and still count as equal.
@@ -149,8 +149,8 @@ pub struct VplDiff {
 /// Comparison of one map (or one RSM channel, or all hemisphere maps).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MapDiff {
-    /// `primary_depth`, `vpl_maps`, `rsm.D`, `rsm.flux.R`, `rsm.flux.G`,
-    /// `rsm.flux.B` (the RSM's VPL-index channel is not compared as numbers).
+    /// `primary_depth`, `vpl_maps`, `rsm.D`, `rsm.share`, `rsm.vpl` (the
+    /// RSM's VPL-index channel is compared through the VPL matching).
     pub name: String,
     /// Whether both exist with the same dimensions (else see `note`).
     pub comparable: bool,
@@ -653,6 +653,11 @@ fn not_comparable(name: &str, note: String) -> MapDiff {
     }
 }
 
+/// A fixed-point flux share as a fraction of its VPL.
+fn share_fraction(s: u32) -> f32 {
+    (f64::from(s) / f64::from(crate::SHARE_ONE)) as f32
+}
+
 fn compare_slices(a: &[f32], b: &[f32], tol: &Tolerance) -> Acc {
     let mut acc = Acc::default();
     for (&x, &y) in a.iter().zip(b) {
@@ -662,16 +667,20 @@ fn compare_slices(a: &[f32], b: &[f32], tol: &Tolerance) -> Acc {
 }
 
 /// `(A's VPL index, A's map, B's map)`; `None`: not stored (all infinite).
-type MapPair<'a> = (usize, Option<&'a [f32]>, Option<&'a [f32]>);
+type MapPair = (usize, Option<Vec<f32>>, Option<Vec<f32>>);
 
 /// The hemisphere map pairs to compare: for each matched VPL pair where at
-/// least one side stores a map, `(A index, A map or None, B map or None)`.
-fn map_pairs<'a>(a: &'a Asset, b: &'a Asset, m: &Matching) -> Vec<MapPair<'a>> {
+/// least one side stores a map, `(A index, A map or None, B map or None)`,
+/// copied out of the atlases one pair at a time.
+fn map_pairs<'a>(
+    a: &'a Asset,
+    b: &'a Asset,
+    m: &'a Matching,
+) -> impl Iterator<Item = MapPair> + 'a {
     m.pairs
         .iter()
         .filter(|&&(i, j)| a.vpls[i].map != NO_MAP || b.vpls[j].map != NO_MAP)
         .map(|&(i, j)| (i, a.vpl_map_of(i), b.vpl_map_of(j)))
-        .collect()
 }
 
 fn compare_maps(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> Vec<MapDiff> {
@@ -701,7 +710,7 @@ fn compare_maps(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> Vec<MapD
         let mut total = Acc::default();
         let mut worst: Option<(usize, Acc)> = None;
         for (i, ma, mb) in map_pairs(a, b, m) {
-            let (ma, mb) = (ma.unwrap_or(&inf), mb.unwrap_or(&inf));
+            let (ma, mb) = (ma.as_deref().unwrap_or(&inf), mb.as_deref().unwrap_or(&inf));
             let acc = compare_slices(ma, mb, tol);
             total.merge(&acc);
             let better = |w: &(usize, Acc)| (acc.over, acc.max_abs) > (w.1.over, w.1.max_abs);
@@ -727,16 +736,12 @@ fn compare_maps(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> Vec<MapD
             )),
         (Some(ra), Some(rb)) => {
             out.push(compare_slices(&ra.metric, &rb.metric, tol).report("rsm.D", tol));
-            for (c, name) in ["rsm.flux.R", "rsm.flux.G", "rsm.flux.B"]
-                .iter()
-                .enumerate()
-            {
-                let mut acc = Acc::default();
-                for (x, y) in ra.flux.iter().zip(&rb.flux) {
-                    acc.add(x[c], y[c], tol);
-                }
-                out.push(acc.report(name, tol));
+            // Flux shares as fractions of their VPL (map tolerances apply).
+            let mut acc = Acc::default();
+            for (&x, &y) in ra.share.iter().zip(&rb.share) {
+                acc.add(share_fraction(x), share_fraction(y), tol);
             }
+            out.push(acc.report("rsm.share", tol));
             out.push(compare_index_maps(&ra.vpl, &rb.vpl, m, tol));
         }
     }
@@ -1132,8 +1137,9 @@ fn write_exr(
 /// `primary_depth.diff.exr`; `vpl_maps.diff.exr`, an atlas (layout as in
 /// `vpl_maps.exr`) with one tile per matched VPL pair where either side
 /// stores a map, in A's VPL order (a missing map counts as all-infinite);
-/// `rsm.diff.exr` with channels `D`, `flux.R`, `flux.G`, `flux.B` and `vpl`
-/// (1 where the VPL index differs). Creates `dir` if needed; returns the
+/// `rsm.diff.exr` with channels `Z`, `share` (the difference of the flux
+/// shares, as fractions of their VPL) and `vpl` (1 where the VPL index
+/// differs). Creates `dir` if needed; returns the
 /// paths written (none when nothing differs).
 pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf>, AssetError> {
     std::fs::create_dir_all(dir).map_err(|e| AssetError::io(dir, e))?;
@@ -1158,15 +1164,13 @@ pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf
         let matching = match_vpls(&a.manifest.light_view, &a.vpls, &b.vpls);
         let texels = size as usize * size as usize;
         let inf = vec![f32::INFINITY; texels];
-        let mut layers = Vec::new();
-        let mut count = 0u32;
-        for (_, ma, mb) in map_pairs(a, b, &matching) {
-            layers.extend(diffs(ma.unwrap_or(&inf), mb.unwrap_or(&inf)));
-            count += 1;
-        }
-        if nonzero(&layers) {
-            let (w, h, atlas) = layers_to_atlas(&layers, count, size);
-            let ch = vec![("Z", Samples::F32(atlas))];
+        let tiles: Vec<Vec<f32>> = map_pairs(a, b, &matching)
+            .map(|(_, ma, mb)| diffs(ma.as_deref().unwrap_or(&inf), mb.as_deref().unwrap_or(&inf)))
+            .collect();
+        let atlas = MapAtlas::from_maps(size, tiles.iter().map(|t| t.as_slice()));
+        if let Some(atlas) = atlas.filter(|_| tiles.iter().any(|t| nonzero(t))) {
+            let (w, h) = (atlas.width() as usize, atlas.height() as usize);
+            let ch = vec![("Z", Samples::F32(atlas.texels().to_vec()))];
             written.push(write_exr(dir, "vpl_maps.diff.exr", w, h, ch)?);
         }
     }
@@ -1176,27 +1180,23 @@ pub fn write_diff_images(a: &Asset, b: &Asset, dir: &Path) -> Result<Vec<PathBuf
         && ra.metric.len() == rb.metric.len()
     {
         let d = diffs(&ra.metric, &rb.metric);
-        let flux = |c: usize| -> Vec<f32> {
-            ra.flux
-                .iter()
-                .zip(&rb.flux)
-                .map(|(x, y)| abs_diff(x[c], y[c]))
-                .collect()
-        };
-        let (r, g, bl) = (flux(0), flux(1), flux(2));
+        let share: Vec<f32> = ra
+            .share
+            .iter()
+            .zip(&rb.share)
+            .map(|(&x, &y)| abs_diff(share_fraction(x), share_fraction(y)))
+            .collect();
         let v: Vec<f32> = ra
             .vpl
             .iter()
             .zip(&rb.vpl)
             .map(|(x, y)| if x == y { 0.0 } else { 1.0 })
             .collect();
-        if [&d, &r, &g, &bl, &v].iter().any(|c| nonzero(c)) {
+        if [&d, &share, &v].iter().any(|c| nonzero(c)) {
             let n = ra.size as usize;
             let ch = vec![
                 ("Z", Samples::F32(d)),
-                ("flux.R", Samples::F32(r)),
-                ("flux.G", Samples::F32(g)),
-                ("flux.B", Samples::F32(bl)),
+                ("share", Samples::F32(share)),
                 ("vpl", Samples::F32(v)),
             ];
             written.push(write_exr(dir, "rsm.diff.exr", n, n, ch)?);

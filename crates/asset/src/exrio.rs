@@ -198,13 +198,7 @@ pub(crate) fn decode_any(bytes: &[u8], path: &Path) -> std::result::Result<(), A
         path,
         w,
         h,
-        &[
-            ("Z", Kind::F32),
-            ("flux.R", Kind::F32),
-            ("flux.G", Kind::F32),
-            ("flux.B", Kind::F32),
-            ("vpl", Kind::U32),
-        ],
+        &[("Z", Kind::F32), ("share", Kind::U32), ("vpl", Kind::U32)],
     );
     depth.and(rsm).map(|_| ())
 }

@@ -6,10 +6,11 @@ use std::fs;
 use std::io::{Read, Write};
 use std::path::Path;
 
+use crate::atlas::{MapAtlas, atlas_grid};
 use crate::exrio::{self, Kind, Samples};
 use crate::{
     Asset, AssetError, FORMAT_MAJOR, FORMAT_MINOR, FileEntry, MAGIC, Manifest, Map, NO_MAP,
-    NODES_PER_VPL, RsmData, VplRecord,
+    NODES_PER_VPL, RsmData, SHARE_ONE, VplRecord,
 };
 
 /// The manifest file name.
@@ -47,24 +48,6 @@ type Limited = bincode::config::Configuration<
 
 fn bincode_config() -> Limited {
     bincode::config::standard().with_limit::<{ 1 << 24 }>()
-}
-
-/// The atlas grid of `map_count` maps: `(cols, rows)` with
-/// `cols = ceil(sqrt(map_count))` and `rows = ceil(map_count / cols)`;
-/// `(0, 0)` for no maps. Map `k` sits at column `k % cols`, row `k / cols`.
-pub fn atlas_grid(map_count: u32) -> (u32, u32) {
-    let n = map_count as u64;
-    if n == 0 {
-        return (0, 0);
-    }
-    let mut c = (n as f64).sqrt() as u64;
-    while c * c < n {
-        c += 1;
-    }
-    while c > 1 && (c - 1) * (c - 1) >= n {
-        c -= 1;
-    }
-    (c as u32, n.div_ceil(c) as u32)
 }
 
 fn hex16(h: &[u8; 32]) -> String {
@@ -569,6 +552,15 @@ fn encode_vpls(vpls: &[VplRecord]) -> Vec<u8> {
     out
 }
 
+/// The first texel whose flux share is over [`SHARE_ONE`], or not 0
+/// though it belongs to no VPL.
+fn share_problem(share: &[u32], vpl: &[u32]) -> Option<usize> {
+    share
+        .iter()
+        .zip(vpl)
+        .position(|(&s, &v)| s > SHARE_ONE || (v == u32::MAX && s != 0))
+}
+
 fn no_nan(data: &[f32], path: &Path, what: &str) -> Result<(), AssetError> {
     match data.iter().position(|x| x.is_nan()) {
         None => Ok(()),
@@ -577,40 +569,6 @@ fn no_nan(data: &[f32], path: &Path, what: &str) -> Result<(), AssetError> {
             format!("{what} holds NaN at texel {i}"),
         )),
     }
-}
-
-/// Splits an atlas (`cols*size × rows*size`) into `count` layer-major maps.
-pub(crate) fn atlas_to_layers(atlas: &[f32], count: u32, size: u32) -> Vec<f32> {
-    let (cols, _) = atlas_grid(count);
-    let (s, cols) = (size as usize, cols as usize);
-    let w = cols * s;
-    let mut out = Vec::with_capacity(count as usize * s * s);
-    for k in 0..count as usize {
-        let (cx, cy) = (k % cols, k / cols);
-        for y in 0..s {
-            let start = (cy * s + y) * w + cx * s;
-            out.extend_from_slice(&atlas[start..start + s]);
-        }
-    }
-    out
-}
-
-/// Packs `count` layer-major maps of `size²` into an atlas (unused tiles
-/// +inf); returns `(width, height, texels)`.
-pub fn layers_to_atlas(layers: &[f32], count: u32, size: u32) -> (usize, usize, Vec<f32>) {
-    let (cols, rows) = atlas_grid(count);
-    let s = size as usize;
-    let (w, h) = (cols as usize * s, rows as usize * s);
-    let mut out = vec![f32::INFINITY; w * h];
-    for k in 0..count as usize {
-        let (cx, cy) = (k % cols as usize, k / cols as usize);
-        for y in 0..s {
-            let dst = (cy * s + y) * w + cx * s;
-            let src = (k * s + y) * s;
-            out[dst..dst + s].copy_from_slice(&layers[src..src + s]);
-        }
-    }
-    (w, h, out)
 }
 
 /// Loads the asset at `dir` and verifies everything: magic, version (another
@@ -627,20 +585,18 @@ pub fn load(dir: &Path) -> Result<Asset, AssetError> {
 /// Default of [`load_with_limit`]'s budget: 1 GiB of decoded map data.
 pub const DEFAULT_MAX_DECODED_BYTES: u64 = 1 << 30;
 
-/// Bytes the maps of an asset with this manifest decode to at their peak
-/// (every sample 4 bytes; the atlas counted twice: decoded, then split into
-/// layers; the RSM 8 times a texel: its 5 decoded channels, and the 3 flux
-/// channels again while they are interleaved into RGB).
+/// Bytes the maps of an asset with this manifest decode to (every sample
+/// 4 bytes; the map atlas is kept as it is decoded).
 pub fn decoded_bytes(m: &Manifest) -> u64 {
     let s = &m.settings;
     let sq = |n: u32| n as u64 * n as u64;
     let (aw, ah) = atlas_dims(m);
     let mut samples = sq(s.shadow_map_size);
     if m.map_count > 0 {
-        samples = samples.saturating_add(aw.saturating_mul(ah).saturating_mul(2));
+        samples = samples.saturating_add(aw.saturating_mul(ah));
     }
     if m.has_dynamic {
-        samples = samples.saturating_add(sq(s.rsm_size).saturating_mul(8));
+        samples = samples.saturating_add(sq(s.rsm_size).saturating_mul(3));
     }
     samples.saturating_mul(4)
 }
@@ -747,40 +703,31 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
             h as usize,
             &[("Z", Kind::F32)],
         )?;
-        let atlas = data
+        let texels = data
             .into_iter()
             .next()
             .map(Samples::into_f32)
             .unwrap_or_default();
-        let layers = atlas_to_layers(&atlas, manifest.map_count, s.vpl_map_size);
-        no_nan(&layers, &path, "channel Z")?;
-        layers
+        no_nan(&texels, &path, "channel Z")?;
+        MapAtlas::from_texels(s.vpl_map_size, manifest.map_count, texels)
+            .ok_or_else(|| AssetError::invalid(&path, "the atlas has the wrong number of texels"))?
     } else {
-        Vec::new()
+        MapAtlas::empty(s.vpl_map_size)
     };
 
     let rsm = if manifest.has_dynamic {
         let path = dir.join(FILE_RSM);
         let n = s.rsm_size as usize;
-        let chans = [
-            ("Z", Kind::F32),
-            ("flux.R", Kind::F32),
-            ("flux.G", Kind::F32),
-            ("flux.B", Kind::F32),
-            ("vpl", Kind::U32),
-        ];
+        let chans = [("Z", Kind::F32), ("share", Kind::U32), ("vpl", Kind::U32)];
         let mut it = exrio::decode(take(FILE_RSM), &path, n, n, &chans)?.into_iter();
         let mut next = || {
             it.next()
                 .ok_or_else(|| AssetError::invalid(&path, "channel missing"))
         };
         let metric = next()?.into_f32();
-        let (r, g, b) = (next()?.into_f32(), next()?.into_f32(), next()?.into_f32());
+        let share = next()?.into_u32();
         let vpl = next()?.into_u32();
         no_nan(&metric, &path, "channel Z")?;
-        for (c, name) in [(&r, "flux.R"), (&g, "flux.G"), (&b, "flux.B")] {
-            no_nan(c, &path, &format!("channel {name}"))?;
-        }
         if let Some(i) = vpl
             .iter()
             .position(|&v| v != u32::MAX && v >= manifest.vpl_count)
@@ -793,16 +740,19 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
                 ),
             ));
         }
-        let flux = r
-            .iter()
-            .zip(&g)
-            .zip(&b)
-            .map(|((r, g), b)| [*r, *g, *b])
-            .collect();
+        if let Some(i) = share_problem(&share, &vpl) {
+            return Err(AssetError::invalid(
+                &path,
+                format!(
+                    "channel share holds {} at texel {i} (VPL {}): over {SHARE_ONE}, or not 0 outside every VPL",
+                    share[i], vpl[i] as i64
+                ),
+            ));
+        }
         Some(RsmData {
             size: s.rsm_size,
             metric,
-            flux,
+            share,
             vpl,
         })
     } else {
@@ -828,23 +778,21 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
     let mut m = asset.manifest.clone();
     m.files.clear();
     let s = &m.settings;
-    let size = s.vpl_map_size as usize;
-    let texels = size * size;
-    if texels == 0 {
+    if s.vpl_map_size == 0 {
         return bad("settings.vpl_map_size is 0".into());
     }
-    if !asset.vpl_maps.len().is_multiple_of(texels) {
+    let maps = &asset.vpl_maps;
+    if !maps.is_empty() && maps.tile_size() != s.vpl_map_size {
         return bad(format!(
-            "vpl_maps holds {} values, not a multiple of vpl_map_size² = {texels}",
-            asset.vpl_maps.len()
+            "vpl_maps holds maps of {}² but settings.vpl_map_size is {}",
+            maps.tile_size(),
+            s.vpl_map_size
         ));
     }
     let Ok(vpl_count) = u32::try_from(asset.vpls.len()) else {
         return bad(format!("{} VPLs are too many", asset.vpls.len()));
     };
-    let Ok(map_count) = u32::try_from(asset.vpl_maps.len() / texels) else {
-        return bad("too many hemisphere maps".into());
-    };
+    let map_count = maps.count();
     m.vpl_count = vpl_count;
     m.map_count = map_count;
     m.has_dynamic = asset.rsm.is_some();
@@ -859,31 +807,33 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
     }
     if let Some(r) = &asset.rsm {
         let n = s.rsm_size as usize * s.rsm_size as usize;
-        if r.size != s.rsm_size || r.metric.len() != n || r.flux.len() != n || r.vpl.len() != n {
+        if r.size != s.rsm_size || r.metric.len() != n || r.share.len() != n || r.vpl.len() != n {
             return bad(format!(
                 "rsm is {}² ({} / {} / {} values) but settings.rsm_size is {}",
                 r.size,
                 r.metric.len(),
-                r.flux.len(),
+                r.share.len(),
                 r.vpl.len(),
                 s.rsm_size
             ));
         }
-        if r.metric
-            .iter()
-            .chain(r.flux.iter().flatten())
-            .any(|x| x.is_nan())
-        {
+        if r.metric.iter().any(|x| x.is_nan()) {
             return bad("rsm holds NaN".into());
         }
         if let Some(v) = r.vpl.iter().find(|&&v| v != u32::MAX && v >= vpl_count) {
             return bad(format!("rsm refers to VPL {v} but there are {vpl_count}"));
         }
+        if let Some(i) = share_problem(&r.share, &r.vpl) {
+            return bad(format!(
+                "rsm share {} at texel {i} is over {SHARE_ONE} or outside every VPL",
+                r.share[i]
+            ));
+        }
     }
     if asset.primary_depth.data.iter().any(|x| x.is_nan()) {
         return bad("primary_depth holds NaN".into());
     }
-    if asset.vpl_maps.iter().any(|x| x.is_nan()) {
+    if maps.texels().iter().any(|x| x.is_nan()) {
         return bad("vpl_maps holds NaN".into());
     }
     for (i, r) in asset.vpls.iter().enumerate() {
@@ -1061,22 +1011,20 @@ fn write_into(
                 exrio::encode(n, n, vec![("Z", Samples::F32(d))]).map_err(exr_err)?
             }
             FILE_VPL_MAPS => {
-                let (w, h, atlas) =
-                    layers_to_atlas(&asset.vpl_maps, manifest.map_count, s.vpl_map_size);
-                exrio::encode(w, h, vec![("Z", Samples::F32(atlas))]).map_err(exr_err)?
+                let m = &asset.vpl_maps;
+                let texels = Samples::F32(m.texels().to_vec());
+                let (w, h) = (m.width() as usize, m.height() as usize);
+                exrio::encode(w, h, vec![("Z", texels)]).map_err(exr_err)?
             }
             _ => {
                 let Some(r) = &asset.rsm else { continue };
                 let n = r.size as usize;
-                let ch = |c: usize| Samples::F32(r.flux.iter().map(|f| f[c]).collect());
                 exrio::encode(
                     n,
                     n,
                     vec![
                         ("Z", Samples::F32(r.metric.clone())),
-                        ("flux.R", ch(0)),
-                        ("flux.G", ch(1)),
-                        ("flux.B", ch(2)),
+                        ("share", Samples::U32(r.share.clone())),
                         ("vpl", Samples::U32(r.vpl.clone())),
                     ],
                 )

@@ -77,16 +77,22 @@ pub struct MapStats {
 
 impl MapStats {
     fn of(size: u32, layers: u32, data: &[f32]) -> MapStats {
+        MapStats::of_texels(size, layers, data, data.len())
+    }
+
+    /// Over `data`, of which `texels` are map texels (the rest: an atlas's
+    /// unused, all-infinite tiles).
+    fn of_texels(size: u32, layers: u32, data: &[f32], texels: usize) -> MapStats {
         let (mut n, mut lo, mut hi) = (0usize, f64::INFINITY, f64::NEG_INFINITY);
         for &x in data.iter().filter(|x| x.is_finite()) {
             n += 1;
             lo = lo.min(x as f64);
             hi = hi.max(x as f64);
         }
-        let covered_fraction = if data.is_empty() {
+        let covered_fraction = if texels == 0 {
             0.0
         } else {
-            n as f64 / data.len() as f64
+            n as f64 / texels as f64
         };
         let (min, max) = if n == 0 { (0.0, 0.0) } else { (lo, hi) };
         MapStats {
@@ -195,7 +201,12 @@ pub fn inspect(asset: &Asset) -> Inspection {
         area: Stats::of(asset.vpls.iter().map(|v| v.area as f64)),
         texels: Stats::of(asset.vpls.iter().map(|v| v.texels as f64)),
         primary_depth: MapStats::of(asset.primary_depth.size, 1, &asset.primary_depth.data),
-        vpl_maps: MapStats::of(s.vpl_map_size, map_count as u32, &asset.vpl_maps),
+        vpl_maps: MapStats::of_texels(
+            s.vpl_map_size,
+            map_count as u32,
+            asset.vpl_maps.texels(),
+            map_count * (s.vpl_map_size as usize).pow(2),
+        ),
         rsm: asset
             .rsm
             .as_ref()

@@ -18,6 +18,7 @@
 
 use serde::{Deserialize, Serialize};
 
+mod atlas;
 mod diff;
 mod error;
 mod exrio;
@@ -27,6 +28,7 @@ mod shard;
 mod tolerance;
 mod what;
 
+pub use atlas::{MapAtlas, atlas_grid};
 pub use diff::{
     DiffReport, FieldDiff, MapDiff, Tolerance, VplDiff, VplMismatch, diff, write_diff_images,
 };
@@ -35,14 +37,13 @@ pub use error::AssetError;
 pub use format::testing;
 pub use format::{
     DEFAULT_MAX_DECODED_BYTES, FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM, FILE_VPL_MAPS,
-    FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE, VPL_RECORD_BYTES, atlas_grid, check_output,
-    check_scene_hash, check_scene_hash_for, decoded_bytes, layers_to_atlas, load, load_manifest,
-    load_with_limit, verify_files, write,
+    FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE, VPL_RECORD_BYTES, check_output, check_scene_hash,
+    check_scene_hash_for, decoded_bytes, load, load_manifest, load_with_limit, verify_files, write,
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
 pub use shard::{
     MAX_SHARDS, MergeError, Merger, PART_MAGIC, PART_VERSION, ShardMaps, ShardPart,
-    assign_map_layers, load_part, merge, shard_range, write_part,
+    assign_map_tiles, load_part, merge, shard_range, write_part,
 };
 pub use tolerance::{MAX_TOLERANCE, ToleranceError, parse_tolerance};
 
@@ -70,7 +71,7 @@ pub struct VplRecord {
     pub texels: u32,
     /// Flux (W, linear RGB); it emits flux/π · cos θ per steradian.
     pub flux: [f32; 3],
-    /// Layer of its hemisphere map in `vpl_maps.exr`, or [`NO_MAP`] when
+    /// Tile of its hemisphere map in `vpl_maps.exr`, or [`NO_MAP`] when
     /// its map sees no surface (every direction is unoccluded).
     pub map: u32,
 }
@@ -184,10 +185,54 @@ pub struct RsmData {
     pub size: u32,
     /// Static metric per texel (INFINITY = empty).
     pub metric: Vec<f32>,
-    /// Reflected flux per texel (RGB).
-    pub flux: Vec<[f32; 3]>,
+    /// Per texel, its share of its VPL's flux (`R + G + B`), fixed point:
+    /// [`SHARE_ONE`] is the whole VPL; 0 for a texel of no VPL.
+    pub share: Vec<u32>,
     /// VPL index per texel (u32::MAX = none).
     pub vpl: Vec<u32>,
+}
+
+/// [`RsmData::share`] of a texel that holds its VPL's whole flux: 2²⁴.
+pub const SHARE_ONE: u32 = 1 << 24;
+
+impl RsmData {
+    /// The RSM data of `size²` texels with reflected `flux` (RGB) clustered
+    /// into `vpl_count` VPLs (`vpl`: index per texel, u32::MAX = none):
+    /// each texel's share of its VPL's flux, `(r + g + b) / Σ (r + g + b)`
+    /// over the VPL's texels (sums in f64, in texel order), rounded to
+    /// fixed point. Computed once, at bake time; partial occlusion adds the
+    /// shares of the texels a moving object hides.
+    pub fn from_flux(
+        size: u32,
+        metric: Vec<f32>,
+        flux: &[[f32; 3]],
+        vpl: Vec<u32>,
+        vpl_count: usize,
+    ) -> RsmData {
+        let mut total = vec![0.0f64; vpl_count];
+        for (f, &v) in flux.iter().zip(&vpl) {
+            if let Some(t) = total.get_mut(v as usize) {
+                *t += (f[0] + f[1] + f[2]) as f64;
+            }
+        }
+        let one = f64::from(SHARE_ONE);
+        let share = flux
+            .iter()
+            .zip(&vpl)
+            .map(|(f, &v)| match total.get(v as usize) {
+                Some(&t) if t > 0.0 => ((f[0] + f[1] + f[2]) as f64 / t * one)
+                    .round()
+                    .clamp(0.0, one) as u32,
+                _ => 0,
+            })
+            .collect();
+        RsmData {
+            size,
+            metric,
+            share,
+            vpl,
+        }
+    }
 }
 
 /// A whole baked asset in memory.
@@ -203,33 +248,30 @@ pub struct Asset {
     pub vpl_nodes: Vec<VplRecord>,
     /// Static primary shadow map (metric, shadow_map_size²).
     pub primary_depth: Map,
-    /// Hemisphere maps, `map_count` layers of `vpl_map_size²` distances
-    /// (INFINITY = no surface), layer-major.
-    pub vpl_maps: Vec<f32>,
+    /// Hemisphere maps, `map_count` maps of `vpl_map_size²` distances
+    /// (INFINITY = no surface), in the atlas layout of `vpl_maps.exr`
+    /// ([`MapAtlas`]).
+    pub vpl_maps: MapAtlas,
     /// RSM data for the dynamic merge, `None` without moving objects.
     pub rsm: Option<RsmData>,
 }
 
 impl Asset {
-    /// Number of stored hemisphere maps implied by the data
-    /// (`vpl_maps.len() / vpl_map_size²`, 0 when the size is 0).
+    /// Number of stored hemisphere maps.
     pub fn stored_map_count(&self) -> usize {
-        let n = self.manifest.settings.vpl_map_size as usize;
-        self.vpl_maps.len().checked_div(n * n).unwrap_or(0)
+        self.vpl_maps.count() as usize
     }
 
-    /// Hemisphere map `layer` (`vpl_map_size²` distances, row 0 at the top),
-    /// or `None` when the layer is not stored.
-    pub fn vpl_map(&self, layer: u32) -> Option<&[f32]> {
-        let n = self.manifest.settings.vpl_map_size as usize;
-        let texels = n * n;
-        let start = (layer as usize).checked_mul(texels)?;
-        self.vpl_maps.get(start..start.checked_add(texels)?)
+    /// A copy of hemisphere map `layer` (`vpl_map_size²` distances, row 0
+    /// at the top), or `None` when the layer is not stored.
+    pub fn vpl_map(&self, layer: u32) -> Option<Vec<f32>> {
+        self.vpl_maps.map(layer)
     }
 
-    /// The hemisphere map of VPL `vpl`, or `None` when it has no stored map
-    /// ([`NO_MAP`]: every direction is unoccluded) or the index is out of range.
-    pub fn vpl_map_of(&self, vpl: usize) -> Option<&[f32]> {
+    /// A copy of the hemisphere map of VPL `vpl`, or `None` when it has no
+    /// stored map ([`NO_MAP`]: every direction is unoccluded) or the index
+    /// is out of range.
+    pub fn vpl_map_of(&self, vpl: usize) -> Option<Vec<f32>> {
         let rec = self.vpls.get(vpl)?;
         if rec.map == NO_MAP {
             None
@@ -253,5 +295,30 @@ impl VplRecord {
     /// Luminance of the flux (Rec. 709 weights).
     pub fn flux_luminance(&self) -> f32 {
         0.2126 * self.flux[0] + 0.7152 * self.flux[1] + 0.0722 * self.flux[2]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each VPL's texel shares add up to the whole VPL (to within the
+    /// rounding of each); texels of no VPL, or of an unlit one, hold none.
+    #[test]
+    fn flux_shares_split_each_vpl() {
+        let flux = [
+            [1.0, 0.0, 0.0],
+            [0.5, 0.5, 1.0],
+            [3.0, 0.0, 0.0],
+            [2.0; 3],
+            [0.0; 3],
+        ];
+        let vpl = vec![0, 0, 1, u32::MAX, 2];
+        let r = RsmData::from_flux(1, vec![1.0; 5], &flux, vpl, 3);
+        assert_eq!(
+            r.share,
+            [SHARE_ONE / 3, 2 * SHARE_ONE / 3 + 1, SHARE_ONE, 0, 0]
+        );
+        assert!(r.share[0] + r.share[1] - SHARE_ONE <= 1);
     }
 }

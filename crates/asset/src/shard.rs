@@ -16,12 +16,12 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::{Asset, AssetError, Manifest, Map, NO_MAP, RsmData, VplRecord};
+use crate::{Asset, AssetError, Manifest, Map, MapAtlas, NO_MAP, RsmData, VplRecord};
 
 /// Magic bytes at the start of a part file.
 pub const PART_MAGIC: [u8; 8] = *b"GIBKPART";
 /// Part format version: parts are transient, so any other version is refused.
-pub const PART_VERSION: u16 = 1;
+pub const PART_VERSION: u16 = 2;
 /// Largest shard count accepted.
 pub const MAX_SHARDS: u32 = 4096;
 /// Largest accepted part file (16 GiB).
@@ -52,26 +52,26 @@ pub fn shard_range(vpl_count: usize, index: u32, count: u32) -> Range<usize> {
     start.min(vpl_count)..end.min(vpl_count)
 }
 
-/// Gives each VPL with a map (`Some`) the next map layer, in VPL order, and
-/// every other VPL [`NO_MAP`]; returns the stored maps, layer-major. This is
-/// how both the single bake and [`merge`] number the layers, so they agree.
-pub fn assign_map_layers(
+/// Gives each VPL with a map (`Some`, `tile²` values) the next atlas tile,
+/// in VPL order, and every other VPL [`NO_MAP`]; returns the stored maps as
+/// the atlas. This is how both the single bake and [`merge`] number the
+/// tiles, so they agree. `None` when a map does not hold `tile²` values.
+pub fn assign_map_tiles(
     vpls: &mut [VplRecord],
+    tile: u32,
     maps: impl IntoIterator<Item = Option<Vec<f32>>>,
-) -> Vec<f32> {
-    let mut out = Vec::new();
-    let mut next = 0u32;
+) -> Option<MapAtlas> {
+    let mut stored = Vec::new();
     for (v, m) in vpls.iter_mut().zip(maps) {
         match m {
             Some(m) => {
-                v.map = next;
-                next += 1;
-                out.extend_from_slice(&m);
+                v.map = stored.len() as u32;
+                stored.push(m);
             }
             None => v.map = NO_MAP,
         }
     }
-    out
+    MapAtlas::from_maps(tile, stored.iter().map(|m| m.as_slice()))
 }
 
 /// A shard's hemisphere maps, one per VPL of its range (`None`: not stored).
@@ -112,7 +112,7 @@ struct PartPayload {
 struct RsmPayload {
     size: u32,
     metric: Vec<f32>,
-    flux: Vec<[f32; 3]>,
+    share: Vec<u32>,
     vpl: Vec<u32>,
 }
 
@@ -211,7 +211,7 @@ fn check_part(part: &ShardPart, path: &Path) -> Result<(), AssetError> {
     }
     if let Some(r) = &a.rsm {
         let n = s.rsm_size as usize * s.rsm_size as usize;
-        if r.size != s.rsm_size || r.metric.len() != n || r.flux.len() != n || r.vpl.len() != n {
+        if r.size != s.rsm_size || r.metric.len() != n || r.share.len() != n || r.vpl.len() != n {
             return bad(format!("RSM data is not rsm_size² = {n} texels"));
         }
     }
@@ -260,7 +260,7 @@ fn encode_part(part: &ShardPart, path: &Path) -> Result<Vec<u8>, AssetError> {
         rsm: a.rsm.as_ref().map(|r| RsmPayload {
             size: r.size,
             metric: r.metric.clone(),
-            flux: r.flux.clone(),
+            share: r.share.clone(),
             vpl: r.vpl.clone(),
         }),
         maps: part.maps.clone(),
@@ -313,6 +313,7 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
     if used != end - HEADER_BYTES {
         return Err(bad("unexpected bytes after the part payload".into()));
     }
+    let tile = p.manifest.settings.vpl_map_size;
     let part = ShardPart {
         shard: p.shard,
         shards: p.shards,
@@ -324,11 +325,11 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
                 size: p.primary_size,
                 data: p.primary,
             },
-            vpl_maps: Vec::new(),
+            vpl_maps: MapAtlas::empty(tile),
             rsm: p.rsm.map(|r| RsmData {
                 size: r.size,
                 metric: r.metric,
-                flux: r.flux,
+                share: r.share,
                 vpl: r.vpl,
             }),
         },
@@ -413,7 +414,7 @@ fn front_hash(a: &Asset) -> [u8; 32] {
         h.update(b"rsm");
         h.update(&r.size.to_le_bytes());
         h.update(bytemuck::cast_slice(&r.metric));
-        h.update(bytemuck::cast_slice(&r.flux));
+        h.update(bytemuck::cast_slice(&r.share));
         h.update(bytemuck::cast_slice(&r.vpl));
     }
     *h.finalize().as_bytes()
@@ -550,7 +551,7 @@ impl Merger {
 
     /// The merged asset, or which shards are missing.
     pub fn finish(self) -> Result<Asset, MergeError> {
-        let Some((_, mut asset, _)) = self.first else {
+        let Some((first, mut asset, _)) = self.first else {
             return Err(MergeError::NoParts);
         };
         let missing: Vec<u32> = (0..self.shards)
@@ -568,7 +569,13 @@ impl Merger {
         }
         // Shard order is VPL order: the ranges are contiguous and ordered.
         let maps = self.slots.into_iter().flatten().flat_map(|(_, m)| m);
-        asset.vpl_maps = assign_map_layers(&mut asset.vpls, maps);
+        let tile = asset.manifest.settings.vpl_map_size;
+        asset.vpl_maps = assign_map_tiles(&mut asset.vpls, tile, maps).ok_or_else(|| {
+            AssetError::invalid(
+                &first,
+                "a hemisphere map does not have vpl_map_size² texels",
+            )
+        })?;
         Ok(asset)
     }
 }
@@ -651,7 +658,7 @@ mod tests {
                     size: 2,
                     data: vec![1.0; 4],
                 },
-                vpl_maps: Vec::new(),
+                vpl_maps: MapAtlas::empty(2),
                 rsm: None,
             },
             maps: range.map(|i| (i != 1).then(|| vec![i as f32; 4])).collect(),
@@ -675,7 +682,8 @@ mod tests {
             asset.vpls.iter().map(|v| v.map).collect::<Vec<_>>(),
             [0, NO_MAP, 1]
         );
-        assert_eq!(asset.vpl_maps, [0.0, 0.0, 0.0, 0.0, 2.0, 2.0, 2.0, 2.0]);
+        let maps: Vec<_> = asset.vpl_maps.maps().collect();
+        assert_eq!(maps, [[0.0; 4], [2.0; 4]]);
     }
 
     #[test]
@@ -698,7 +706,7 @@ mod tests {
     }
 
     #[test]
-    fn layers_numbered_in_vpl_order() {
+    fn tiles_numbered_in_vpl_order() {
         let rec = VplRecord {
             position: [0.0; 3],
             area: 1.0,
@@ -708,8 +716,8 @@ mod tests {
             map: 7,
         };
         let mut v = vec![rec; 3];
-        let out = assign_map_layers(&mut v, [Some(vec![1.0]), None, Some(vec![2.0])]);
-        assert_eq!(out, vec![1.0, 2.0]);
+        let out = assign_map_tiles(&mut v, 1, [Some(vec![1.0]), None, Some(vec![2.0])]).unwrap();
+        assert_eq!(out.maps().collect::<Vec<_>>(), [[1.0], [2.0]]);
         assert_eq!(v.iter().map(|r| r.map).collect::<Vec<_>>(), [0, NO_MAP, 1]);
     }
 }

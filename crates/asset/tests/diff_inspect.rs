@@ -17,15 +17,7 @@ fn identical_assets_are_equal() {
         let names: Vec<&str> = r.maps.iter().map(|m| m.name.as_str()).collect();
         assert_eq!(
             names,
-            [
-                "primary_depth",
-                "vpl_maps",
-                "rsm.D",
-                "rsm.flux.R",
-                "rsm.flux.G",
-                "rsm.flux.B",
-                "rsm.vpl"
-            ]
+            ["primary_depth", "vpl_maps", "rsm.D", "rsm.share", "rsm.vpl"]
         );
         assert!(r.maps.iter().all(|m| m.over == 0 && m.max_abs == 0.0));
     }
@@ -135,7 +127,12 @@ fn same_machine_is_exact_another_gpu_is_not() {
     let a = sample_asset(true);
     let mut b = a.clone();
     // Tiny relative changes everywhere.
-    for x in b.primary_depth.data.iter_mut().chain(&mut b.vpl_maps) {
+    for x in b
+        .primary_depth
+        .data
+        .iter_mut()
+        .chain(b.vpl_maps.texels_mut())
+    {
         *x *= 1.0 + 1e-5;
     }
     for v in &mut b.vpls {
@@ -177,10 +174,18 @@ fn infinity_matches_infinity_but_not_a_finite_value() {
         .iter()
         .position(|x| x.is_infinite())
         .unwrap();
-    let j = a.vpl_maps.iter().position(|x| x.is_finite()).unwrap();
+    // The first finite texel of map `layer`.
+    let (layer, j) = a
+        .vpl_maps
+        .maps()
+        .enumerate()
+        .find_map(|(k, m)| m.iter().position(|x| x.is_finite()).map(|j| (k as u32, j)))
+        .unwrap();
     let mut b = a.clone();
     b.primary_depth.data[i] = 5.0;
-    b.vpl_maps[j] = f32::INFINITY;
+    let mut map = b.vpl_maps.map(layer).unwrap();
+    map[j] = f32::INFINITY;
+    b.vpl_maps.set_map(layer, &map);
     let r = diff(
         &a,
         &b,
@@ -193,8 +198,7 @@ fn infinity_matches_infinity_but_not_a_finite_value() {
     assert_eq!((p.over, p.inf_mismatch, p.max_abs), (1, 1, 0.0));
     let m = &r.maps[1];
     assert_eq!((m.over, m.inf_mismatch), (1, 1));
-    // Layer j/64 belongs to the VPL with that map.
-    let layer = (j / (VPL_MAP * VPL_MAP) as usize) as u32;
+    // The changed map belongs to the VPL with that map.
     let vpl = a.vpls.iter().position(|v| v.map == layer).unwrap();
     assert_eq!(m.worst_vpl, Some(vpl));
     assert!(diff(&a, &b, &Tolerance::same_machine()).differences.len() == 2);
@@ -205,9 +209,10 @@ fn a_missing_map_counts_as_all_infinite() {
     let mut a = sample_asset(false);
     // Make layer 0 entirely +inf, then store it as NO_MAP in B.
     let t = (VPL_MAP * VPL_MAP) as usize;
-    a.vpl_maps[..t].fill(f32::INFINITY);
+    a.vpl_maps.set_map(0, &vec![f32::INFINITY; t]);
     let mut b = a.clone();
-    b.vpl_maps.drain(..t);
+    let rest: Vec<Vec<f32>> = a.vpl_maps.maps().skip(1).collect();
+    b.vpl_maps = MapAtlas::from_maps(VPL_MAP, rest.iter().map(|m| m.as_slice())).unwrap();
     for v in &mut b.vpls {
         v.map = match v.map {
             0 => NO_MAP,
@@ -255,12 +260,14 @@ fn diff_images_are_written_for_differing_maps_only() {
     assert!(write_diff_images(&a, &a, tmp.path()).unwrap().is_empty());
     let mut b = a.clone();
     b.primary_depth.data[5] += 2.0;
-    let k = a.vpls[0].map as usize * (VPL_MAP * VPL_MAP) as usize;
-    b.vpl_maps[k + 9] = if b.vpl_maps[k + 9].is_finite() {
-        b.vpl_maps[k + 9] + 0.5
+    let k = a.vpls[0].map;
+    let mut map = b.vpl_maps.map(k).unwrap();
+    map[9] = if map[9].is_finite() {
+        map[9] + 0.5
     } else {
         1.0
     };
+    b.vpl_maps.set_map(k, &map);
     let out = tmp.path().join("diff");
     let files = write_diff_images(&a, &b, &out).unwrap();
     let names: Vec<String> = files

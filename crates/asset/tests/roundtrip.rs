@@ -69,7 +69,7 @@ fn counts_are_filled_in_from_the_data() {
 fn nothing_stored_that_is_not_needed() {
     let tmp = tempfile::tempdir().unwrap();
     let mut asset = sample_asset(false);
-    asset.vpl_maps.clear();
+    asset.vpl_maps = MapAtlas::empty(asset.manifest.settings.vpl_map_size);
     for v in &mut asset.vpls {
         v.map = NO_MAP;
     }
@@ -94,7 +94,7 @@ fn empty_vpl_set_round_trips() {
     let mut asset = sample_asset(false);
     asset.vpls.clear();
     asset.vpl_nodes.clear();
-    asset.vpl_maps.clear();
+    asset.vpl_maps = MapAtlas::empty(asset.manifest.settings.vpl_map_size);
     let dir = written(tmp.path(), &asset);
     let loaded = load(&dir).unwrap();
     assert!(loaded.vpls.is_empty());
@@ -190,13 +190,16 @@ fn exr_files_have_the_documented_layout() {
         panic!("D is not f32")
     };
     let s = VPL_MAP as usize;
+    let maps: Vec<Vec<f32>> = asset.vpl_maps.maps().collect();
+    assert_eq!(maps.len(), 7);
     for k in 0..9usize {
+        let map = maps.get(k);
         let (cx, cy) = (k % 3, k / 3);
         for y in 0..s {
             for x in 0..s {
                 let v = atlas[(cy * s + y) * w + cx * s + x];
-                if k < 7 {
-                    assert_eq!(v.to_bits(), asset.vpl_maps[(k * s + y) * s + x].to_bits());
+                if let Some(map) = map {
+                    assert_eq!(v.to_bits(), map[y * s + x].to_bits());
                 } else {
                     assert_eq!(v, f32::INFINITY);
                 }
@@ -204,7 +207,7 @@ fn exr_files_have_the_documented_layout() {
         }
     }
 
-    // rsm.exr: D, flux.R/G/B f32, vpl u32.
+    // rsm.exr: Z f32, share u32, vpl u32.
     let img = read_exr(&dir.join("rsm.exr"));
     let r = asset.rsm.as_ref().unwrap();
     let mut names: Vec<String> = img.layer_data[0]
@@ -214,15 +217,15 @@ fn exr_files_have_the_documented_layout() {
         .map(|c| c.name.to_string())
         .collect();
     names.sort();
-    assert_eq!(names, ["Z", "flux.B", "flux.G", "flux.R", "vpl"]);
+    assert_eq!(names, ["Z", "share", "vpl"]);
     let FlatSamples::F32(m) = channel(&img, "Z") else {
         panic!()
     };
     assert_eq!(m, &r.metric);
-    let FlatSamples::F32(g) = channel(&img, "flux.G") else {
-        panic!()
+    let FlatSamples::U32(share) = channel(&img, "share") else {
+        panic!("share is not u32")
     };
-    assert!(g.iter().zip(&r.flux).all(|(a, b)| *a == b[1]));
+    assert_eq!(share, &r.share);
     let FlatSamples::U32(v) = channel(&img, "vpl") else {
         panic!("vpl is not u32")
     };

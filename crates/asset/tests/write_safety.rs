@@ -113,14 +113,21 @@ fn an_inconsistent_asset_is_refused_before_writing_anything() {
             "shadow_map_size",
             Box::new(|a| a.manifest.settings.shadow_map_size = 32),
         ),
-        ("vpl_map_size", Box::new(|a| a.vpl_maps.push(1.0))),
+        (
+            "vpl_map_size",
+            Box::new(|a| a.vpl_maps = MapAtlas::from_maps(1, [[1.0f32].as_slice()]).unwrap()),
+        ),
         (
             "rsm",
-            Box::new(|a| a.rsm.as_mut().unwrap().flux.truncate(3)),
+            Box::new(|a| a.rsm.as_mut().unwrap().share.truncate(3)),
+        ),
+        (
+            "share",
+            Box::new(|a| a.rsm.as_mut().unwrap().share[0] = SHARE_ONE + 1),
         ),
         ("not finite", Box::new(|a| a.vpls[4].flux[1] = f32::NAN)),
         ("hemisphere map 7", Box::new(|a| a.vpls[4].map = 7)),
-        ("NaN", Box::new(|a| a.vpl_maps[3] = f32::NAN)),
+        ("NaN", Box::new(|a| a.vpl_maps.texels_mut()[3] = f32::NAN)),
         ("NaN", Box::new(|a| a.primary_depth.data[3] = f32::NAN)),
     ];
     for (what, f) in cases {

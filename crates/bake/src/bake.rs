@@ -4,8 +4,8 @@
 use std::time::Instant;
 
 use gibake_asset::{
-    Asset, BakeSettings, MAX_SHARDS, Manifest, Map, NO_MAP, Provenance, RsmData, ShardMaps,
-    ShardPart, VplRecord, assign_map_layers, shard_range,
+    Asset, BakeSettings, MAX_SHARDS, Manifest, Map, MapAtlas, NO_MAP, Provenance, RsmData,
+    ShardMaps, ShardPart, VplRecord, assign_map_tiles, shard_range,
 };
 use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::passes::shadow::ShadowPass;
@@ -365,22 +365,27 @@ fn bake_with(
         progress.advance(1)
     });
     let (maps, shard_maps) = match shard {
-        Some(_) => (Vec::new(), each),
-        None => (assign_map_layers(&mut vpls, each), Vec::new()),
+        Some(_) => (MapAtlas::empty(opts.vpl_map_size), each),
+        None => {
+            let atlas = assign_map_tiles(&mut vpls, opts.vpl_map_size, each).ok_or_else(|| {
+                BakeError::InvalidSetting("the VPL maps do not fit one atlas in memory".into())
+            })?;
+            (atlas, Vec::new())
+        }
     };
     progress.end();
     lap("vpl maps", &mut stages);
 
     let has_dynamic = !scene.dynamic_objects.is_empty();
-    let rsm_data = has_dynamic.then(|| RsmData {
-        size: rsm.size,
-        metric: rsm.metric.clone(),
-        flux: rsm.flux.iter().map(|f| f.to_array()).collect(),
-        vpl: clusters
+    // Each texel's share of its VPL's flux, for partial occlusion.
+    let rsm_data = has_dynamic.then(|| {
+        let flux: Vec<[f32; 3]> = rsm.flux.iter().map(|f| f.to_array()).collect();
+        let texel_vpl = clusters
             .texel_vpl
             .iter()
             .map(|&v| if v == NO_VPL { u32::MAX } else { v })
-            .collect(),
+            .collect();
+        RsmData::from_flux(rsm.size, rsm.metric.clone(), &flux, texel_vpl, vpls.len())
     });
     let map_count = vpls.iter().filter(|v| v.map != NO_MAP).count() as u32;
     let manifest = Manifest {

@@ -12,16 +12,17 @@ use rayon::prelude::*;
 
 /// Renders the maps of `vpls` (`size²` distances each, +inf = no surface).
 /// A map that sees no surface at all is not stored: its VPL gets
-/// [`NO_MAP`](gibake_asset::NO_MAP). Returns the stored maps, layer-major; sets `vpl.map`.
+/// [`NO_MAP`](gibake_asset::NO_MAP). Returns the stored maps as the atlas
+/// (`None` if it cannot be held in memory); sets `vpl.map`.
 /// `progress` is called once per finished VPL.
 pub fn render_vpl_maps(
     rays: &RayScene<'_>,
     vpls: &mut [VplRecord],
     size: u32,
     progress: &(dyn Fn() + Sync),
-) -> Vec<f32> {
+) -> Option<gibake_asset::MapAtlas> {
     let maps = render_each_vpl_map(rays, vpls, size, progress);
-    gibake_asset::assign_map_layers(vpls, maps)
+    gibake_asset::assign_map_tiles(vpls, size, maps)
 }
 
 /// The map of every VPL of `vpls`, in order: `None` for a map that sees no

@@ -193,19 +193,19 @@ fn visibility_agreement(name: &str) -> Agreement {
                 let c = hemisphere::texel_coords(n, to_x / dist, size);
                 let tx = (c.x.floor() as i64).clamp(0, i64::from(size) - 1);
                 let ty = (c.y.floor() as i64).clamp(0, i64::from(size) - 1);
-                let (lo, hi, inf) = neighbourhood(map, size, tx, ty, 2);
+                let (lo, hi, inf) = neighbourhood(&map, size, tx, ty, 2);
                 let any_finite = lo.is_finite();
                 if any_finite && (inf || hi > lo * 1.1) {
                     out.edge += 1;
                     continue;
                 }
-                let stored = texel(map, size, tx, ty).expect("in the map");
+                let stored = texel(&map, size, tx, ty).expect("in the map");
                 // Slope-scaled bias measured from the map: half the spread
                 // of the 3×3 texels around the lookup (a planar receiver
                 // changes its distance by at most that much between the
                 // texel centre and any point of the texel), plus 1e-3 of
                 // the distance.
-                let (lo3, hi3, _) = neighbourhood(map, size, tx, ty, 1);
+                let (lo3, hi3, _) = neighbourhood(&map, size, tx, ty, 1);
                 let spread = if lo3.is_finite() { hi3 - lo3 } else { 0.0 };
                 dist <= stored * (1.0 + 1e-3) + 0.5 * spread + 1e-3 * dist
             }
@@ -311,21 +311,19 @@ fn vpl_flux_sums_to_the_rsm_reflected_power() {
             "{name}: asset VPL flux off by {e_asset:.2e} from the kept clusters'"
         );
 
-        // The RSM stored for the dynamic merge carries the same light.
+        // The RSM stored for the dynamic merge: each texel's share of its
+        // VPL's flux, in proportion to the light it reflects, adding up to
+        // the whole VPL.
         let stored = asset
             .rsm
             .as_ref()
             .expect("bundled scenes have moving objects");
-        let stored_total: f64 = stored.flux.iter().map(|f| flux_sum(*f)).sum();
-        let e_stored = (stored_total - texel_total).abs() / texel_total;
-        assert!(
-            e_stored <= 1e-4,
-            "{name}: stored RSM flux off by {e_stored:.2e}"
-        );
-        // Every lit texel belongs to the VPL the clustering gave it (none if
-        // that VPL was dropped), and the kept VPLs' texels carry their flux.
+        // Every texel belongs to the VPL the clustering gave it (none if that
+        // VPL was dropped) and holds its share of that VPL's flux.
+        let one = f64::from(gibake_asset::SHARE_ONE);
+        let mut sums = vec![0u64; asset.vpls.len()];
         let mut per_vpl = vec![0.0f64; asset.vpls.len()];
-        for (t, (&vpl, f)) in stored.vpl.iter().zip(&stored.flux).enumerate() {
+        for (t, (&vpl, &share)) in stored.vpl.iter().zip(&stored.share).enumerate() {
             let want = clusters.texel_vpl[t];
             let want = if want == gibake_bake::cluster::NO_VPL {
                 u32::MAX
@@ -336,9 +334,25 @@ fn vpl_flux_sums_to_the_rsm_reflected_power() {
                 vpl, want,
                 "{name}: RSM texel {t} maps to VPL {vpl}, the clustering said {want}"
             );
-            if flux_sum(*f) > 0.0 && vpl != u32::MAX {
-                per_vpl[vpl as usize] += flux_sum(*f);
-            }
+            let f = flux_sum(rsm.flux[t].to_array());
+            let Some(v) = asset.vpls.get(vpl as usize) else {
+                assert_eq!(share, 0, "{name}: texel {t} of no VPL has a share");
+                continue;
+            };
+            sums[vpl as usize] += u64::from(share);
+            per_vpl[vpl as usize] += f;
+            let expected = f / flux_sum(v.flux);
+            assert!(
+                (f64::from(share) / one - expected).abs() <= 1e-4 * expected + 1e-6,
+                "{name}: texel {t}'s share {share} of VPL {vpl}, expected {expected:.6}"
+            );
+        }
+        for (i, (sum, v)) in sums.iter().zip(&asset.vpls).enumerate() {
+            let slack = u64::from(v.texels) / 2 + 1;
+            assert!(
+                sum.abs_diff(u64::from(gibake_asset::SHARE_ONE)) <= slack,
+                "{name}: VPL {i}'s texel shares add up to {sum}"
+            );
         }
         for (i, v) in asset.vpls.iter().enumerate() {
             let e = (per_vpl[i] - flux_sum(v.flux)).abs() / flux_sum(v.flux).max(1e-30);
@@ -718,7 +732,9 @@ fn bake_is_deterministic_and_stores_only_what_is_needed() {
     let texels = (size * size) as usize;
     assert_eq!(s.manifest.vpl_count as usize, s.vpls.len());
     assert_eq!(s.stored_map_count(), s.manifest.map_count as usize);
-    assert_eq!(s.vpl_maps.len(), s.manifest.map_count as usize * texels);
+    assert_eq!(s.vpl_maps.count(), s.manifest.map_count);
+    assert_eq!(s.vpl_maps.tile_size(), size);
+    assert!(s.vpl_maps.maps().all(|m| m.len() == texels));
     // Map layers are used once each, in order.
     let layers: Vec<u32> = s
         .vpls
@@ -787,8 +803,6 @@ fn bake_of_664_vpls_at_default_sizes() {
         "Count(664) gave {n} VPLs"
     );
     assert_eq!(out.asset.manifest.vpl_count as usize, n);
-    assert_eq!(
-        out.asset.vpl_maps.len(),
-        out.asset.manifest.map_count as usize * 128 * 128
-    );
+    assert_eq!(out.asset.vpl_maps.count(), out.asset.manifest.map_count);
+    assert_eq!(out.asset.vpl_maps.tile_size(), 128);
 }

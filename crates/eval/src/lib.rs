@@ -15,11 +15,17 @@
 //!
 //! Used by the tests (`tests/indirect_accuracy.rs`, 20 random seeds at a
 //! small size) and by `gibake bench accuracy` (more seeds, full size).
+//!
+//! Also the tools' helpers around the runtime that a game does not need:
+//! [`frame`] (render a scene's own frame, read an output back) and
+//! [`transport`] (the CPU twin of the shading's VPL transport).
 
 pub mod fit;
 pub mod flip;
 pub mod levels;
+pub mod frame;
 pub mod pareto;
+pub mod transport;
 
 use gibake_asset::Asset;
 use gibake_gpu::GpuContext;
@@ -183,7 +189,7 @@ pub fn render(
         max_dynamic_vpls: s.max_dynamic_vpls,
         ..Default::default()
     };
-    Ok(gibake_runtime::render_image(
+    Ok(frame::render_image(
         &ctx.device,
         &ctx.queue,
         scene,

@@ -9,6 +9,7 @@
 //!   directional light's maps cover.
 //! - [`readback`]: texture/buffer copies to the CPU.
 //! - [`mesh`]: scene meshes uploaded as GPU buffers.
+//! - [`vpl`]: the GPU's own layout of a static VPL ([`vpl::GpuVpl`]).
 
 mod context;
 pub mod hemisphere;
@@ -19,6 +20,7 @@ pub mod passes;
 pub mod readback;
 pub mod shaders;
 pub mod util;
+pub mod vpl;
 
 pub use context::{AdapterRecord, GpuContext, GpuError, GpuOptions};
 pub use light_view::{

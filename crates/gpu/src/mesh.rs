@@ -152,12 +152,29 @@ pub struct SceneGpu {
     /// One bind group per material: texture (binding 0), sampler (binding 1).
     pub material_groups: Vec<wgpu::BindGroup>,
     cpu_draw_data: Vec<GpuDrawData>,
+    /// The first draw-data slot of the spare room (draws below it are the
+    /// scene's own).
+    first_spare: u32,
+    /// Draw-data slots still free for [`SceneGpu::add_instance`].
+    spare: Range<u32>,
 }
 
 impl SceneGpu {
     /// Uploads every static and dynamic mesh of `scene`, dynamic objects
     /// placed at time `time`.
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene, time: f32) -> SceneGpu {
+        SceneGpu::with_spare_draws(device, queue, scene, time, 0)
+    }
+
+    /// [`SceneGpu::new`] with room for `spare_draws` more draws of moving
+    /// objects ([`SceneGpu::add_instance`]).
+    pub fn with_spare_draws(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene: &Scene,
+        time: f32,
+        spare_draws: u32,
+    ) -> SceneGpu {
         let mut vertices: Vec<GpuVertex> = Vec::new();
         let mut indices: Vec<u32> = Vec::new();
         let mut draw_data = Vec::new();
@@ -237,6 +254,11 @@ impl SceneGpu {
         if indices.is_empty() {
             indices.extend_from_slice(&[0, 0, 0]);
         }
+        let first_spare = draw_data.len() as u32;
+        draw_data.extend(std::iter::repeat_n(
+            <GpuDrawData as bytemuck::Zeroable>::zeroed(),
+            spare_draws as usize,
+        ));
         if draw_data.is_empty() {
             draw_data.push(GpuDrawData::new(
                 Mat4::IDENTITY,
@@ -362,7 +384,54 @@ impl SceneGpu {
             material_layout,
             material_groups,
             cpu_draw_data: draw_data,
+            first_spare,
+            spare: first_spare..first_spare + spare_draws,
         }
+    }
+
+    /// Draws moving object `template`'s meshes once more, as moving object
+    /// `object` at `model` (its later matrices come with
+    /// [`SceneGpu::set_dynamic_transforms`]), in the spare draw-data room of
+    /// [`SceneGpu::with_spare_draws`]. Returns `false` and changes nothing
+    /// when the room is too small or `template` has no draws.
+    pub fn add_instance(
+        &mut self,
+        queue: &wgpu::Queue,
+        template: usize,
+        object: usize,
+        model: Mat4,
+    ) -> bool {
+        let originals: Vec<Draw> = self
+            .dynamic_draws
+            .iter()
+            .filter(|d| d.object == Some(template) && d.id < self.first_spare)
+            .cloned()
+            .collect();
+        let n = originals.len() as u32;
+        if n == 0 || self.spare.len() < n as usize {
+            return false;
+        }
+        let start = self.spare.start;
+        for (k, d) in originals.into_iter().enumerate() {
+            let id = start + k as u32;
+            let old = self.cpu_draw_data[d.id as usize];
+            let albedo = glam::Vec4::from_array(old.albedo);
+            self.cpu_draw_data[id as usize] =
+                GpuDrawData::new(model, albedo.truncate(), albedo.w > 0.5, old.extra);
+            self.dynamic_draws.push(Draw {
+                id,
+                object: Some(object),
+                ..d
+            });
+        }
+        self.spare.start += n;
+        let range = &self.cpu_draw_data[start as usize..self.spare.start as usize];
+        queue.write_buffer(
+            &self.draw_data,
+            (start as usize * std::mem::size_of::<GpuDrawData>()) as u64,
+            bytemuck::cast_slice(range),
+        );
+        true
     }
 
     /// Rewrites the world matrices of the dynamic draws from one matrix per

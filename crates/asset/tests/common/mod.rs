@@ -78,7 +78,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
         .collect();
     let map_count = layer as usize;
     let texels = (VPL_MAP * VPL_MAP) as usize;
-    let vpl_maps: Vec<f32> = (0..map_count * texels)
+    let layers: Vec<f32> = (0..map_count * texels)
         .map(|_| {
             if rng.f32() < 0.3 {
                 f32::INFINITY
@@ -87,6 +87,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
             }
         })
         .collect();
+    let vpl_maps = MapAtlas::from_maps(VPL_MAP, layers.chunks(texels)).expect("maps of VPL_MAP²");
     let primary: Vec<f32> = (0..(SHADOW * SHADOW) as usize)
         .map(|_| {
             if rng.f32() < 0.1 {
@@ -98,28 +99,26 @@ pub fn sample_asset(dynamic: bool) -> Asset {
         .collect();
     let rsm = dynamic.then(|| {
         let n = (RSM * RSM) as usize;
-        RsmData {
-            size: RSM,
-            metric: (0..n)
-                .map(|_| {
-                    if rng.f32() < 0.2 {
-                        f32::INFINITY
-                    } else {
-                        1.0 + rng.f32()
-                    }
-                })
-                .collect(),
-            flux: (0..n).map(|_| [rng.f32(), rng.f32(), rng.f32()]).collect(),
-            vpl: (0..n)
-                .map(|_| {
-                    if rng.f32() < 0.2 {
-                        u32::MAX
-                    } else {
-                        rng.below(VPLS) as u32
-                    }
-                })
-                .collect(),
-        }
+        let metric = (0..n)
+            .map(|_| {
+                if rng.f32() < 0.2 {
+                    f32::INFINITY
+                } else {
+                    1.0 + rng.f32()
+                }
+            })
+            .collect();
+        let flux: Vec<[f32; 3]> = (0..n).map(|_| [rng.f32(), rng.f32(), rng.f32()]).collect();
+        let vpl = (0..n)
+            .map(|_| {
+                if rng.f32() < 0.2 {
+                    u32::MAX
+                } else {
+                    rng.below(VPLS) as u32
+                }
+            })
+            .collect();
+        RsmData::from_flux(RSM, metric, &flux, vpl, VPLS)
     });
     Asset {
         manifest: Manifest {

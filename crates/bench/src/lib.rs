@@ -1,12 +1,13 @@
-//! `gibake bench`: bake time, per-frame update cost (full against naive),
+//! `gibake bench` (this crate; the binary only parses [`BenchArgs`] and
+//! calls [`run`]): bake time, per-frame update cost (full against naive),
 //! the paper's Table 1, error against run time for every mode and quality
 //! setting (rel MSE and mean FLIP, Pareto front marked), interleaved
 //! shading side by side, scaling sweeps with fitted growth exponents, the
 //! pipeline's up-to-date check and the indirect accuracy.
 //!
-//! One file per sub-benchmark under `bench/`; the shared table and report
-//! code is in `bench/report.rs`, every render in `bench/frame.rs`, the
-//! plots (plotters, PNG) in `bench/plot.rs`.
+//! One file per sub-benchmark; the shared table and report code is in
+//! `report.rs`, every render in `frame.rs`, the plots (plotters, PNG) in
+//! `plot.rs`.
 //!
 //! Every table names the adapter it was measured on. Ratios are measured
 //! side by side in one run; absolute times mean something only with the
@@ -16,19 +17,20 @@
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
-use std::process::ExitCode;
 use std::time::Instant;
 
-use anyhow::{Context, bail};
 use gibake_bake::cluster::ClusterTarget;
 use gibake_bake::{BakeOptions, NoProgress};
 use gibake_gpu::{GpuContext, GpuOptions};
 use gibake_scene::{LoadOptions, Scene};
 
 mod accuracy;
+mod args;
 mod bake;
+mod error;
 mod frame;
 mod interleave;
+mod out;
 mod pipeline;
 mod plot;
 mod quality;
@@ -38,13 +40,15 @@ mod scaling;
 mod table1;
 mod text;
 
-use crate::cli::{BenchArgs, BenchScene, BenchWhich};
-use crate::output::write_atomic;
+pub use args::{BenchArgs, BenchScene, BenchWhich};
+pub use error::{BenchError, Result};
+use error::{Context, bail};
+use out::write_atomic;
 pub(crate) use report::{Table, median};
 
-const CORNER_BUNNY: &[u8] = include_bytes!("../../data/corner_bunny.glb");
-const OCCLUDED: &[u8] = include_bytes!("../../data/occluded.glb");
-const SUN: &[u8] = include_bytes!("../../data/sun.glb");
+const CORNER_BUNNY: &[u8] = include_bytes!("../../../data/corner_bunny.glb");
+const OCCLUDED: &[u8] = include_bytes!("../../../data/occluded.glb");
+const SUN: &[u8] = include_bytes!("../../../data/sun.glb");
 
 /// Animation step between measured frames.
 const FRAME_STEP_S: f32 = 1.0 / 30.0;
@@ -65,8 +69,8 @@ struct Bench {
     plots: Vec<(String, String)>,
 }
 
-/// Runs `gibake bench`.
-pub fn bench(a: BenchArgs) -> anyhow::Result<ExitCode> {
+/// Runs `gibake bench` with the options `a`.
+pub fn run(a: &BenchArgs) -> Result<()> {
     if a.frames == 0 {
         bail!("--frames must be at least 1");
     }
@@ -118,12 +122,12 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<ExitCode> {
     let all = a.which.contains(&BenchWhich::All);
     let on = |w: BenchWhich| all || a.which.contains(&w);
     let mut timings: Vec<(&str, f64)> = Vec::new();
-    let result = (|| {
+    let result: Result<()> = (|| {
         let mut part = |name: &'static str,
                         on: bool,
                         b: &mut Bench,
-                        f: &mut dyn FnMut(&mut Bench) -> anyhow::Result<()>|
-         -> anyhow::Result<()> {
+                        f: &mut dyn FnMut(&mut Bench) -> Result<()>|
+         -> Result<()> {
             if on {
                 let t = Instant::now();
                 f(b)?;
@@ -157,7 +161,7 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<ExitCode> {
         part("accuracy", on(BenchWhich::Accuracy), &mut b, &mut |b| {
             accuracy::bench_accuracy(b, a.seeds)
         })?;
-        anyhow::Ok(())
+        Ok(())
     })();
     let _ = std::fs::remove_dir_all(&b.tmp);
     result?;
@@ -186,18 +190,13 @@ pub fn bench(a: BenchArgs) -> anyhow::Result<ExitCode> {
         "wrote {} (and the JSON / PNG files beside it) in {total:.0} s",
         b.out.join("report.md").display()
     );
-    Ok(ExitCode::SUCCESS)
+    Ok(())
 }
 
 impl Bench {
     /// Bakes `scene` with `vpls` VPLs and `map`² hemisphere maps; returns
     /// the bake and its wall seconds.
-    fn bake(
-        &self,
-        scene: &Scene,
-        vpls: u32,
-        map: u32,
-    ) -> anyhow::Result<(gibake_bake::BakeOutput, f64)> {
+    fn bake(&self, scene: &Scene, vpls: u32, map: u32) -> Result<(gibake_bake::BakeOutput, f64)> {
         let opts = BakeOptions {
             rsm_size: 512,
             vpl_map_size: map,
@@ -226,7 +225,7 @@ impl Bench {
     }
 }
 
-fn load_embedded(bytes: &[u8], name: &str) -> anyhow::Result<Scene> {
+fn load_embedded(bytes: &[u8], name: &str) -> Result<Scene> {
     let path = PathBuf::from(format!("{name}.glb (embedded)"));
     Ok(gibake_scene::load_from_slice(
         bytes,

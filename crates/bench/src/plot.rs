@@ -1,18 +1,18 @@
 //! The plots of `gibake bench`, drawn with `plotters` (its bitmap backend,
 //! into memory) and written as PNG by `gibake_image::write_rgb8_png`, so the
 //! workspace holds one PNG encoder. Text is drawn with the DejaVu Sans font embedded in the
-//! binary (`bake-cli/assets/`, its licence beside it) by [`super::text`]
+//! crate (`crates/bench/assets/`, its licence beside it) by [`crate::text`]
 //! (skrifa and ab_glyph_rasterizer, not plotters' font features, whose
 //! `ttf-parser` is unmaintained), so no system font or fontconfig is needed.
 
 use std::path::Path;
 
-use anyhow::anyhow;
+use crate::error::BenchError;
 use plotters::prelude::*;
 
-use super::text::TextBitmap;
+use crate::text::TextBitmap;
 
-/// The font family the plots ask for (one font is embedded: see [`super::text`]).
+/// The font family the plots ask for (one font is embedded: see [`crate::text`]).
 const FAMILY: &str = "sans-serif";
 /// Plot size in pixels.
 const W: u32 = 900;
@@ -80,7 +80,7 @@ pub(super) fn error_vs_time(
     title: &str,
     y_desc: &str,
     points: &[Point],
-) -> anyhow::Result<()> {
+) -> crate::Result<()> {
     let good: Vec<&Point> = points
         .iter()
         .filter(|p| p.ms > 0.0 && p.err > 0.0 && p.ms.is_finite() && p.err.is_finite())
@@ -89,7 +89,8 @@ pub(super) fn error_vs_time(
     let (y0, y1) = log_range(good.iter().map(|p| p.err));
     let mut rgb = vec![0u8; (W * H * 3) as usize];
     let root = TextBitmap(BitMapBackend::with_buffer(&mut rgb, (W, H))).into_drawing_area();
-    let e = |e: &dyn std::fmt::Display| anyhow!("plot {}: {e}", path.display());
+    let e =
+        |e: &dyn std::fmt::Display| BenchError::Invalid(format!("plot {}: {e}", path.display()));
     root.fill(&WHITE).map_err(|x| e(&x))?;
     let mut chart = log_log_chart(
         &root,
@@ -160,12 +161,13 @@ pub(super) fn scaling(
     title: &str,
     x_desc: &str,
     curves: &[Curve],
-) -> anyhow::Result<()> {
+) -> crate::Result<()> {
     let (x0, x1) = log_range(curves.iter().flat_map(|c| c.points.iter().map(|p| p.0)));
     let (y0, y1) = log_range(curves.iter().flat_map(|c| c.points.iter().map(|p| p.1)));
     let mut rgb = vec![0u8; (W * H * 3) as usize];
     let root = TextBitmap(BitMapBackend::with_buffer(&mut rgb, (W, H))).into_drawing_area();
-    let e = |e: &dyn std::fmt::Display| anyhow!("plot {}: {e}", path.display());
+    let e =
+        |e: &dyn std::fmt::Display| BenchError::Invalid(format!("plot {}: {e}", path.display()));
     root.fill(&WHITE).map_err(|x| e(&x))?;
     let mut chart = log_log_chart(
         &root,

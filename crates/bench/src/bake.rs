@@ -4,19 +4,19 @@
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::Context;
+use crate::error::Context;
 use gibake_scene::LoadOptions;
 use serde_json::json;
 
 use super::report::{dir_bytes, mib};
 use super::{Bench, CORNER_BUNNY, Table, load_embedded, median};
-use crate::output::bar;
+use crate::out::bar;
 
 /// Issue 3: the whole 664-VPL bake of corner_bunny under this many seconds on lavapipe.
 const BAKE_TARGET_S: f64 = 3.0;
 
 /// Runs the bake benchmark on `scene_path` (default: corner_bunny).
-pub(super) fn bench_bake(b: &mut Bench, scene_path: Option<&Path>) -> anyhow::Result<()> {
+pub(super) fn bench_bake(b: &mut Bench, scene_path: Option<&Path>) -> crate::Result<()> {
     let (scene, name) = match scene_path {
         Some(p) => (
             gibake_scene::load(p, &LoadOptions::default())?,

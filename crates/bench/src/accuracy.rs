@@ -10,7 +10,7 @@ use serde_json::json;
 use super::{Bench, Table};
 
 /// Runs the accuracy table over the bundled scenes and `seeds` random seeds.
-pub(super) fn bench_accuracy(b: &mut Bench, seeds: u64) -> anyhow::Result<()> {
+pub(super) fn bench_accuracy(b: &mut Bench, seeds: u64) -> crate::Result<()> {
     let s = gibake_eval::EvalSettings {
         size: if b.quick { 48 } else { 96 },
         spp: if b.quick { 256 } else { 1024 },

@@ -1,20 +1,22 @@
 //! The GPU clustering of dynamic VPLs against its CPU twin
 //! (`gibake_bake::cluster::cluster_cut`) on the bundled corner scene with
-//! its moving balls, and with the balls out of the light's reach.
+//! its moving balls, and with the balls out of the light's reach (unit
+//! tests of the crate's own passes).
 
 use gibake_asset::Asset;
 use gibake_bake::cluster::{Cluster, ClusterTarget, cluster_cut};
 use gibake_bake::rsm::{MIN_AREA_COSINE, Rsm};
 use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::{GpuContext, GpuPrimaryLight, LightView, readback};
-use gibake_runtime::baked::BakedGpu;
-use gibake_runtime::dynamic_rsm::DynamicRsmPass;
-use gibake_runtime::timer::Timer;
 use gibake_scene::{LightKind, LoadOptions, Scene};
 use glam::{Mat4, Vec2, Vec3};
 use wgpu::util::DeviceExt;
 
-use gibake_runtime::dynamic_vpl::{DynamicVplPass, GpuDynVpl};
+use super::{DynamicVplPass, GpuDynVpl};
+use crate::baked::BakedGpu;
+use crate::dynamic_rsm::DynamicRsmPass;
+use crate::plan::Pass;
+use crate::stats::{FrameStats, Timer};
 
 const MAX_VPLS: u32 = 64;
 
@@ -117,14 +119,19 @@ fn run_pass(
     mut timer: Option<&mut Timer>,
 ) -> Vec<GpuDynVpl> {
     let mut enc = ctx.device.create_command_encoder(&Default::default());
-    f.rsm.encode(&mut enc, &f.scene_gpu, None);
+    f.rsm
+        .encode(&mut enc, &f.scene_gpu, &f.scene_gpu.dynamic_draws, None);
     if let Some(t) = timer.as_deref_mut() {
-        t.reset();
-        t.plan("dynamic vpls");
+        t.begin(FrameStats::default(), vec![(Pass::DynamicVpls, None)]);
     }
-    pass.encode(&mut enc, timer.as_deref());
+    pass.encode(
+        &mut enc,
+        timer
+            .as_deref()
+            .and_then(|t| t.compute(Pass::DynamicVpls, None)),
+    );
     if let Some(t) = timer.as_deref() {
-        t.resolve(&mut enc);
+        t.finish(&mut enc);
     }
     ctx.queue.submit([enc.finish()]);
     let bytes = readback::read_buffer(ctx, &pass.vpls).expect("read the slots");
@@ -283,14 +290,14 @@ fn dynamic_vpls_match_the_cpu_cut() {
     assert_eq!(f.pass.max_depth(), 3);
     assert_eq!(f.pass.slots(), 85);
 
-    let mut timer = Timer::new(&ctx.device, &ctx.queue, 2);
-    let slots = run(&ctx, &f, timer.as_mut());
+    let mut timer = Timer::new(&ctx.device, &ctx.queue);
+    let slots = run(&ctx, &f, Some(&mut timer));
     assert_all_finite(&slots);
-    if let Some(t) = &timer {
-        let times = t.read(&ctx.device);
-        assert_eq!(times.len(), 1);
-        assert_eq!(times[0].0, "dynamic vpls");
-        eprintln!("dynamic vpls: {:.3} ms (GPU timestamps)", times[0].1);
+    let st = timer.wait(&ctx.device);
+    if st.timing == crate::Timing::GpuTimestamps {
+        assert_eq!(st.passes.len(), 1);
+        assert_eq!(st.passes[0].0, Pass::DynamicVpls);
+        eprintln!("dynamic vpls: {:.3} ms (GPU timestamps)", st.passes[0].1);
     }
     // Empty slots are all zero.
     for v in slots.iter().filter(|v| v.normal[3] <= 0.5) {
@@ -325,10 +332,9 @@ fn dynamic_vpls_match_the_cpu_cut() {
     }
 
     // Deterministic: the same bytes again.
-    assert_eq!(run(&ctx, &f, timer.as_mut()), slots);
-    if let Some(t) = &timer {
-        eprintln!("dynamic vpls, again: {:.3} ms", t.read(&ctx.device)[0].1);
-    }
+    assert_eq!(run(&ctx, &f, Some(&mut timer)), slots);
+    let st = timer.wait(&ctx.device);
+    eprintln!("dynamic vpls, again: {:.3} ms ({})", st.frame_ms, st.timing);
 }
 
 #[test]

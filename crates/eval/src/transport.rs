@@ -1,4 +1,4 @@
-//! CPU twin of the shading's VPL transport (`shade.wgsl`): the irradiance a
+//! CPU twin of the runtime shading's VPL transport (`runtime/src/shade.wgsl`): the irradiance a
 //! static VPL sends to a receiver before visibility, from one disk far away
 //! and from its near-field tree up close (`gibake_bake::near_field`). Tests
 //! compare the GPU image with sums made from these functions.

@@ -7,11 +7,11 @@
 
 use std::time::Instant;
 
-use anyhow::{Context, bail};
+use crate::error::{Context, bail};
 use gibake_asset::Asset;
 use gibake_gpu::GpuContext;
 use gibake_image::Image;
-use gibake_runtime::{FrameStats, Mode, RenderSettings, Renderer};
+use gibake_runtime::{FrameStats, Mode, Pass, RenderSettings, Renderer};
 use gibake_scene::Scene;
 use serde_json::{Value, json};
 
@@ -24,7 +24,7 @@ pub(super) fn new_renderer(
     scene: &Scene,
     asset: Option<&Asset>,
     settings: &RenderSettings,
-) -> anyhow::Result<Renderer> {
+) -> crate::Result<Renderer> {
     Renderer::new(&ctx.device, &ctx.queue, scene, asset, settings)
         .with_context(|| format!("setting up {}", scene.source.display()))
 }
@@ -67,12 +67,8 @@ impl FrameSummary {
     }
 }
 
-pub(super) fn pass_ms(s: &FrameStats, name: &str) -> f64 {
-    s.passes
-        .iter()
-        .filter(|(n, _)| n == name)
-        .map(|(_, ms)| ms)
-        .sum()
+pub(super) fn pass_ms(s: &FrameStats, pass: Pass) -> f64 {
+    s.pass_ms(pass)
 }
 
 pub(super) fn summarize(frames: &[(FrameStats, f64)]) -> FrameSummary {
@@ -80,17 +76,17 @@ pub(super) fn summarize(frames: &[(FrameStats, f64)]) -> FrameSummary {
         median(&frames.iter().map(|(s, _)| f(s)).collect::<Vec<_>>())
     };
     let first = &frames[0].0;
-    let names: Vec<String> = first.passes.iter().map(|(n, _)| n.clone()).collect();
+    let names: Vec<Pass> = first.passes.iter().map(|(n, _)| *n).collect();
     FrameSummary {
-        timing: first.timing.clone(),
+        timing: first.timing.to_string(),
         update_ms: col(&|s| s.update_ms()),
         shade_ms: col(&shade_ms),
-        gbuffer_ms: col(&|s| pass_ms(s, "gbuffer")),
-        frame_ms: col(&|s| s.passes.iter().map(|(_, ms)| ms).sum()),
+        gbuffer_ms: col(&|s| pass_ms(s, Pass::GBuffer)),
+        frame_ms: col(&|s| s.frame_ms),
         wall_ms: median(&frames.iter().map(|(_, w)| *w).collect::<Vec<_>>()),
         passes: names
             .iter()
-            .map(|n| (n.clone(), col(&|s| pass_ms(s, n))))
+            .map(|n| (n.name().to_string(), col(&|s| pass_ms(s, *n))))
             .collect(),
         affected_maps: col(&|s| f64::from(s.affected_maps)),
         update_draw_calls: col(&|s| f64::from(s.update_draw_calls)),
@@ -107,7 +103,7 @@ pub(super) fn one_frame(
     r: &mut Renderer,
     scene: &Scene,
     t: f32,
-) -> anyhow::Result<(FrameStats, f64)> {
+) -> crate::Result<(FrameStats, f64)> {
     let start = Instant::now();
     r.prepare_at_time(&ctx.device, &ctx.queue, scene, t)?;
     let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -135,7 +131,7 @@ pub(super) fn measure_all(
     ctx: &GpuContext,
     configs: &[Config<'_>],
     on_frame: &dyn Fn(),
-) -> anyhow::Result<Vec<FrameSummary>> {
+) -> crate::Result<Vec<FrameSummary>> {
     let mut live = Vec::with_capacity(configs.len());
     for c in configs {
         let mut r = new_renderer(ctx, c.scene, c.asset, &c.settings)?;
@@ -158,7 +154,7 @@ pub(super) fn measure_all(
 /// Shade time of a frame: the shade pass plus the interleave filter that
 /// reconstructs its sum (0 at interleave 1).
 pub(super) fn shade_ms(s: &FrameStats) -> f64 {
-    pass_ms(s, "shade") + pass_ms(s, "interleave")
+    pass_ms(s, Pass::Shade) + pass_ms(s, Pass::Interleave)
 }
 
 /// Renders one frame of `mode` at `size`² (ssaa `ssaa`, interleave
@@ -175,7 +171,7 @@ pub(super) fn render_measured(
     ssaa: u32,
     interleave: u32,
     t: f32,
-) -> anyhow::Result<(Image, FrameStats)> {
+) -> crate::Result<(Image, FrameStats)> {
     let settings = RenderSettings {
         width: size * ssaa,
         height: size * ssaa,
@@ -183,13 +179,14 @@ pub(super) fn render_measured(
         mode,
         max_dynamic_vpls: 64,
         interleave,
+        max_spawned: 0,
     };
     let mut r = new_renderer(&b.ctx, scene, asset, &settings)?;
     if !b.quick {
         one_frame(&b.ctx, &mut r, scene, t)?;
     }
     let (stats, _) = one_frame(&b.ctx, &mut r, scene, t)?;
-    let img = r.read_output(&b.ctx.device, &b.ctx.queue, ssaa)?;
+    let img = gibake_eval::frame::read_output(&r, &b.ctx.device, &b.ctx.queue, ssaa)?;
     if !img.all_finite() {
         bail!(
             "{}: mode {mode:?} (interleave {interleave}) rendered non-finite pixels",
@@ -201,5 +198,5 @@ pub(super) fn render_measured(
 
 /// Sum of every pass of a frame (ms).
 pub(super) fn frame_total(s: &FrameStats) -> f64 {
-    s.passes.iter().map(|(_, ms)| ms).sum()
+    s.frame_ms
 }

@@ -8,7 +8,7 @@ use serde_json::json;
 
 use super::frame::{Config, measure_all};
 use super::{Bench, CORNER_BUNNY, Table, load_embedded};
-use crate::output::bar;
+use crate::out::bar;
 use gibake_runtime::{Mode, RenderSettings};
 
 /// The paper's dynamic VPL counts.
@@ -19,7 +19,7 @@ const BUDGETS: [u32; 2] = [250, 664];
 const INTERLEAVE: [u32; 2] = [1, 4];
 
 /// Runs Table 1 at `size` = (width, height).
-pub(super) fn bench_table1(b: &mut Bench, size: (u32, u32)) -> anyhow::Result<()> {
+pub(super) fn bench_table1(b: &mut Bench, size: (u32, u32)) -> crate::Result<()> {
     b.section("The paper's Table 1");
     // --quick: a quarter of the size each way.
     let (tw, th) = if b.quick {
@@ -48,6 +48,7 @@ pub(super) fn bench_table1(b: &mut Bench, size: (u32, u32)) -> anyhow::Result<()
                         mode: Mode::Full,
                         max_dynamic_vpls: d,
                         interleave: il,
+                        max_spawned: 0,
                     },
                     frames,
                 });

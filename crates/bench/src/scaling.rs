@@ -17,7 +17,7 @@ use super::frame::{Config, FrameSummary, measure_all};
 use super::plot::{Curve, scaling};
 use super::report::sig;
 use super::{Bench, CORNER_BUNNY, Table, load_embedded};
-use crate::output::bar;
+use crate::out::bar;
 
 /// corner_bunny with `n` moving objects: the first `n` of its 13 balls, and
 /// beyond 13, copies of them that follow the same paths (each drawn and
@@ -57,7 +57,7 @@ const SWEEPS: [Sweep; 3] = [
 ];
 
 /// Runs the three sweeps.
-pub(super) fn bench_scaling(b: &mut Bench) -> anyhow::Result<()> {
+pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
     b.section("Scaling: growth exponents");
     let quick = b.quick;
     let size = if quick { 64 } else { 128 };
@@ -86,6 +86,7 @@ pub(super) fn bench_scaling(b: &mut Bench) -> anyhow::Result<()> {
         mode: Mode::Full,
         max_dynamic_vpls: 64,
         interleave: 1,
+        max_spawned: 0,
     };
     let mut fits_json = Vec::new();
     let mut summary = Table::new(

@@ -7,18 +7,18 @@
 
 use std::time::Instant;
 
-use anyhow::{Context, bail};
+use crate::error::{Context, bail};
 use gibake_bake::{BakeOptions, Freshness, NoProgress};
 use gibake_gpu::{GpuContext, GpuOptions};
 use gibake_scene::LoadOptions;
 use serde_json::json;
 
 use super::{Bench, Table, median, scene_of};
-use crate::cli::BenchScene;
-use crate::output::bar;
+use crate::BenchScene;
+use crate::out::bar;
 
 /// Runs the pipeline benchmark into `b`'s report and `pipeline.json`.
-pub(super) fn bench_pipeline(b: &mut Bench) -> anyhow::Result<()> {
+pub(super) fn bench_pipeline(b: &mut Bench) -> crate::Result<()> {
     let runs = if b.quick { 1 } else { 3 };
     let scenes = [
         BenchScene::CornerBunny,

@@ -7,7 +7,7 @@ use std::path::Path;
 use serde_json::Value;
 
 use super::Bench;
-use crate::output::write_atomic;
+use crate::out::write_atomic;
 
 /// A Markdown table.
 pub(crate) struct Table {
@@ -58,7 +58,7 @@ impl Bench {
     /// Prints a table and appends it to the report.
     pub(super) fn emit(&mut self, t: &Table) {
         let md = t.markdown();
-        crate::outln!("{md}");
+        crate::out::print_stdout(&md);
         self.report.push_str(&md);
     }
 
@@ -68,7 +68,7 @@ impl Bench {
     }
 
     /// Writes `DIR/NAME.json`.
-    pub(super) fn write_json(&self, name: &str, v: &Value) -> anyhow::Result<()> {
+    pub(super) fn write_json(&self, name: &str, v: &Value) -> crate::Result<()> {
         write_atomic(
             &self.out.join(format!("{name}.json")),
             serde_json::to_string_pretty(v)?.as_bytes(),

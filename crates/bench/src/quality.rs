@@ -7,7 +7,7 @@
 
 use std::time::Instant;
 
-use anyhow::Context;
+use crate::error::Context;
 use gibake_eval::{flip::mean_flip, pareto::pareto_front};
 use gibake_image::{Image, rel_mse};
 use gibake_runtime::{FrameStats, Mode};
@@ -19,8 +19,8 @@ use super::frame::{frame_total, render_measured, shade_ms};
 use super::plot::{Point, error_vs_time};
 use super::report::sig;
 use super::{Bench, QUALITY_TIME, Table, distinct, load_embedded, scene_of};
-use crate::cli::BenchScene;
-use crate::output::bar;
+use crate::BenchScene;
+use crate::out::bar;
 
 /// The CPU reference of one scene: one bounce, direct only, and their
 /// difference (the indirect part).
@@ -33,7 +33,7 @@ pub(super) struct Refs {
 
 /// Renders the reference of `scene` at `size`² with `spp` samples (the
 /// direct-only image with the same).
-pub(super) fn references(scene: &Scene, name: &str, size: u32, spp: u32) -> anyhow::Result<Refs> {
+pub(super) fn references(scene: &Scene, name: &str, size: u32, spp: u32) -> crate::Result<Refs> {
     let t = Instant::now();
     let one = reference(
         scene,
@@ -59,7 +59,7 @@ fn reference(
     spp: u32,
     depth: gibake_reference::Depth,
     seed: u64,
-) -> anyhow::Result<Image> {
+) -> crate::Result<Image> {
     let settings = gibake_reference::Settings {
         width: size,
         height: size,
@@ -90,7 +90,7 @@ pub(super) struct Scores {
 /// Scores `img`; `direct` is the same renderer's direct-only image (the
 /// indirect part is `img − direct`), `None` when `img` is already the
 /// indirect part (mode `indirect`).
-pub(super) fn score(img: &Image, direct: Option<&Image>, r: &Refs) -> anyhow::Result<Scores> {
+pub(super) fn score(img: &Image, direct: Option<&Image>, r: &Refs) -> crate::Result<Scores> {
     let ind = match direct {
         Some(d) => img.sub(d),
         None => img.clone(),
@@ -146,7 +146,7 @@ impl Row {
             shade_ms: Some(shade_ms(st)),
             frame_ms: frame_total(st),
             bake_seconds: None,
-            timing: st.timing.clone(),
+            timing: st.timing.to_string(),
             pareto_rel_mse: false,
             pareto_flip: false,
             pareto_indirect: false,
@@ -247,7 +247,7 @@ pub(super) fn bench_quality(
     scenes: &[BenchScene],
     randoms: u64,
     ref_spp: u32,
-) -> anyhow::Result<()> {
+) -> crate::Result<()> {
     b.section("Quality: error against run time");
     let g = Grid::new(b.quick);
     let mut all: Vec<(String, Scene)> = Vec::new();
@@ -464,7 +464,7 @@ fn label(r: &Row) -> String {
     }
 }
 
-fn plot_scene(b: &Bench, name: &str, g: &Grid, rows: &[Row]) -> anyhow::Result<Vec<String>> {
+fn plot_scene(b: &Bench, name: &str, g: &Grid, rows: &[Row]) -> crate::Result<Vec<String>> {
     let series = |r: &Row| match r.interleave {
         Some(il) if r.mode != "naive" && r.mode != "direct" => format!("{} ×{il}", r.mode),
         _ => r.mode.clone(),

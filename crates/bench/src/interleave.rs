@@ -11,8 +11,8 @@ use super::frame::{Config, measure_all, render_measured};
 use super::quality::{references, score};
 use super::report::sig;
 use super::{Bench, QUALITY_TIME, Table, distinct, load_embedded, scene_of};
-use crate::cli::BenchScene;
-use crate::output::bar;
+use crate::BenchScene;
+use crate::out::bar;
 
 /// Issue 10: shade + filter at interleave 4 at most this fraction of interleave 1.
 const SHADE_TARGET: f64 = 0.1;
@@ -27,7 +27,7 @@ pub(super) fn bench_interleave(
     scenes: &[BenchScene],
     vpls: u32,
     ref_spp: u32,
-) -> anyhow::Result<()> {
+) -> crate::Result<()> {
     b.section("Interleaved VPL sampling, side by side");
     let size = if b.quick { 64 } else { 256 };
     let map = if b.quick { 64 } else { 128 };
@@ -78,6 +78,7 @@ pub(super) fn bench_interleave(
                     mode: Mode::Full,
                     max_dynamic_vpls: 64,
                     interleave: il,
+                    max_spawned: 0,
                 },
                 frames,
             })

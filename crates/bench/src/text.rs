@@ -18,8 +18,8 @@ use skrifa::instance::{LocationRef, Size};
 use skrifa::outline::{DrawSettings, OutlinePen};
 use skrifa::{FontRef, MetadataProvider};
 
-/// The plots' font (its licence beside it in `bake-cli/assets/`).
-const FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
+/// The plots' font (its licence beside it in `crates/bench/assets/`).
+const FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 
 /// The embedded font, parsed once (`None` if it does not parse: then text
 /// is an error, never a panic).

@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::Context;
+use crate::error::Context;
 use gibake_runtime::{Mode, RenderSettings};
 use gibake_scene::LoadOptions;
 use serde_json::json;
@@ -13,7 +13,7 @@ use serde_json::json;
 use super::frame::{Config, FrameSummary, measure_all, new_renderer};
 use super::report::{dir_bytes, mib};
 use super::{Bench, CORNER_BUNNY, FRAME_STEP_S, Table, load_embedded, median};
-use crate::output::bar;
+use crate::out::bar;
 
 /// Issue 4: full's update cost grows at most this much when the static part is 20× heavier.
 const GROWTH_TARGET: f64 = 0.20;
@@ -21,7 +21,7 @@ const GROWTH_TARGET: f64 = 0.20;
 const NAIVE_TARGET: f64 = 10.0;
 
 /// Runs the runtime benchmark (`heavy`: the static-detail multiplier).
-pub(super) fn bench_runtime(b: &mut Bench, heavy: u32) -> anyhow::Result<()> {
+pub(super) fn bench_runtime(b: &mut Bench, heavy: u32) -> crate::Result<()> {
     b.section("Runtime");
     let (vpls, map) = if b.quick { (250, 64) } else { (664, 128) };
     let frames = b.frames;
@@ -55,6 +55,7 @@ pub(super) fn bench_runtime(b: &mut Bench, heavy: u32) -> anyhow::Result<()> {
         mode,
         max_dynamic_vpls: 64,
         interleave: 1,
+        max_spawned: 0,
     };
     let mut configs = Vec::new();
     for (scene, (out, _)) in [&cb, &heavy_scene].into_iter().zip(&baked) {

@@ -1,0 +1,66 @@
+//! The primary light on the GPU: its radiometry and light-view uniforms
+//! and the static primary shadow map — the baked one, or (without an
+//! asset, `direct` mode) one rendered here once from the static geometry.
+
+use gibake_gpu::mesh::SceneGpu;
+use gibake_gpu::passes::shadow::ShadowPass;
+use gibake_gpu::{GpuPrimaryLight, LightView};
+use gibake_scene::Scene;
+use wgpu::util::DeviceExt;
+
+use crate::baked::BakedGpu;
+
+/// The primary light's GPU resources.
+pub(crate) struct PrimaryLight {
+    /// The primary maps' light view.
+    pub view: LightView,
+    /// The static primary shadow map (metric).
+    pub static_map: wgpu::TextureView,
+    /// Keeps a map rendered here alive.
+    _own_static: Option<ShadowPass>,
+    /// `GpuPrimaryLight` uniform.
+    pub light_buf: wgpu::Buffer,
+    /// `GpuLightView` uniform of the primary maps.
+    pub view_buf: wgpu::Buffer,
+}
+
+impl PrimaryLight {
+    /// The baked static map, or one of `shadow_map_size²` rendered now.
+    pub(crate) fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene: &Scene,
+        scene_gpu: &SceneGpu,
+        baked: Option<&BakedGpu>,
+        shadow_map_size: u32,
+    ) -> PrimaryLight {
+        let (view, static_map, own) = match baked {
+            Some(b) => (b.view, b.primary.clone(), None),
+            None => {
+                let view = LightView::for_scene(scene, shadow_map_size);
+                let pass = ShadowPass::new(device, scene_gpu, view);
+                let mut enc = device.create_command_encoder(&Default::default());
+                pass.encode(&mut enc, scene_gpu, &[&scene_gpu.static_draws], None);
+                queue.submit([enc.finish()]);
+                (view, pass.metric_view.clone(), Some(pass))
+            }
+        };
+        let uniform = |label, contents: &[u8]| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+        };
+        PrimaryLight {
+            view,
+            static_map,
+            _own_static: own,
+            light_buf: uniform(
+                "primary light",
+                bytemuck::bytes_of(&GpuPrimaryLight::new(&scene.light)),
+            ),
+            view_buf: uniform("primary light view", bytemuck::bytes_of(&view.to_gpu())),
+        }
+    }
+}

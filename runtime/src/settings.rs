@@ -1,0 +1,115 @@
+//! What a [`crate::Renderer`] renders: the [`Mode`] and the
+//! [`RenderSettings`], checked against the caller's device before anything
+//! is created.
+
+use crate::{RuntimeError, interleave};
+
+/// What a frame contains.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Mode {
+    /// The method: direct + static VPLs with merged maps + dynamic VPLs.
+    #[default]
+    Full,
+    /// Direct light only (needs no asset).
+    Direct,
+    /// The indirect part of `Full`.
+    Indirect,
+    /// Dachsbacher's RSM: direct + every VPL, no VPL visibility.
+    Rsm,
+    /// Like `Full`, but every VPL map is re-rendered from all geometry every
+    /// frame (the cost baseline; same image).
+    Naive,
+}
+
+impl Mode {
+    /// Lower-case name (`full`, `direct`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Full => "full",
+            Mode::Direct => "direct",
+            Mode::Indirect => "indirect",
+            Mode::Rsm => "rsm",
+            Mode::Naive => "naive",
+        }
+    }
+}
+
+/// Settings of a [`crate::Renderer`].
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    /// Output width in pixels ([`crate::Renderer::resize`] changes it).
+    pub width: u32,
+    /// Output height in pixels.
+    pub height: u32,
+    /// Primary shadow map resolution when no asset is given (direct mode);
+    /// with an asset, the baked map's resolution is used.
+    pub shadow_map_size: u32,
+    /// What to render.
+    pub mode: Mode,
+    /// Most dynamic VPLs per frame (rounded up to a power of 4; 0: none).
+    pub max_dynamic_vpls: u32,
+    /// Interleaved VPL sampling: 1 (every pixel sums every VPL), 2, 4 or 8
+    /// (each pixel of an N×N block sums a disjoint 1/N² of the VPLs, and a
+    /// geometry-aware filter over its neighbours reconstructs the sum), or
+    /// 0 (the default: 4 from 256² output pixels on, else 1 — measured, see
+    /// docs/results.md; re-chosen on [`crate::Renderer::resize`]). Other values are
+    /// [`RuntimeError::InvalidSetting`]. [`crate::Renderer::interleave`] says which
+    /// factor is in use.
+    pub interleave: u32,
+    /// Most moving objects [`crate::Renderer::spawn`] adds over the renderer's
+    /// life (copies of the scene's declared ones; room for their draws is
+    /// made at creation).
+    pub max_spawned: u32,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            max_dynamic_vpls: 256,
+            width: 640,
+            height: 480,
+            shadow_map_size: 2048,
+            mode: Mode::Full,
+            interleave: interleave::AUTO,
+            max_spawned: 16,
+        }
+    }
+}
+
+impl RenderSettings {
+    /// Checks the settings on their own and against `device` (sizes within
+    /// its largest 2D texture; `with_asset`: the baked primary map's size
+    /// is used, not [`RenderSettings::shadow_map_size`]).
+    pub(crate) fn check(
+        &self,
+        device: &wgpu::Device,
+        with_asset: bool,
+    ) -> Result<(), RuntimeError> {
+        check_interleave(self.interleave)?;
+        crate::view::check_size(device, self.width, self.height, self.interleave)?;
+        let limit = device.limits().max_texture_dimension_2d;
+        if self.shadow_map_size == 0 {
+            return Err(RuntimeError::InvalidSetting(
+                "shadow map size must be at least 1".into(),
+            ));
+        }
+        if !with_asset && self.shadow_map_size > limit {
+            return Err(RuntimeError::DeviceLimit {
+                what: format!("a shadow map of {}²", self.shadow_map_size),
+                needed: u64::from(self.shadow_map_size),
+                limit: u64::from(limit),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Refuses an interleave factor other than 0 (automatic), 1, 2, 4, 8.
+pub(crate) fn check_interleave(n: u32) -> Result<(), RuntimeError> {
+    if !interleave::VALID.contains(&n) {
+        return Err(RuntimeError::InvalidSetting(format!(
+            "interleave {n} must be 0 (automatic), 1, 2, 4 or 8"
+        )));
+    }
+    Ok(())
+}

@@ -1,0 +1,429 @@
+//! A view: one camera's G-buffer, shading and output. Everything here
+//! depends on the output size; the light and GI data a view shades with
+//! are the renderer's, shared by every view ([`crate::Renderer::add_view`]).
+
+use gibake_gpu::mesh::{Draw, SceneGpu};
+
+use crate::composite::{Blend, CompositePass};
+use crate::gbuffer::{Camera, GBuffer, GBufferPass};
+use crate::gbuffer_depth::{DepthGBuffer, DepthGBufferPass};
+use crate::interleave::{self, InterleavePass};
+use crate::plan::{Pass, ViewPasses};
+use crate::shade::{GpuViewParams, ShadePass, ViewInputs, uniform};
+use crate::stats::Timer;
+use crate::{CameraMatrices, OUTPUT_FORMAT, RuntimeError};
+
+/// A view of one [`crate::Renderer`] (from [`crate::Renderer::add_view`];
+/// [`ViewId::MAIN`] is the one [`crate::Renderer::new`] creates).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ViewId(pub(crate) u32);
+
+impl ViewId {
+    /// The view created with the renderer (never removed).
+    pub const MAIN: ViewId = ViewId(0);
+}
+
+/// Where a view's frame goes ([`crate::Renderer::set_view_output`]).
+#[derive(Clone, Copy, Debug)]
+pub enum OutputTarget<'a> {
+    /// The view's own [`crate::OUTPUT_FORMAT`] texture (the default).
+    Own,
+    /// The caller's texture of the view's size: an [`crate::OUTPUT_FORMAT`]
+    /// texture with `STORAGE_BINDING` usage is shaded into directly; an
+    /// `Rgba16Float` or `Rgba32Float` one with `RENDER_ATTACHMENT` usage
+    /// gets the radiance written by a composite pass.
+    Texture(&'a wgpu::Texture),
+    /// Added onto the caller's HDR render target of the view's size
+    /// (`Rgba16Float`, or `Rgba32Float` with the `FLOAT32_BLENDABLE`
+    /// feature; `RENDER_ATTACHMENT` usage): for a game that lights its own
+    /// frame (typically `Mode::Indirect` onto its own direct light).
+    Add(&'a wgpu::Texture),
+}
+
+/// Where a view's G-buffer comes from.
+enum Source {
+    /// Rendered by the view's G-buffer pass.
+    Own,
+    /// The caller's, in gibake's layout, shaded as it is.
+    Views(Box<[wgpu::TextureView; 3]>),
+    /// Rebuilt from the caller's depth, normals and albedo.
+    Depth(Box<DepthGBufferPass>),
+}
+
+/// One view's resources.
+pub(crate) struct View {
+    /// [`crate::RenderSettings::interleave`] as asked (0: automatic).
+    interleave_setting: u32,
+    params: GpuViewParams,
+    params_buf: wgpu::Buffer,
+    camera: Camera,
+    gbuffer: GBuffer,
+    source: Source,
+    /// The interleave filter (interleave > 1 only).
+    interleave: Option<InterleavePass>,
+    /// The view's own radiance texture ([`crate::OUTPUT_FORMAT`]).
+    own: wgpu::Texture,
+    /// The texture shading writes: the own one or the caller's storage
+    /// texture.
+    radiance: wgpu::Texture,
+    radiance_view: wgpu::TextureView,
+    /// Into the caller's render target, when it gave one.
+    composite: Option<CompositePass>,
+    /// Shading's group 0.
+    group: wgpu::BindGroup,
+}
+
+/// Checks an output size (with its interleave setting: the interleaved
+/// shading target is twice as wide) against the device.
+pub(crate) fn check_size(
+    device: &wgpu::Device,
+    width: u32,
+    height: u32,
+    interleave_setting: u32,
+) -> Result<(), RuntimeError> {
+    let limit = device.limits().max_texture_dimension_2d;
+    for (what, v) in [("width", width), ("height", height)] {
+        if v == 0 {
+            return Err(RuntimeError::InvalidSetting(format!(
+                "{what} must be at least 1"
+            )));
+        }
+        if v > limit {
+            return Err(RuntimeError::DeviceLimit {
+                what: format!("an output {what} of {v} pixels"),
+                needed: u64::from(v),
+                limit: u64::from(limit),
+            });
+        }
+    }
+    if interleave::effective(interleave_setting, width, height) > 1
+        && u64::from(width) * 2 > u64::from(limit)
+    {
+        return Err(RuntimeError::DeviceLimit {
+            what: format!(
+                "the interleaved shading target of a {width}-pixel-wide output (twice as wide; interleave 1 needs none)"
+            ),
+            needed: 2 * u64::from(width),
+            limit: u64::from(limit),
+        });
+    }
+    Ok(())
+}
+
+/// A view's own output texture.
+fn own_output(device: &wgpu::Device, width: u32, height: u32) -> wgpu::Texture {
+    gibake_gpu::util::texture_2d(
+        device,
+        "radiance",
+        width,
+        height,
+        OUTPUT_FORMAT,
+        wgpu::TextureUsages::STORAGE_BINDING
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
+    )
+}
+
+/// Checks that the caller's `t` can be shaded into directly.
+fn check_storage_target(t: &wgpu::Texture, (w, h): (u32, u32)) -> Result<(), RuntimeError> {
+    let problem = if t.dimension() != wgpu::TextureDimension::D2 || t.sample_count() != 1 {
+        Some("needs a single-sampled 2D texture".to_string())
+    } else if (t.width(), t.height()) != (w, h) {
+        Some(format!(
+            "{}×{}, the output is {w}×{h} (resize first)",
+            t.width(),
+            t.height()
+        ))
+    } else {
+        None
+    };
+    match problem {
+        Some(p) => Err(RuntimeError::OutputTarget(p)),
+        None => Ok(()),
+    }
+}
+
+/// The shared passes a view records with.
+pub(crate) type Passes<'a> = (&'a ShadePass, &'a GBufferPass, &'a SceneGpu);
+
+impl View {
+    /// A `width × height` view (size checked by the caller) with its own
+    /// G-buffer and output.
+    pub(crate) fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        (shade, gbuffer_pass, scene_gpu): Passes<'_>,
+        size: [u32; 2],
+        interleave_setting: u32,
+    ) -> View {
+        let params = GpuViewParams {
+            size,
+            interleave: interleave::effective(interleave_setting, size[0], size[1]),
+            _pad: 0,
+        };
+        let params_buf = uniform(device, "shade view params", &params);
+        let gbuffer = GBuffer::new(device, size[0], size[1]);
+        let own = own_output(device, size[0], size[1]);
+        let radiance_view = own.create_view(&Default::default());
+        let mut interleave = (params.interleave > 1)
+            .then(|| InterleavePass::new(device, queue, size, params.interleave));
+        let group = bind(
+            device,
+            shade,
+            &params_buf,
+            gbuffer.views.each_ref(),
+            interleave.as_mut(),
+            &radiance_view,
+        );
+        View {
+            interleave_setting,
+            params,
+            params_buf,
+            camera: gbuffer_pass.camera(device, scene_gpu),
+            gbuffer,
+            source: Source::Own,
+            interleave,
+            radiance: own.clone(),
+            own,
+            radiance_view,
+            composite: None,
+            group,
+        }
+    }
+
+    /// A new G-buffer and own output at `size` (the caller provides its
+    /// G-buffer or output again); the camera stays.
+    pub(crate) fn resize(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        shade: &ShadePass,
+        size: [u32; 2],
+    ) {
+        self.params.size = size;
+        self.params.interleave = interleave::effective(self.interleave_setting, size[0], size[1]);
+        queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
+        self.gbuffer = GBuffer::new(device, size[0], size[1]);
+        self.source = Source::Own;
+        self.own = own_output(device, size[0], size[1]);
+        self.radiance = self.own.clone();
+        self.radiance_view = self.radiance.create_view(&Default::default());
+        self.composite = None;
+        self.interleave = (self.params.interleave > 1)
+            .then(|| InterleavePass::new(device, queue, size, self.params.interleave));
+        self.rebind(device, shade);
+    }
+
+    /// Re-creates the camera's bind group over a new scene's meshes (after
+    /// [`crate::Renderer::set_asset`]); the camera matrices come with the
+    /// next frame.
+    pub(crate) fn set_scene(
+        &mut self,
+        device: &wgpu::Device,
+        gbuffer_pass: &GBufferPass,
+        scene_gpu: &SceneGpu,
+    ) {
+        self.camera = gbuffer_pass.camera(device, scene_gpu);
+    }
+
+    /// [`crate::RenderSettings::interleave`] as asked for this view.
+    pub(crate) fn interleave_setting(&self) -> u32 {
+        self.interleave_setting
+    }
+
+    /// The output size.
+    pub(crate) fn size(&self) -> (u32, u32) {
+        (self.params.size[0], self.params.size[1])
+    }
+
+    /// The interleave factor in use.
+    pub(crate) fn interleave(&self) -> u32 {
+        self.params.interleave
+    }
+
+    /// Whether the view draws the scene into its G-buffer.
+    pub(crate) fn draws_gbuffer(&self) -> bool {
+        matches!(self.source, Source::Own)
+    }
+
+    /// What decides this view's passes.
+    pub(crate) fn passes(&self) -> ViewPasses {
+        ViewPasses {
+            gbuffer: !matches!(self.source, Source::Views(_)),
+            interleave: self.params.interleave,
+            composite: self.composite.is_some(),
+        }
+    }
+
+    /// Sets the frame's camera.
+    pub(crate) fn set_camera(&mut self, queue: &wgpu::Queue, camera: &CameraMatrices) {
+        queue.write_buffer(
+            &self.camera.uniform_buf,
+            0,
+            bytemuck::bytes_of(&camera.to_gpu()),
+        );
+        if let Source::Depth(p) = &mut self.source {
+            p.set_camera(queue, camera);
+        }
+    }
+
+    /// Sends the frame to `target` from now on.
+    pub(crate) fn set_output(
+        &mut self,
+        device: &wgpu::Device,
+        shade: &ShadePass,
+        target: OutputTarget<'_>,
+    ) -> Result<(), RuntimeError> {
+        let (w, h) = self.size();
+        let composite = |t: &wgpu::Texture, blend| {
+            crate::composite::check_target(device, t, (w, h), blend)?;
+            Ok::<_, RuntimeError>(Some((t.clone(), blend)))
+        };
+        let storage = |t: &wgpu::Texture| {
+            t.format() == OUTPUT_FORMAT && t.usage().contains(wgpu::TextureUsages::STORAGE_BINDING)
+        };
+        // Check first; change nothing on an error.
+        let (direct, into) = match target {
+            OutputTarget::Own => (None, None),
+            OutputTarget::Texture(t) if storage(t) => {
+                check_storage_target(t, (w, h))?;
+                (Some(t.clone()), None)
+            }
+            OutputTarget::Texture(t) => (None, composite(t, Blend::Replace)?),
+            OutputTarget::Add(t) => (None, composite(t, Blend::Add)?),
+        };
+        self.radiance = direct.unwrap_or_else(|| self.own.clone());
+        self.radiance_view = self.radiance.create_view(&Default::default());
+        self.composite =
+            into.map(|(t, blend)| CompositePass::new(device, &self.radiance_view, &t, blend));
+        self.rebind(device, shade);
+        Ok(())
+    }
+
+    /// Shades the caller's G-buffer views (gibake's layout) from now on.
+    pub(crate) fn use_gbuffer_views(
+        &mut self,
+        device: &wgpu::Device,
+        shade: &ShadePass,
+        views: [&wgpu::TextureView; 3],
+    ) {
+        self.source = Source::Views(Box::new(views.map(|v| v.clone())));
+        self.rebind(device, shade);
+    }
+
+    /// Rebuilds the G-buffer from the caller's depth, normals and albedo
+    /// every frame from now on.
+    pub(crate) fn use_depth_gbuffer(
+        &mut self,
+        device: &wgpu::Device,
+        shade: &ShadePass,
+        src: &DepthGBuffer<'_>,
+    ) -> Result<(), RuntimeError> {
+        let pass = DepthGBufferPass::new(device, src, &self.gbuffer, self.size())?;
+        self.source = Source::Depth(Box::new(pass));
+        self.rebind(device, shade);
+        Ok(())
+    }
+
+    /// Rebinds group 0 (and the interleave filter) to the current output
+    /// and G-buffer (the caller's, if it provides one).
+    fn rebind(&mut self, device: &wgpu::Device, shade: &ShadePass) {
+        let g: &[wgpu::TextureView; 3] = match &self.source {
+            Source::Views(v) => v,
+            _ => &self.gbuffer.views,
+        };
+        self.group = bind(
+            device,
+            shade,
+            &self.params_buf,
+            g.each_ref(),
+            self.interleave.as_mut(),
+            &self.radiance_view,
+        );
+    }
+
+    /// The view's own G-buffer.
+    pub(crate) fn gbuffer(&self) -> &GBuffer {
+        &self.gbuffer
+    }
+
+    /// The view's radiance texture.
+    pub(crate) fn output(&self) -> &wgpu::Texture {
+        &self.radiance
+    }
+
+    /// A view of [`View::output`].
+    pub(crate) fn output_view(&self) -> &wgpu::TextureView {
+        &self.radiance_view
+    }
+
+    /// Records the view's G-buffer (unless the caller's is used as it is),
+    /// shading, filter and composite. `k` is the view's rank this frame.
+    pub(crate) fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        (shade, gbuffer_pass, scene_gpu): Passes<'_>,
+        moving: &[Draw],
+        gi_group: &wgpu::BindGroup,
+        timer: &Timer,
+        k: u32,
+    ) {
+        let k = Some(k);
+        match &self.source {
+            Source::Own => {
+                let all = [&scene_gpu.static_draws[..], moving];
+                gbuffer_pass.encode(
+                    encoder,
+                    &self.gbuffer,
+                    &self.camera,
+                    scene_gpu,
+                    &all,
+                    timer.render(Pass::GBuffer, k),
+                );
+            }
+            Source::Depth(p) => p.encode(encoder, timer.compute(Pass::GBuffer, k)),
+            Source::Views(_) => {}
+        }
+        shade.encode(
+            encoder,
+            &self.group,
+            gi_group,
+            self.params.size,
+            timer.compute(Pass::Shade, k),
+        );
+        if let Some(il) = &self.interleave {
+            il.encode(encoder, timer.compute(Pass::Interleave, k));
+        }
+        if let Some(c) = &self.composite {
+            c.encode(encoder, timer.render(Pass::Composite, k));
+        }
+    }
+}
+
+/// Group 0 of shading for this G-buffer and output; interleaved, shading
+/// writes the filter's input, which the filter (bound here) resolves into
+/// `output`.
+fn bind(
+    device: &wgpu::Device,
+    shade: &ShadePass,
+    params: &wgpu::Buffer,
+    gbuffer: [&wgpu::TextureView; 3],
+    interleave: Option<&mut InterleavePass>,
+    output: &wgpu::TextureView,
+) -> wgpu::BindGroup {
+    let shade_out = match interleave {
+        Some(il) => {
+            il.bind(device, gbuffer, output);
+            il.shaded.clone()
+        }
+        None => output.clone(),
+    };
+    shade.view_group(
+        device,
+        &ViewInputs {
+            gbuffer,
+            params,
+            output: &shade_out,
+        },
+    )
+}

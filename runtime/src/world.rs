@@ -1,0 +1,178 @@
+//! What a renderer builds from its scene and asset, shared by every view:
+//! the frame plan, the meshes, the baked data, the primary light, the
+//! per-frame update of the moving objects, the G-buffer pipeline and the
+//! light and GI data shading reads. [`World::new`] checks everything before
+//! creating anything, so a failed [`crate::Renderer::set_asset`] leaves the
+//! renderer as it was.
+
+use gibake_asset::Asset;
+use gibake_gpu::mesh::{Draw, SceneGpu};
+use gibake_scene::Scene;
+use glam::Mat4;
+
+use crate::baked::BakedGpu;
+use crate::gbuffer::GBufferPass;
+use crate::light::PrimaryLight;
+use crate::moving::{MovingPasses, UpdateInputs};
+use crate::plan::FramePlan;
+use crate::shade::{GiSources, ShadeGi, ShadePass};
+use crate::stats::Timer;
+use crate::{RenderSettings, RuntimeError};
+
+/// The scene- and asset-dependent part of a renderer.
+pub(crate) struct World {
+    pub plan: FramePlan,
+    pub scene_gpu: SceneGpu,
+    pub baked: Option<BakedGpu>,
+    pub light: PrimaryLight,
+    pub moving: MovingPasses,
+    pub gbuffer: GBufferPass,
+    pub gi: ShadeGi,
+    /// The draws of the moving objects that are shown (hidden and removed
+    /// ones are left out of every pass).
+    pub moving_draws: Vec<Draw>,
+}
+
+/// Refuses material textures larger than the device's 2D limit.
+fn check_textures(device: &wgpu::Device, scene: &Scene) -> Result<(), RuntimeError> {
+    let limit = device.limits().max_texture_dimension_2d;
+    match scene
+        .textures
+        .iter()
+        .find(|t| t.width.max(t.height) > limit)
+    {
+        Some(t) => Err(RuntimeError::DeviceLimit {
+            what: format!("a {}×{} material texture", t.width, t.height),
+            needed: u64::from(t.width.max(t.height)),
+            limit: u64::from(limit),
+        }),
+        None => Ok(()),
+    }
+}
+
+impl World {
+    /// Plans the frame and uploads `scene` (and `asset`, which every mode
+    /// but `direct` needs); moving objects at their animation's time 0.
+    pub(crate) fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        shade: &ShadePass,
+        scene: &Scene,
+        asset: Option<&Asset>,
+        settings: &RenderSettings,
+    ) -> Result<World, RuntimeError> {
+        let plan = FramePlan::new(settings, scene, asset)?;
+        if let Some(a) = asset {
+            let hash = gibake_scene::static_scene_hash(scene);
+            gibake_asset::check_scene_hash(&a.manifest, &hash, &scene.source)?;
+        }
+        check_textures(device, scene)?;
+        // The asset first: its limits are checked before any other upload.
+        let baked = asset.map(|a| BakedGpu::new(device, queue, a)).transpose()?;
+        // Room for the draws of spawned copies of the biggest object.
+        let most_meshes = scene.dynamic_objects.iter().map(|o| o.meshes.len()).max();
+        let spare = settings
+            .max_spawned
+            .saturating_mul(most_meshes.unwrap_or(0) as u32);
+        let scene_gpu = SceneGpu::with_spare_draws(device, queue, scene, 0.0, spare);
+        let light = PrimaryLight::new(
+            device,
+            queue,
+            scene,
+            &scene_gpu,
+            baked.as_ref(),
+            settings.shadow_map_size,
+        );
+        let moving = MovingPasses::new(
+            device,
+            &UpdateInputs {
+                plan: &plan,
+                scene_gpu: &scene_gpu,
+                baked: baked.as_ref(),
+                primary_view: light.view,
+                light_buf: &light.light_buf,
+                threshold: asset.map_or(0.0, |a| a.manifest.settings.threshold),
+                max_dynamic_vpls: settings.max_dynamic_vpls,
+                scene_diagonal: scene.full_bounds().diagonal(),
+            },
+        )?;
+        let gbuffer = GBufferPass::new(device, &scene_gpu);
+        let gi = ShadeGi::new(
+            device,
+            shade,
+            &GiSources {
+                plan: &plan,
+                baked: baked.as_ref(),
+                light: &light,
+                moving: &moving,
+            },
+        );
+        let moving_draws = scene_gpu.dynamic_draws.clone();
+        Ok(World {
+            plan,
+            scene_gpu,
+            baked,
+            light,
+            moving,
+            gbuffer,
+            gi,
+            moving_draws,
+        })
+    }
+
+    /// Shows only the moving objects `shown` says (by object index).
+    pub(crate) fn show(&mut self, shown: &[bool]) {
+        self.moving_draws = self
+            .scene_gpu
+            .dynamic_draws
+            .iter()
+            .filter(|d| {
+                d.object
+                    .is_some_and(|o| shown.get(o).copied().unwrap_or(true))
+            })
+            .cloned()
+            .collect();
+    }
+
+    /// Uploads the moving objects' matrices and this frame's merge tables;
+    /// returns the VPL maps affected.
+    pub(crate) fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        shade: &ShadePass,
+        transforms: &[Mat4],
+    ) -> Result<u32, RuntimeError> {
+        if !transforms.is_empty() {
+            self.scene_gpu.set_dynamic_transforms(queue, transforms);
+        }
+        let grown = self.moving.prepare(
+            device,
+            queue,
+            &self.scene_gpu,
+            &self.moving_draws,
+            transforms,
+        )?;
+        if grown {
+            let sources = GiSources {
+                plan: &self.plan,
+                baked: self.baked.as_ref(),
+                light: &self.light,
+                moving: &self.moving,
+            };
+            self.gi.atlas_changed(device, queue, shade, &sources);
+        }
+        Ok(self.moving.affected())
+    }
+
+    /// Records the frame's update (once, whatever the number of views).
+    pub(crate) fn record_update(&self, encoder: &mut wgpu::CommandEncoder, timer: &Timer) {
+        self.moving
+            .record(encoder, &self.scene_gpu, &self.moving_draws, timer);
+    }
+
+    /// Draw calls of one view's G-buffer pass.
+    pub(crate) fn gbuffer_draw_calls(&self) -> u32 {
+        (self.scene_gpu.static_draws.len() + self.moving_draws.len()) as u32
+    }
+}

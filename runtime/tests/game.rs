@@ -1,0 +1,623 @@
+//! What a game needs of the runtime, through the public API: the frame plan
+//! per mode, hot reload of a re-baked asset (handles kept), several views
+//! over one upload and one per-frame update, output into the caller's
+//! `Rgba16Float` target or added onto its HDR target, a G-buffer rebuilt
+//! from the engine's depth and normals, moving objects hidden and removed,
+//! and per-frame figures read without waiting.
+
+use std::sync::OnceLock;
+
+use gibake_bake::cluster::ClusterTarget;
+use gibake_gpu::GpuContext;
+use gibake_runtime::glam::Mat4;
+use gibake_runtime::{
+    Asset, CameraMatrices, DepthGBuffer, FrameInput, Image, Mode, NormalEncoding, OutputTarget,
+    Pass, Reload, RenderSettings, Renderer, RuntimeError, Scene, Timing, ViewId, wgpu,
+};
+
+const TIME: f32 = 0.7;
+const W: u32 = 40;
+const H: u32 = 32;
+
+struct Fixture {
+    ctx: GpuContext,
+    scene: Scene,
+    asset: Asset,
+}
+
+fn bake(ctx: &GpuContext, scene: &Scene, vpls: u32) -> Asset {
+    let opts = gibake_bake::BakeOptions {
+        rsm_size: 128,
+        vpl_map_size: 16,
+        shadow_map_size: 256,
+        target: ClusterTarget::Count(vpls),
+    };
+    gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "test")
+        .expect("bake")
+        .asset
+}
+
+/// corner_bunny (its balls move) and a small bake of it.
+fn fixture() -> &'static Fixture {
+    static F: OnceLock<Fixture> = OnceLock::new();
+    F.get_or_init(|| {
+        let ctx = GpuContext::new(&Default::default()).unwrap_or_else(|e| {
+            panic!(
+                "this test needs a GPU adapter ({e}); `apt-get install mesa-vulkan-drivers` gives \
+                 the lavapipe software GPU"
+            )
+        });
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/corner_bunny.glb");
+        let scene = gibake_runtime::load_scene(&path, &Default::default()).expect("load the scene");
+        let asset = bake(&ctx, &scene, 64);
+        Fixture { ctx, scene, asset }
+    })
+}
+
+fn settings(mode: Mode) -> RenderSettings {
+    RenderSettings {
+        width: W,
+        height: H,
+        mode,
+        max_dynamic_vpls: 16,
+        ..Default::default()
+    }
+}
+
+fn renderer(scene: &Scene, asset: Option<&Asset>, s: &RenderSettings) -> Renderer {
+    let ctx = &fixture().ctx;
+    Renderer::new(&ctx.device, &ctx.queue, scene, asset, s).expect("renderer")
+}
+
+fn camera() -> CameraMatrices {
+    CameraMatrices::from_scene(&fixture().scene, TIME, W, H).expect("corner_bunny has a camera")
+}
+
+/// Prepares `frame` on each renderer, records them all into one encoder
+/// (in order) and submits it.
+fn draw_all(rs: &mut [&mut Renderer], frame: &FrameInput<'_>) {
+    let ctx = &fixture().ctx;
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    for r in rs.iter_mut() {
+        r.prepare(&ctx.device, &ctx.queue, frame).expect("prepare");
+        r.record(&mut enc);
+    }
+    ctx.queue.submit([enc.finish()]);
+}
+
+fn read(t: &wgpu::Texture) -> Image {
+    let ctx = &fixture().ctx;
+    let data = gibake_gpu::readback::read_texture_f32_on(&ctx.device, &ctx.queue, t, 0, 4)
+        .expect("read back");
+    Image::from_rgba_f32(t.width(), t.height(), &data)
+}
+
+/// The RGB of an `Rgba16Float` texture.
+fn read_f16(t: &wgpu::Texture) -> Vec<[f32; 3]> {
+    let ctx = &fixture().ctx;
+    let b =
+        gibake_gpu::readback::read_texture_on(&ctx.device, &ctx.queue, t, 0, 8).expect("read back");
+    b.chunks_exact(8)
+        .map(|p| {
+            let h = |k: usize| f16_to_f32(u16::from_le_bytes([p[2 * k], p[2 * k + 1]]));
+            [h(0), h(1), h(2)]
+        })
+        .collect()
+}
+
+fn f16_to_f32(h: u16) -> f32 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = i32::from((h >> 10) & 0x1f);
+    let man = f32::from(h & 0x3ff);
+    match exp {
+        0 => sign * man * 2f32.powi(-24),
+        31 if man == 0.0 => sign * f32::INFINITY,
+        31 => f32::NAN,
+        _ => sign * (1.0 + man / 1024.0) * 2f32.powi(exp - 15),
+    }
+}
+
+fn texture(format: wgpu::TextureFormat, usage: wgpu::TextureUsages) -> wgpu::Texture {
+    fixture()
+        .ctx
+        .device
+        .create_texture(&wgpu::TextureDescriptor {
+            label: Some("game's target"),
+            size: wgpu::Extent3d {
+                width: W,
+                height: H,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage,
+            view_formats: &[],
+        })
+}
+
+/// An engine may prepare on one thread and record on another.
+#[test]
+fn a_renderer_is_send_and_sync() {
+    fn send_sync<T: Send + Sync>() {}
+    send_sync::<Renderer>();
+}
+
+#[test]
+fn the_plan_decides_each_modes_passes() {
+    let f = fixture();
+    let update = |r: &Renderer| -> Vec<Pass> {
+        r.plan().passes().iter().filter(|p| p.is_update()).collect()
+    };
+    use Pass::*;
+    let all = [PrimaryMerge, DynamicRsm, Occlusion, DynamicVpls, VplMaps];
+    for (mode, expected) in [
+        (Mode::Full, &all[..]),
+        (Mode::Indirect, &all[..]),
+        (Mode::Naive, &all[..]),
+        (Mode::Rsm, &all[..4]),
+        (Mode::Direct, &all[..1]),
+    ] {
+        let r = renderer(&f.scene, Some(&f.asset), &settings(mode));
+        assert_eq!(update(&r), expected, "{mode:?}");
+    }
+    // No moving objects: no update at all, except naive's re-render.
+    let still = gibake_bake::static_only(&f.scene);
+    for mode in [
+        Mode::Full,
+        Mode::Indirect,
+        Mode::Rsm,
+        Mode::Direct,
+        Mode::Naive,
+    ] {
+        let r = renderer(&still, Some(&f.asset), &settings(mode));
+        let expected: &[Pass] = if mode == Mode::Naive { &[VplMaps] } else { &[] };
+        assert_eq!(update(&r), expected, "{mode:?} without moving objects");
+        assert_eq!(r.has_dynamic_resources(), mode == Mode::Naive);
+    }
+}
+
+#[test]
+fn hot_reload_keeps_handles_and_equals_a_new_renderer() {
+    let f = fixture();
+    let d = &f.ctx.device;
+    let q = &f.ctx.queue;
+    let s = settings(Mode::Full);
+    let mut r = renderer(&f.scene, Some(&f.asset), &s);
+    let (ball, _) = r.objects().next().expect("corner_bunny has balls");
+    let moved = r.transform(ball).unwrap() * Mat4::from_translation([0.0, 0.1, 0.0].into());
+    let one_moved = [(ball, moved)];
+    draw_all(&mut [&mut r], &FrameInput::new(camera()).moving(&one_moved));
+    let before = read(r.output());
+
+    // A re-bake with another VPL budget, hot-reloaded.
+    let rebaked = bake(&f.ctx, &f.scene, 24);
+    assert_eq!(
+        r.set_asset(d, q, &f.scene, Some(&rebaked)).unwrap(),
+        Reload::HandlesKept
+    );
+    assert_eq!(r.transform(ball).unwrap(), moved, "the matrix stays");
+    let mut fresh = renderer(&f.scene, Some(&rebaked), &s);
+    let fresh_ball = fresh.object(r.objects().next().unwrap().1).unwrap();
+    draw_all(
+        &mut [&mut r],
+        &FrameInput::new(camera()).moving(&[(ball, moved)]),
+    );
+    draw_all(
+        &mut [&mut fresh],
+        &FrameInput::new(camera()).moving(&[(fresh_ball, moved)]),
+    );
+    let after = read(r.output());
+    assert_eq!(after, read(fresh.output()), "reloaded = a new renderer");
+    assert_ne!(after, before, "the re-bake changes the image");
+
+    // A foreign asset is refused and changes nothing.
+    let mut other = f.scene.clone();
+    other.static_meshes.pop();
+    let e = r.set_asset(d, q, &other, Some(&rebaked)).unwrap_err();
+    assert!(matches!(e, RuntimeError::Asset(_)), "{e}");
+    draw_all(
+        &mut [&mut r],
+        &FrameInput::new(camera()).moving(&[(ball, moved)]),
+    );
+    assert_eq!(read(r.output()), after);
+
+    // Other moving objects: new handles, the old ones refused.
+    let mut renamed = f.scene.clone();
+    renamed.dynamic_objects[0].name.push_str(" (renamed)");
+    assert_eq!(
+        r.set_asset(d, q, &renamed, Some(&rebaked)).unwrap(),
+        Reload::HandlesRenewed
+    );
+    assert!(matches!(
+        r.transform(ball),
+        Err(RuntimeError::UnknownObject(_))
+    ));
+    assert!(r.objects().any(|(_, n)| n.ends_with("(renamed)")));
+}
+
+#[test]
+fn two_views_share_one_upload_and_one_update() {
+    let f = fixture();
+    let (d, q) = (&f.ctx.device, &f.ctx.queue);
+    let s = settings(Mode::Full);
+    let transforms = gibake_runtime::scene_transforms(&f.scene, TIME);
+    let mut one = renderer(&f.scene, Some(&f.asset), &s);
+    draw_all(
+        &mut [&mut one],
+        &FrameInput::new(camera()).transforms(&transforms),
+    );
+    let single = one.stats(d);
+    let expected = read(one.output());
+
+    let mut two = renderer(&f.scene, Some(&f.asset), &s);
+    let second = two.add_view(d, q, W, H, 0).unwrap();
+    assert_eq!(two.asset_bytes(), one.asset_bytes(), "one upload");
+    let cameras = [(second, camera())];
+    draw_all(
+        &mut [&mut two],
+        &FrameInput::new(camera())
+            .transforms(&transforms)
+            .views(&cameras),
+    );
+    let stats = two.stats(d);
+    assert_eq!(read(two.output()), expected);
+    assert_eq!(read(two.view_output(second).unwrap()), expected);
+    assert_eq!(stats.views, 2);
+    assert_eq!(stats.affected_maps, single.affected_maps);
+    assert!(stats.affected_maps > 0, "the balls reach some VPL map");
+    assert_eq!(
+        stats.update_draw_calls, single.update_draw_calls,
+        "the update is recorded once"
+    );
+    assert_eq!(
+        stats.draw_calls - stats.update_draw_calls,
+        2 * (single.draw_calls - single.update_draw_calls)
+    );
+    if stats.timing == Timing::GpuTimestamps {
+        let count = |p: Pass| stats.passes.iter().filter(|(q, _)| *q == p).count();
+        for p in [Pass::PrimaryMerge, Pass::DynamicRsm, Pass::VplMaps] {
+            assert_eq!(count(p), 1, "{p}");
+        }
+        assert_eq!(count(Pass::Shade), 2);
+        assert_eq!(count(Pass::GBuffer), 2);
+    }
+    // A removed view is gone; the main one cannot be removed.
+    two.remove_view(second).unwrap();
+    assert!(matches!(
+        two.view_output(second),
+        Err(RuntimeError::UnknownView(_))
+    ));
+    assert!(two.remove_view(ViewId::MAIN).is_err());
+    let e = two
+        .prepare(d, q, &FrameInput::new(camera()).views(&cameras))
+        .unwrap_err();
+    assert!(matches!(e, RuntimeError::UnknownView(_)), "{e}");
+}
+
+#[test]
+fn rgba16float_output_and_additive_output_match_the_own_within_f16_rounding() {
+    let f = fixture();
+    let (d, q) = (&f.ctx.device, &f.ctx.queue);
+    let transforms = gibake_runtime::scene_transforms(&f.scene, TIME);
+    let frame = FrameInput::new(camera()).transforms(&transforms);
+    let mut own = renderer(&f.scene, Some(&f.asset), &settings(Mode::Full));
+    draw_all(&mut [&mut own], &frame);
+    let reference = read(own.output());
+    assert!(reference.mean().x > 0.0);
+
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+    let half = texture(wgpu::TextureFormat::Rgba16Float, usage);
+    let mut r = renderer(&f.scene, Some(&f.asset), &settings(Mode::Full));
+    r.set_output(d, ViewId::MAIN, OutputTarget::Texture(&half))
+        .unwrap();
+    draw_all(&mut [&mut r], &frame);
+    let got = read_f16(&half);
+    // f16 has an 11-bit significand: within one unit of the last place,
+    // whichever way the GPU rounds.
+    let close = |a: f32, b: f32| (a - b).abs() <= b.abs() * 2f32.powi(-10) + 1e-7;
+    for (k, (g, e)) in got.iter().zip(&reference.pixels).enumerate() {
+        for c in 0..3 {
+            assert!(close(g[c], e[c]), "pixel {k}: {g:?} vs {e:?}");
+        }
+    }
+    assert_eq!(read(r.output()), reference, "the view's radiance as before");
+
+    // Added onto the game's own light (here a constant), indirect only.
+    let hdr = texture(wgpu::TextureFormat::Rgba16Float, usage);
+    let base = [0.25f32, 0.5, 1.0];
+    let mut ind = renderer(&f.scene, Some(&f.asset), &settings(Mode::Indirect));
+    ind.set_output(d, ViewId::MAIN, OutputTarget::Add(&hdr))
+        .unwrap();
+    let mut enc = d.create_command_encoder(&Default::default());
+    {
+        enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("the game's own light"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &hdr.create_view(&Default::default()),
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color {
+                        r: f64::from(base[0]),
+                        g: f64::from(base[1]),
+                        b: f64::from(base[2]),
+                        a: 1.0,
+                    }),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            ..Default::default()
+        });
+    }
+    q.submit([enc.finish()]);
+    draw_all(&mut [&mut ind], &frame);
+    let indirect = read(ind.output());
+    assert!(indirect.mean().x > 0.0);
+    let got = read_f16(&hdr);
+    for (k, (g, e)) in got.iter().zip(&indirect.pixels).enumerate() {
+        for c in 0..3 {
+            let want = base[c] + e[c];
+            assert!(
+                (g[c] - want).abs() <= want * 2f32.powi(-9),
+                "pixel {k}: {g:?} vs {base:?} + {e:?}"
+            );
+        }
+    }
+    // A target that fits neither way is refused.
+    let bad = texture(wgpu::TextureFormat::Rgba8Unorm, usage);
+    let e = r
+        .set_output(d, ViewId::MAIN, OutputTarget::Add(&bad))
+        .unwrap_err();
+    assert!(matches!(e, RuntimeError::OutputTarget(_)), "{e}");
+}
+
+#[test]
+fn a_gbuffer_from_the_engines_depth_and_normals_equals_the_own() {
+    let f = fixture();
+    let d = &f.ctx.device;
+    let transforms = gibake_runtime::scene_transforms(&f.scene, TIME);
+    let frame = FrameInput::new(camera()).transforms(&transforms);
+    let s = RenderSettings {
+        interleave: 1,
+        ..settings(Mode::Full)
+    };
+    let mut own = renderer(&f.scene, Some(&f.asset), &s);
+    let mut engine = renderer(&f.scene, Some(&f.asset), &s);
+    // The "engine's" buffers: the first renderer's depth, normals, albedo.
+    let (depth, g) = (own.gbuffer_depth().clone(), own.gbuffer_textures().to_vec());
+    let src = DepthGBuffer {
+        depth: &depth,
+        far_depth: 0.0,
+        normals: &g[1],
+        encoding: NormalEncoding::Octahedral,
+        albedo: &g[2],
+    };
+    engine.use_depth_gbuffer(d, ViewId::MAIN, &src).unwrap();
+    draw_all(&mut [&mut own, &mut engine], &frame);
+    let (a, b) = (read(own.output()), read(engine.output()));
+    let stats = engine.stats(d);
+    assert_eq!(
+        stats.draw_calls, stats.update_draw_calls,
+        "the scene is not drawn again"
+    );
+    // Positions rebuilt from a 32-bit depth differ from the interpolated
+    // ones by rounding: the image agrees to a fraction of a per cent.
+    let (mut worst, mut sum, mut n) = (0f32, 0f64, 0);
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        for c in 0..3 {
+            let rel = (p[c] - q[c]).abs() / p[c].abs().max(1e-3);
+            worst = worst.max(rel);
+            sum += f64::from(rel);
+            n += 1;
+        }
+    }
+    let mean = sum / f64::from(n);
+    eprintln!("depth G-buffer against the own: mean rel {mean:.2e}, worst {worst:.2e}");
+    assert!(a.mean().x > 0.0);
+    assert!(mean < 1e-4, "mean relative difference {mean:.2e}");
+    assert!(worst < 1e-2, "worst relative difference {worst:.2e}");
+    // A depth texture that is not one is refused.
+    let bad = texture(
+        wgpu::TextureFormat::Rgba8Unorm,
+        wgpu::TextureUsages::TEXTURE_BINDING,
+    );
+    let e = engine
+        .use_depth_gbuffer(d, ViewId::MAIN, &DepthGBuffer { depth: &bad, ..src })
+        .unwrap_err();
+    assert!(matches!(e, RuntimeError::OutputTarget(_)), "{e}");
+}
+
+#[test]
+fn hidden_and_removed_objects_are_in_no_pass() {
+    let f = fixture();
+    let d = &f.ctx.device;
+    let transforms = gibake_runtime::scene_transforms(&f.scene, TIME);
+    let frame = FrameInput::new(camera()).transforms(&transforms);
+    let s = settings(Mode::Full);
+    let mut r = renderer(&f.scene, Some(&f.asset), &s);
+    draw_all(&mut [&mut r], &frame);
+    let with_balls = read(r.output());
+    // Every ball hidden: the image of the scene without moving objects.
+    let handles: Vec<_> = r.objects().map(|(h, _)| h).collect();
+    for h in &handles {
+        r.set_visible(*h, false).unwrap();
+        assert!(!r.is_visible(*h).unwrap());
+    }
+    draw_all(&mut [&mut r], &frame);
+    let hidden = read(r.output());
+    let mut still = renderer(&gibake_bake::static_only(&f.scene), Some(&f.asset), &s);
+    draw_all(&mut [&mut still], &FrameInput::new(camera()));
+    assert_eq!(hidden, read(still.output()));
+    assert_ne!(hidden, with_balls);
+    assert_eq!(r.stats(d).update_draw_calls, 0);
+    // Shown again: as before.
+    for h in &handles {
+        r.set_visible(*h, true).unwrap();
+    }
+    draw_all(&mut [&mut r], &frame);
+    assert_eq!(read(r.output()), with_balls);
+    // Removed: its handle is refused, the others live on.
+    r.remove(handles[0]).unwrap();
+    assert!(matches!(
+        r.transform(handles[0]),
+        Err(RuntimeError::UnknownObject(_))
+    ));
+    assert!(r.set_visible(handles[0], true).is_err());
+    assert_eq!(r.objects().count(), handles.len() - 1);
+    let e = r
+        .prepare(
+            d,
+            &f.ctx.queue,
+            &FrameInput::new(camera()).moving(&[(handles[0], Mat4::IDENTITY)]),
+        )
+        .unwrap_err();
+    assert!(matches!(e, RuntimeError::UnknownObject(_)), "{e}");
+    r.transform(handles[1]).unwrap();
+}
+
+#[test]
+fn stats_of_a_finished_frame_are_read_without_waiting() {
+    let f = fixture();
+    let d = &f.ctx.device;
+    let mut r = renderer(&f.scene, Some(&f.asset), &settings(Mode::Full));
+    assert!(r.poll_stats(d).is_none(), "no frame yet");
+    let mut last = 0;
+    for k in 1..=4u64 {
+        if k == 4 {
+            // Every earlier frame done: frame 4 gets a free read-back slot.
+            let _ = d.poll(wgpu::PollType::wait_indefinitely());
+        }
+        let t = gibake_runtime::scene_transforms(&f.scene, 0.1 * k as f32);
+        draw_all(&mut [&mut r], &FrameInput::new(camera()).transforms(&t));
+        if let Some(s) = r.poll_stats(d) {
+            assert!(s.frame >= last && s.frame <= k, "frame {} at {k}", s.frame);
+            last = s.frame;
+        }
+    }
+    // Once the GPU is done, the newest figures are the last frame's.
+    let _ = d.poll(wgpu::PollType::wait_indefinitely());
+    let s = r.poll_stats(d).expect("a finished frame");
+    assert_eq!(s.frame, 4);
+    assert!(s.frame_ms > 0.0);
+    assert_eq!(r.stats(d).frame, 4);
+}
+
+#[test]
+fn what_an_asset_needs_is_known_before_the_renderer() {
+    let f = fixture();
+    let full = settings(Mode::Full);
+    let req = gibake_runtime::Requirements::of(&f.scene, Some(&f.asset), &full).unwrap();
+    let r = renderer(&f.scene, Some(&f.asset), &full);
+    assert_eq!(req.asset_bytes, r.asset_bytes(), "the upload, exactly");
+    assert!(req.gpu_bytes > req.asset_bytes);
+    req.check(&f.ctx.device.limits()).unwrap();
+
+    // downlevel_defaults: the VPL-map merge binds five storage buffers in a
+    // stage, so the moving scene in full mode is refused, with the reason,
+    // before anything is created ...
+    let downlevel = wgpu::Limits::downlevel_defaults();
+    let e = req.check(&downlevel).unwrap_err();
+    assert!(e.to_string().contains("merge"), "{e}");
+    let (device, queue) =
+        pollster::block_on(f.ctx.adapter.request_device(&wgpu::DeviceDescriptor {
+            required_limits: downlevel.clone(),
+            ..Default::default()
+        }))
+        .expect("a downlevel device");
+    let e = Renderer::new(&device, &queue, &f.scene, Some(&f.asset), &full)
+        .err()
+        .expect("refused");
+    assert!(
+        matches!(
+            e,
+            RuntimeError::DeviceLimit {
+                needed: 5,
+                limit: 4,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    // ... while modes and scenes without it render there.
+    let still = gibake_bake::static_only(&f.scene);
+    for (scene, mode) in [
+        (&f.scene, Mode::Rsm),
+        (&still, Mode::Full),
+        (&f.scene, Mode::Direct),
+    ] {
+        let s = settings(mode);
+        let req = gibake_runtime::Requirements::of(scene, Some(&f.asset), &s).unwrap();
+        req.check(&downlevel).unwrap();
+        let mut r = Renderer::new(&device, &queue, scene, Some(&f.asset), &s).unwrap();
+        r.prepare(&device, &queue, &FrameInput::new(camera()))
+            .unwrap();
+        let mut enc = device.create_command_encoder(&Default::default());
+        r.record(&mut enc);
+        queue.submit([enc.finish()]);
+        let img = gibake_gpu::readback::read_texture_f32_on(&device, &queue, r.output(), 0, 4)
+            .expect("read back");
+        let img = Image::from_rgba_f32(W, H, &img);
+        assert!(img.mean().x > 0.0 && img.all_finite(), "{mode:?}");
+    }
+    // An output wider than a device allows is named.
+    let wide = RenderSettings {
+        width: 3000,
+        ..settings(Mode::Direct)
+    };
+    let e = gibake_runtime::Requirements::of(&f.scene, Some(&f.asset), &wide)
+        .unwrap()
+        .check(&downlevel)
+        .unwrap_err();
+    assert!(e.to_string().contains("output width"), "{e}");
+}
+
+#[test]
+fn a_spawned_copy_renders_like_a_declared_object() {
+    let f = fixture();
+    let q = &f.ctx.queue;
+    let s = RenderSettings {
+        max_spawned: 2,
+        ..settings(Mode::Full)
+    };
+    let mut r = renderer(&f.scene, Some(&f.asset), &s);
+    let declared = gibake_runtime::scene_transforms(&f.scene, TIME);
+    draw_all(
+        &mut [&mut r],
+        &FrameInput::new(camera()).transforms(&declared),
+    );
+    let without = read(r.output());
+    let (ball, name) = r.objects().next().map(|(h, n)| (h, n.to_string())).unwrap();
+    let at = r.transform(ball).unwrap() * Mat4::from_translation([0.25, 0.0, 0.1].into());
+    let copy = r.spawn(q, ball, at).unwrap();
+    assert_eq!(r.transform(copy).unwrap(), at);
+    assert_eq!(r.objects().filter(|(_, n)| *n == name).count(), 2);
+    draw_all(
+        &mut [&mut r],
+        &FrameInput::new(camera()).transforms(&declared),
+    );
+    let spawned = read(r.output());
+    assert_ne!(spawned, without, "the copy is seen");
+
+    // The same scene declaring that copy as one more moving object.
+    let mut more = f.scene.clone();
+    let mut extra = more.dynamic_objects[0].clone();
+    extra.name.push_str(" copy");
+    more.dynamic_objects.push(extra);
+    let mut all = declared.clone();
+    all.push(at);
+    let mut b = renderer(&more, Some(&f.asset), &s);
+    draw_all(&mut [&mut b], &FrameInput::new(camera()).transforms(&all));
+    assert_eq!(spawned, read(b.output()));
+
+    // Room for two: the third is refused; a removed copy leaves the rest.
+    r.spawn(q, copy, at).unwrap();
+    assert!(matches!(
+        r.spawn(q, ball, at),
+        Err(RuntimeError::TooManyObjects { max: 2 })
+    ));
+    r.remove(copy).unwrap();
+    assert!(r.transform(copy).is_err());
+}
