@@ -410,7 +410,9 @@ impl<'s> RayScene<'s> {
             return None;
         }
         let o = Vec3A::from(origin * self.scale);
-        let d = Vec3A::from(dir);
+        // −0.0 components become +0.0: the traversal takes the octant from
+        // the sign bits and a −0.0 component made every hit a miss.
+        let d = Vec3A::from(dir) + Vec3A::ZERO;
         let t_min = t_min.max(0.0) * self.scale;
         let t_max = t_max * self.scale;
         if t_max.is_nan() || t_max <= t_min {
@@ -486,7 +488,9 @@ impl<'s> RayScene<'s> {
             return false;
         }
         let o = Vec3A::from(origin * self.scale);
-        let d = Vec3A::from(dir);
+        // −0.0 components become +0.0: the traversal takes the octant from
+        // the sign bits and a −0.0 component made every hit a miss.
+        let d = Vec3A::from(dir) + Vec3A::ZERO;
         let t_max = t_max * self.scale;
         if t_max.is_nan() || t_max <= 0.0 {
             return false;
