@@ -41,6 +41,13 @@
 //!   256 float ULPs per unit normal component.
 //! - Zero-area and non-finite triangles are dropped at build time; missing or
 //!   degenerate shading normals fall back to the geometric normal.
+//!
+//! # Alpha
+//! Triangles of an alpha-masked material (`alphaMode: MASK`, and `BLEND`
+//! read as a mask) get an any-hit test: a hit where the material's alpha
+//! (factor × texture, bilinear) is below its cutoff is skipped and the ray
+//! goes on, in every query. The bake's RSM and VPL maps and the reference
+//! thereby see the same holes the GPU passes cut with `alpha_keeps`.
 
 use gibake_scene::Scene;
 use glam::{DVec3, Mat3, Vec2, Vec3, Vec3A};
@@ -96,6 +103,8 @@ struct Tri {
     id: u32,
     /// Mesh index in meshes_at order.
     mesh: u32,
+    /// Whether the material is alpha-masked (hits are alpha-tested).
+    masked: bool,
 }
 
 /// The BVH over all triangles of a scene at one time `t` (static meshes as
@@ -324,6 +333,10 @@ impl<'s> RayScene<'s> {
                 let n = n.normalize_or_zero();
                 if n == Vec3::ZERO { ng } else { n }
             });
+            let masked = scene
+                .materials
+                .get(r.material as usize)
+                .is_some_and(|m| m.cutoff().is_some());
             tris.push(Tri {
                 v,
                 ng,
@@ -332,6 +345,7 @@ impl<'s> RayScene<'s> {
                 material: r.material,
                 id: r.id,
                 mesh: r.mesh,
+                masked,
             });
         }
 
@@ -424,14 +438,27 @@ impl<'s> RayScene<'s> {
         let mut hit = obvhs::ray::RayHit::none();
         bvh.ray_traverse(ray, &mut hit, |r, id| {
             match wt.intersect(&self.tris[id].v, t_min, r.tmax) {
-                Some((t, b)) => {
+                Some((t, b)) if self.alpha_keeps(id, b) => {
                     best = Some((id, t, b));
                     t
                 }
-                None => f32::INFINITY,
+                _ => f32::INFINITY,
             }
         });
         best
+    }
+
+    /// The any-hit alpha test: whether triangle `id` (leaf order) exists at
+    /// barycentrics `b` ([`Scene::alpha_keeps`] at the interpolated texture
+    /// coordinate). Always true for opaque materials. Every query (closest
+    /// hit, occlusion, visibility) passes through holes the test cuts.
+    fn alpha_keeps(&self, id: usize, b: Vec3) -> bool {
+        let tri = &self.tris[id];
+        if !tri.masked {
+            return true;
+        }
+        let uv = tri.uv.map(|uv| uv[0] * b.x + uv[1] * b.y + uv[2] * b.z);
+        self.scene.alpha_keeps(tri.material as usize, uv)
     }
 
     /// Closest hit in `(0, t_max)` along `origin + t·dir` (world space; `dir`
@@ -499,8 +526,8 @@ impl<'s> RayScene<'s> {
         let ray = Ray::new(o, d, 0.0, t_max);
         !bvh.ray_traverse_miss(ray, |r, id| {
             match wt.intersect(&self.tris[id].v, 0.0, r.tmax) {
-                Some((t, _)) => t,
-                None => f32::INFINITY,
+                Some((t, b)) if self.alpha_keeps(id, b) => t,
+                _ => f32::INFINITY,
             }
         })
     }
