@@ -113,8 +113,9 @@ pub struct BakeArgs {
     #[arg(long, default_value_t = 2048, value_name = "N")]
     pub shadow_map_size: u32,
     /// Print the summary as JSON on stdout: the decision ("baked" or
-    /// "up_to_date") and why, counts, per-stage times; a batch gives one
-    /// entry per scene and the failed scenes (see docs/pipeline.md).
+    /// "up_to_date") and why, counts, per-stage times, the import's
+    /// warnings; a batch gives one entry per scene and the failed scenes
+    /// (see docs/pipeline.md).
     #[arg(long)]
     pub json: bool,
     /// GPU adapter to use (substring of its name).
