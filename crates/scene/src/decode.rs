@@ -242,6 +242,40 @@ fn apply_filter(data: &mut [u8], stride: usize, filter: MeshoptFilter) -> Result
     Ok(())
 }
 
+/// The fuzz targets' entry to [`meshopt_view`] (`fuzz/fuzz_targets/
+/// meshopt_decode.rs`, and the replay of kept inputs in
+/// `tests/fuzz_regressions.rs`): byte 0 picks the mode, byte 1 the filter,
+/// byte 2 the stride (`4·(b mod 64 + 1)` for attributes, 2 or 4 for
+/// indices), bytes 3–4 the count (little-endian, at most 65535), the rest
+/// is the compressed data. Panics only if a successful decode has the
+/// wrong length.
+#[doc(hidden)]
+pub fn meshopt_fuzz_input(input: &[u8]) {
+    let [m, f, s, c0, c1, data @ ..] = input else {
+        return;
+    };
+    let mode = [
+        MeshoptMode::Attributes,
+        MeshoptMode::Triangles,
+        MeshoptMode::Indices,
+    ][*m as usize % 3];
+    let filter = [
+        MeshoptFilter::None,
+        MeshoptFilter::Octahedral,
+        MeshoptFilter::Quaternion,
+        MeshoptFilter::Exponential,
+        MeshoptFilter::Color,
+    ][*f as usize % 5];
+    let stride = match mode {
+        MeshoptMode::Attributes => 4 * (*s as usize % 64 + 1),
+        _ => 2 + 2 * (*s as usize % 2),
+    };
+    let count = u16::from_le_bytes([*c0, *c1]) as usize;
+    if let Ok(out) = meshopt_view(data, count, stride, mode, filter) {
+        assert_eq!(out.len(), count * stride, "decoded length");
+    }
+}
+
 /// Whether `bytes` start like a WebP file (`RIFF....WEBP`).
 pub fn is_webp(bytes: &[u8]) -> bool {
     bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP"
@@ -366,6 +400,42 @@ mod tests {
             let v =
                 f32::from_le_bytes([dec[4 * k], dec[4 * k + 1], dec[4 * k + 2], dec[4 * k + 3]]);
             assert!((v - x[0][k]).abs() < 1e-3 * x[0][k].abs(), "{v}");
+        }
+    }
+
+    #[test]
+    fn meshopt_quaternion_and_color_filters() {
+        let q = glam::Quat::from_axis_angle(glam::Vec3::new(1.0, 2.0, 3.0).normalize(), 0.7);
+        let f = meshopt::encode_filter_quat(&[q.to_array()], 12);
+        let enc = meshopt::encode_vertex_buffer(&f).expect("encode");
+        let dec = meshopt_view(
+            &enc,
+            1,
+            8,
+            MeshoptMode::Attributes,
+            MeshoptFilter::Quaternion,
+        )
+        .expect("decode");
+        let got: Vec<f32> = (0..4)
+            .map(|k| i16::from_le_bytes([dec[2 * k], dec[2 * k + 1]]) as f32 / 32767.0)
+            .collect();
+        let got = glam::Quat::from_slice(&got).normalize();
+        assert!(got.dot(q).abs() > 0.9999, "{got} vs {q}");
+
+        let c = [[0.8f32, 0.2, 0.4, 1.0], [0.1, 0.9, 0.3, 0.5]];
+        let f: Vec<[u8; 4]> = meshopt::encode_filter_color(&c, 8);
+        let enc = meshopt::encode_vertex_buffer(&f).expect("encode");
+        let dec = meshopt_view(&enc, 2, 4, MeshoptMode::Attributes, MeshoptFilter::Color)
+            .expect("decode");
+        for (i, want) in c.iter().enumerate() {
+            for k in 0..4 {
+                let v = dec[4 * i + k] as f32 / 255.0;
+                assert!(
+                    (v - want[k]).abs() < 0.02,
+                    "colour {i}.{k}: {v} vs {}",
+                    want[k]
+                );
+            }
         }
     }
 

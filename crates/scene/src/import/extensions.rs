@@ -94,6 +94,38 @@ pub(super) fn check_required(root: &mut json::Root, path: &Path) -> Result<(), S
     Ok(())
 }
 
+/// A primitive compressed with `KHR_draco_mesh_compression` whose
+/// accessors hold no uncompressed fallback (it is not required, yet only
+/// the Draco data exists): refused with the conversion command, before the
+/// `gltf` crate's validation refuses it for "missing data".
+pub(super) fn check_draco_fallback(root: &json::Root, path: &Path) -> Result<(), SceneError> {
+    let ext = "KHR_draco_mesh_compression";
+    for (mi, mesh) in root.meshes.iter().enumerate() {
+        for (pi, prim) in mesh.primitives.iter().enumerate() {
+            let draco = prim
+                .extensions
+                .as_ref()
+                .is_some_and(|e| e.others.contains_key(ext));
+            let hollow = prim.attributes.values().any(|a| {
+                root.accessors
+                    .get(a.value())
+                    .is_some_and(|a| a.buffer_view.is_none() && a.sparse.is_none())
+            });
+            if draco && hollow {
+                let name = mesh.name.clone().unwrap_or_else(|| format!("mesh #{mi}"));
+                return Err(SceneError::NotSupported {
+                    path: path.to_path_buf(),
+                    message: format!(
+                        "mesh '{name}' primitive {pi}: its geometry exists only compressed with {ext}, which gibake does not decode; {}",
+                        conversion_hint(ext)
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
 /// The image an `EXT_texture_webp` texture names, if any.
 fn webp_source(t: &json::Texture) -> Option<&Value> {
     t.extensions
@@ -134,7 +166,7 @@ pub(super) fn missing_source(t: &json::Texture, index: usize) -> (bool, String) 
             return (
                 true,
                 format!(
-                    "texture {index} has only a {ext} image, which gibake does not decode; {}",
+                    "texture {index} has no image but its {ext} one, which gibake does not decode; {}",
                     conversion_hint(ext)
                 ),
             );

@@ -7,7 +7,6 @@ use gltf::json;
 use gltf::json::validation::Checked;
 
 use super::accessors::{vec2s, vec3s};
-use super::extensions::conversion_hint;
 use super::materials::albedo_info;
 use super::texture_transform::UvTransform;
 use super::{Ctx, MaterialTable, PrimData};
@@ -69,22 +68,6 @@ impl<'a> Ctx<'a> {
             self.warn(format!("mesh {name}: primitive has no POSITION, skipped"));
             return Ok(None);
         };
-        let draco = prim
-            .extensions
-            .as_ref()
-            .is_some_and(|e| e.others.contains_key("KHR_draco_mesh_compression"));
-        if draco
-            && self
-                .root
-                .accessors
-                .get(pos_acc)
-                .is_some_and(|a| a.buffer_view.is_none())
-        {
-            return Err(self.not_supported(format!(
-                "mesh {name}: its geometry exists only Draco-compressed (KHR_draco_mesh_compression), which gibake does not decode; {}",
-                conversion_hint("KHR_draco_mesh_compression")
-            )));
-        }
         let (pos, vcount) = self
             .read_floats(pos_acc, 3)
             .map_err(|e| self.acc_err(name, pos_acc, "POSITION", e))?;

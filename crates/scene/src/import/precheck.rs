@@ -19,6 +19,7 @@ use crate::SceneError;
 pub(super) fn precheck(root: &mut json::Root, path: &Path) -> Result<(), SceneError> {
     extensions::check_required(root, path)?;
     extensions::resolve_texture_sources(root, path)?;
+    extensions::check_draco_fallback(root, path)?;
     for (mi, mesh) in root.meshes.iter().enumerate() {
         for (pi, prim) in mesh.primitives.iter().enumerate() {
             for acc in prim.attributes.values() {
