@@ -1,12 +1,17 @@
 #!/usr/bin/env bash
 # Bounded fuzzing of gibake's hostile-input surfaces (cargo-fuzz, libFuzzer):
 #   gltf_import     the glTF import (.glb / .gltf bytes)
+#   meshopt_decode  the meshopt decoder of EXT_/KHR_meshopt_compression views
+#   webp_decode     the WebP decoder of EXT_texture_webp images
 #   asset_manifest  the asset loader's manifest.bin decoding and validation
 #   asset_exr       the asset loader's EXR map decoding
 #   diff_tolerance  `gibake diff`'s tolerance parsing
-# The corpus is seeded from data/*.glb, a small baked asset (fuzz/seeds/asset)
-# and fuzz/seeds/diff_tolerance, plus every kept regression input. Each target
-# runs FUZZ_SECONDS (default 30) seconds. A crash is copied to
+# The corpus is seeded from data/*.glb and data/exports/ (real gltfpack and
+# gltf-transform exports), fuzz/seeds/meshopt (compressed views of those
+# exports), fuzz/seeds/webp, a small baked asset (fuzz/seeds/asset) and
+# fuzz/seeds/diff_tolerance, plus every kept regression input. Each target
+# runs FUZZ_SECONDS (default 20: six targets, the same two minutes in all as
+# four targets of 30 s before) seconds. A crash is copied to
 # fuzz/regressions/<target>/ (commit it: the plain `cargo test` regression
 # tests in crates/scene and crates/asset replay every file there) and the
 # script fails.
@@ -19,11 +24,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
-seconds="${FUZZ_SECONDS:-30}"
+seconds="${FUZZ_SECONDS:-20}"
 san="${FUZZ_SANITIZER:-none}"
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-    targets=(gltf_import asset_manifest asset_exr diff_tolerance)
+    targets=(gltf_import meshopt_decode webp_decode asset_manifest asset_exr diff_tolerance)
 fi
 if ! rustup toolchain list 2>/dev/null | grep -q '^nightly'; then
     echo "fuzz: no nightly toolchain (rustup toolchain install nightly); skipping" >&2
@@ -40,7 +45,9 @@ for t in "${targets[@]}"; do
     corpus="fuzz/corpus/$t"
     mkdir -p "$corpus" "fuzz/artifacts/$t" "fuzz/regressions/$t"
     case "$t" in
-        gltf_import) cp data/*.glb "$corpus/" ;;
+        gltf_import) cp data/*.glb data/exports/*.glb data/exports/refused/*.glb "$corpus/" ;;
+        meshopt_decode) cp fuzz/seeds/meshopt/* "$corpus/" ;;
+        webp_decode) cp fuzz/seeds/webp/* "$corpus/" ;;
         asset_manifest) cp fuzz/seeds/asset/manifest.bin "$corpus/" ;;
         asset_exr) cp fuzz/seeds/asset/*.exr "$corpus/" ;;
         diff_tolerance) cp fuzz/seeds/diff_tolerance/* "$corpus/" ;;

@@ -11,15 +11,16 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/ensure-deps.sh --node --slurm --python --faults
-echo "== glTF validator on data/*.glb"
-(cd data/validate && npm ci --silent --no-audit --no-fund && node validate.mjs ../*.glb)
+echo "== glTF validator on data/*.glb and data/exports/ (real exporters' files)"
+(cd data/validate && npm ci --silent --no-audit --no-fund &&
+    node validate.mjs ../*.glb ../exports/*.glb ../exports/refused/*.glb)
 echo "== cargo test"
 log=$(mktemp)
 set +e
 cargo test --workspace --release --no-fail-fast 2>&1 | tee "$log"
 status=${PIPESTATUS[0]}
 set -e
-# Bounded fuzzing (about 2 minutes; needs nightly, installs cargo-fuzz;
+# Bounded fuzzing (about 2 minutes: six targets of 20 s; needs nightly, installs cargo-fuzz;
 # GIBAKE_FUZZ=0 skips it). A crash fails the run and is kept in
 # fuzz/regressions/ for the plain regression tests.
 if [ "${GIBAKE_FUZZ:-1}" != 0 ]; then

@@ -30,11 +30,7 @@ fn ball(center: Vec3, mirrored: bool, clockwise: bool) -> (Mesh, Material, Mat4)
         indices,
         material: 0,
     };
-    let material = Material {
-        name: "ball".into(),
-        base_color: Vec3::new(0.8, 0.6, 0.3),
-        texture: None,
-    };
+    let material = Material::opaque("ball", Vec3::new(0.8, 0.6, 0.3), None);
     let scale = if mirrored {
         Vec3::new(-1.0, 1.0, 1.0)
     } else {

@@ -281,8 +281,9 @@ pub struct BakeArgs {
           value_parser = clap::value_parser!(u32).range(16..=16384))]
     pub shadow_map_size: u32,
     /// Print the summary as JSON on stdout: the decision ("baked" or
-    /// "up_to_date") and why, counts, per-stage times; a batch gives one
-    /// entry per scene and the failed scenes (see docs/pipeline.md).
+    /// "up_to_date") and why, counts, per-stage times, the import's
+    /// warnings; a batch gives one entry per scene and the failed scenes
+    /// (see docs/pipeline.md).
     #[arg(long)]
     pub json: bool,
     /// GPU adapter to use (substring of its name).

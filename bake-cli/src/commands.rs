@@ -214,6 +214,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
             "setup_seconds": setup_s,
             "asset_upload_bytes": renderer.asset_bytes(),
             "frames": frames,
+            "warnings": scene.warnings,
         });
         crate::output::write_atomic(stats, serde_json::to_string_pretty(&json)?.as_bytes())?;
     }

@@ -13,7 +13,6 @@ macro_rules! eprintln {
     }};
 }
 
-
 mod cli;
 mod commands;
 mod demo;
@@ -52,10 +51,14 @@ fn main() -> ExitCode {
     let filter = tracing_subscriber::EnvFilter::try_from_env("GIBAKE_LOG").unwrap_or_else(|_| {
         tracing_subscriber::EnvFilter::new(if args.verbose { "info" } else { "warn" })
     });
+    // Colour only on a terminal: a log redirected to a file or a pipe gets
+    // plain text, no ANSI escape codes.
+    use std::io::IsTerminal;
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
         .log_internal_errors(false)
+        .with_ansi(std::io::stderr().is_terminal())
         .without_time()
         .init();
     // SIGINT / SIGTERM / SIGHUP remove this process's temporaries and locks.

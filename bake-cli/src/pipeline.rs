@@ -122,6 +122,8 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
     let total_s = total.elapsed().as_secs_f64();
     if a.json {
         let mut j = o.json(&output);
+        // The importer's warnings (also logged on stderr as it ran).
+        j["warnings"] = json!(scene.warnings);
         j["adapter"] = json!(record.to_string());
         j["total_seconds"] = json!(total_s);
         crate::output::print_stdout(&serde_json::to_string_pretty(&j)?)?;
@@ -338,6 +340,7 @@ fn shard(
             "adapter": ctx.record.to_string(),
             "stages": o.stages.iter().map(|s| json!({"stage": s.stage, "seconds": s.seconds})).collect::<Vec<_>>(),
             "total_seconds": seconds,
+            "warnings": scene.warnings,
         });
         crate::output::print_stdout(&serde_json::to_string_pretty(&j)?)?;
     } else {
@@ -442,6 +445,7 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
     let mut failed = Vec::new();
     for (scene_path, out) in &outs {
         let t = Instant::now();
+        let mut warnings = Vec::new();
         let r = (|| {
             let scene = load_scene(&SceneArgs {
                 scene: scene_path.clone(),
@@ -450,6 +454,7 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
                 camera: Default::default(),
                 limits: a.limits.clone(),
             })?;
+            warnings.clone_from(&scene.warnings);
             let load_s = t.elapsed().as_secs_f64();
             let _lock = crate::guard::lock_output(out)?;
             bake_one(&ctx, &scene, out, &opts, a.force, &progress, load_s)
@@ -462,6 +467,7 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
         };
         j["scene"] = json!(lossy(scene_path));
         j["seconds"] = json!(seconds);
+        j["warnings"] = json!(warnings);
         if !a.json {
             let line = match &r {
                 Ok(o) if o.baked.is_some() => format!(

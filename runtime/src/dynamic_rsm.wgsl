@@ -5,7 +5,7 @@
 // (tested where it is read), which is the paper's "depth buffer starts as
 // the static depth" without copying the static depth each frame.
 // Targets: 0 world position + metric (w = 3e38 where empty), 1 albedo,
-// 2 oct(normal facing the light).
+// 2 oct(normal facing the light). Alpha-masked surfaces are cut (alpha_keeps).
 
 @group(0) @binding(0) var<storage, read> draws: array<DrawData>;
 @group(0) @binding(1) var<uniform> view: LightView;
@@ -26,7 +26,11 @@ struct FsOut {
 @fragment
 fn fs_main(i: MeshVarying, @builtin(front_facing) front: bool) -> FsOut {
     let d = draws[i.draw];
-    let albedo = draw_albedo(d, textureSample(albedo_tex, albedo_smp, i.uv).rgb);
+    let texel = textureSample(albedo_tex, albedo_smp, i.uv);
+    if (!alpha_keeps(d, texel.a)) {
+        discard;
+    }
+    let albedo = draw_albedo(d, texel.rgb);
     var n = normalize(i.normal);
     if (!front) {
         n = -n;

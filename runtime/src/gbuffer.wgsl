@@ -1,4 +1,5 @@
 // gbuffer.wgsl — camera G-buffer of all geometry (needs common.wgsl, mesh.wgsl).
+// Alpha-masked surfaces are cut (alpha_keeps): the camera sees through holes.
 // Targets: 0 world position (w = 1 covered), 1 oct(shading normal).xy +
 // oct(geometric normal).zw, both facing the viewer, 2 albedo.
 
@@ -27,7 +28,11 @@ struct FsOut {
 @fragment
 fn fs_main(i: MeshVarying, @builtin(front_facing) front: bool) -> FsOut {
     let d = draws[i.draw];
-    let albedo = draw_albedo(d, textureSample(albedo_tex, albedo_smp, i.uv).rgb);
+    let texel = textureSample(albedo_tex, albedo_smp, i.uv);
+    if (!alpha_keeps(d, texel.a)) {
+        discard;
+    }
+    let albedo = draw_albedo(d, texel.rgb);
     var to_eye = camera.position.xyz - i.world;
     if (camera.position.w > 0.5) {
         to_eye = -camera.forward.xyz;

@@ -205,11 +205,8 @@ impl LevelSpec {
                 indices: g.idx.clone(),
                 material: 0,
             };
-            let material = gibake_scene::Material {
-                name: format!("ball {i}"),
-                base_color: Vec3::from(b.albedo),
-                texture: None,
-            };
+            let material =
+                gibake_scene::Material::opaque(format!("ball {i}"), Vec3::from(b.albedo), None);
             scene.add_dynamic_object(
                 &format!("ball {i}"),
                 vec![(mesh, material)],

@@ -22,8 +22,8 @@
 
 pub mod fit;
 pub mod flip;
-pub mod levels;
 pub mod frame;
+pub mod levels;
 pub mod pareto;
 pub mod transport;
 

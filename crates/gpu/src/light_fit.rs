@@ -268,11 +268,7 @@ mod tests {
                 direction: Vec3::new(0.3, -0.8, 0.2).normalize(),
             },
             camera: None,
-            materials: vec![Material {
-                name: "grey".into(),
-                base_color: Vec3::splat(0.5),
-                texture: None,
-            }],
+            materials: vec![Material::opaque("grey", Vec3::splat(0.5), None)],
             textures: vec![],
             static_meshes: meshes,
             dynamic_meshes: vec![],

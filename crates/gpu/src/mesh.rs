@@ -1,5 +1,5 @@
 //! Scene meshes on the GPU: one vertex/index buffer pair for all meshes,
-//! a per-draw storage buffer (model matrix, albedo) indexed by
+//! a per-draw storage buffer (model matrix, albedo, alpha test) indexed by
 //! `instance_index`, and one bind group per material texture.
 //!
 //! Static draws have identity transforms and never change; the world
@@ -42,18 +42,44 @@ pub struct GpuDrawData {
     pub normal_matrix: [[f32; 4]; 4],
     /// rgb baseColorFactor, w = 1 if textured.
     pub albedo: [f32; 4],
+    /// The alpha test (`alpha_keeps` in `wgsl/mesh.wgsl`): x alpha cutoff,
+    /// y baseColorFactor's alpha, z = 1 if the material is masked, w unused.
+    pub alpha: [f32; 4],
     /// x: base vertex (for vertex pulling), y: first index, z: triangle count, w: unused.
     pub extra: [u32; 4],
 }
 
 impl GpuDrawData {
-    fn new(model: Mat4, albedo: glam::Vec3, textured: bool, extra: [u32; 4]) -> Self {
+    fn new(
+        model: Mat4,
+        material: &gibake_scene::Material,
+        textured: bool,
+        extra: [u32; 4],
+    ) -> Self {
+        let n = Mat4::from_mat3(glam::Mat3::from_mat4(model).inverse().transpose());
+        let alpha = match material.cutoff() {
+            Some(c) => [c, material.alpha, 1.0, 0.0],
+            None => [0.0, 1.0, 0.0, 0.0],
+        };
+        GpuDrawData {
+            model: model.to_cols_array_2d(),
+            normal_matrix: n.to_cols_array_2d(),
+            albedo: material
+                .base_color
+                .extend(if textured { 1.0 } else { 0.0 })
+                .to_array(),
+            alpha,
+            extra,
+        }
+    }
+
+    /// The same draw moved to `model`.
+    fn moved(&self, model: Mat4) -> Self {
         let n = Mat4::from_mat3(glam::Mat3::from_mat4(model).inverse().transpose());
         GpuDrawData {
             model: model.to_cols_array_2d(),
             normal_matrix: n.to_cols_array_2d(),
-            albedo: albedo.extend(if textured { 1.0 } else { 0.0 }).to_array(),
-            extra,
+            ..*self
         }
     }
 }
@@ -199,7 +225,7 @@ impl SceneGpu {
             let tris = (indices.len() as u32 - start) / 3;
             draw_data.push(GpuDrawData::new(
                 model,
-                m.base_color,
+                m,
                 textured,
                 [base_vertex as u32, start, tris, 0],
             ));
@@ -262,7 +288,7 @@ impl SceneGpu {
         if draw_data.is_empty() {
             draw_data.push(GpuDrawData::new(
                 Mat4::IDENTITY,
-                glam::Vec3::ONE,
+                &gibake_scene::Material::opaque("none", glam::Vec3::ONE, None),
                 false,
                 [0; 4],
             ));
@@ -414,10 +440,7 @@ impl SceneGpu {
         let start = self.spare.start;
         for (k, d) in originals.into_iter().enumerate() {
             let id = start + k as u32;
-            let old = self.cpu_draw_data[d.id as usize];
-            let albedo = glam::Vec4::from_array(old.albedo);
-            self.cpu_draw_data[id as usize] =
-                GpuDrawData::new(model, albedo.truncate(), albedo.w > 0.5, old.extra);
+            self.cpu_draw_data[id as usize] = self.cpu_draw_data[d.id as usize].moved(model);
             self.dynamic_draws.push(Draw {
                 id,
                 object: Some(object),
@@ -446,9 +469,7 @@ impl SceneGpu {
                 continue;
             };
             let old = self.cpu_draw_data[d.id as usize];
-            let albedo = glam::Vec4::from_array(old.albedo);
-            self.cpu_draw_data[d.id as usize] =
-                GpuDrawData::new(model, albedo.truncate(), albedo.w > 0.5, old.extra);
+            self.cpu_draw_data[d.id as usize] = old.moved(model);
         }
         let range = &self.cpu_draw_data[first..];
         queue.write_buffer(

@@ -41,6 +41,13 @@
 //!   256 float ULPs per unit normal component.
 //! - Zero-area and non-finite triangles are dropped at build time; missing or
 //!   degenerate shading normals fall back to the geometric normal.
+//!
+//! # Alpha
+//! Triangles of an alpha-masked material (`alphaMode: MASK`, and `BLEND`
+//! read as a mask) get an any-hit test: a hit where the material's alpha
+//! (factor × texture, bilinear) is below its cutoff is skipped and the ray
+//! goes on, in every query. The bake's RSM and VPL maps and the reference
+//! thereby see the same holes the GPU passes cut with `alpha_keeps`.
 
 use gibake_scene::Scene;
 use glam::{DVec3, Mat3, Vec2, Vec3, Vec3A};
@@ -85,8 +92,9 @@ pub struct Hit {
 /// component, so that the box tests' `1/d` and `origin/d` stay finite (the
 /// scene is normalised to coordinates below 1) and no `0 · ∞` or `∞ − ∞`
 /// turns a slab test into NaN (which rejected every box: a sun at azimuth 0
-/// lit nothing). The deflection, 10⁻²⁰ rad, is far below f32 resolution. The watertight triangle test keeps the exact
-/// direction.
+/// lit nothing; a −0.0 component from a node rotation did the same). The
+/// deflection, 10⁻²⁰ rad, is far below f32 resolution. The watertight
+/// triangle test keeps the exact direction.
 fn bvh_direction(d: Vec3A) -> Vec3A {
     let tiny = 1e-20 * d.abs().max_element();
     Vec3A::new(
@@ -113,6 +121,8 @@ struct Tri {
     id: u32,
     /// Mesh index in meshes_at order.
     mesh: u32,
+    /// Whether the material is alpha-masked (hits are alpha-tested).
+    masked: bool,
 }
 
 /// The BVH over all triangles of a scene at one time `t` (static meshes as
@@ -341,6 +351,10 @@ impl<'s> RayScene<'s> {
                 let n = n.normalize_or_zero();
                 if n == Vec3::ZERO { ng } else { n }
             });
+            let masked = scene
+                .materials
+                .get(r.material as usize)
+                .is_some_and(|m| m.cutoff().is_some());
             tris.push(Tri {
                 v,
                 ng,
@@ -349,6 +363,7 @@ impl<'s> RayScene<'s> {
                 material: r.material,
                 id: r.id,
                 mesh: r.mesh,
+                masked,
             });
         }
 
@@ -427,6 +442,7 @@ impl<'s> RayScene<'s> {
             return None;
         }
         let o = Vec3A::from(origin * self.scale);
+        // Zero components, of either sign, are handled by `bvh_direction`.
         let d = Vec3A::from(dir);
         let t_min = t_min.max(0.0) * self.scale;
         let t_max = t_max * self.scale;
@@ -439,14 +455,27 @@ impl<'s> RayScene<'s> {
         let mut hit = obvhs::ray::RayHit::none();
         bvh.ray_traverse(ray, &mut hit, |r, id| {
             match wt.intersect(&self.tris[id].v, t_min, r.tmax) {
-                Some((t, b)) => {
+                Some((t, b)) if self.alpha_keeps(id, b) => {
                     best = Some((id, t, b));
                     t
                 }
-                None => f32::INFINITY,
+                _ => f32::INFINITY,
             }
         });
         best
+    }
+
+    /// The any-hit alpha test: whether triangle `id` (leaf order) exists at
+    /// barycentrics `b` ([`Scene::alpha_keeps`] at the interpolated texture
+    /// coordinate). Always true for opaque materials. Every query (closest
+    /// hit, occlusion, visibility) passes through holes the test cuts.
+    fn alpha_keeps(&self, id: usize, b: Vec3) -> bool {
+        let tri = &self.tris[id];
+        if !tri.masked {
+            return true;
+        }
+        let uv = tri.uv.map(|uv| uv[0] * b.x + uv[1] * b.y + uv[2] * b.z);
+        self.scene.alpha_keeps(tri.material as usize, uv)
     }
 
     /// Closest hit in `(0, t_max)` along `origin + t·dir` (world space; `dir`
@@ -509,6 +538,7 @@ impl<'s> RayScene<'s> {
             return false;
         }
         let o = Vec3A::from(origin * self.scale);
+        // Zero components, of either sign, are handled by `bvh_direction`.
         let d = Vec3A::from(dir);
         let t_max = t_max * self.scale;
         if t_max.is_nan() || t_max <= 0.0 {
@@ -518,8 +548,8 @@ impl<'s> RayScene<'s> {
         let ray = Ray::new(o, bvh_direction(d), 0.0, t_max);
         !bvh.ray_traverse_miss(ray, |r, id| {
             match wt.intersect(&self.tris[id].v, 0.0, r.tmax) {
-                Some((t, _)) => t,
-                None => f32::INFINITY,
+                Some((t, b)) if self.alpha_keeps(id, b) => t,
+                _ => f32::INFINITY,
             }
         })
     }

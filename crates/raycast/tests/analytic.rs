@@ -25,11 +25,7 @@ fn triangle_scene(s: f32) -> Scene {
             direction: Vec3::NEG_Z,
         },
         camera: None,
-        materials: vec![Material {
-            name: "grey".into(),
-            base_color: Vec3::splat(0.5),
-            texture: None,
-        }],
+        materials: vec![Material::opaque("grey", Vec3::splat(0.5), None)],
         textures: vec![],
         static_meshes: vec![Mesh {
             name: "tri".into(),

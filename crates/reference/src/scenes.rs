@@ -134,11 +134,7 @@ pub fn uv_sphere(
 
 /// A material with a constant albedo.
 pub fn material(name: &str, albedo: Vec3) -> Material {
-    Material {
-        name: name.to_owned(),
-        base_color: albedo,
-        texture: None,
-    }
+    Material::opaque(name, albedo, None)
 }
 
 /// A spot light at `position` pointing along `direction` with intensity `intensity` W/sr.

@@ -1,9 +1,16 @@
 //! BLAKE3 hash of the static part of a scene: what a baked asset depends on.
 //! Covers the primary light, the bake volume, static meshes (positions,
-//! normals, uvs, indices), their materials and textures. Moving objects, the camera and
-//! animations are not part of it: an asset stays valid when they change.
+//! normals, uvs, indices), their materials (albedo, alpha mode and cutoff)
+//! and textures. Moving objects, the camera and animations are not part of
+//! it: an asset stays valid when they change.
+//!
+//! What the importer applies at import is covered through the data it
+//! produces: `KHR_texture_transform` through the transformed texture
+//! coordinates, decoded meshopt/WebP data through the meshes and texels,
+//! instancing through the expanded meshes. An opaque material hashes as it
+//! did before alpha existed, so assets baked before it stay up to date.
 
-use crate::{LightKind, Scene};
+use crate::{AlphaMode, LightKind, Scene};
 
 /// Hash of the static part of `scene` (bit-exact over the f32 data).
 pub fn static_scene_hash(scene: &Scene) -> [u8; 32] {
@@ -51,6 +58,10 @@ pub fn static_scene_hash(scene: &Scene) -> [u8; 32] {
         );
         let mat = &scene.materials[m.material];
         h.update(&f32_bytes(mat.base_color.to_array()));
+        if let AlphaMode::Mask { cutoff } = mat.alpha_mode {
+            h.update(b"alpha mask");
+            h.update(&f32_bytes([cutoff, mat.alpha]));
+        }
         if let Some(t) = mat.texture {
             let t = &scene.textures[t];
             h.update(&t.width.to_le_bytes());

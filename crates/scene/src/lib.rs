@@ -11,8 +11,18 @@
 //!   `extras: {"dynamic": true}`, or if an animation channel targets it or an
 //!   ancestor. Everything else is static and is flattened to world space.
 //! - **Materials**: Lambertian, albedo = baseColorFactor × baseColorTexture
-//!   (sRGB decoded to linear). All other material inputs are ignored. Every
-//!   surface is two-sided for light transport.
+//!   (sRGB decoded to linear; `KHR_texture_transform` applied;
+//!   `KHR_materials_pbrSpecularGlossiness`' diffuse when present).
+//!   `alphaMode: MASK` cuts holes where alpha < alphaCutoff ([`AlphaMode`];
+//!   `BLEND` is a mask at 0.5, warned). All other material inputs are
+//!   ignored with a warning naming the material. Every surface is two-sided
+//!   for light transport.
+//! - **Compression**: meshopt-compressed buffers
+//!   (`EXT_/KHR_meshopt_compression`), quantized attributes
+//!   (`KHR_mesh_quantization`), WebP images (`EXT_texture_webp`) and
+//!   `EXT_mesh_gpu_instancing` are decoded (see [`decode`]); Draco, KTX2 and
+//!   AVIF are refused with the command that converts them. Every extension
+//!   the file uses and gibake does not apply is named in a warning.
 //! - **Geometry**: triangles only (other modes are skipped with a warning);
 //!   missing normals are computed (area-weighted vertex normals).
 //! - **Camera**: the first node (document order of the default scene's
@@ -25,6 +35,8 @@
 #![cfg_attr(not(feature = "gltf"), allow(dead_code))]
 
 mod animation;
+#[cfg(feature = "gltf")]
+pub mod decode;
 mod error;
 mod hash;
 #[cfg(feature = "gltf")]
@@ -156,6 +168,23 @@ pub struct Texture {
     pub rgba8_srgb: Vec<u8>,
 }
 
+/// How a material's alpha shapes its surface (glTF `alphaMode`). Alpha is
+/// baseColorFactor's alpha × the base colour texture's alpha (linear, not
+/// sRGB-encoded), filtered like the albedo.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum AlphaMode {
+    /// The surface is solid everywhere (glTF `OPAQUE`; alpha ignored).
+    #[default]
+    Opaque,
+    /// The surface exists only where alpha ≥ `cutoff` (glTF `MASK`, and
+    /// `BLEND` read as a mask at 0.5): holes everywhere else, in every map
+    /// that sees the surface.
+    Mask {
+        /// glTF `alphaCutoff` (0.5 by default).
+        cutoff: f32,
+    },
+}
+
 /// A Lambertian material.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
@@ -165,6 +194,42 @@ pub struct Material {
     pub base_color: Vec3,
     /// Index into [`Scene::textures`] of the baseColorTexture, if any.
     pub texture: Option<usize>,
+    /// baseColorFactor's alpha (1 for an opaque material).
+    pub alpha: f32,
+    /// Whether alpha cuts holes.
+    pub alpha_mode: AlphaMode,
+}
+
+impl Material {
+    /// An opaque material of constant or textured albedo.
+    pub fn opaque(name: impl Into<String>, base_color: Vec3, texture: Option<usize>) -> Material {
+        Material {
+            name: name.into(),
+            base_color,
+            texture,
+            alpha: 1.0,
+            alpha_mode: AlphaMode::Opaque,
+        }
+    }
+
+    /// The alpha cutoff, or `None` for an opaque material.
+    pub fn cutoff(&self) -> Option<f32> {
+        match self.alpha_mode {
+            AlphaMode::Opaque => None,
+            AlphaMode::Mask { cutoff } => Some(cutoff),
+        }
+    }
+
+    /// The glTF rule, the one definition on the CPU (the GPU's is
+    /// `alpha_keeps` in `gibake-gpu`'s `wgsl/mesh.wgsl`): a surface point of
+    /// alpha `alpha` exists unless the material is masked and `alpha <
+    /// cutoff`.
+    pub fn keeps(&self, alpha: f32) -> bool {
+        match self.alpha_mode {
+            AlphaMode::Opaque => true,
+            AlphaMode::Mask { cutoff } => alpha >= cutoff,
+        }
+    }
 }
 
 /// One triangle mesh (one glTF primitive).
@@ -344,6 +409,28 @@ impl Scene {
         match (m.texture, uv) {
             (Some(t), Some(uv)) => m.base_color * mesh::sample_bilinear_srgb(&self.textures[t], uv),
             _ => m.base_color,
+        }
+    }
+
+    /// Alpha of material `material` at `uv`: baseColorFactor's alpha ×
+    /// the texture's alpha (bilinear, repeat wrap, like the GPU's sampler;
+    /// alpha is linear in an sRGB texture).
+    pub fn alpha(&self, material: usize, uv: Option<Vec2>) -> f32 {
+        let m = &self.materials[material];
+        match (m.texture, uv) {
+            (Some(t), Some(uv)) => m.alpha * mesh::sample_bilinear_alpha(&self.textures[t], uv),
+            _ => m.alpha,
+        }
+    }
+
+    /// Whether the surface of material `material` exists at `uv`
+    /// ([`Material::keeps`] of [`Scene::alpha`]); always true for opaque
+    /// materials, without sampling.
+    pub fn alpha_keeps(&self, material: usize, uv: Option<Vec2>) -> bool {
+        let m = &self.materials[material];
+        match m.alpha_mode {
+            AlphaMode::Opaque => true,
+            AlphaMode::Mask { .. } => m.keeps(self.alpha(material, uv)),
         }
     }
 

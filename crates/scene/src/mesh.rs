@@ -178,30 +178,52 @@ fn srgb_to_linear(c: u8) -> f32 {
 /// before filtering) — the same filter as a `Rgba8UnormSrgb` GPU texture with
 /// a linear, repeating sampler and no mipmaps.
 pub fn sample_bilinear_srgb(t: &Texture, uv: Vec2) -> Vec3 {
-    if t.width == 0 || t.height == 0 {
-        return Vec3::ONE;
-    }
-    let (w, h) = (t.width as i64, t.height as i64);
-    let x = uv.x * t.width as f32 - 0.5;
-    let y = uv.y * t.height as f32 - 0.5;
-    if !x.is_finite() || !y.is_finite() {
-        return Vec3::ONE;
-    }
-    let (x0, y0) = (x.floor(), y.floor());
-    let (fx, fy) = (x - x0, y - y0);
-    let texel = |xi: i64, yi: i64| {
-        let xi = xi.rem_euclid(w) as usize;
-        let yi = yi.rem_euclid(h) as usize;
-        let o = (yi * t.width as usize + xi) * 4;
-        let p = &t.rgba8_srgb[o..o + 3];
+    sample_bilinear(t, uv, Vec3::ONE, |p| {
         Vec3::new(
             srgb_to_linear(p[0]),
             srgb_to_linear(p[1]),
             srgb_to_linear(p[2]),
         )
+    })
+}
+
+/// Bilinear sample of the alpha channel (linear in an sRGB texture), with
+/// the filter of [`sample_bilinear_srgb`].
+pub fn sample_bilinear_alpha(t: &Texture, uv: Vec2) -> f32 {
+    sample_bilinear(t, uv, 1.0, |p| p[3] as f32 / 255.0)
+}
+
+/// The bilinear filter shared by the samplers above: `texel` decodes one
+/// RGBA8 texel; `fallback` is returned for an empty texture or a
+/// non-finite coordinate.
+fn sample_bilinear<T>(t: &Texture, uv: Vec2, fallback: T, texel: impl Fn(&[u8]) -> T) -> T
+where
+    T: Copy
+        + std::ops::Mul<f32, Output = T>
+        + std::ops::Add<Output = T>
+        + std::ops::Sub<Output = T>,
+{
+    let (w, h) = (t.width as i64, t.height as i64);
+    if w == 0 || h == 0 || t.rgba8_srgb.len() < (w * h * 4) as usize {
+        return fallback;
+    }
+    let x = uv.x * t.width as f32 - 0.5;
+    let y = uv.y * t.height as f32 - 0.5;
+    if !x.is_finite() || !y.is_finite() {
+        return fallback;
+    }
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let at = |xi: i64, yi: i64| {
+        let xi = xi.rem_euclid(w) as usize;
+        let yi = yi.rem_euclid(h) as usize;
+        let o = (yi * t.width as usize + xi) * 4;
+        texel(&t.rgba8_srgb[o..o + 4])
     };
+    // glam's `lerp`, operation for operation: a + (b − a)·f.
+    let lerp = |a: T, b: T, f: f32| a + (b - a) * f;
     let (xi, yi) = (x0 as i64, y0 as i64);
-    let top = texel(xi, yi).lerp(texel(xi + 1, yi), fx);
-    let bot = texel(xi, yi + 1).lerp(texel(xi + 1, yi + 1), fx);
-    top.lerp(bot, fy)
+    let top = lerp(at(xi, yi), at(xi + 1, yi), fx);
+    let bot = lerp(at(xi, yi + 1), at(xi + 1, yi + 1), fx);
+    lerp(top, bot, fy)
 }

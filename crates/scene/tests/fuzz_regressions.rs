@@ -1,7 +1,9 @@
 //! Replays every input kept by the fuzzer (`fuzz/regressions/gltf_import/`,
-//! see scripts/fuzz.sh) and the bundled scenes, truncated and bit-flipped,
-//! through the glTF import: each gives a scene or an error, never a panic
-//! (not even one caught by the import's last-resort `catch_unwind`).
+//! `meshopt_decode/`, `webp_decode/`, see scripts/fuzz.sh) and the bundled
+//! scenes and real exports (`data/exports/`), truncated and bit-flipped,
+//! through the glTF import and the decoders: each gives a scene or an
+//! error, never a panic (not even one caught by the import's last-resort
+//! `catch_unwind`).
 
 use std::path::{Path, PathBuf};
 
@@ -40,8 +42,27 @@ fn kept_fuzz_inputs_do_not_panic() {
 }
 
 #[test]
+fn kept_decoder_fuzz_inputs_do_not_panic() {
+    let mut inputs = files(&root().join("fuzz/regressions/meshopt_decode"));
+    inputs.extend(files(&root().join("fuzz/seeds/meshopt")));
+    for f in inputs {
+        let bytes = std::fs::read(&f).expect("read regression input");
+        gibake_scene::decode::meshopt_fuzz_input(&bytes);
+    }
+    let mut inputs = files(&root().join("fuzz/regressions/webp_decode"));
+    inputs.extend(files(&root().join("fuzz/seeds/webp")));
+    for f in inputs {
+        let bytes = std::fs::read(&f).expect("read regression input");
+        let _ = gibake_scene::decode::webp(&bytes, 1 << 22);
+    }
+}
+
+#[test]
 fn bundled_scenes_damaged_do_not_panic() {
-    for f in files(&root().join("data")) {
+    let mut scenes = files(&root().join("data"));
+    scenes.extend(files(&root().join("data/exports")));
+    scenes.extend(files(&root().join("data/exports/refused")));
+    for f in scenes {
         if f.extension().is_none_or(|e| e != "glb") {
             continue;
         }

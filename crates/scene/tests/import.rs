@@ -480,12 +480,22 @@ fn materials_and_textures() {
         "{:?}",
         s.warnings
     );
-    assert_eq!(
-        s.warnings
+    // Ignored inputs: one warning per glTF material, naming it and them.
+    let ignored: Vec<&String> = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("ignored") && w.contains("material '"))
+        .collect();
+    assert_eq!(ignored.len(), 3, "{ignored:?}");
+    assert!(
+        ignored
             .iter()
-            .filter(|w| w.contains("ignored") && w.contains("materials"))
-            .count(),
-        1
+            .any(|w| w.contains("'AlsoPainted'") && w.contains("emissiveFactor [1.0, 0.0, 0.0]")),
+        "{ignored:?}"
+    );
+    assert!(
+        ignored.iter().all(|w| w.contains("metallicFactor 1")),
+        "the default metallicFactor is 1: {ignored:?}"
     );
     // Albedo: texel 0 is pure red (sRGB 255 → linear 1), times the factor.
     let a = s.albedo(meshes[0].material, Some(glam::Vec2::new(0.25, 0.5)));

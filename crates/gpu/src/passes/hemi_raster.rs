@@ -5,7 +5,8 @@
 //!
 //! Maps are tiles of one `R32Float` atlas (distance from the VPL origin;
 //! `f32::MAX` = nothing), ordered by a `Depth32Float` atlas. One instanced
-//! draw per mesh covers every job (VPL) and the four octahedron faces.
+//! draw per mesh covers every job (VPL) and the four octahedron faces; the
+//! mesh's material texture is bound per draw for the alpha test.
 
 use std::ops::Range;
 
@@ -142,6 +143,12 @@ pub struct HemiRasterPass {
     inst_capacity: u32,
     n_jobs: u32,
     depth_scale: f32,
+    /// The scene's material bind groups (texture, sampler), group 1.
+    material_groups: Vec<wgpu::BindGroup>,
+    /// Draw id → index into `material_groups`.
+    draw_material: Vec<usize>,
+    /// Draw id of each instance of the current table.
+    inst_draws: Vec<u32>,
 }
 
 fn storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
@@ -169,7 +176,7 @@ impl HemiRasterPass {
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("hemi raster"),
-            bind_group_layouts: &[Some(&layout)],
+            bind_group_layouts: &[Some(&layout), Some(&scene_gpu.material_layout)],
             immediate_size: 0,
         });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -220,6 +227,18 @@ impl HemiRasterPass {
             &params_buf,
             &inst_buf,
         );
+        let mut draw_material = Vec::new();
+        for d in scene_gpu
+            .static_draws
+            .iter()
+            .chain(&scene_gpu.dynamic_draws)
+        {
+            let id = d.id as usize;
+            if draw_material.len() <= id {
+                draw_material.resize(id + 1, 0);
+            }
+            draw_material[id] = d.material;
+        }
         HemiRasterPass {
             pipeline,
             layout,
@@ -231,6 +250,9 @@ impl HemiRasterPass {
             inst_capacity,
             n_jobs: 0,
             depth_scale,
+            material_groups: scene_gpu.material_groups.clone(),
+            draw_material,
+            inst_draws: Vec::new(),
         }
     }
 
@@ -323,6 +345,8 @@ impl HemiRasterPass {
             queue.write_buffer(&self.inst_buf, 0, bytemuck::cast_slice(instances));
         }
         self.n_jobs = jobs.len() as u32;
+        self.inst_draws.clear();
+        self.inst_draws.extend(instances.iter().map(|i| i[0]));
         let size = atlas.texture.size();
         let params = GpuRasterParams {
             atlas_size: [size.width as f32, size.height as f32],
@@ -385,8 +409,21 @@ impl HemiRasterPass {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
         let mut calls = 0;
+        let mut bound = None;
         for (indices, range) in draws {
             if !range.is_empty() {
+                // Every instance of a range draws the same mesh: its material.
+                let material = self
+                    .inst_draws
+                    .get(range.start as usize)
+                    .and_then(|&d| self.draw_material.get(d as usize))
+                    .copied()
+                    .unwrap_or(self.material_groups.len() - 1)
+                    .min(self.material_groups.len() - 1);
+                if bound != Some(material) {
+                    pass.set_bind_group(1, &self.material_groups[material], &[]);
+                    bound = Some(material);
+                }
                 pass.draw(indices.clone(), range.clone());
                 calls += 1;
             }

@@ -11,6 +11,10 @@
 // position is the exact point of the triangle on the texel's ray, so the
 // stored distance equals a ray cast through the texel centre.
 //
+// Alpha-masked surfaces cut holes (alpha_keeps, with the draw's texture
+// bound as group 1 per draw call): a moving tree's leaves let light through
+// in the merged VPL maps as they do in the baked ones.
+//
 // Instances: one entry of `instances` (draw, job, face) per instance, built
 // on the CPU only for the faces a draw's bounds touch. Vertices are pulled
 // from storage so each invocation sees its whole triangle and can reject a
@@ -38,17 +42,27 @@ struct RasterParams {
 @group(0) @binding(3) var<storage, read> jobs: array<Job>;
 @group(0) @binding(4) var<uniform> params: RasterParams;
 @group(0) @binding(5) var<storage, read> instances: array<vec4<u32>>;   // draw, job, face
+@group(1) @binding(0) var albedo_tex: texture_2d<f32>;
+@group(1) @binding(1) var albedo_smp: sampler;
 
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) local: vec3<f32>,
     @location(1) @interpolate(flat) job_face: u32,
+    @location(2) uv: vec2<f32>,
+    @location(3) @interpolate(flat) draw: u32,
 }
 
 fn vertex_world(d: DrawData, vi: u32) -> vec3<f32> {
     let base = (d.extra.x + indices[vi]) * 8u;
     let p = vec3<f32>(vertices[base], vertices[base + 1u], vertices[base + 2u]);
     return (d.model * vec4<f32>(p, 1.0)).xyz;
+}
+
+// TEXCOORD_0 of vertex vi (GpuVertex: position 0..3, normal 3..6, uv 6..8).
+fn vertex_uv(d: DrawData, vi: u32) -> vec2<f32> {
+    let base = (d.extra.x + indices[vi]) * 8u;
+    return vec2<f32>(vertices[base + 6u], vertices[base + 7u]);
 }
 
 @vertex
@@ -71,6 +85,8 @@ fn vs_main(@builtin(vertex_index) vi: u32, @builtin(instance_index) inst: u32) -
     var o: VsOut;
     o.local = me;
     o.job_face = job_i * 4u + face;
+    o.uv = vertex_uv(d, vi);
+    o.draw = draw_id;
     // Reject the triangle for this face if all corners are on the wrong side
     // of one of the face's bounding planes (sx·x ≥ 0, sy·y ≥ 0, z ≥ 0) or
     // behind the face plane's apex (w ≤ 0).
@@ -106,6 +122,11 @@ struct FsOut {
 
 @fragment
 fn fs_main(i: VsOut) -> FsOut {
+    // Sampled first, in uniform control flow.
+    let texel_alpha = textureSample(albedo_tex, albedo_smp, i.uv).a;
+    if (!alpha_keeps(draws[i.draw], texel_alpha)) {
+        discard;
+    }
     let face = i.job_face % 4u;
     let sx = select(-1.0, 1.0, (face & 1u) != 0u);
     let sy = select(-1.0, 1.0, (face & 2u) != 0u);

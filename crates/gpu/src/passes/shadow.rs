@@ -2,7 +2,8 @@
 //! moving objects): meshes drawn from the light's view
 //! ([`crate::LightView`]), storing the projection's metric in an `R32Float`
 //! texture (the depth buffer only orders fragments). Surfaces are
-//! two-sided, so nothing is culled.
+//! two-sided, so nothing is culled; alpha-masked materials cut holes (their
+//! texture is bound as group 1 and tested with `alpha_keeps`).
 
 use wgpu::util::DeviceExt;
 
@@ -47,7 +48,7 @@ impl ShadowPass {
             device,
             "shadow",
             &module,
-            &[&layout],
+            &[&layout, &scene_gpu.material_layout],
             &[Some(METRIC_FORMAT.into())],
             wgpu::CompareFunction::Greater,
         );
@@ -106,7 +107,7 @@ impl ShadowPass {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
         for d in draws {
-            scene_gpu.draw(&mut pass, d, false);
+            scene_gpu.draw(&mut pass, d, true);
         }
     }
 }

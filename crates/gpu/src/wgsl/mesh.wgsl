@@ -12,6 +12,7 @@ struct DrawData {
     model: mat4x4<f32>,
     normal_matrix: mat4x4<f32>,
     albedo: vec4<f32>,   // rgb baseColorFactor, w = 1 if textured
+    alpha: vec4<f32>,    // x alphaCutoff, y baseColorFactor alpha, z = 1 if masked
     extra: vec4<u32>,    // x base vertex, y first index, z triangle count
 }
 
@@ -42,4 +43,22 @@ fn draw_albedo(d: DrawData, texel: vec3<f32>) -> vec3<f32> {
         return d.albedo.rgb * texel;
     }
     return d.albedo.rgb;
+}
+
+// The glTF alpha test, the one GPU definition (the CPU's is
+// gibake_scene::Material::keeps, which the bake's and the reference's ray
+// casts use): a fragment of a masked draw (alphaMode MASK, or BLEND read as
+// a mask at 0.5) exists only where baseColorFactor alpha × texture alpha
+// (linear; sampled by the caller in uniform control flow, used only if the
+// draw is textured) reaches the cutoff. Every pass that draws scene meshes
+// discards where this is false, so every map sees the same holes.
+fn alpha_keeps(d: DrawData, texel_alpha: f32) -> bool {
+    if (d.alpha.z < 0.5) {
+        return true;
+    }
+    var a = d.alpha.y;
+    if (d.albedo.w > 0.5) {
+        a = a * texel_alpha;
+    }
+    return a >= d.alpha.x;
 }

@@ -124,7 +124,11 @@ impl<'a> Ctx<'a> {
                 Some(n) => format!("buffer {i} '{n}'"),
                 None => format!("buffer {i}"),
             };
+            let fallback = super::meshopt::is_fallback(b);
             let data = match b.uri.as_deref() {
+                // A meshopt fallback buffer needs no data: the views in it
+                // are decoded from the compressed bytes elsewhere.
+                None if fallback => Vec::new(),
                 None => blob.take().ok_or_else(|| {
                     self.invalid(format!(
                         "{what} has no uri and the file has no GLB BIN chunk for it"
@@ -138,7 +142,7 @@ impl<'a> Ctx<'a> {
                 Some(uri) => self.read_external(uri, &what)?.1,
             };
             let expected = b.byte_length.0;
-            if (data.len() as u64) < expected {
+            if (data.len() as u64) < expected && !(fallback && data.is_empty()) {
                 return Err(self.invalid(format!(
                     "{what}: byteLength is {expected} but only {} bytes are available (truncated file?)",
                     data.len()
@@ -150,13 +154,32 @@ impl<'a> Ctx<'a> {
         Ok(())
     }
 
-    /// The bytes of buffer view `v`, range-checked.
+    /// The bytes of buffer view `v`, range-checked (the decoded bytes of a
+    /// meshopt-compressed view).
     pub(super) fn view_bytes(&self, v: usize) -> Result<(&[u8], Option<usize>), String> {
         let view = self
             .root
             .buffer_views
             .get(v)
             .ok_or_else(|| format!("bufferView {v} does not exist"))?;
+        if let Some(d) = self.decoded.get(&v) {
+            return Ok((d, view.byte_stride.map(|s| s.0)));
+        }
+        if self
+            .buffers
+            .get(view.buffer.value())
+            .is_some_and(|b| b.is_empty())
+            && self
+                .root
+                .buffers
+                .get(view.buffer.value())
+                .is_some_and(super::meshopt::is_fallback)
+        {
+            return Err(format!(
+                "bufferView {v} lies in buffer {}, a meshopt fallback buffer that holds no data",
+                view.buffer.value()
+            ));
+        }
         let buf = self.buffers.get(view.buffer.value()).ok_or_else(|| {
             format!(
                 "bufferView {v}: buffer {} does not exist",

@@ -7,6 +7,8 @@ use gltf::json;
 use gltf::json::validation::Checked;
 
 use super::accessors::{vec2s, vec3s};
+use super::materials::albedo_info;
+use super::texture_transform::UvTransform;
 use super::{Ctx, MaterialTable, PrimData};
 use crate::mesh::compute_normals;
 use crate::{Mesh, SceneError};
@@ -187,19 +189,27 @@ impl<'a> Ctx<'a> {
             }
         };
 
-        // Material and texture coordinates.
+        // Material and texture coordinates (KHR_texture_transform applied).
         let mat_index = prim.material.map(|m| m.value());
         let mut tex = None;
         if let Some(mi) = mat_index {
             let m = self.root.materials.get(mi).ok_or_else(|| {
                 self.invalid(format!("mesh {name}: material {mi} does not exist"))
             })?;
-            if let Some(info) = &m.pbr_metallic_roughness.base_color_texture {
-                tex = Some((info.index.value(), info.tex_coord));
+            if let Some(info) = albedo_info(m) {
+                let (transform, set) = match UvTransform::of(info) {
+                    Ok(Some((t, set))) => (Some(t), set.unwrap_or(info.tex_coord)),
+                    Ok(None) => (None, info.tex_coord),
+                    Err(e) => {
+                        let mname = m.name.clone().unwrap_or_else(|| format!("material #{mi}"));
+                        return Err(self.invalid(format!("material '{mname}': {e}")));
+                    }
+                };
+                tex = Some((info.index.value(), set, transform));
             }
         }
         let mut uvs = None;
-        if let Some((_, set)) = tex {
+        if let Some((_, set, transform)) = tex {
             match attr(Semantic::TexCoords(set)) {
                 None => {
                     self.warn(format!(
@@ -219,15 +229,22 @@ impl<'a> Ctx<'a> {
                             format!("{ucount} texture coordinates for {vcount} vertices"),
                         ));
                     }
-                    if uf.iter().any(|x| !x.is_finite()) {
+                    let mut uv = vec2s(&uf);
+                    if let Some(t) = transform {
+                        for x in &mut uv {
+                            *x = t.apply(*x);
+                        }
+                    }
+                    if uv.iter().any(|x| !x.is_finite()) {
                         return Err(self.acc_err(
                             name,
                             ua,
                             &what,
-                            "texture coordinates are not finite".into(),
+                            "texture coordinates are not finite (after KHR_texture_transform)"
+                                .into(),
                         ));
                     }
-                    uvs = Some(vec2s(&uf));
+                    uvs = Some(uv);
                 }
             }
         }

@@ -9,15 +9,22 @@
 //! The stages, in the order [`load`] runs them, one submodule each:
 //! - [`precheck`]: the GLB header and what gltf-json's validation would
 //!   choke on (required extensions, unchecked indices);
+//! - [`extensions`]: which glTF extensions are applied, warnings naming
+//!   the others and what carries them, and the conversion command for the
+//!   compressions gibake does not decode;
 //! - [`uri`] and [`accessors`]: buffers (blob, external files, data URIs),
-//!   buffer views and accessors, against the element budget;
+//!   buffer views and accessors, against the element budget; [`meshopt`]:
+//!   meshopt-compressed buffer views, decoded once after loading;
 //! - [`nodes`] and [`animation`]: the node hierarchy and rest matrices, the
 //!   animation channels (sampled later by [`crate::Animator`]);
 //! - this module's `Ctx::build`: the traversal that decides what is static
 //!   and what moves, then assembles the [`Scene`];
 //! - [`lights`] and [`cameras`]: the primary light and the camera;
 //! - [`meshes`], [`materials`] and [`textures`]: primitives, materials and
-//!   their decoded base-colour images.
+//!   their decoded base-colour images; [`texture_transform`]:
+//!   `KHR_texture_transform`, applied to the texture coordinates;
+//!   [`instancing`]: `EXT_mesh_gpu_instancing`, expanded to one mesh per
+//!   instance.
 //!
 //! `Ctx` holds the per-import state; each submodule adds the methods of its
 //! stage to it.
@@ -25,11 +32,15 @@
 mod accessors;
 mod animation;
 mod cameras;
+mod extensions;
+mod instancing;
 mod lights;
 mod materials;
 mod meshes;
+mod meshopt;
 mod nodes;
 mod precheck;
+mod texture_transform;
 mod textures;
 mod uri;
 
@@ -38,7 +49,7 @@ use std::collections::HashMap;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
-use glam::{Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 use gltf::json;
 
 use crate::animation::Animator;
@@ -117,6 +128,7 @@ fn import(bytes: &[u8], path: &Path, options: &LoadOptions) -> Result<Scene, Sce
     let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_err)?;
     let gltf::Gltf { document, blob } = gltf;
     let mut root = document.into_json();
+    let extension_warnings = extensions::unapplied_warnings(&root);
     precheck(&mut root, path)?;
     let document = gltf::Document::from_json(root).map_err(gltf_err)?;
     let base = match path.parent() {
@@ -129,16 +141,22 @@ fn import(bytes: &[u8], path: &Path, options: &LoadOptions) -> Result<Scene, Sce
         document: &document,
         root: document.as_json(),
         buffers: Vec::new(),
+        decoded: HashMap::new(),
         warnings: Vec::new(),
         limits: &options.limits,
         elements_read: Cell::new(0),
         texels_decoded: Cell::new(0),
     };
+    for w in extension_warnings {
+        ctx.warn(w);
+    }
     ctx.load_buffers(blob)?;
+    ctx.decode_meshopt_views()?;
     ctx.build(options)
 }
 
 /// One primitive's data as read from the file (node-local space).
+#[derive(Clone)]
 struct PrimData {
     positions: Vec<Vec3>,
     normals: Option<Vec<Vec3>>,
@@ -156,6 +174,8 @@ struct Ctx<'a> {
     document: &'a gltf::Document,
     root: &'a json::Root,
     buffers: Vec<gltf::buffer::Data>,
+    /// Decoded meshopt-compressed buffer views, by view index.
+    decoded: HashMap<usize, Vec<u8>>,
     warnings: Vec<String>,
     limits: &'a Limits,
     /// Accessor elements read so far (against `limits.max_elements`).
@@ -189,11 +209,13 @@ impl DegenerateCount {
 struct MaterialTable {
     materials: Vec<Material>,
     textures: Vec<Texture>,
-    /// (glTF material, textured) → scene material.
+    /// (glTF material, textured) → scene material. Texture transforms live
+    /// in the meshes' texture coordinates, so they do not split materials.
     by_key: HashMap<(Option<usize>, bool), usize>,
     /// glTF image → scene texture.
     by_image: HashMap<usize, usize>,
-    warned_inputs: bool,
+    /// glTF materials whose ignored inputs have been warned about.
+    warned: std::collections::HashSet<Option<usize>>,
 }
 
 impl<'a> Ctx<'a> {
@@ -371,7 +393,23 @@ impl<'a> Ctx<'a> {
                 Some(nm) => nm.clone(),
                 None => format!("node #{v}"),
             };
+            let instances = self.instances(v)?;
             let prims = self.read_mesh(mesh_index, &node_label, &mut table)?;
+            if let Some(inst) = &instances {
+                let vertices = prims.iter().map(|(_, p)| p.positions.len()).sum();
+                self.charge_instances(v, inst.len(), vertices)?;
+            }
+            // Each instance of EXT_mesh_gpu_instancing is its own mesh.
+            let copies = |name: &str| -> Vec<(String, Mat4)> {
+                match &instances {
+                    None => vec![(name.to_string(), Mat4::IDENTITY)],
+                    Some(inst) => inst
+                        .iter()
+                        .enumerate()
+                        .map(|(k, m)| (format!("{name}#{k}"), *m))
+                        .collect(),
+                }
+            };
             if dynamic[v] {
                 let mut object = DynamicObject {
                     name: node_label.clone(),
@@ -379,28 +417,39 @@ impl<'a> Ctx<'a> {
                     meshes: Vec::new(),
                     local_bounds: Aabb::EMPTY,
                 };
-                for (name, mut p) in prims {
-                    let dropped = drop_degenerate(&p.positions, &mut p.indices);
-                    degenerate.note(dropped, &name);
-                    if p.indices.is_empty() {
-                        continue;
-                    }
-                    for &q in &p.positions {
-                        object.local_bounds.grow(q);
-                    }
-                    let normals = match p.normals {
-                        Some(nr) => nr,
-                        None => compute_normals(&p.positions, &p.indices),
+                for (name, p) in prims {
+                    let meshes = if instances.is_none() {
+                        let normals = match p.normals {
+                            Some(nr) => nr,
+                            None => compute_normals(&p.positions, &p.indices),
+                        };
+                        vec![Mesh {
+                            name,
+                            positions: p.positions,
+                            normals,
+                            uvs: p.uvs,
+                            indices: p.indices,
+                            material: p.material,
+                        }]
+                    } else {
+                        let mut out = Vec::new();
+                        for (n, m) in copies(&name) {
+                            out.push(self.flatten(n, p.clone(), m)?);
+                        }
+                        out
                     };
-                    object.meshes.push(dynamic_meshes.len());
-                    dynamic_meshes.push(Mesh {
-                        name,
-                        positions: p.positions,
-                        normals,
-                        uvs: p.uvs,
-                        indices: p.indices,
-                        material: p.material,
-                    });
+                    for mut mesh in meshes {
+                        let dropped = drop_degenerate(&mesh.positions, &mut mesh.indices);
+                        degenerate.note(dropped, &mesh.name);
+                        if mesh.indices.is_empty() {
+                            continue;
+                        }
+                        for &q in &mesh.positions {
+                            object.local_bounds.grow(q);
+                        }
+                        object.meshes.push(dynamic_meshes.len());
+                        dynamic_meshes.push(mesh);
+                    }
                 }
                 if !object.meshes.is_empty() {
                     dynamic_objects.push(object);
@@ -408,11 +457,21 @@ impl<'a> Ctx<'a> {
             } else {
                 let world = animator.world_matrix(v, 0.0);
                 for (name, p) in prims {
-                    let mut mesh = self.flatten(name, p, world)?;
-                    let dropped = drop_degenerate(&mesh.positions, &mut mesh.indices);
-                    degenerate.note(dropped, &mesh.name);
-                    if !mesh.indices.is_empty() {
-                        static_meshes.push(mesh);
+                    let meshes = if instances.is_none() {
+                        vec![self.flatten(name, p, world)?]
+                    } else {
+                        let mut out = Vec::new();
+                        for (n, m) in copies(&name) {
+                            out.push(self.flatten(n, p.clone(), world * m)?);
+                        }
+                        out
+                    };
+                    for mut mesh in meshes {
+                        let dropped = drop_degenerate(&mesh.positions, &mut mesh.indices);
+                        degenerate.note(dropped, &mesh.name);
+                        if !mesh.indices.is_empty() {
+                            static_meshes.push(mesh);
+                        }
                     }
                 }
             }

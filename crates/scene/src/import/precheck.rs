@@ -1,39 +1,25 @@
 //! File-level checks before the `gltf` crate parses and validates: the GLB
-//! container header, required extensions, and the indices gltf-json's
-//! validation would use without a bounds check.
+//! container header, required extensions and extension-named texture
+//! sources, and the indices gltf-json's validation would use without a
+//! bounds check.
 
 use std::path::Path;
 
 use gltf::json;
 
+use super::extensions;
 use crate::SceneError;
-
-/// Extensions that may be listed in `extensionsRequired` without stopping us.
-pub(super) const HARMLESS_REQUIRED: &[&str] = &[
-    "KHR_lights_punctual",
-    "KHR_mesh_quantization",
-    "KHR_materials_variants",
-];
 
 /// Checks made before the `gltf` crate validates the document: required
 /// extensions we cannot honour (a clear "not supported" instead of a generic
-/// validation error; the ones we can ignore are removed so validation accepts
-/// them), and POSITION accessor indices (gltf-json's validation indexes them
-/// without a bounds check).
+/// validation error; the ones we apply or can ignore are removed so
+/// validation accepts them), `EXT_texture_webp` sources, and POSITION
+/// accessor indices (gltf-json's validation indexes them without a bounds
+/// check).
 pub(super) fn precheck(root: &mut json::Root, path: &Path) -> Result<(), SceneError> {
-    let unsupported: Vec<&str> = root
-        .extensions_required
-        .iter()
-        .map(String::as_str)
-        .filter(|e| !HARMLESS_REQUIRED.contains(e) && !e.starts_with("KHR_materials_"))
-        .collect();
-    if !unsupported.is_empty() {
-        return Err(SceneError::NotSupported {
-            path: path.to_path_buf(),
-            message: format!("required glTF extension(s) {}", unsupported.join(", ")),
-        });
-    }
-    root.extensions_required.clear();
+    extensions::check_required(root, path)?;
+    extensions::resolve_texture_sources(root, path)?;
+    extensions::check_draco_fallback(root, path)?;
     for (mi, mesh) in root.meshes.iter().enumerate() {
         for (pi, prim) in mesh.primitives.iter().enumerate() {
             for acc in prim.attributes.values() {

@@ -1,12 +1,60 @@
-//! Textures and images: decodes embedded or external PNG/JPEG images into
-//! RGBA8 (sRGB kept as in the file), checks headers and sizes against the
-//! texel budget, and scales oversized textures down.
+//! Textures and images: decodes embedded or external PNG, JPEG and WebP
+//! images into RGBA8 (sRGB kept as in the file), checks headers and sizes
+//! against the texel budget, and scales oversized textures down. Formats
+//! gibake does not decode (KTX2/Basis Universal, AVIF) are refused with a
+//! message naming their extension and the command that converts them.
 
 use std::path::Path;
 
 use super::Ctx;
+use super::extensions::conversion_hint;
 use crate::limits;
-use crate::{SceneError, Texture};
+use crate::{SceneError, Texture, decode};
+
+/// An image encoding recognised from its first bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum ImageKind {
+    Png,
+    Jpeg,
+    Webp,
+    /// KTX 2.0 (`KHR_texture_basisu`).
+    Ktx2,
+    /// AVIF (`EXT_texture_avif`): an ISO-BMFF `ftyp` box with an AVIF brand.
+    Avif,
+    Unknown,
+}
+
+impl ImageKind {
+    pub(super) fn sniff(head: &[u8]) -> ImageKind {
+        if head.starts_with(b"\x89PNG") {
+            ImageKind::Png
+        } else if head.starts_with(&[0xff, 0xd8, 0xff]) {
+            ImageKind::Jpeg
+        } else if decode::is_webp(head) {
+            ImageKind::Webp
+        } else if head.starts_with(b"\xabKTX 20\xbb\r\n\x1a\n") {
+            ImageKind::Ktx2
+        } else if head.len() >= 12
+            && &head[4..8] == b"ftyp"
+            && (&head[8..12] == b"avif" || &head[8..12] == b"avis")
+        {
+            ImageKind::Avif
+        } else {
+            ImageKind::Unknown
+        }
+    }
+
+    fn mime(self) -> Option<&'static str> {
+        match self {
+            ImageKind::Png => Some("image/png"),
+            ImageKind::Jpeg => Some("image/jpeg"),
+            ImageKind::Webp => Some("image/webp"),
+            ImageKind::Ktx2 => Some("image/ktx2"),
+            ImageKind::Avif => Some("image/avif"),
+            ImageKind::Unknown => None,
+        }
+    }
+}
 
 /// The first 64 KiB of `file` (enough for a PNG or JPEG header), empty on error.
 pub(super) fn head_bytes(file: &Path) -> Vec<u8> {
@@ -18,19 +66,20 @@ pub(super) fn head_bytes(file: &Path) -> Vec<u8> {
     out
 }
 
-/// The MIME type of a PNG or JPEG file from its first bytes (`None` if neither).
-pub(super) fn sniff_image(file: &Path) -> std::io::Result<Option<&'static str>> {
+/// The encoding of an image file from its first bytes.
+pub(super) fn sniff_image(file: &Path) -> std::io::Result<ImageKind> {
     use std::io::Read;
-    let mut head = [0u8; 8];
+    let mut head = [0u8; 16];
     let mut f = std::fs::File::open(file)?;
-    let n = f.read(&mut head)?;
-    Ok(if head[..n].starts_with(b"\x89PNG") {
-        Some("image/png")
-    } else if head[..n].starts_with(&[0xff, 0xd8, 0xff]) {
-        Some("image/jpeg")
-    } else {
-        None
-    })
+    let mut n = 0;
+    while n < head.len() {
+        let k = f.read(&mut head[n..])?;
+        if k == 0 {
+            break;
+        }
+        n += k;
+    }
+    Ok(ImageKind::sniff(&head[..n]))
 }
 
 /// Converts any decoded image to RGBA8 (RGB kept sRGB-encoded as in the file).
@@ -125,7 +174,9 @@ impl<'a> Ctx<'a> {
             let (bytes, _) = self
                 .view_bytes(v)
                 .map_err(|e| self.invalid(format!("{what}: {e}")))?;
-            self.check_image_header(&what, bytes)?;
+            if self.check_image_header(&what, bytes)? == ImageKind::Webp {
+                return self.decode_webp(&what, bytes);
+            }
             let view =
                 self.document.views().nth(v).ok_or_else(|| {
                     self.invalid(format!("{what}: bufferView {v} does not exist"))
@@ -138,28 +189,31 @@ impl<'a> Ctx<'a> {
             if uri.starts_with("data:") {
                 let bytes = gltf::buffer::Data::from_source(gltf::buffer::Source::Uri(uri), None)
                     .map_err(|e| self.invalid(format!("{what}: bad data URI: {e}")))?;
-                self.check_image_header(&what, &bytes.0)?;
+                if self.check_image_header(&what, &bytes.0)? == ImageKind::Webp {
+                    return self.decode_webp(&what, &bytes.0);
+                }
                 gltf::image::Source::Uri {
                     uri,
                     mime_type: mime,
                 }
             } else {
                 let file = self.resolve_uri(uri, &what)?;
-                if let Err(e) = limits::check_regular(&file, self.limits.max_input_bytes) {
-                    return Err(self.invalid(format!(
+                let cannot_read = |e: &dyn std::fmt::Display| {
+                    self.invalid(format!(
                         "{what}: cannot read '{uri}' ({}): {e}",
                         file.display()
-                    )));
-                }
-                let head = match sniff_image(&file) {
-                    Ok(h) => h,
-                    Err(e) => {
-                        return Err(self.invalid(format!(
-                            "{what}: cannot read '{uri}' ({}): {e}",
-                            file.display()
-                        )));
-                    }
+                    ))
                 };
+                if let Err(e) = limits::check_regular(&file, self.limits.max_input_bytes) {
+                    return Err(cannot_read(&e));
+                }
+                let head = sniff_image(&file).map_err(|e| cannot_read(&e))?;
+                if head == ImageKind::Webp {
+                    let bytes = limits::read_regular(&file, self.limits.max_input_bytes)
+                        .map_err(|e| cannot_read(&e))?;
+                    self.check_image_header(&what, &bytes)?;
+                    return self.decode_webp(&what, &bytes);
+                }
                 self.check_image_header(&what, &head_bytes(&file))?;
                 let s = file.to_str().ok_or_else(|| {
                     self.invalid(format!(
@@ -172,7 +226,7 @@ impl<'a> Ctx<'a> {
                 // give it the type from the file's magic bytes instead.
                 gltf::image::Source::Uri {
                     uri: &file_uri,
-                    mime_type: mime.or(head),
+                    mime_type: mime.or(head.mime()),
                 }
             }
         } else {
@@ -183,14 +237,55 @@ impl<'a> Ctx<'a> {
         to_rgba8(&data).ok_or_else(|| self.invalid(format!("{what}: unexpected pixel data size")))
     }
 
-    /// Reads the image's size from its header and charges it to the texel
-    /// budget, before anything is decoded.
-    pub(super) fn check_image_header(&self, what: &str, bytes: &[u8]) -> Result<(), SceneError> {
-        match limits::image_dimensions(bytes) {
-            Some((w, h)) => self.charge_texels(what, w, h),
-            // Neither PNG nor JPEG: the decoder rejects it without decoding.
-            None => Ok(()),
+    /// Decodes a WebP image whose header [`Ctx::check_image_header`] has
+    /// already charged to the texel budget.
+    fn decode_webp(&self, what: &str, bytes: &[u8]) -> Result<Texture, SceneError> {
+        decode::webp(bytes, self.limits.max_texels)
+            .map_err(|e| self.invalid(format!("{what}: {e}")))
+    }
+
+    /// Recognises the image's encoding from its first bytes, reads its size
+    /// from its header and charges it to the texel budget, before anything
+    /// is decoded. An encoding gibake does not decode is refused here, with
+    /// the extension it belongs to and the command that converts it.
+    pub(super) fn check_image_header(
+        &self,
+        what: &str,
+        bytes: &[u8],
+    ) -> Result<ImageKind, SceneError> {
+        let kind = ImageKind::sniff(bytes);
+        match kind {
+            ImageKind::Png | ImageKind::Jpeg => {
+                if let Some((w, h)) = limits::image_dimensions(bytes) {
+                    self.charge_texels(what, w, h)?;
+                }
+                // A damaged header: the decoder rejects it without decoding.
+            }
+            ImageKind::Webp => {
+                let (w, h) = decode::webp_dimensions(bytes)
+                    .map_err(|e| self.invalid(format!("{what}: {e}")))?;
+                self.charge_texels(what, w, h)?;
+            }
+            ImageKind::Ktx2 => {
+                return Err(self.not_supported(format!(
+                    "{what} is a KTX2 (Basis Universal) texture of KHR_texture_basisu, which gibake does not decode; {}",
+                    conversion_hint("KHR_texture_basisu")
+                )));
+            }
+            ImageKind::Avif => {
+                return Err(self.not_supported(format!(
+                    "{what} is an AVIF image of EXT_texture_avif, which gibake does not decode; {}",
+                    conversion_hint("EXT_texture_avif")
+                )));
+            }
+            ImageKind::Unknown => {
+                return Err(self.not_supported(format!(
+                    "{what}: cannot decode: unsupported image encoding, not PNG, JPEG or WebP (the ones gibake reads; the first bytes are {})",
+                    hex_head(bytes)
+                )));
+            }
         }
+        Ok(kind)
     }
 
     /// Downscales a texture larger than `--max-texture-size`, with a warning.
@@ -207,4 +302,16 @@ impl<'a> Ctx<'a> {
             }
         }
     }
+}
+
+/// The first bytes of `b` in hex, for messages.
+fn hex_head(b: &[u8]) -> String {
+    if b.is_empty() {
+        return "none (empty)".into();
+    }
+    b.iter()
+        .take(8)
+        .map(|x| format!("{x:02x}"))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
