@@ -81,6 +81,12 @@ fn every_readme_example_runs_as_written() {
     std::fs::create_dir(dir.join("levels")).unwrap();
     std::fs::copy(&scene, dir.join("levels/hall.glb")).unwrap();
     std::fs::copy(common::data("sun.glb"), dir.join("levels/yard.glb")).unwrap();
+    // A real level exported without a light or camera (data/levels/).
+    std::fs::copy(
+        common::root().join("data/levels/living_room/living_room.glb"),
+        dir.join("room.glb"),
+    )
+    .unwrap();
     for a in ["a.gibake", "b.gibake"] {
         let mut args = vec!["bake", "scene.glb", "-o", a];
         args.extend(common::TINY_BAKE);
