@@ -655,7 +655,8 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
             let (w, h) = atlas_dims(&manifest);
             4 * w * h
         }),
-        (FILE_RSM, 20 * s.rsm_size as u64 * s.rsm_size as u64),
+        // Z, share, vpl: 4 bytes each.
+        (FILE_RSM, 12 * s.rsm_size as u64 * s.rsm_size as u64),
     ] {
         let bytes = take(name);
         if !bytes.is_empty() {

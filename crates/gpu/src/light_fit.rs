@@ -47,7 +47,7 @@ pub const LARGE_TRIANGLE: f32 = 0.25;
 /// The full extent counts as outlier-free while it is at most this many
 /// times the core (the extent of the triangles that are not large) on both
 /// axes.
-pub const OUTLIER_RATIO: f32 = 8.0;
+pub const OUTLIER_RATIO: f32 = 64.0;
 
 /// Growth of the core on each side when outliers are cut, as a fraction of
 /// its size.
