@@ -61,6 +61,8 @@ struct App {
     watch: Option<AssetWatch>,
     title_at: Instant,
     stats: String,
+    /// Hot reloads done.
+    reloads: u32,
 }
 
 /// The display named in the environment, for messages; `None`: none.
@@ -102,6 +104,7 @@ pub(crate) fn run(opts: ViewOptions) -> Result<Option<Screenshot>, ViewerError> 
         captured: false,
         title_at: now,
         stats: String::new(),
+        reloads: 0,
     };
     event_loop
         .run_app(&mut app)
@@ -368,8 +371,12 @@ impl App {
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
+        let reloads = match self.reloads {
+            0 => String::new(),
+            n => format!(" — reloaded {n}×"),
+        };
         gpu.window.set_title(&format!(
-            "gibake view — {name} — {} — interleave {} — t {:.2} s {} — {}",
+            "gibake view — {name} — {} — interleave {} — t {:.2} s {}{reloads} — {}",
             s.mode.name(),
             gpu.renderer.interleave(),
             self.time,
@@ -405,6 +412,7 @@ impl App {
             Ok(asset) => {
                 eprintln_info(&format!("reloaded {}", dir.display()));
                 self.opts.asset = Some(asset);
+                self.reloads += 1;
             }
             Err(e) => tracing::warn!(
                 "{}: not reloaded, keeping the previous asset: {e}",
