@@ -121,7 +121,8 @@ fn png_rgb(path: &Path) -> (u32, u32, Vec<u8>) {
 
 /// `gibake view --frames 3 --screenshot` in a real window equals `gibake
 /// render` of frame 2 of the same sequence: radiance (EXR) within a
-/// relative MSE of 1e-6, the PNG within 1/255 per channel.
+/// relative MSE of 1e-6, the PNG within 1/255 per channel, and the pixels
+/// the window showed (`--presented`) within 2/255.
 #[test]
 fn headless_view_in_a_window_matches_render() {
     let asset = asset();
@@ -139,6 +140,9 @@ fn headless_view_in_a_window_matches_render() {
             .args(VIEW)
             .args(["--frames", "3", "--screenshot"])
             .arg(&shot);
+        if ext == "png" {
+            c.arg("--presented").arg(dir.path().join("shown.png"));
+        }
         let r = common::run_command(c);
         assert_eq!(r.code, Some(0), "{r}");
         assert!(r.stderr.contains("wrote"), "{r}");
@@ -169,6 +173,21 @@ fn headless_view_in_a_window_matches_render() {
         "the view is mostly black: nothing to compare"
     );
     assert!(max <= 1, "view and render differ by up to {max}/255");
+    // What the window showed (the present pass's tone mapping on the GPU)
+    // against render's PNG (the same curve on the CPU).
+    let (sw, sh, shown) = png_rgb(&dir.path().join("shown.png"));
+    assert_eq!((sw, sh), (96, 64), "the window's size");
+    let max_shown = shown
+        .iter()
+        .zip(&r)
+        .map(|(a, b)| a.abs_diff(*b))
+        .max()
+        .unwrap();
+    eprintln!("window: max |shown − render| = {max_shown}/255");
+    assert!(
+        max_shown <= 2,
+        "the window showed up to {max_shown}/255 off render's PNG"
+    );
     let v = gibake_image::Image::read_exr(&dir.path().join("view.exr")).unwrap();
     let r = gibake_image::Image::read_exr(&dir.path().join("render2.exr")).unwrap();
     let e = gibake_image::rel_mse(&v, &r);
@@ -222,4 +241,35 @@ fn gpu_report_names_adapter_limits_and_memory() {
     ] {
         assert!(r.stdout.contains(want), "no {want:?} in\n{r}");
     }
+}
+
+/// Bad outputs are refused before any window opens: exit 2, one message.
+#[test]
+fn bad_screenshot_paths_are_refused_before_the_window() {
+    let dir = tempfile::tempdir().unwrap();
+    let shot = dir.path().join("a.png");
+    let cases: [(&[&str], &str); 3] = [
+        (&["--screenshot", "a.txt"], "--screenshot"),
+        (&["--presented", "a.exr"], "--presented"),
+        (
+            &["--screenshot", "a.png", "--presented", "a.png"],
+            "--presented",
+        ),
+    ];
+    for (args, flag) in cases {
+        let mut c = no_display(common::gibake());
+        c.current_dir(dir.path())
+            .arg("view")
+            .arg(common::data("occluded.glb"))
+            .args(["--mode", "direct", "--frames", "1"])
+            .args(args);
+        let r = common::run_command(c);
+        assert_eq!(r.code, Some(2), "{r}");
+        assert!(
+            r.stderr.contains(flag) && !r.stderr.contains("DISPLAY"),
+            "{r}"
+        );
+        assert!(!r.stderr.contains("panicked"), "{r}");
+    }
+    assert!(!shot.exists());
 }

@@ -462,10 +462,14 @@ pub struct ViewArgs {
     /// Headless: write the last frame here (.png tone-mapped, or .exr).
     #[arg(long, value_name = "FRAME.png", requires = "frames")]
     pub screenshot: Option<PathBuf>,
+    /// Headless: also write what the window showed (the surface's pixels
+    /// after the present pass, PNG), where the surface allows reading it.
+    #[arg(long, value_name = "SHOWN.png", requires = "frames")]
+    pub presented: Option<PathBuf>,
     /// Print the adapter, the limits the level needs against the adapter's
     /// and the GPU memory it needs, then exit (0, or 2 when the adapter
     /// cannot run it). Needs no display.
-    #[arg(long, conflicts_with_all = ["frames", "screenshot"])]
+    #[arg(long, conflicts_with_all = ["frames", "screenshot", "presented"])]
     pub gpu_report: bool,
     /// Primary shadow map resolution.
     #[arg(long, default_value_t = 2048)]

@@ -22,15 +22,23 @@ pub(crate) fn view(a: ViewArgs) -> anyhow::Result<ExitCode> {
     {
         bail!("--exposure must be a positive number, got {e}");
     }
-    if let Some(shot) = &a.screenshot {
-        let mut inputs: Vec<&Path> = vec![&a.scene.scene];
-        if let Some(b) = &a.bake {
-            inputs.push(b);
-        }
-        crate::output::check_extension("--screenshot", shot, &["png", "exr"])?;
-        crate::output::check_not_input("--screenshot", shot, &inputs)?;
-        crate::guard::check_file_output("--screenshot", shot)?;
+    let mut inputs: Vec<&Path> = vec![&a.scene.scene];
+    if let Some(b) = &a.bake {
+        inputs.push(b);
     }
+    let mut outputs: Vec<(&str, &Path)> = Vec::new();
+    for (flag, path, exts) in [
+        ("--screenshot", &a.screenshot, &["png", "exr"][..]),
+        ("--presented", &a.presented, &["png"][..]),
+    ] {
+        if let Some(p) = path {
+            crate::output::check_extension(flag, p, exts)?;
+            crate::output::check_not_input(flag, p, &inputs)?;
+            crate::guard::check_file_output(flag, p)?;
+            outputs.push((flag, p));
+        }
+    }
+    crate::output::check_distinct(&outputs)?;
     let mode = mode_of(a.mode);
     let asset = match (&a.bake, mode) {
         (Some(p), _) => Some(crate::limits::load_asset(p)?),
@@ -80,10 +88,23 @@ pub(crate) fn view(a: ViewArgs) -> anyhow::Result<ExitCode> {
         adapter: a.adapter.clone(),
     })
     .with_context(|| format!("viewing {}", a.scene.scene.display()))?;
-    if let (Some(path), Some(shot)) = (&a.screenshot, shot) {
+    let Some(shot) = shot else {
+        return Ok(ExitCode::SUCCESS);
+    };
+    if let Some(path) = &a.screenshot {
         eprintln!("GPU: {}", shot.adapter);
         crate::output::write_image_atomic(&shot.image, path, Some(shot.exposure))?;
         eprintln!("wrote {} (exposure {})", path.display(), shot.exposure);
+    }
+    if let Some(path) = &a.presented {
+        let Some((w, h, rgb)) = &shot.presented else {
+            bail!(
+                "--presented: the window's surface on {} does not allow reading it back",
+                shot.adapter.name
+            );
+        };
+        crate::output::write_rgb8_png_atomic(path, *w, *h, rgb)?;
+        eprintln!("wrote {} (the window's pixels)", path.display());
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -198,8 +198,14 @@ impl App {
         let format =
             surface_format(&caps).ok_or_else(|| ViewerError::SurfaceFormat(record.name.clone()))?;
         let size = window.inner_size();
+        // Headless runs read the last presented frame back when they may.
+        let copy = if self.headless() {
+            caps.usages & wgpu::TextureUsages::COPY_SRC
+        } else {
+            wgpu::TextureUsages::empty()
+        };
         let config = wgpu::SurfaceConfiguration {
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | copy,
             format,
             width: size.width.max(1),
             height: size.height.max(1),
@@ -317,6 +323,12 @@ impl App {
             [gpu.config.width, gpu.config.height],
         );
         gpu.queue.submit([enc.finish()]);
+        let last = self.opts.frames.is_some_and(|n| self.frames + 1 >= n);
+        let presented = if last && gpu.config.usage.contains(wgpu::TextureUsages::COPY_SRC) {
+            Some(read_presented(gpu, &texture.texture)?)
+        } else {
+            None
+        };
         gpu.window.pre_present_notify();
         gpu.queue.present(texture);
         self.skipped = 0;
@@ -341,6 +353,7 @@ impl App {
                     image: read_output(gpu)?,
                     exposure,
                     adapter: gpu.record.clone(),
+                    presented,
                 });
                 event_loop.exit();
             }
@@ -537,6 +550,28 @@ fn read_output(gpu: &Gpu) -> Result<Image, ViewerError> {
     let data = gibake_gpu::readback::read_texture_f32_on(&gpu.device, &gpu.queue, out, 0, 4)
         .map_err(gibake_runtime::RuntimeError::from)?;
     Ok(Image::from_rgba_f32(out.width(), out.height(), &data))
+}
+
+/// The surface texture's pixels as RGB8 rows (its format is one of
+/// [`surface_format`]'s: BGRA or RGBA, 8 bits).
+fn read_presented(gpu: &Gpu, t: &wgpu::Texture) -> Result<(u32, u32, Vec<u8>), ViewerError> {
+    let bytes = gibake_gpu::readback::read_texture_on(&gpu.device, &gpu.queue, t, 0, 4)
+        .map_err(gibake_runtime::RuntimeError::from)?;
+    let bgra = matches!(
+        t.format(),
+        wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb
+    );
+    let rgb = bytes
+        .chunks_exact(4)
+        .flat_map(|p| {
+            if bgra {
+                [p[2], p[1], p[0]]
+            } else {
+                [p[0], p[1], p[2]]
+            }
+        })
+        .collect();
+    Ok((t.width(), t.height(), rgb))
 }
 
 /// A line for the user on stderr (through the log at `info`, shown with

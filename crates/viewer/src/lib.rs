@@ -70,6 +70,10 @@ pub struct Screenshot {
     pub exposure: f32,
     /// The adapter it was rendered on.
     pub adapter: gibake_gpu::AdapterRecord,
+    /// What the window showed: the surface texture's pixels after the
+    /// present pass, 8-bit sRGB RGB rows top to bottom, with its width and
+    /// height; `None` when the surface does not allow copies from it.
+    pub presented: Option<(u32, u32, Vec<u8>)>,
 }
 
 /// Opens the window and runs until it is closed (or, headless, until the
