@@ -10,8 +10,11 @@
 # tests/spec_reader.rs); Debian's own pip is externally managed, hence the
 # venv. With --deny, also cargo-deny (cargo install --locked) for the
 # dependency check of .ci/run. With --faults, also strace (fault injection
-# in tests/faults.rs; unshare comes with util-linux). Every step is skipped
-# when already done.
+# in tests/faults.rs; unshare comes with util-linux). With --xvfb, also Xvfb
+# (a virtual X server for tests/view.rs, which opens `gibake view`'s window)
+# and the X11 libraries winit loads at run time (libX11, libX11-xcb,
+# libXcursor, libXrandr, libXi, libxkbcommon-x11); lavapipe's X11 WSI comes
+# with mesa-vulkan-drivers. Every step is skipped when already done.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -20,6 +23,7 @@ want_slurm=0
 want_python=0
 want_deny=0
 want_faults=0
+want_xvfb=0
 for arg in "$@"; do
   case "$arg" in
     --node) want_node=1 ;;
@@ -27,7 +31,8 @@ for arg in "$@"; do
     --python) want_python=1 ;;
     --deny) want_deny=1 ;;
     --faults) want_faults=1 ;;
-    *) echo "ensure-deps: unknown option $arg (known: --node --slurm --python --deny --faults)" >&2; exit 2 ;;
+    --xvfb) want_xvfb=1 ;;
+    *) echo "ensure-deps: unknown option $arg (known: --node --slurm --python --deny --faults --xvfb)" >&2; exit 2 ;;
   esac
 done
 
@@ -61,6 +66,14 @@ if [ "$want_faults" = 1 ] && ! command -v strace >/dev/null 2>&1; then
 fi
 if [ "$want_faults" = 1 ] && ! command -v unshare >/dev/null 2>&1; then
   pkgs+=(util-linux)
+fi
+if [ "$want_xvfb" = 1 ]; then
+  command -v Xvfb >/dev/null 2>&1 || pkgs+=(xvfb)
+  # What winit dlopens on X11 (library file → Debian package).
+  for lib in libX11.so.6:libx11-6 libX11-xcb.so.1:libx11-xcb1 libXcursor.so.1:libxcursor1 \
+             libXrandr.so.2:libxrandr2 libXi.so.6:libxi6 libxkbcommon-x11.so.0:libxkbcommon-x11-0; do
+    ldconfig -p 2>/dev/null | grep -q "${lib%%:*}" || pkgs+=("${lib#*:}")
+  done
 fi
 if [ "$want_slurm" = 1 ] && ! { command -v slurmctld >/dev/null 2>&1 && command -v slurmd >/dev/null 2>&1 && command -v sbatch >/dev/null 2>&1 && command -v munged >/dev/null 2>&1; }; then
   pkgs+=(slurm-wlm munge)

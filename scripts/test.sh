@@ -7,10 +7,11 @@
 # tests/pipeline_slurm.rs, which fails when it cannot start. A Python venv
 # (target/pyenv: numpy, OpenEXR, blake3) is made for tests/spec_reader.rs,
 # which reads a baked asset with tools/spec_reader/read_gibake.py. strace is
-# installed for the fault injection of tests/faults.rs.
+# installed for the fault injection of tests/faults.rs. Xvfb is installed for
+# tests/view.rs (`gibake view`'s window under a virtual X server).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/ensure-deps.sh --node --slurm --python --faults
+bash scripts/ensure-deps.sh --node --slurm --python --faults --xvfb
 echo "== glTF validator on data/*.glb and data/exports/ (real exporters' files)"
 (cd data/validate && npm ci --silent --no-audit --no-fund &&
     node validate.mjs ../*.glb ../exports/*.glb ../exports/refused/*.glb)

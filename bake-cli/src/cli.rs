@@ -202,6 +202,11 @@ pub enum Command {
     Bake(BakeArgs),
     /// Render frames of a scene on the GPU.
     Render(RenderArgs),
+    /// Fly through a baked level in a window (the runtime, live): WASD +
+    /// mouse, Space plays/pauses, 1-5 modes, I interleave; hot-reloads the
+    /// asset when it is re-baked. `--frames N --screenshot F.png` runs
+    /// headless (still in a window); `--gpu-report` needs no window.
+    View(ViewArgs),
     /// Render the independent CPU reference (path tracer, direct + one bounce).
     Reference(ReferenceArgs),
     /// Compare two baked assets: exit 0 equal (within tolerance), 1 different, 2 bad input.
@@ -414,6 +419,66 @@ pub struct RenderArgs {
     #[arg(long, default_value = "auto", value_name = "N|auto", value_parser = interleave_value)]
     pub interleave: u32,
     /// GPU adapter to use (substring of its name; default: GIBAKE_ADAPTER or the first real GPU).
+    #[arg(long)]
+    pub adapter: Option<String>,
+}
+
+/// `gibake view`.
+#[derive(Args, Debug)]
+pub struct ViewArgs {
+    /// Scene (the same level flags as `render`).
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// The baked asset, watched for hot reload (needed by every mode but
+    /// `direct`).
+    #[arg(long, value_name = "OUT.gibake")]
+    pub bake: Option<PathBuf>,
+    /// Animation time of the first frame, seconds.
+    #[arg(long, default_value_t = 0.0)]
+    pub time: f32,
+    /// Window width in pixels (and the headless frames' width).
+    #[arg(long, default_value_t = 960)]
+    pub width: u32,
+    /// Window height in pixels.
+    #[arg(long, default_value_t = 540)]
+    pub height: u32,
+    /// The first mode (keys 1-5 switch: full, direct, indirect, rsm, naive).
+    #[arg(long, value_enum, default_value_t = ModeArg::Full)]
+    pub mode: ModeArg,
+    /// Interleaved VPL sampling, as for `render` (key I cycles 1, 2, 4, 8).
+    #[arg(long, default_value = "auto", value_name = "N|auto", value_parser = interleave_value)]
+    pub interleave: u32,
+    /// Scale radiance by this before the tone curve. Default: the first
+    /// frame's automatic exposure, as `render` (key X measures it again).
+    #[arg(long, value_name = "SCALE")]
+    pub exposure: Option<f32>,
+    /// Headless: render and present this many frames, then exit (frame f
+    /// at --time + f/--fps, as `render --frames`).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub frames: Option<u32>,
+    /// Frame rate of the headless frames' animation time.
+    #[arg(long, default_value_t = 30.0)]
+    pub fps: f32,
+    /// Headless: write the last frame here (.png tone-mapped, or .exr).
+    #[arg(long, value_name = "FRAME.png", requires = "frames")]
+    pub screenshot: Option<PathBuf>,
+    /// Headless: also write what the window showed (the surface's pixels
+    /// after the present pass, PNG), where the surface allows reading it.
+    #[arg(long, value_name = "SHOWN.png", requires = "frames")]
+    pub presented: Option<PathBuf>,
+    /// Print the adapter, the limits the level needs against the adapter's
+    /// and the GPU memory it needs, then exit (0, or 2 when the adapter
+    /// cannot run it). Needs no display.
+    #[arg(long, conflicts_with_all = ["frames", "screenshot", "presented"])]
+    pub gpu_report: bool,
+    /// Primary shadow map resolution.
+    #[arg(long, default_value_t = 2048)]
+    pub shadow_map_size: u32,
+    /// Most dynamic VPLs per frame, as for `render`.
+    #[arg(long, default_value_t = 256, value_name = "N")]
+    pub max_dynamic_vpls: u32,
+    /// GPU adapter to use (substring of its name; default: GIBAKE_ADAPTER or
+    /// the first real GPU that can show the window).
     #[arg(long)]
     pub adapter: Option<String>,
 }

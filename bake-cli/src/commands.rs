@@ -31,7 +31,7 @@ pub(crate) fn check_size(width: u32, height: u32) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn check_time(t: f32) -> anyhow::Result<()> {
+pub(crate) fn check_time(t: f32) -> anyhow::Result<()> {
     if !t.is_finite() {
         bail!("--time must be a finite number of seconds, got {t}");
     }
@@ -71,14 +71,14 @@ fn frame_path(path: &Path, frame: u32, frames: u32) -> PathBuf {
 }
 
 /// The `--mode` value as typed on the command line.
-fn mode_name(m: ModeArg) -> String {
+pub(crate) fn mode_name(m: ModeArg) -> String {
     use clap::ValueEnum;
     m.to_possible_value()
         .map(|v| v.get_name().to_string())
         .unwrap_or_default()
 }
 
-fn mode_of(m: ModeArg) -> gibake_runtime::Mode {
+pub(crate) fn mode_of(m: ModeArg) -> gibake_runtime::Mode {
     match m {
         ModeArg::Full => gibake_runtime::Mode::Full,
         ModeArg::Direct => gibake_runtime::Mode::Direct,

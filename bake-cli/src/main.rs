@@ -20,6 +20,7 @@ mod guard;
 mod limits;
 mod output;
 mod pipeline;
+mod view;
 
 use std::process::ExitCode;
 
@@ -31,6 +32,7 @@ fn run(cli: cli::Cli) -> anyhow::Result<ExitCode> {
     limits::set_memory_budget(cli.max_memory);
     match cli.command {
         Command::Render(a) => commands::render(a),
+        Command::View(a) => view::view(a),
         Command::Reference(a) => commands::reference(a),
         Command::Demo(a) => demo::run(a),
         Command::Bake(a) => pipeline::bake(a),
@@ -49,7 +51,13 @@ fn main() -> ExitCode {
     quiet_vulkan_device_select();
     let args = cli::Cli::parse();
     let filter = tracing_subscriber::EnvFilter::try_from_env("GIBAKE_LOG").unwrap_or_else(|_| {
-        tracing_subscriber::EnvFilter::new(if args.verbose { "info" } else { "warn" })
+        // winit's warnings about the X server's setup (XSETTINGS, a
+        // virtual screen's size in mm) are not the user's to act on.
+        tracing_subscriber::EnvFilter::new(if args.verbose {
+            "info,winit=warn"
+        } else {
+            "warn,winit=error"
+        })
     });
     // Colour only on a terminal: a log redirected to a file or a pipe gets
     // plain text, no ANSI escape codes.

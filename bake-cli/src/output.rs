@@ -161,6 +161,21 @@ pub fn write_image_atomic(img: &Image, path: &Path, exposure: Option<f32>) -> an
     Ok(())
 }
 
+/// Writes 8-bit RGB pixels as a PNG through a temporary sibling and a rename.
+pub fn write_rgb8_png_atomic(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[u8],
+) -> anyhow::Result<()> {
+    check_extension("--presented", path, &["png"])?;
+    let out = writer(path)?;
+    gibake_image::write_rgb8_png(out.path(), width, height, rgb)
+        .with_context(|| format!("writing {}", path.display()))?;
+    out.commit()?;
+    Ok(())
+}
+
 /// Writes bytes through a temporary sibling and a rename.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
     let mut out = writer(path)?;
