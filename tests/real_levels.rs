@@ -30,7 +30,7 @@ fn settings() -> EvalSettings {
 
 /// The levels CI judges (about two minutes on the 2-core machine); every
 /// level is judged by the ignored test below and by `eval_levels`.
-const CI_LEVELS: [&str; 2] = ["living_room", "town"];
+const CI_LEVELS: [&str; 2] = ["living_room", "roboblast"];
 
 #[test]
 fn real_levels_match_the_reference() {
@@ -59,7 +59,13 @@ fn judge(only: Option<&[&str]>) {
     let mut failures = Vec::new();
     for spec in &specs {
         let scene = spec.load(&dir).expect("the level loads");
-        let (e, images) = judge_level(&ctx, &scene, &spec.name, &s).expect("judged");
+        let (e, images) = match judge_level(&ctx, &scene, &spec.name, &s) {
+            Ok(r) => r,
+            Err(e) => {
+                failures.push(format!("{}: not judged: {e}", spec.name));
+                continue;
+            }
+        };
         eprintln!("{}", e.line());
         let i = &e.indirect;
         for img in [&images.full, &images.direct, &images.rsm] {

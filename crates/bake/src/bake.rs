@@ -125,18 +125,18 @@ fn check(what: &str, v: u32, max: u32) -> Result<(), BakeError> {
 /// blurred or leak). Both are dimensionless tests.
 pub fn light_view_warnings(scene: &Scene, view: &LightView, opts: &BakeOptions) -> Vec<String> {
     let mut out = Vec::new();
-    if let Some(f) = gibake_gpu::light_fit::fit(scene) {
-        if f.left_out > 0 {
-            let how = match f.source {
-                gibake_gpu::light_fit::FitSource::BakeVolume => "outside the bake volume",
-                _ => "far outside the rest of the level (outliers such as a distant ground plane)",
-            };
-            out.push(format!(
+    if let Some(f) = gibake_gpu::light_fit::fit(scene)
+        && f.left_out > 0
+    {
+        let how = match f.source {
+            gibake_gpu::light_fit::FitSource::BakeVolume => "outside the bake volume",
+            _ => "far outside the rest of the level (outliers such as a distant ground plane)",
+        };
+        out.push(format!(
                 "{} static triangle(s) lie {how}, first in mesh '{}': the light's shadow map and RSM leave them out (they get unshadowed direct light and bounce none); give --bake-volume or mark a node with extras {{\"bake_volume\": true}} to choose the covered part",
                 f.left_out,
                 f.left_out_mesh.unwrap_or_default()
             ));
-        }
     }
     if view.directional {
         let mut edges: Vec<f32> = Vec::new();

@@ -183,10 +183,10 @@ fn extension_names(v: &Value, out: &mut BTreeSet<String>) {
     match v {
         Value::Object(map) => {
             for (k, x) in map {
-                if k == "extensions" {
-                    if let Value::Object(e) = x {
-                        out.extend(e.keys().cloned());
-                    }
+                if k == "extensions"
+                    && let Value::Object(e) = x
+                {
+                    out.extend(e.keys().cloned());
                 }
                 extension_names(x, out);
             }
@@ -202,10 +202,10 @@ fn material_textures(v: &Value, out: &mut BTreeSet<u64>) {
     match v {
         Value::Object(map) => {
             for (k, x) in map {
-                if k.ends_with("Texture") {
-                    if let Some(i) = x.get("index").and_then(Value::as_u64) {
-                        out.insert(i);
-                    }
+                if k.ends_with("Texture")
+                    && let Some(i) = x.get("index").and_then(Value::as_u64)
+                {
+                    out.insert(i);
                 }
                 material_textures(x, out);
             }

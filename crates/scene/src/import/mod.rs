@@ -508,13 +508,13 @@ impl<'a> Ctx<'a> {
             None if !volume.is_empty() => Some(volume),
             None => None,
         };
-        if let Some(v) = &bake_volume {
-            if !(v.min.is_finite() && v.max.is_finite() && v.min.cmplt(v.max).all()) {
-                return Err(self.invalid(format!(
+        if let Some(v) = &bake_volume
+            && !(v.min.is_finite() && v.max.is_finite() && v.min.cmplt(v.max).all())
+        {
+            return Err(self.invalid(format!(
                     "the bake volume ({}, {}, {})..({}, {}, {}) must be finite with min < max on every axis",
                     v.min.x, v.min.y, v.min.z, v.max.x, v.max.y, v.max.z
                 )));
-            }
         }
         Ok(Scene {
             source: self.path.to_path_buf(),
