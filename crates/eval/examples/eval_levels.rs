@@ -48,6 +48,11 @@ fn main() {
             std::fs::create_dir_all(d).unwrap();
             gibake_eval::levels::write_panel(&images, &d.join(format!("{}.png", spec.name)))
                 .unwrap();
+            gibake_eval::levels::write_indirect_panel(
+                &images,
+                &d.join(format!("{}_indirect.png", spec.name)),
+            )
+            .unwrap();
         }
     }
 }

@@ -361,16 +361,39 @@ pub fn judge_level(
 /// that exposure.
 pub fn write_panel(images: &LevelImages, path: &Path) -> Result<(), gibake_image::ImageError> {
     let r = &images.reference.one_bounce;
+    write_row(r, &images.full, &images.rsm, path)
+}
+
+/// Writes the same row for the indirect light alone (each image minus its
+/// direct part), exposed for the reference's indirect light: where `full`
+/// loses or gains bounce light shows here, not hidden under the direct.
+pub fn write_indirect_panel(
+    images: &LevelImages,
+    path: &Path,
+) -> Result<(), gibake_image::ImageError> {
+    let r = images.reference.indirect();
+    let full = images.full.sub(&images.direct);
+    let rsm = images.rsm.sub(&images.direct);
+    write_row(&r, &full, &rsm, path)
+}
+
+/// `reference | full | rsm | 4·|full − reference|` at the reference's exposure.
+fn write_row(
+    r: &Image,
+    full: &Image,
+    rsm: &Image,
+    path: &Path,
+) -> Result<(), gibake_image::ImageError> {
     let (w, h) = (r.width, r.height);
     let mut out = Image::new(4 * w, h);
     let err = {
         let mut e = Image::new(w, h);
-        for (k, (a, b)) in images.full.pixels.iter().zip(&r.pixels).enumerate() {
+        for (k, (a, b)) in full.pixels.iter().zip(&r.pixels).enumerate() {
             e.pixels[k] = (*a - *b).abs() * 4.0;
         }
         e
     };
-    for (panel, img) in [r, &images.full, &images.rsm, &err].into_iter().enumerate() {
+    for (panel, img) in [r, full, rsm, &err].into_iter().enumerate() {
         for y in 0..h {
             for x in 0..w {
                 out.set(panel as u32 * w + x, y, img.get(x, y));
