@@ -377,7 +377,6 @@ fn leaf_vpl(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Option<Cluster
     let mut ap = [0.0f64; 3];
     let mut an = [0.0f64; 3];
     let mut first_normal = None;
-    let mut rs = [0.0f64; 3];
     for y in y0..y1 {
         for x in x0..x1 {
             let i = (y * rsm.size + x) as usize;
@@ -389,20 +388,8 @@ fn leaf_vpl(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Option<Cluster
             let p = rsm.position[i].to_array().map(f64::from);
             let n = rsm.normal[i].to_array().map(f64::from);
             let a = f64::from(rsm.area[i]);
-            let w = texel_weight(rsm, i)
-                * if std::env::var("GIBAKE_RW").is_ok() {
-                    f64::from(rsm.reach.get(i).copied().unwrap_or(1.0)).max(1e-3)
-                } else {
-                    1.0
-                };
+            let w = texel_weight(rsm, i);
             first_normal.get_or_insert(rsm.normal[i]);
-            {
-                let t = texel_weight(rsm, i);
-                let r = f64::from(rsm.reach.get(i).copied().unwrap_or(1.0));
-                rs[0] += t;
-                rs[1] += t * r;
-                rs[2] += t * r * r;
-            }
             w_sum += w;
             area += a;
             for k in 0..3 {
@@ -447,10 +434,6 @@ fn leaf_vpl(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Option<Cluster
                 anchor = rsm.position[i];
             }
         }
-    }
-    if std::env::var("GIBAKE_RW").is_ok_and(|v| v == "2") && rs[2] > 0.0 {
-        let k = rs[1] * rs[1] / (rs[2] * rs[0]);
-        flux = flux.map(|f| f * k);
     }
     Some(Cluster {
         position,

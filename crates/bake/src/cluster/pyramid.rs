@@ -50,7 +50,6 @@ pub(crate) struct Moments {
     /// `Σ (flux.r + flux.g + flux.b) · reach` over lit texels: the flux
     /// that reaches a surface ([`Rsm::reach`]); what the score weighs.
     pub sum_reaching: f64,
-    pub plane: [f64; 9],
 }
 
 impl Moments {
@@ -73,11 +72,6 @@ impl Moments {
             sum_flux: texel_weight(rsm, i),
             sum_reaching: texel_weight(rsm, i)
                 * f64::from(rsm.reach.get(i).copied().unwrap_or(1.0)),
-            plane: {
-                let (u, v) = (f64::from(i as u32 % rsm.size), f64::from(i as u32 / rsm.size));
-                let m = f64::from(rsm.metric[i]);
-                [u, v, m, u * u, u * v, v * v, u * m, v * m, m * m]
-            },
         }
     }
 
@@ -111,40 +105,10 @@ impl Moments {
             sum_footprint: self.sum_footprint + o.sum_footprint,
             sum_flux: self.sum_flux + o.sum_flux,
             sum_reaching: self.sum_reaching + o.sum_reaching,
-            plane: std::array::from_fn(|k| self.plane[k] + o.plane[k]),
         }
     }
 
     /// Whether the node holds a lit texel (so, as a leaf, yields a VPL).
-    /// Residual variance of the metric about its best plane in texel
-    /// coordinates, over the lit texels' world area `n · f²`.
-    pub fn step(&self, f: f64) -> f64 {
-        let n = f64::from(self.lit);
-        if self.lit < 3 || !(f > 0.0) {
-            return 0.0;
-        }
-        let [su, sv, sm, suu, suv, svv, sum, svm, smm] = self.plane;
-        let (mu, mv, mm) = (su / n, sv / n, sm / n);
-        let cuu = suu / n - mu * mu;
-        let cuv = suv / n - mu * mv;
-        let cvv = svv / n - mv * mv;
-        let gu = sum / n - mu * mm;
-        let gv = svm / n - mv * mm;
-        let s = (smm / n - mm * mm).max(0.0);
-        let det = cuu * cvv - cuv * cuv;
-        let explained = if det > 1e-9 * (cuu * cvv).max(1e-300) {
-            (gu * (cvv * gu - cuv * gv) + gv * (cuu * gv - cuv * gu)) / det
-        } else if cuu > 0.0 {
-            gu * gu / cuu
-        } else if cvv > 0.0 {
-            gv * gv / cvv
-        } else {
-            0.0
-        };
-        let r = (s - explained).max(0.0);
-        r / (n * f * f)
-    }
-
     pub fn has_flux(&self) -> bool {
         self.lit > 0
     }
@@ -177,14 +141,13 @@ impl Moments {
         let [x, y, z] = self.sum_normal;
         let normal = (1.0 - (x * x + y * y + z * z).sqrt() / n).max(0.0);
         let mixed = if self.lit < self.total { 1.0 } else { 0.0 };
-        let step = std::env::var("GIBAKE_STEP").ok().and_then(|s| s.parse::<f64>().ok()).map_or(0.0, |k| (k * self.step(self.sum_footprint / n)).min(std::env::var("GIBAKE_CAP").ok().and_then(|s| s.parse::<f64>().ok()).unwrap_or(1.0)));
         let share = if by_reach {
             self.sum_reaching
         } else {
             self.sum_flux
         } / total_flux;
         // share², not share: see "Why share squared" in cluster.rs.
-        let s = depth.max(normal).max(mixed).max(step) * share * share;
+        let s = depth.max(normal).max(mixed) * share * share;
         Some(if s.is_nan() { f32::INFINITY } else { s as f32 })
     }
 }
