@@ -1,5 +1,5 @@
 // shade.wgsl — deferred shading (needs common.wgsl, light.wgsl,
-// projection.wgsl, hemisphere.wgsl). One invocation per pixel:
+// projection.wgsl, hemisphere.wgsl, cascades.wgsl). One invocation per pixel:
 //   direct light with the merged primary shadow map (static ∪ moving),
 // + every static VPL with its merged hemisphere map, its flux scaled by the
 //   lit fraction of its own RSM texels,
@@ -72,8 +72,15 @@ fn has(f: u32) -> bool {
     return (params.flags & f) != 0u;
 }
 
-// Merged primary-map visibility: 2×2 PCF over min(static, moving).
+// Merged primary-map visibility: 2×2 PCF over min(static, moving), in the
+// finest cascade that holds p when there are cascades (cascades.wgsl).
 fn primary_visibility(p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
+    if (has(FLAG_CASCADES)) {
+        let c = cascade_index(p);
+        if (c < cascades.count) {
+            return cascade_visibility(c, p, ng, wi);
+        }
+    }
     return lv_visibility(light_view, primary_static, primary_dynamic, has(FLAG_DYN_PRIMARY), p, ng, wi);
 }
 
