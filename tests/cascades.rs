@@ -308,3 +308,50 @@ fn the_automatic_rule_on_bundled_scenes_and_the_arena() {
     eprintln!("{}", seen.join("; "));
     assert!(r.is_some_and(|r| r > COARSE), "{}", seen.join("; "));
 }
+
+/// A still camera draws the static cascades once; a moving camera again;
+/// `Requirements` counts the cascades' memory.
+#[test]
+fn a_still_camera_redraws_nothing_and_the_memory_is_counted() {
+    let ctx = common::gpu();
+    let scene = field(Vec3::new(0.45, -0.6, 0.35));
+    let (d, q) = (&ctx.device, &ctx.queue);
+    let s = settings(Cascades::On);
+    let mut r = Renderer::new(d, q, &scene, None, &s).unwrap();
+    let layout = r.plan().cascades().unwrap();
+    let frame = |r: &mut Renderer, cam: CameraMatrices| {
+        r.prepare(d, q, &FrameInput::new(cam)).unwrap();
+        let mut enc = d.create_command_encoder(&Default::default());
+        r.record(&mut enc);
+        q.submit([enc.finish()]);
+        let st = r.stats(d);
+        (
+            st.passes.iter().any(|(p, _)| *p == Pass::Cascades),
+            st.update_draw_calls,
+        )
+    };
+    let statics = scene.static_meshes.len() as u32;
+    assert_eq!(frame(&mut r, camera()), (true, layout.count * statics));
+    assert_eq!(frame(&mut r, camera()), (false, 0), "a still camera redrew");
+    let moved = CameraMatrices::perspective(
+        Mat4::from_translation(Vec3::new(3.0, 0.0, -2.0)) * camera_to_world(),
+        FOV,
+        W as f32 / H as f32,
+        0.05,
+    );
+    let (drawn, calls) = frame(&mut r, moved);
+    assert!(
+        drawn && calls >= statics,
+        "a moved camera drew {calls} static draws"
+    );
+    let bytes = |c| {
+        gibake_runtime::Requirements::of(&scene, None, &settings(c))
+            .unwrap()
+            .gpu_bytes
+    };
+    let size = u64::from(layout.size);
+    assert_eq!(
+        bytes(Cascades::On) - bytes(Cascades::Off),
+        u64::from(layout.count) * 8 * size * size
+    );
+}

@@ -24,9 +24,10 @@
 //!   takes the minimum (the same z-min merge as the primary map);
 //! - **sampled** (`cascades.wgsl`) with the one `lv_visibility` of
 //!   `projection.wgsl` (same 2×2 PCF, normal offset and depth bias in
-//!   texel footprints): the finest cascade whose map holds the point, else
-//!   the baked primary map. Other views use the main view's cascades where
-//!   they hold the point.
+//!   texel footprints): the finest cascade whose map holds the point, where
+//!   the primary map's texel there exceeds a quarter of the view's pixel
+//!   footprint (`CASCADE_PIXEL_FRACTION`), else the baked primary map.
+//!   Other views use the main view's cascades the same way.
 //!
 //! **When** ([`choose`], [`crate::Cascades::Auto`]): a scale-free
 //! comparison of the single map's texel `t` with the camera pixel's
@@ -488,7 +489,11 @@ mod tests {
                 );
             }
         }
-        assert!(same_size >= 3, "a 2 cm step resized {} cascades", 4 - same_size);
+        assert!(
+            same_size >= 3,
+            "a 2 cm step resized {} cascades",
+            4 - same_size
+        );
         // Finest first.
         assert!(a.windows(2).all(|w| w[0].texel_scale < w[1].texel_scale));
     }

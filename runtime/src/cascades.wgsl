@@ -24,6 +24,10 @@ struct Cascades {         // GpuCascades in cascades.rs (must match)
 @group(1) @binding(19) var cascade_moving2: texture_2d<f32>;
 @group(1) @binding(20) var cascade_moving3: texture_2d<f32>;
 
+// Cascades shade a point where the primary map's texel exceeds this
+// fraction of the camera pixel's footprint there (shade.wgsl).
+const CASCADE_PIXEL_FRACTION: f32 = 0.25;
+
 // Texels kept clear of a cascade's edge: the normal offset (at most one
 // texel) and the PCF footprint (two).
 const CASCADE_MARGIN: f32 = 3.0;

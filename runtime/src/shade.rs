@@ -38,8 +38,12 @@ pub(crate) struct GpuViewParams {
     /// VPLs `i ≡ k (mod N²)` at pixel `k = x mod N + N·(y mod N)` and writes
     /// direct radiance | irradiance side by side (see `interleave.rs`).
     pub interleave: u32,
-    /// Padding (16-byte struct size).
+    /// Padding.
     pub _pad: u32,
+    /// The camera: xyz its position; w the angle of one pixel (perspective)
+    /// or minus one pixel's world size (orthographic): where the single
+    /// primary map is fine against the pixel, cascades are not used.
+    pub eye: [f32; 4],
 }
 
 /// The renderer's GI parameters (`GiParams` in `shade.wgsl`).

@@ -19,6 +19,7 @@ struct ViewParams {       // GpuViewParams in shade.rs
     size: vec2<u32>,
     interleave: u32,      // N: 1 shades every VPL at every pixel
     _pad: u32,
+    eye: vec4<f32>,       // camera position; w: pixel angle, or −pixel size (orthographic)
 }
 
 struct GiParams {         // GpuGiParams in shade.rs
@@ -75,7 +76,14 @@ fn has(f: u32) -> bool {
 // Merged primary-map visibility: 2×2 PCF over min(static, moving), in the
 // finest cascade that holds p when there are cascades (cascades.wgsl).
 fn primary_visibility(p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
-    if (has(FLAG_CASCADES)) {
+    // Cascades where the primary map's texel is coarser than a fraction of
+    // the pixel (CASCADE_PIXEL_FRACTION: a shadow edge moves by a few
+    // texels of PCF and bias); elsewhere the primary map resolves it.
+    var pixel = -view.eye.w;
+    if (view.eye.w > 0.0) {
+        pixel = length(p - view.eye.xyz) * view.eye.w;
+    }
+    if (has(FLAG_CASCADES) && lv_footprint(light_view, p) > pixel * CASCADE_PIXEL_FRACTION) {
         let c = cascade_index(p);
         if (c < cascades.count) {
             return cascade_visibility(c, p, ng, wi);
