@@ -344,6 +344,17 @@ pub struct MergeArgs {
     pub json: bool,
 }
 
+/// Cascaded shadow maps for a directional light's direct term.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CascadesArg {
+    /// When the primary map's texel is coarse against what the camera sees.
+    Auto,
+    /// Always (directional light).
+    On,
+    /// Never: the single primary map.
+    Off,
+}
+
 /// Render modes.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ModeArg {
@@ -406,6 +417,11 @@ pub struct RenderArgs {
     /// Primary shadow map resolution.
     #[arg(long, default_value_t = 2048)]
     pub shadow_map_size: u32,
+    /// Shadow cascades fitted to the camera for a directional light's
+    /// direct term (runtime/README.md, "Cascades"): `auto` turns them on
+    /// when the primary map's texel is coarse against the camera's pixel.
+    #[arg(long, value_enum, default_value_t = CascadesArg::Auto)]
+    pub cascades: CascadesArg,
     /// Most dynamic VPLs (moving surfaces bouncing light) per frame, rounded
     /// up to a power of 4; 0 turns them off. Fewer, larger clusters lose
     /// light next to the moving objects (docs/method.md, "Near field").

@@ -150,6 +150,12 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         max_dynamic_vpls: a.max_dynamic_vpls,
         interleave: a.interleave,
         max_spawned: 0,
+        cascades: match a.cascades {
+            crate::cli::CascadesArg::Auto => gibake_runtime::Cascades::Auto,
+            crate::cli::CascadesArg::On => gibake_runtime::Cascades::On,
+            crate::cli::CascadesArg::Off => gibake_runtime::Cascades::Off,
+        },
+        cascade_map_size: 0,
     };
     let t0 = Instant::now();
     // The scene's camera, checked before any GPU work.

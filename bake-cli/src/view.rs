@@ -62,6 +62,7 @@ pub(crate) fn view(a: ViewArgs) -> anyhow::Result<ExitCode> {
         max_dynamic_vpls: a.max_dynamic_vpls,
         interleave: a.interleave,
         max_spawned: 0,
+        ..Default::default()
     };
     if a.gpu_report {
         let report =

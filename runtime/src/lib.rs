@@ -51,6 +51,7 @@
 mod atlas;
 mod baked;
 mod camera;
+pub mod cascades;
 mod composite;
 mod dynamic_rsm;
 mod dynamic_vpl;
@@ -73,6 +74,7 @@ mod world;
 use glam::Mat4;
 
 pub use camera::{CameraMatrices, NoCamera};
+pub use cascades::CascadeLayout;
 pub use error::RuntimeError;
 pub use frame::{FrameInput, ObjectHandle, scene_transforms};
 pub use gbuffer::GBUFFER_FORMATS;
@@ -88,7 +90,7 @@ pub use gibake_scene::{
 pub use gibake_scene::{LoadOptions, load as load_scene};
 pub use plan::{FramePlan, Pass, PassSet, ShadeFlag};
 pub use requirements::Requirements;
-pub use settings::{Mode, RenderSettings};
+pub use settings::{Cascades, Mode, RenderSettings};
 pub use stats::{FRAMES_IN_FLIGHT, FrameStats, Timing};
 pub use view::{OutputTarget, ViewId};
 pub use {glam, wgpu};
@@ -457,12 +459,19 @@ impl Renderer {
         for (id, camera) in main.chain(frame.views.iter().copied()) {
             self.view_mut(id)?.set_camera(queue, &camera);
         }
-        let affected = self
-            .world
-            .prepare(device, queue, &self.shade, &self.objects.transforms)?;
+        let affected = self.world.prepare(
+            device,
+            queue,
+            &self.shade,
+            &self.objects.transforms,
+            &frame.camera,
+        )?;
         let views: Vec<_> = self.views.iter().flatten().map(View::passes).collect();
-        let passes = self.world.plan.recorded(affected > 0, &views);
-        let update_draw_calls = self.world.moving.draw_calls();
+        let mut passes = self.world.plan.recorded(affected > 0, &views);
+        if !self.world.cascades_draw() {
+            passes.retain(|(p, _)| *p != Pass::Cascades);
+        }
+        let update_draw_calls = self.world.moving.draw_calls() + self.world.cascade_draw_calls();
         let view_draws: u32 = self
             .views
             .iter()

@@ -15,6 +15,7 @@
 //! G-buffer pass when the caller provides its own, the interleave filter
 //! when a view sums every VPL ([`FramePlan::recorded`]).
 
+use crate::cascades::CascadeLayout;
 use crate::{Mode, RenderSettings, RuntimeError};
 use gibake_asset::Asset;
 use gibake_scene::Scene;
@@ -25,6 +26,10 @@ pub enum Pass {
     /// Moving objects into their own primary shadow map (z-min merge with
     /// the baked one at shading).
     PrimaryMerge,
+    /// Cascaded shadow maps fitted to the main view (a large level's direct
+    /// light): static draws when a cascade moved, moving objects every
+    /// frame.
+    Cascades,
     /// Moving objects into an RSM at the bake's RSM resolution.
     DynamicRsm,
     /// The static VPLs' lit fraction from the dynamic RSM.
@@ -47,8 +52,9 @@ pub enum Pass {
 
 impl Pass {
     /// Every pass, in recording order.
-    pub const ALL: [Pass; 9] = [
+    pub const ALL: [Pass; 10] = [
         Pass::PrimaryMerge,
+        Pass::Cascades,
         Pass::DynamicRsm,
         Pass::Occlusion,
         Pass::DynamicVpls,
@@ -63,6 +69,7 @@ impl Pass {
     pub fn name(self) -> &'static str {
         match self {
             Pass::PrimaryMerge => "primary merge",
+            Pass::Cascades => "cascades",
             Pass::DynamicRsm => "dynamic rsm",
             Pass::Occlusion => "occlusion",
             Pass::DynamicVpls => "dynamic vpls",
@@ -147,11 +154,13 @@ pub enum ShadeFlag {
     Occlusion = 64,
     /// Moving objects are merged into VPL map tiles (`vpl_tile` is bound).
     Tiles = 128,
+    /// Direct light shadowed by cascades where they hold the point.
+    Cascades = 256,
 }
 
 impl ShadeFlag {
     /// Every flag.
-    pub const ALL: [ShadeFlag; 8] = [
+    pub const ALL: [ShadeFlag; 9] = [
         ShadeFlag::Direct,
         ShadeFlag::StaticVpl,
         ShadeFlag::DynamicVpl,
@@ -160,6 +169,7 @@ impl ShadeFlag {
         ShadeFlag::DynPrimary,
         ShadeFlag::Occlusion,
         ShadeFlag::Tiles,
+        ShadeFlag::Cascades,
     ];
 
     /// The WGSL constant's name.
@@ -173,6 +183,7 @@ impl ShadeFlag {
             ShadeFlag::DynPrimary => "FLAG_DYN_PRIMARY",
             ShadeFlag::Occlusion => "FLAG_OCCLUSION",
             ShadeFlag::Tiles => "FLAG_TILES",
+            ShadeFlag::Cascades => "FLAG_CASCADES",
         }
     }
 
@@ -193,6 +204,7 @@ pub struct FramePlan {
     mode: Mode,
     passes: PassSet,
     flags: u32,
+    cascades: Option<CascadeLayout>,
 }
 
 impl FramePlan {
@@ -205,6 +217,10 @@ impl FramePlan {
     /// - dynamic VPLs: as the dynamic RSM, with `max_dynamic_vpls > 0`;
     /// - VPL maps: `naive` always (the re-render), `full` and `indirect`
     ///   with moving objects;
+    /// - cascades: a directional light, direct light shaded, and
+    ///   [`RenderSettings::cascades`] on, or automatic and the single
+    ///   primary map coarse against what the camera sees
+    ///   ([`crate::cascades::choose`]);
     /// - G-buffer, shading, interleave: per view.
     pub fn new(
         settings: &RenderSettings,
@@ -224,8 +240,24 @@ impl FramePlan {
                 Mode::Full | Mode::Indirect => moving,
                 Mode::Direct | Mode::Rsm => false,
             };
+        let primary = match asset {
+            Some(a) => crate::baked::light_view(a, a.primary_depth.size),
+            None => gibake_gpu::LightView::for_scene(scene, settings.shadow_map_size),
+        };
+        let cascades = if matches!(mode, Mode::Indirect) {
+            None
+        } else {
+            crate::cascades::choose(
+                settings.cascades,
+                scene,
+                &primary,
+                settings.height,
+                settings.cascade_map_size,
+            )
+        };
         let passes = PassSet::default()
             .with_if(Pass::PrimaryMerge, moving)
+            .with_if(Pass::Cascades, cascades.is_some())
             .with_if(Pass::DynamicRsm, rsm)
             .with_if(Pass::Occlusion, rsm)
             .with_if(Pass::DynamicVpls, rsm && settings.max_dynamic_vpls > 0)
@@ -251,6 +283,7 @@ impl FramePlan {
             // its baked map alone (a static scene, or rsm mode).
             (passes.has(Pass::VplMaps), F::Tiles),
             (passes.has(Pass::DynamicVpls), F::DynamicVpl),
+            (passes.has(Pass::Cascades), F::Cascades),
         ] {
             if on {
                 flags |= flag as u32;
@@ -260,6 +293,7 @@ impl FramePlan {
             mode,
             passes,
             flags,
+            cascades,
         })
     }
 
@@ -283,6 +317,12 @@ impl FramePlan {
     /// `naive` re-renders the VPL maps even without moving objects).
     pub fn has_update(&self) -> bool {
         self.passes.iter().any(Pass::is_update)
+    }
+
+    /// The cascades drawn for the direct light (`None`: the single primary
+    /// map alone).
+    pub fn cascades(&self) -> Option<CascadeLayout> {
+        self.cascades
     }
 
     /// The shading flags ([`ShadeFlag`] bits).
@@ -365,6 +405,6 @@ mod tests {
         assert!(w.contains("const FLAG_TILES: u32 = 128u;"));
         assert_eq!(w.lines().count(), ShadeFlag::ALL.len());
         let bits: u32 = ShadeFlag::ALL.iter().map(|f| *f as u32).sum();
-        assert_eq!(bits, 255, "one distinct bit per flag");
+        assert_eq!(bits, 511, "one distinct bit per flag");
     }
 }

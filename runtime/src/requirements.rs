@@ -137,6 +137,13 @@ impl Requirements {
         if plan.has(Pass::PrimaryMerge) {
             r.gpu_bytes += 8 * sq(shadow);
         }
+        if let Some(c) = plan.cascades() {
+            r.need(Limit::Texture2d, "the shadow cascades", u64::from(c.size));
+            // Metric and ordering depth per texel, a static map per cascade
+            // and, with moving objects, a map of them.
+            let maps = if plan.has(Pass::PrimaryMerge) { 2 } else { 1 };
+            r.gpu_bytes += maps * u64::from(c.count) * 8 * sq(c.size);
+        }
         if let Some(a) = asset {
             r.asset(a, &plan);
         }

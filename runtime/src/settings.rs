@@ -34,6 +34,21 @@ impl Mode {
     }
 }
 
+/// Whether the primary directional light's direct term is shadowed by
+/// cascades fitted to the main view ([`RenderSettings::cascades`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Cascades {
+    /// On when the single primary map's texel is coarse against what the
+    /// camera sees (see `runtime/src/cascades.rs`): a large level gets
+    /// them, a small scene keeps exactly the single map.
+    #[default]
+    Auto,
+    /// Always (directional light only: a spot light keeps its map).
+    On,
+    /// Never: the single primary map, as baked.
+    Off,
+}
+
 /// Settings of a [`crate::Renderer`].
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
@@ -60,6 +75,13 @@ pub struct RenderSettings {
     /// life (copies of the scene's declared ones; room for their draws is
     /// made at creation).
     pub max_spawned: u32,
+    /// Cascaded shadow maps for the direct light of a directional primary
+    /// light ([`Cascades::Auto`] by default; [`crate::FramePlan::cascades`]
+    /// says what was chosen).
+    pub cascades: Cascades,
+    /// Resolution of each cascade (0, the default: chosen from the level's
+    /// extent against the camera's pixel, see `cascades.rs`).
+    pub cascade_map_size: u32,
 }
 
 impl Default for RenderSettings {
@@ -72,6 +94,8 @@ impl Default for RenderSettings {
             mode: Mode::Full,
             interleave: interleave::AUTO,
             max_spawned: 16,
+            cascades: Cascades::Auto,
+            cascade_map_size: 0,
         }
     }
 }
@@ -92,6 +116,13 @@ impl RenderSettings {
             return Err(RuntimeError::InvalidSetting(
                 "shadow map size must be at least 1".into(),
             ));
+        }
+        if self.cascade_map_size > limit {
+            return Err(RuntimeError::DeviceLimit {
+                what: format!("cascades of {}²", self.cascade_map_size),
+                needed: u64::from(self.cascade_map_size),
+                limit: u64::from(limit),
+            });
         }
         if !with_asset && self.shadow_map_size > limit {
             return Err(RuntimeError::DeviceLimit {

@@ -19,6 +19,7 @@ fn shade_wgsl() -> String {
         ShadeFlag::wgsl().as_str(),
         gibake_gpu::vpl::VPL_WGSL,
         include_str!("dyn_vpl.wgsl"),
+        include_str!("cascades.wgsl"),
         include_str!("shade.wgsl"),
     ]
     .join("\n")
@@ -37,8 +38,12 @@ pub(crate) struct GpuViewParams {
     /// VPLs `i ≡ k (mod N²)` at pixel `k = x mod N + N·(y mod N)` and writes
     /// direct radiance | irradiance side by side (see `interleave.rs`).
     pub interleave: u32,
-    /// Padding (16-byte struct size).
+    /// Padding.
     pub _pad: u32,
+    /// The camera: xyz its position; w the angle of one pixel (perspective)
+    /// or minus one pixel's world size (orthographic): where the single
+    /// primary map is fine against the pixel, cascades are not used.
+    pub eye: [f32; 4],
 }
 
 /// The renderer's GI parameters (`GiParams` in `shade.wgsl`).
@@ -71,6 +76,8 @@ pub(crate) struct ShadePass {
     fallback_dyn_vpls: wgpu::Buffer,
     /// A 1×1 `R32Float` texture bound for absent maps.
     fallback_map: wgpu::TextureView,
+    /// Bound without cascades (a zero count).
+    fallback_cascades: wgpu::Buffer,
     /// Layout of group 0 (a view: G-buffer, params, output).
     view_layout: wgpu::BindGroupLayout,
     /// Layout of group 1 (light and GI data).
@@ -141,7 +148,16 @@ pub(crate) struct GiInputs<'a> {
     pub atlas: Option<&'a wgpu::TextureView>,
     /// Dynamic VPL slots.
     pub dyn_vpls: Option<&'a wgpu::Buffer>,
+    /// The cascades: `GpuCascades` uniform, static maps, moving maps.
+    pub cascades: Option<CascadeBindings<'a>>,
 }
+
+/// What shading binds of the cascades (see [`crate::cascades`]).
+pub(crate) type CascadeBindings<'a> = (
+    &'a wgpu::Buffer,
+    Vec<&'a wgpu::TextureView>,
+    Vec<&'a wgpu::TextureView>,
+);
 
 /// Bind group entries from `(binding, resource)` pairs.
 fn entries<'a, const N: usize>(
@@ -187,6 +203,15 @@ impl ShadePass {
                 uniform_entry(9),
                 uniform_entry(10),
                 uniform_entry(11),
+                uniform_entry(12),
+                tex_entry(13),
+                tex_entry(14),
+                tex_entry(15),
+                tex_entry(16),
+                tex_entry(17),
+                tex_entry(18),
+                tex_entry(19),
+                tex_entry(20),
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -223,6 +248,11 @@ impl ShadePass {
                 wgpu::TextureUsages::TEXTURE_BINDING,
             )
             .create_view(&Default::default()),
+            fallback_cascades: uniform(
+                device,
+                "no cascades",
+                &<crate::cascades::GpuCascades as bytemuck::Zeroable>::zeroed(),
+            ),
             view_layout,
             gi_layout,
         }
@@ -256,6 +286,11 @@ impl ShadePass {
         let map =
             |m: Option<&'a wgpu::TextureView>| wgpu::BindingResource::TextureView(m.unwrap_or(fm));
         let dyn_vpls = i.dyn_vpls.unwrap_or(&self.fallback_dyn_vpls);
+        let (cascades, cs, cm) = match &i.cascades {
+            Some((u, s, m)) => (*u, s.as_slice(), m.as_slice()),
+            None => (&self.fallback_cascades, &[][..], &[][..]),
+        };
+        let cmap = |v: &[&'a wgpu::TextureView], k: usize| map(v.get(k).copied());
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shade gi"),
             layout: &self.gi_layout,
@@ -273,6 +308,15 @@ impl ShadePass {
                 (9, i.light.as_entire_binding()),
                 (10, i.light_view.as_entire_binding()),
                 (11, i.params.as_entire_binding()),
+                (12, cascades.as_entire_binding()),
+                (13, cmap(cs, 0)),
+                (14, cmap(cs, 1)),
+                (15, cmap(cs, 2)),
+                (16, cmap(cs, 3)),
+                (17, cmap(cm, 0)),
+                (18, cmap(cm, 1)),
+                (19, cmap(cm, 2)),
+                (20, cmap(cm, 3)),
             ]),
         })
     }
@@ -316,6 +360,8 @@ pub(crate) struct GiSources<'a> {
     pub light: &'a crate::light::PrimaryLight,
     /// The per-frame update.
     pub moving: &'a crate::moving::MovingPasses,
+    /// The cascades, when planned.
+    pub cascades: Option<&'a crate::cascades::CascadePasses>,
 }
 
 impl ShadeGi {
@@ -360,6 +406,7 @@ impl ShadeGi {
                 static_maps: s.baked.map(|b| &b.static_maps),
                 atlas: m.atlas,
                 dyn_vpls: m.dyn_vpls,
+                cascades: s.cascades.map(crate::cascades::CascadePasses::bindings),
             },
         )
     }

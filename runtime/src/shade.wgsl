@@ -1,5 +1,5 @@
 // shade.wgsl — deferred shading (needs common.wgsl, light.wgsl,
-// projection.wgsl, hemisphere.wgsl). One invocation per pixel:
+// projection.wgsl, hemisphere.wgsl, cascades.wgsl). One invocation per pixel:
 //   direct light with the merged primary shadow map (static ∪ moving),
 // + every static VPL with its merged hemisphere map, its flux scaled by the
 //   lit fraction of its own RSM texels,
@@ -19,6 +19,7 @@ struct ViewParams {       // GpuViewParams in shade.rs
     size: vec2<u32>,
     interleave: u32,      // N: 1 shades every VPL at every pixel
     _pad: u32,
+    eye: vec4<f32>,       // camera position; w: pixel angle, or −pixel size (orthographic)
 }
 
 struct GiParams {         // GpuGiParams in shade.rs
@@ -72,8 +73,22 @@ fn has(f: u32) -> bool {
     return (params.flags & f) != 0u;
 }
 
-// Merged primary-map visibility: 2×2 PCF over min(static, moving).
+// Merged primary-map visibility: 2×2 PCF over min(static, moving), in the
+// finest cascade that holds p when there are cascades (cascades.wgsl).
 fn primary_visibility(p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
+    // Cascades where the primary map's texel is coarser than a fraction of
+    // the pixel (CASCADE_PIXEL_FRACTION: a shadow edge moves by a few
+    // texels of PCF and bias); elsewhere the primary map resolves it.
+    var pixel = -view.eye.w;
+    if (view.eye.w > 0.0) {
+        pixel = length(p - view.eye.xyz) * view.eye.w;
+    }
+    if (has(FLAG_CASCADES) && lv_footprint(light_view, p) > pixel * CASCADE_PIXEL_FRACTION) {
+        let c = cascade_index(p);
+        if (c < cascades.count) {
+            return cascade_visibility(c, p, ng, wi);
+        }
+    }
     return lv_visibility(light_view, primary_static, primary_dynamic, has(FLAG_DYN_PRIMARY), p, ng, wi);
 }
 

@@ -160,6 +160,7 @@ impl View {
             size,
             interleave: interleave::effective(interleave_setting, size[0], size[1]),
             _pad: 0,
+            eye: [0.0; 4],
         };
         let params_buf = uniform(device, "shade view params", &params);
         let gbuffer = GBuffer::new(device, size[0], size[1]);
@@ -257,6 +258,16 @@ impl View {
 
     /// Sets the frame's camera.
     pub(crate) fn set_camera(&mut self, queue: &wgpu::Queue, camera: &CameraMatrices) {
+        // One pixel's angle (or size): 2 / (|clip y row| · height).
+        let vp = camera.view_proj;
+        let f = glam::Vec3::new(vp.x_axis.y, vp.y_axis.y, vp.z_axis.y).length();
+        let pixel = 2.0 / (f * self.params.size[1].max(1) as f32);
+        let w = if camera.orthographic { -pixel } else { pixel };
+        self.params.eye = camera
+            .position
+            .extend(if w.is_finite() { w } else { 0.0 })
+            .to_array();
+        queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
         queue.write_buffer(
             &self.camera.uniform_buf,
             0,

@@ -10,7 +10,9 @@ use gibake_gpu::mesh::{Draw, SceneGpu};
 use gibake_scene::Scene;
 use glam::Mat4;
 
+use crate::CameraMatrices;
 use crate::baked::BakedGpu;
+use crate::cascades::CascadePasses;
 use crate::gbuffer::GBufferPass;
 use crate::light::PrimaryLight;
 use crate::moving::{MovingPasses, UpdateInputs};
@@ -28,6 +30,8 @@ pub(crate) struct World {
     pub moving: MovingPasses,
     pub gbuffer: GBufferPass,
     pub gi: ShadeGi,
+    /// Cascaded shadow maps of the direct light (when planned).
+    pub cascades: Option<CascadePasses>,
     /// The draws of the moving objects that are shown (hidden and removed
     /// ones are left out of every pass).
     pub moving_draws: Vec<Draw>,
@@ -97,6 +101,15 @@ impl World {
             },
         )?;
         let gbuffer = GBufferPass::new(device, &scene_gpu);
+        let cascades = plan.cascades().map(|layout| {
+            CascadePasses::new(
+                device,
+                &scene_gpu,
+                &light.view,
+                layout,
+                plan.has(crate::Pass::PrimaryMerge),
+            )
+        });
         let gi = ShadeGi::new(
             device,
             shade,
@@ -105,6 +118,7 @@ impl World {
                 baked: baked.as_ref(),
                 light: &light,
                 moving: &moving,
+                cascades: cascades.as_ref(),
             },
         );
         let moving_draws = scene_gpu.dynamic_draws.clone();
@@ -116,6 +130,7 @@ impl World {
             moving,
             gbuffer,
             gi,
+            cascades,
             moving_draws,
         })
     }
@@ -142,7 +157,11 @@ impl World {
         queue: &wgpu::Queue,
         shade: &ShadePass,
         transforms: &[Mat4],
+        camera: &CameraMatrices,
     ) -> Result<u32, RuntimeError> {
+        if let Some(c) = self.cascades.as_mut() {
+            c.prepare(queue, camera);
+        }
         if !transforms.is_empty() {
             self.scene_gpu.set_dynamic_transforms(queue, transforms);
         }
@@ -159,6 +178,7 @@ impl World {
                 baked: self.baked.as_ref(),
                 light: &self.light,
                 moving: &self.moving,
+                cascades: self.cascades.as_ref(),
             };
             self.gi.atlas_changed(device, queue, shade, &sources);
         }
@@ -167,8 +187,27 @@ impl World {
 
     /// Records the frame's update (once, whatever the number of views).
     pub(crate) fn record_update(&self, encoder: &mut wgpu::CommandEncoder, timer: &Timer) {
+        if let Some(c) = self.cascades.as_ref().filter(|c| c.draws()) {
+            let ts = timer.render(crate::Pass::Cascades, None);
+            c.record(encoder, &self.scene_gpu, &self.moving_draws, ts);
+        }
         self.moving
             .record(encoder, &self.scene_gpu, &self.moving_draws, timer);
+    }
+
+    /// Draw calls of this frame's cascade passes.
+    pub(crate) fn cascade_draw_calls(&self) -> u32 {
+        self.cascades.as_ref().filter(|c| c.draws()).map_or(0, |c| {
+            c.draw_calls(
+                self.scene_gpu.static_draws.len() as u32,
+                self.moving_draws.len() as u32,
+            )
+        })
+    }
+
+    /// Whether this frame records the cascade pass.
+    pub(crate) fn cascades_draw(&self) -> bool {
+        self.cascades.as_ref().is_some_and(CascadePasses::draws)
     }
 
     /// Draw calls of one view's G-buffer pass.

@@ -180,6 +180,7 @@ pub(super) fn render_measured(
         max_dynamic_vpls: 64,
         interleave,
         max_spawned: 0,
+        ..Default::default()
     };
     let mut r = new_renderer(&b.ctx, scene, asset, &settings)?;
     if !b.quick {

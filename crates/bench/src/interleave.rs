@@ -79,6 +79,7 @@ pub(super) fn bench_interleave(
                     max_dynamic_vpls: 64,
                     interleave: il,
                     max_spawned: 0,
+                    ..Default::default()
                 },
                 frames,
             })

@@ -56,6 +56,7 @@ pub(super) fn bench_runtime(b: &mut Bench, heavy: u32) -> crate::Result<()> {
         max_dynamic_vpls: 64,
         interleave: 1,
         max_spawned: 0,
+        ..Default::default()
     };
     let mut configs = Vec::new();
     for (scene, (out, _)) in [&cb, &heavy_scene].into_iter().zip(&baked) {

@@ -87,6 +87,7 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
         max_dynamic_vpls: 64,
         interleave: 1,
         max_spawned: 0,
+        ..Default::default()
     };
     let mut fits_json = Vec::new();
     let mut summary = Table::new(

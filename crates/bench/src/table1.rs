@@ -49,6 +49,7 @@ pub(super) fn bench_table1(b: &mut Bench, size: (u32, u32)) -> crate::Result<()>
                         max_dynamic_vpls: d,
                         interleave: il,
                         max_spawned: 0,
+                        ..Default::default()
                     },
                     frames,
                 });

@@ -1,4 +1,4 @@
-//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--out DIR]`
+//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--cascades auto|on|off] [--out DIR]`
 //! Judges the real levels of data/levels/levels.json (all, or those named)
 //! against the CPU reference; prints one line per level and, with --out,
 //! writes reference | full | rsm | error pictures.
@@ -28,6 +28,14 @@ fn main() {
             "--rsm" => s.rsm_size = num(),
             "--map" => s.vpl_map_size = num(),
             "--ssaa" => s.ssaa = num(),
+            "--cascades" => {
+                s.cascades = match it.next().map(String::as_str) {
+                    Some("on") => gibake_runtime::Cascades::On,
+                    Some("off") => gibake_runtime::Cascades::Off,
+                    Some("auto") => gibake_runtime::Cascades::Auto,
+                    other => panic!("--cascades auto|on|off, not {other:?}"),
+                }
+            }
             "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
             _ => names.push(a.clone()),
         }

@@ -57,6 +57,8 @@ pub struct EvalSettings {
     pub ssaa: u32,
     /// Most dynamic VPLs per frame.
     pub max_dynamic_vpls: u32,
+    /// Shadow cascades of the direct light (automatic by default).
+    pub cascades: gibake_runtime::Cascades,
 }
 
 impl Default for EvalSettings {
@@ -71,6 +73,7 @@ impl Default for EvalSettings {
             blur: 1,
             ssaa: 2,
             max_dynamic_vpls: RenderSettings::default().max_dynamic_vpls,
+            cascades: gibake_runtime::Cascades::Auto,
         }
     }
 }
@@ -187,6 +190,7 @@ pub fn render(
         height: s.size,
         mode,
         max_dynamic_vpls: s.max_dynamic_vpls,
+        cascades: s.cascades,
         ..Default::default()
     };
     Ok(frame::render_image(
