@@ -735,3 +735,49 @@ fn cluster_budget_goes_where_the_light_is() {
         assert!(singles * 20 <= count(&c), "{singles} single-texel VPLs");
     }
 }
+
+#[test]
+fn cluster_never_splits_light_that_reaches_nothing() {
+    // A floor under the sun whose left half bounces into the sky (reach 0,
+    // a town's open ground) and whose right half lands on something. Asking
+    // for more VPLs than the right half has texels must not split the left
+    // half: none of its leaves could count, and each would be a VPL the
+    // probe keeps if its hemisphere glimpses a house (the town made ~120 k).
+    let size = 64u32;
+    let mut rsm = floor_rsm(size, |_, _| Some(0.0));
+    for y in 0..size {
+        for x in 0..size / 2 {
+            rsm.reach[(y * size + x) as usize] = 0.0;
+        }
+    }
+    let right = (size * size / 2) as usize;
+    for target in [
+        ClusterTarget::Count(100),
+        ClusterTarget::Count(10_000),
+        ClusterTarget::Threshold(0.0),
+    ] {
+        let c = cluster(&rsm, target);
+        check_consistency(&rsm, &c);
+        let left = c
+            .vpls
+            .iter()
+            .zip(&c.rects)
+            .filter(|(_, r)| r.1 <= size / 2)
+            .count();
+        eprintln!("{target:?}: {} VPLs, {left} on the left half", count(&c));
+        assert!(
+            left <= 2,
+            "{target:?}: the unreaching half split into {left} VPLs"
+        );
+        assert!(count(&c) <= right + left);
+        // The whole map's light is still there (flux is what it is).
+        assert_close3(
+            vpl_flux(&c.vpls),
+            total_flux(&rsm, |_| true),
+            1e-9,
+            "flux kept",
+        );
+    }
+    let c = cluster(&rsm, ClusterTarget::Count(100));
+    assert!((count(&c) as i64 - 100).abs() <= 3, "{} VPLs", count(&c));
+}

@@ -1,7 +1,9 @@
-//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--cascades auto|on|off] [--out DIR]`
+//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--cascades auto|on|off] [--out DIR] [--markdown]`
 //! Judges the real levels of data/levels/levels.json (all, or those named)
 //! against the CPU reference; prints one line per level and, with --out,
-//! writes reference | full | rsm | error pictures.
+//! writes reference | full | rsm | error pictures (NAME.png) and the same
+//! for the indirect light alone (NAME_indirect.png); --markdown ends with
+//! the table of docs/results.md, "Real levels".
 fn main() {
     let mut s = gibake_eval::EvalSettings {
         size: 128,
@@ -13,6 +15,8 @@ fn main() {
     let mut it = args.iter();
     let mut names = Vec::new();
     let mut out = None;
+    let mut markdown = false;
+    let mut rows = Vec::new();
     while let Some(a) = it.next() {
         let mut num = || {
             it.next()
@@ -36,6 +40,7 @@ fn main() {
                     other => panic!("--cascades auto|on|off, not {other:?}"),
                 }
             }
+            "--markdown" => markdown = true,
             "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
             _ => names.push(a.clone()),
         }
@@ -52,6 +57,7 @@ fn main() {
         let t = std::time::Instant::now();
         let (e, images) = gibake_eval::levels::judge_level(&ctx, &scene, &spec.name, &s).unwrap();
         println!("{} ({:.0} s)", e.line(), t.elapsed().as_secs_f64());
+        rows.push(e.markdown_row());
         if let Some(d) = &out {
             std::fs::create_dir_all(d).unwrap();
             gibake_eval::levels::write_panel(&images, &d.join(format!("{}.png", spec.name)))
@@ -61,6 +67,12 @@ fn main() {
                 &d.join(format!("{}_indirect.png", spec.name)),
             )
             .unwrap();
+        }
+    }
+    if markdown {
+        println!("{}", gibake_eval::levels::LevelEval::MARKDOWN_HEADER);
+        for r in rows {
+            println!("{r}");
         }
     }
 }

@@ -280,6 +280,32 @@ impl LevelEval {
     }
 }
 
+impl LevelEval {
+    /// The header of [`LevelEval::markdown_row`]'s table.
+    pub const MARKDOWN_HEADER: &'static str = "| level | triangles | VPLs | full bias (R/G/B) | rsm bias | full err / rsm err | image rel MSE | direct rel MSE | FLIP | bake |\n|---|---|---|---|---|---|---|---|---|---|";
+
+    /// One row of a markdown table (docs/results.md, "Real levels").
+    pub fn markdown_row(&self) -> String {
+        let pct = |b: [f32; 3]| b.map(|x| format!("{:+.1}", 100.0 * x)).join("/") + "%";
+        let rsm_mean = self.indirect.rsm_bias.iter().sum::<f32>() / 3.0;
+        format!(
+            "| {} | {} + {} | {} | {} | {:+.1}% | {:.2} / {:.2} | {:.4} | {:.4} | {:.3} | {:.1} s |",
+            self.indirect.name,
+            self.triangles.0,
+            self.triangles.1,
+            self.indirect.vpls,
+            pct(self.indirect.full_bias),
+            100.0 * rsm_mean,
+            self.indirect.full_err,
+            self.indirect.rsm_err,
+            self.image_rel_mse,
+            self.direct_rel_mse,
+            self.flip,
+            self.bake_s
+        )
+    }
+}
+
 /// The images of one level's judgement.
 pub struct LevelImages {
     /// The reference.
@@ -377,7 +403,8 @@ pub fn write_indirect_panel(
     write_row(&r, &full, &rsm, path)
 }
 
-/// `reference | full | rsm | 4·|full − reference|` at the reference's exposure.
+/// `reference | full | rsm | 4·|full − reference|` at the reference's exposure,
+/// at least 640 pixels wide.
 fn write_row(
     r: &Image,
     full: &Image,
@@ -385,7 +412,10 @@ fn write_row(
     path: &Path,
 ) -> Result<(), gibake_image::ImageError> {
     let (w, h) = (r.width, r.height);
-    let mut out = Image::new(4 * w, h);
+    // Small judged images are blown up (nearest texel: every pixel still the
+    // measured one) so that the panel is at least 640 pixels wide.
+    let zoom = (640 / (4 * w).max(1)).max(1);
+    let mut out = Image::new(4 * w * zoom, h * zoom);
     let err = {
         let mut e = Image::new(w, h);
         for (k, (a, b)) in full.pixels.iter().zip(&r.pixels).enumerate() {
@@ -394,9 +424,13 @@ fn write_row(
         e
     };
     for (panel, img) in [r, full, rsm, &err].into_iter().enumerate() {
-        for y in 0..h {
-            for x in 0..w {
-                out.set(panel as u32 * w + x, y, img.get(x, y));
+        for y in 0..h * zoom {
+            for x in 0..w * zoom {
+                out.set(
+                    (panel as u32 * w) * zoom + x,
+                    y,
+                    img.get(x / zoom, y / zoom),
+                );
             }
         }
     }

@@ -114,7 +114,9 @@ impl Moments {
     }
 
     /// The node's split score, or `None` if it can never be split (a single
-    /// texel, or no lit texel). `S = max(D, Nn, M) · share²` with
+    /// texel, no lit texel, or — under `by_reach` — no lit texel whose light
+    /// reaches anything: none of its descendants could count, so splitting
+    /// it would only make VPLs the probe drops or the budget ignores). `S = max(D, Nn, M) · share²` with
     ///
     /// - depth term `D = Var(metric) / (map_size · mean footprint)²`,
     /// - normal term `Nn = 1 − |Σ normal| / lit`,
@@ -125,7 +127,7 @@ impl Moments {
     /// all over lit texels, evaluated in `f64` and rounded to `f32` (NaN
     /// counts as `+∞`).
     pub fn score(&self, map_size: u32, total_flux: f64, by_reach: bool) -> Option<f32> {
-        if self.total <= 1 || self.lit == 0 {
+        if self.total <= 1 || self.lit == 0 || (by_reach && self.sum_reaching <= 0.0) {
             return None;
         }
         let n = f64::from(self.lit);
