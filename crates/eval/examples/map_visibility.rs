@@ -5,7 +5,9 @@
 //! CPU twin of the shading's transport (`gibake_eval::transport`) over the
 //! same VPLs with exact ray-cast visibility, and without visibility. GPU /
 //! CPU above 1 is light the maps let through that rays stop (as
-//! `tests/runtime_modes.rs` checks on the bundled scenes).
+//! `tests/runtime_modes.rs` checks on the bundled scenes). A second line
+//! gives the twin with exact visibility but without the near-field trees
+//! (every VPL one disk): what the near field adds.
 use gibake_runtime::{Mode, RenderSettings};
 use glam::Vec3;
 fn main() {
@@ -46,14 +48,14 @@ fn main() {
         .unwrap();
         let rays = gibake_reference::RayScene::build(&scene, time);
         let view = gibake_reference::View::from_scene(&scene, time).unwrap();
-        let (mut sg, mut sv, mut su) = (0.0f64, 0.0f64, 0.0f64);
+        let (mut sd, mut sg, mut sv, mut su) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         for y in 0..size {
             for x in 0..size {
                 let (o, d, t0) = view.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
                 let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
                     continue;
                 };
-                let (mut e, mut eu) = (Vec3::ZERO, Vec3::ZERO);
+                let (mut e, mut eu, mut edisk) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
                 for (i, v) in asset.vpls.iter().enumerate() {
                     let n = Vec3::from_array(v.normal);
                     let org =
@@ -68,11 +70,20 @@ fn main() {
                         h.shading_normal,
                         h.geometric_normal,
                     );
-                    if ei == Vec3::ZERO {
-                        continue;
+                    let ed = gibake_eval::transport::static_vpl_irradiance(
+                        v,
+                        org,
+                        &[],
+                        h.position,
+                        h.shading_normal,
+                        h.geometric_normal,
+                    );
+                    let vis = rays.visible(org, n, h.position, h.geometric_normal);
+                    if vis {
+                        edisk += ed;
                     }
                     eu += ei;
-                    if rays.visible(org, n, h.position, h.geometric_normal) {
+                    if vis {
                         e += ei;
                     }
                 }
@@ -80,6 +91,8 @@ fn main() {
                 let cu = h.albedo / std::f32::consts::PI * eu;
                 sv += (c.x + c.y + c.z) as f64;
                 su += (cu.x + cu.y + cu.z) as f64;
+                let cd = h.albedo / std::f32::consts::PI * edisk;
+                sd += (cd.x + cd.y + cd.z) as f64;
                 let g = gpu.get(x, y);
                 sg += (g.x + g.y + g.z) as f64;
             }
@@ -91,6 +104,11 @@ fn main() {
             sv,
             sg / sv,
             su
+        );
+        println!(
+            "  disk only (no near field), exact vis: {:.4e} (near field / disk {:.3})",
+            sd,
+            sv / sd
         );
     }
 }
