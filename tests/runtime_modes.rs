@@ -146,7 +146,6 @@ fn gpu_vpl_visibility_matches_cpu_ray_casts() {
 }
 
 fn vpl_visibility_check(name: &str) {
-    use glam::Vec3;
     let ctx = common::gpu();
     let scene = load(name);
     let asset = bake(&ctx, &scene, 256, 128);
@@ -163,26 +162,7 @@ fn vpl_visibility_check(name: &str) {
                 continue;
             };
             // Dynamic objects receive too, but the check is about static receivers.
-            let mut e = Vec3::ZERO;
-            for (i, v) in asset.vpls.iter().enumerate() {
-                let n = Vec3::from_array(v.normal);
-                let org =
-                    gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
-                let nodes = &asset.vpl_nodes
-                    [i * gibake_asset::NODES_PER_VPL..(i + 1) * gibake_asset::NODES_PER_VPL];
-                let ei = gibake_eval::transport::static_vpl_irradiance(
-                    v,
-                    org,
-                    nodes,
-                    h.position,
-                    h.shading_normal,
-                    h.geometric_normal,
-                );
-                if ei == Vec3::ZERO || !rays.visible(org, n, h.position, h.geometric_normal) {
-                    continue;
-                }
-                e += ei;
-            }
+            let e = gibake_eval::transport::twin_irradiance(&asset, &rays, &h).visible;
             cpu.set(x, y, h.albedo / std::f32::consts::PI * e);
         }
     }

@@ -164,8 +164,8 @@
 //! take a useful VPL's place in the budget, and a node none of whose light
 //! reaches anything is never split, in either mode (its score is `None`):
 //! none of its descendants could count, and on a town whose ground faces
-//! the sky splitting them made ~120 k VPLs the probe kept. If the map has fewer than `n`
-//! lit texels, every lit texel becomes a VPL.
+//! the sky splitting them made ~120 k VPLs the probe kept. If the map has
+//! fewer than `n` lit texels, every lit texel becomes a VPL.
 //!
 //! The reported [`Clustering::threshold`] reproduces the result with
 //! `Threshold(t)`: if the refinement stopped at the end of a run of equal

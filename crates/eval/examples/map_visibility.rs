@@ -9,7 +9,6 @@
 //! gives the twin with exact visibility but without the near-field trees
 //! (every VPL one disk): what the near field adds.
 use gibake_runtime::{Mode, RenderSettings};
-use glam::Vec3;
 fn main() {
     let names: Vec<String> = std::env::args().skip(1).collect();
     assert!(
@@ -55,44 +54,13 @@ fn main() {
                 let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
                     continue;
                 };
-                let (mut e, mut eu, mut edisk) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
-                for (i, v) in asset.vpls.iter().enumerate() {
-                    let n = Vec3::from_array(v.normal);
-                    let org =
-                        gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
-                    let nodes = &asset.vpl_nodes
-                        [i * gibake_asset::NODES_PER_VPL..(i + 1) * gibake_asset::NODES_PER_VPL];
-                    let ei = gibake_eval::transport::static_vpl_irradiance(
-                        v,
-                        org,
-                        nodes,
-                        h.position,
-                        h.shading_normal,
-                        h.geometric_normal,
-                    );
-                    let ed = gibake_eval::transport::static_vpl_irradiance(
-                        v,
-                        org,
-                        &[],
-                        h.position,
-                        h.shading_normal,
-                        h.geometric_normal,
-                    );
-                    let vis = rays.visible(org, n, h.position, h.geometric_normal);
-                    if vis {
-                        edisk += ed;
-                    }
-                    eu += ei;
-                    if vis {
-                        e += ei;
-                    }
-                }
-                let c = h.albedo / std::f32::consts::PI * e;
-                let cu = h.albedo / std::f32::consts::PI * eu;
-                sv += (c.x + c.y + c.z) as f64;
-                su += (cu.x + cu.y + cu.z) as f64;
-                let cd = h.albedo / std::f32::consts::PI * edisk;
-                sd += (cd.x + cd.y + cd.z) as f64;
+                let t = gibake_eval::transport::twin_irradiance(&asset, &rays, &h);
+                // Radiance (albedo/π · E), summed over the channels.
+                let radiance =
+                    |e: glam::Vec3| (h.albedo / std::f32::consts::PI * e).element_sum() as f64;
+                sv += radiance(t.visible);
+                su += radiance(t.unshadowed);
+                sd += radiance(t.visible_disk);
                 let g = gpu.get(x, y);
                 sg += (g.x + g.y + g.z) as f64;
             }

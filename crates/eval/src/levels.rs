@@ -278,9 +278,7 @@ impl LevelEval {
             self.bake_s
         )
     }
-}
 
-impl LevelEval {
     /// The header of [`LevelEval::markdown_row`]'s table.
     pub const MARKDOWN_HEADER: &'static str = "| level | triangles | VPLs | full bias (R/G/B) | rsm bias | full err / rsm err | image rel MSE | direct rel MSE | FLIP | bake |\n|---|---|---|---|---|---|---|---|---|---|";
 

@@ -101,3 +101,44 @@ pub fn static_vpl_irradiance(
     }
     e
 }
+
+/// The static VPLs' irradiance at a receiver `h`, summed by the CPU twin
+/// of the shading (before the albedo): with exact ray-cast visibility
+/// (what the GPU's hemisphere maps approximate), without visibility, and
+/// with visibility but one disk per VPL (no near-field tree). One
+/// visibility ray per VPL that sends anything.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TwinIrradiance {
+    /// Near-field transport, ray-cast visibility.
+    pub visible: Vec3,
+    /// Near-field transport, no visibility.
+    pub unshadowed: Vec3,
+    /// One disk per VPL, ray-cast visibility.
+    pub visible_disk: Vec3,
+}
+
+/// [`TwinIrradiance`] at `h` from the static VPLs of `asset`.
+pub fn twin_irradiance(
+    asset: &gibake_asset::Asset,
+    rays: &gibake_reference::RayScene,
+    h: &gibake_reference::Hit,
+) -> TwinIrradiance {
+    let mut sum = TwinIrradiance::default();
+    for (i, v) in asset.vpls.iter().enumerate() {
+        let n = Vec3::from_array(v.normal);
+        let origin = gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
+        let nodes = &asset.vpl_nodes[i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL];
+        let (x, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
+        let near = static_vpl_irradiance(v, origin, nodes, x, ns, ng);
+        let disk = static_vpl_irradiance(v, origin, &[], x, ns, ng);
+        if near == Vec3::ZERO && disk == Vec3::ZERO {
+            continue;
+        }
+        sum.unshadowed += near;
+        if rays.visible(origin, n, x, ng) {
+            sum.visible += near;
+            sum.visible_disk += disk;
+        }
+    }
+    sum
+}

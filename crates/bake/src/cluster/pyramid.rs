@@ -116,7 +116,8 @@ impl Moments {
     /// The node's split score, or `None` if it can never be split (a single
     /// texel, no lit texel, or — under `by_reach` — no lit texel whose light
     /// reaches anything: none of its descendants could count, so splitting
-    /// it would only make VPLs the probe drops or the budget ignores). `S = max(D, Nn, M) · share²` with
+    /// it would only make VPLs the probe drops or the budget ignores).
+    /// `S = max(D, Nn, M) · share²` with
     ///
     /// - depth term `D = Var(metric) / (map_size · mean footprint)²`,
     /// - normal term `Nn = 1 − |Σ normal| / lit`,
