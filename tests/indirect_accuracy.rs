@@ -29,8 +29,14 @@ fn check(e: &IndirectEval, failures: &mut Vec<String>) {
     if !e.full_bias_within(0.05) {
         failures.push(format!("{}: full's mean indirect bias beyond ±5%", e.name));
     }
-    // "At most", to 0.1%: where no VPL map sees an occluder, full = rsm.
-    if e.full_err > e.rsm_err * 1.001 {
+    // "At most", to 1%: where no VPL map sees an occluder, full is rsm
+    // except within one map texel of a concave crease, where the 2×2 PCF's
+    // tap across the crease sees the other surface (random seed 22, three
+    // walls and nothing between them: full's error 0.7% above rsm's since
+    // the maps' receiver-plane test; the old slope-scaled bias, which hid
+    // most of it, let 1-14% more light than exact rays through occluders
+    // on real levels: docs/method.md, "G-buffer and shading").
+    if e.full_err > e.rsm_err * 1.01 {
         failures.push(format!(
             "{}: full's indirect error {:.4} above rsm's {:.4}",
             e.name, e.full_err, e.rsm_err
