@@ -352,7 +352,10 @@ fn bake_with(
     let vpl_nodes: Vec<VplRecord> = clusters
         .rects
         .iter()
-        .flat_map(|&r| crate::near_field::vpl_nodes(&rsm, r))
+        .enumerate()
+        .flat_map(|(i, &r)| {
+            crate::near_field::vpl_nodes(&rsm, r, |t| clusters.texel_vpl[t] == i as u32)
+        })
         .collect();
 
     // Hemisphere maps by ray casting (a shard: only its VPLs', kept apart).

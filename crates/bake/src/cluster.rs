@@ -176,6 +176,22 @@
 //! or below the run, whichever gives the count nearer to the one returned.
 //! With no split, it is above the largest unsplit `e` (`+∞` if none).
 //!
+//! # Depth layers
+//!
+//! [`cluster`] makes one VPL per **depth layer** of a leaf (`leaf_layers`):
+//! its lit texels sorted by metric, cut wherever two consecutive metrics
+//! differ by more than `max(20, w)` mean texel footprints (`w` the leaf's
+//! longer side in texels). A continuous surface changes its metric by at
+//! most 20 footprints per texel (the RSM's area clamp, cos ≥ 0.05), so
+//! only a step between surfaces larger than the leaf is wide cuts it: a
+//! roof's edge and the floor seen through its opening. Layers are in
+//! increasing metric and share the leaf's rectangle in
+//! [`Clustering::rects`]; a leaf of one layer sums exactly as before. The
+//! layers beyond the first that count are added to the budget: `Count(n)`
+//! reruns the refinement for a leaf target moved by the miss until the
+//! total is within one of `n` (at most six runs; the closest is kept).
+//! [`cluster_cut`] (the dynamic VPLs' GPU twin) stays one VPL per leaf.
+//!
 //! # Slot order and [`cluster_cut`] (the GPU twin)
 //!
 //! For a power-of-two map, depth `d` is a `2^d × 2^d` grid. The node at
@@ -318,7 +334,7 @@ pub fn cluster(rsm: &Rsm, target: ClusterTarget) -> Clustering {
     let pyramid = Pyramid::new(rsm);
     match target {
         ClusterTarget::Threshold(t) => {
-            let (vpls, texel_vpl, rects) = emit(rsm, &pyramid, |node| {
+            let (vpls, texel_vpl, rects, _) = emit(rsm, &pyramid, |node| {
                 pyramid.score(rsm, node).is_some_and(|s| s >= t)
             });
             Clustering {
@@ -333,11 +349,12 @@ pub fn cluster(rsm: &Rsm, target: ClusterTarget) -> Clustering {
 }
 
 /// Walks the quadtree depth-first, descending where `split` says so, and
-/// turns each leaf into a VPL.
+/// turns each leaf into one VPL per depth layer ([`leaf_layers`]).
 fn emit(rsm: &Rsm, pyramid: &Pyramid, split: impl Fn(Node) -> bool) -> Emitted {
     let mut vpls = Vec::new();
     let mut rects = Vec::new();
     let mut texel_vpl = vec![NO_VPL; rsm.metric.len()];
+    let mut extra = 0u64;
     let texel_level = pyramid.texel_level();
     let mut stack = vec![pyramid.root()];
     let mut kids = Vec::with_capacity(4);
@@ -347,30 +364,120 @@ fn emit(rsm: &Rsm, pyramid: &Pyramid, split: impl Fn(Node) -> bool) -> Emitted {
             kids.extend(pyramid.children(node));
             // Reverse so that the first child is visited first.
             stack.extend(kids.iter().rev());
-        } else if let Some(vpl) = leaf_vpl(rsm, pyramid.rect(node)) {
+            continue;
+        }
+        let rect = pyramid.rect(node);
+        let layers = leaf_layers(rsm, rect);
+        if layers.len() > 1 {
+            // Layers beyond the first that count against a budget as the
+            // leaf itself would (pyramid::counts).
+            let counting = layers
+                .iter()
+                .filter(|l| {
+                    let m = l
+                        .iter()
+                        .fold(Moments::default(), |m, &i| m.merge(Moments::texel(rsm, i)));
+                    pyramid.counts(&m)
+                })
+                .count() as u64;
+            let leaf_counts = u64::from(pyramid.counts(&pyramid.moments(rsm, node)));
+            extra += counting.saturating_sub(leaf_counts);
+        }
+        for layer in layers {
+            let Some(vpl) = cluster_of(rsm, &layer) else {
+                continue;
+            };
             let index = vpls.len() as u32;
-            let (x0, x1, y0, y1) = pyramid.rect(node);
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    let i = (y * rsm.size + x) as usize;
-                    if is_lit(rsm, i) {
-                        texel_vpl[i] = index;
-                    }
-                }
+            for &i in &layer {
+                texel_vpl[i] = index;
             }
             vpls.push(vpl);
-            rects.push((x0, x1, y0, y1));
+            rects.push(rect);
         }
     }
-    (vpls, texel_vpl, rects)
+    (vpls, texel_vpl, rects, extra)
 }
 
-/// VPLs, texel → VPL, and each VPL's node rectangle.
-type Emitted = (Vec<Cluster>, Vec<u32>, Vec<(u32, u32, u32, u32)>);
+/// VPLs, texel → VPL, each VPL's node rectangle, and how many more VPLs
+/// than leaves count against a budget (a leaf's second and later layers).
+type Emitted = (Vec<Cluster>, Vec<u32>, Vec<(u32, u32, u32, u32)>, u64);
 
-/// The VPL of a leaf rectangle (over its lit texels), or `None` if it has
-/// no lit texel.
+/// A depth gap splits a leaf where it exceeds this many texel footprints
+/// (and the leaf's own width): a continuous surface's metric changes by at
+/// most `tan θ ≤ 20` footprints from one texel to the next (the RSM's
+/// area clamp, cos ≥ 0.05), so only a step between two surfaces does.
+const LAYER_GAP_FOOTPRINTS: f64 = 20.0;
+
+/// The lit texels of a leaf rectangle, split into **depth layers**: sorted
+/// by metric, a new layer starts wherever consecutive metrics differ by
+/// more than `max(LAYER_GAP_FOOTPRINTS · F, width · F)` (`F` the leaf's
+/// mean texel footprint, `width` its longer side in texels). A leaf that
+/// holds a roof's edge and the floor 12 m below it through the roof's
+/// opening becomes two VPLs: one visibility point cannot stand for both,
+/// and a point on the roof, whose hemisphere is the sky, carried the
+/// floor's light nowhere (the arena: docs/method.md, "Real levels").
+/// Layers are in increasing metric; texels within one in row-major order
+/// (so a leaf of one layer sums exactly as before). Empty: no lit texel.
+fn leaf_layers(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Vec<Vec<usize>> {
+    let mut lit = Vec::new();
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let i = (y * rsm.size + x) as usize;
+            if is_lit(rsm, i) {
+                lit.push(i);
+            }
+        }
+    }
+    if lit.len() < 2 {
+        return if lit.is_empty() {
+            Vec::new()
+        } else {
+            vec![lit]
+        };
+    }
+    let footprint = lit
+        .iter()
+        .map(|&i| f64::from(rsm.footprint(i)))
+        .sum::<f64>()
+        / lit.len() as f64;
+    let width = f64::from((x1 - x0).max(y1 - y0));
+    let gap = footprint * LAYER_GAP_FOOTPRINTS.max(width);
+    if !(gap.is_finite() && gap > 0.0) {
+        return vec![lit];
+    }
+    let mut by_metric = lit.clone();
+    by_metric.sort_by(|&a, &b| rsm.metric[a].total_cmp(&rsm.metric[b]).then(a.cmp(&b)));
+    let mut layers = Vec::new();
+    let mut start = 0;
+    for k in 1..=by_metric.len() {
+        let split = k == by_metric.len()
+            || f64::from(rsm.metric[by_metric[k]]) - f64::from(rsm.metric[by_metric[k - 1]]) > gap;
+        if split {
+            let mut layer = by_metric[start..k].to_vec();
+            layer.sort_unstable();
+            layers.push(layer);
+            start = k;
+        }
+    }
+    if layers.len() == 1 {
+        return vec![lit];
+    }
+    layers
+}
+
+/// The VPL of a leaf rectangle (over its lit texels, one layer), or `None`
+/// if it has no lit texel: the dynamic VPLs' rule ([`cluster_cut`]).
 fn leaf_vpl(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Option<Cluster> {
+    let lit: Vec<usize> = (y0..y1)
+        .flat_map(|y| (x0..x1).map(move |x| (y * rsm.size + x) as usize))
+        .filter(|&i| is_lit(rsm, i))
+        .collect();
+    cluster_of(rsm, &lit)
+}
+
+/// The VPL of a set of lit texels (in row-major order), or `None` if it
+/// has none.
+fn cluster_of(rsm: &Rsm, texels: &[usize]) -> Option<Cluster> {
     let mut count = 0u32;
     let mut flux = [0.0f64; 3];
     let mut w_sum = 0.0f64;
@@ -380,28 +487,22 @@ fn leaf_vpl(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Option<Cluster
     let mut ap = [0.0f64; 3];
     let mut an = [0.0f64; 3];
     let mut first_normal = None;
-    for y in y0..y1 {
-        for x in x0..x1 {
-            let i = (y * rsm.size + x) as usize;
-            if !is_lit(rsm, i) {
-                continue;
-            }
-            count += 1;
-            let f = rsm.flux[i].to_array().map(f64::from);
-            let p = rsm.position[i].to_array().map(f64::from);
-            let n = rsm.normal[i].to_array().map(f64::from);
-            let a = f64::from(rsm.area[i]);
-            let w = texel_weight(rsm, i);
-            first_normal.get_or_insert(rsm.normal[i]);
-            w_sum += w;
-            area += a;
-            for k in 0..3 {
-                flux[k] += f[k];
-                wp[k] += w * p[k];
-                wn[k] += w * n[k];
-                ap[k] += a * p[k];
-                an[k] += a * n[k];
-            }
+    for &i in texels {
+        count += 1;
+        let f = rsm.flux[i].to_array().map(f64::from);
+        let p = rsm.position[i].to_array().map(f64::from);
+        let n = rsm.normal[i].to_array().map(f64::from);
+        let a = f64::from(rsm.area[i]);
+        let w = texel_weight(rsm, i);
+        first_normal.get_or_insert(rsm.normal[i]);
+        w_sum += w;
+        area += a;
+        for k in 0..3 {
+            flux[k] += f[k];
+            wp[k] += w * p[k];
+            wn[k] += w * n[k];
+            ap[k] += a * p[k];
+            an[k] += a * n[k];
         }
     }
     if count == 0 || w_sum.partial_cmp(&0.0) != Some(Ordering::Greater) {
@@ -425,17 +526,11 @@ fn leaf_vpl(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Option<Cluster
     // The lit texel nearest the centroid (f64 distances, first on a tie).
     let mut anchor = position;
     let mut best = f64::INFINITY;
-    for y in y0..y1 {
-        for x in x0..x1 {
-            let i = (y * rsm.size + x) as usize;
-            if !is_lit(rsm, i) {
-                continue;
-            }
-            let d = (rsm.position[i].as_dvec3() - position.as_dvec3()).length_squared();
-            if d < best {
-                best = d;
-                anchor = rsm.position[i];
-            }
+    for &i in texels {
+        let d = (rsm.position[i].as_dvec3() - position.as_dvec3()).length_squared();
+        if d < best {
+            best = d;
+            anchor = rsm.position[i];
         }
     }
     Some(Cluster {
@@ -533,9 +628,13 @@ impl Greedy<'_> {
     }
 }
 
-/// `ClusterTarget::Count(n)`: greedy refinement (see the module docs).
-fn cluster_count(rsm: &Rsm, pyramid: &Pyramid, n: u32) -> Clustering {
-    let n = u64::from(n);
+/// A refinement, the capped score of its last run of splits, of the run
+/// before it, and the count where the last run began ([`refine`]).
+type Refined<'a> = (Greedy<'a>, Option<f32>, Option<f32>, u64);
+
+/// Splits in non-increasing capped score until `n` leaves count (or the
+/// next split would overshoot more than stopping undershoots).
+fn refine<'a>(rsm: &'a Rsm, pyramid: &'a Pyramid, n: u64) -> Refined<'a> {
     let split = (0..pyramid.texel_level())
         .map(|level| {
             let m = pyramid.cells(level) as usize;
@@ -551,7 +650,6 @@ fn cluster_count(rsm: &Rsm, pyramid: &Pyramid, n: u32) -> Clustering {
     };
     g.push(pyramid.root(), f32::INFINITY);
 
-    // Splits in non-increasing capped score.
     let mut last_e: Option<f32> = None;
     // The capped score of the run before the current one.
     let mut prev_e: Option<f32> = None;
@@ -570,10 +668,46 @@ fn cluster_count(rsm: &Rsm, pyramid: &Pyramid, n: u32) -> Clustering {
         }
         g.split(top);
     }
+    (g, last_e, prev_e, group_start)
+}
 
-    let (vpls, texel_vpl, rects) = emit(rsm, pyramid, |node| g.is_split(node));
+/// `ClusterTarget::Count(n)`: greedy refinement (see the module docs).
+/// Depth layers ([`leaf_layers`]) add VPLs beyond the leaves the
+/// refinement counts, so it is rerun for a leaf target moved by the miss
+/// (at most five more times) until the VPLs that count are within one of
+/// `n`; the closest run is kept.
+fn cluster_count(rsm: &Rsm, pyramid: &Pyramid, n: u32) -> Clustering {
+    let n = u64::from(n);
+    let run = |target: u64| -> (u64, u64, Refined<'_>, Emitted) {
+        let refined = refine(rsm, pyramid, target);
+        let emitted = emit(rsm, pyramid, |node| refined.0.is_split(node));
+        let total = refined.0.count + emitted.3;
+        (total.abs_diff(n), total, refined, emitted)
+    };
+    let mut target = n;
+    let mut best = run(target);
+    let mut total = best.1;
+    for _ in 0..5 {
+        if best.0 <= 1 {
+            break;
+        }
+        let next = if total > n {
+            target.saturating_sub(total - n).max(1)
+        } else {
+            target + (n - total)
+        };
+        if next == target {
+            break;
+        }
+        target = next;
+        let this = run(target);
+        total = this.1;
+        if this.0 < best.0 {
+            best = this;
+        }
+    }
+    let (_, _, (mut g, last_e, prev_e, group_start), (vpls, texel_vpl, rects, _)) = best;
     let result = g.count;
-    debug_assert_eq!(result, vpls.len() as u64);
 
     // Any threshold in the gap between two consecutive capped scores splits
     // the same nodes; the geometric middle of the gap keeps that true when a

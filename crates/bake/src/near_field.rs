@@ -101,9 +101,15 @@ impl Sums {
 }
 
 /// The near-field tree of the VPL made of the lit texels of `rect`
-/// (`(x0, x1, y0, y1)`, half-open): [`NODES_PER_VPL`] records. Sums are in
-/// `f64` in row-major texel order (deterministic).
-pub fn vpl_nodes(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Vec<VplRecord> {
+/// (`(x0, x1, y0, y1)`, half-open) for which `member(texel index)` holds
+/// (the VPL's own depth layer of its leaf: `Clustering::texel_vpl`):
+/// [`NODES_PER_VPL`] records. Sums are in `f64` in row-major texel order
+/// (deterministic).
+pub fn vpl_nodes(
+    rsm: &Rsm,
+    (x0, x1, y0, y1): (u32, u32, u32, u32),
+    member: impl Fn(usize) -> bool,
+) -> Vec<VplRecord> {
     let levels = NEAR_FIELD_LEVELS;
     let side = 1usize << levels;
     let mut leaf = vec![Sums::default(); side * side];
@@ -113,7 +119,7 @@ pub fn vpl_nodes(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Vec<VplRe
             let t = (y * rsm.size + x) as usize;
             let f = rsm.flux[t];
             let w = f64::from(f.x) + f64::from(f.y) + f64::from(f.z);
-            if !(rsm.metric[t].is_finite() && w > 0.0 && w.is_finite()) {
+            if !(rsm.metric[t].is_finite() && w > 0.0 && w.is_finite() && member(t)) {
                 continue;
             }
             let i = cell(x, x0, x1, levels);

@@ -441,6 +441,59 @@ fn cluster_depth_step_splits_along_the_step() {
     }
 }
 
+/// A roof (0.45 above the floor) over the left of a 256² map, its edge at
+/// x = 75, inside a leaf: the sun sees roof and floor side by side. At
+/// threshold 2e-4 the quadtree stops at 32-texel leaves (the step's scores
+/// are 0.0105, 0.0031, 0.00045, then 0.00018), and a leaf across the edge
+/// holds two depth layers 0.45 apart, 58 texel footprints, more than its
+/// 32: one VPL on the roof's edge would see only the sky above it and carry
+/// the floor's light nowhere (the real arena's roof openings). Each layer
+/// is its own VPL, and a budget still holds (at 16 VPLs a 64-texel leaf,
+/// wider than the step, stays one surface).
+#[test]
+fn cluster_a_leaf_over_two_depth_layers_is_one_vpl_per_layer() {
+    let rsm = floor_rsm(256, |x, _| Some(if x < 75 { 0.45 } else { 0.0 }));
+    for target in [ClusterTarget::Threshold(2e-5), ClusterTarget::Count(16)] {
+        let c = cluster(&rsm, target);
+        check_consistency(&rsm, &c);
+        let mut side = vec![None; count(&c)];
+        for (i, &v) in c.texel_vpl.iter().enumerate() {
+            // Only a leaf wider than the step (64 texels) may hold both.
+            let r = c.rects[v as usize];
+            if r.1 - r.0 > 32 {
+                continue;
+            }
+            let s = (i as u32 % 256) < 75;
+            let slot = &mut side[v as usize];
+            assert!(
+                slot.is_none_or(|old| old == s),
+                "{target:?}: VPL {v} straddles the edge"
+            );
+            *slot = Some(s);
+        }
+        // Some leaf really holds both (two VPLs share its rectangle).
+        let mut rects = c.rects.clone();
+        rects.sort_unstable();
+        rects.dedup();
+        assert!(
+            rects.len() < c.rects.len(),
+            "{target:?}: no leaf across the edge"
+        );
+        eprintln!("{target:?}: {} VPLs, {} leaves", count(&c), rects.len());
+        if target == ClusterTarget::Count(16) {
+            assert!(
+                (count(&c) as i64 - 16).abs() <= 1,
+                "{} VPLs for 16",
+                count(&c)
+            );
+        }
+    }
+    // A step of 0.45 in a leaf wider than that (256 texels: 2) is one
+    // surface seen whole.
+    let coarse = cluster(&rsm, ClusterTarget::Count(1));
+    assert_eq!(count(&coarse), 1);
+}
+
 #[test]
 fn cluster_count_hits_the_budget() {
     let rsm = corner_rsm(512);
@@ -683,20 +736,44 @@ fn cluster_cut_is_the_threshold_cut_in_slot_order() {
     // Only powers of two.
     assert!(cluster_cut(&corner_rsm(37), 0.0, 4).is_empty());
 
-    // Without a depth limit: the same VPLs as `cluster` (another order).
+    // Without a depth limit: the same leaves as `cluster` (another order),
+    // one VPL per leaf: where `cluster` split a leaf into depth layers (the
+    // sphere in front of the walls), the cut's VPL holds their union.
     let rsm = corner_rsm(128);
     let total = total_flux(&rsm, |_| true);
+    let mut layered = 0;
     for t in [1e-3f32, 1e-4, 1e-5] {
         let full = cluster(&rsm, ClusterTarget::Threshold(t));
         let cut = cluster_cut(&rsm, t, 7);
-        assert_eq!(cut.len(), full.vpls.len(), "threshold {t}");
+        let mut leaves: Vec<(u32, u32, u32, u32)> = full.rects.clone();
+        leaves.dedup();
+        assert_eq!(cut.len(), leaves.len(), "threshold {t}");
         let mut used = vec![false; cut.len()];
-        for v in &full.vpls {
-            let j = cut
+        for leaf in leaves {
+            let layers: Vec<&Cluster> = full
+                .vpls
                 .iter()
-                .enumerate()
-                .position(|(j, c)| !used[j] && c == v)
-                .expect("every VPL of the threshold cut is in cluster_cut");
+                .zip(&full.rects)
+                .filter(|(_, r)| **r == leaf)
+                .map(|(v, _)| v)
+                .collect();
+            let j = if let [v] = layers[..] {
+                cut.iter()
+                    .enumerate()
+                    .position(|(j, c)| !used[j] && c == v)
+                    .expect("every one-layer leaf of the threshold cut is in cluster_cut")
+            } else {
+                layered += 1;
+                let texels: u32 = layers.iter().map(|v| v.texels).sum();
+                let flux: Vec<Cluster> = layers.iter().map(|v| **v).collect();
+                let j = cut
+                    .iter()
+                    .enumerate()
+                    .position(|(j, c)| !used[j] && c.texels == texels)
+                    .expect("a layered leaf's texels are one VPL of cluster_cut");
+                assert_close3(vpl_flux(&flux), vpl_flux(&cut[j..=j]), 1e-6, "layers' flux");
+                j
+            };
             used[j] = true;
         }
         // With a depth limit: at most 4^d VPLs, all the flux.
@@ -709,6 +786,7 @@ fn cluster_cut_is_the_threshold_cut_in_slot_order() {
             assert_eq!(texels as usize, lit);
         }
     }
+    assert!(layered > 0, "no leaf of the corner holds two layers");
 }
 
 #[test]
