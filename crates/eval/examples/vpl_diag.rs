@@ -7,6 +7,13 @@
 //!   C    A's transport, visibility averaged over K flux-sampled own texels
 //!   D    per-texel: K flux-sampled texels, each with own transport + vis
 //!   E    A without visibility (rsm)
+//!   F1   SUB² sub-points per VPL (env SUB, default 4), visibility from B
+//!   F2   the same sub-points, each with its own visibility
+//!   F3   the same sub-points, visibility as C
+//!   T    the runtime's transport (one disk at B's origin far away, the
+//!        bake's near-field tree near it: gibake_eval::transport), with
+//!        exact visibility from B's origin — what the GPU computes with
+//!        exact maps (B's lift: env LIFT, default the bake's 0.2)
 //! usage: vpl_diag SEED|BUNDLED|LEVEL... [--vpls N] [--size S]
 //! (LEVEL: a name in data/levels/levels.json; its camera and moving
 //! objects as `eval_levels` loads them). VPLs as the bake makes them:
@@ -60,7 +67,9 @@ fn main() {
         "errD",
         "errE"
     );
-    println!("   then F1 (sub-points, vis from B) F2 (sub-points, own vis)");
+    println!(
+        "   then F1 (sub-points, vis from B) F2 (sub-points, own vis) F3 (sub-points, vis as C) T (the runtime's transport, vis from B)"
+    );
     for s in seeds {
         let list = gibake_eval::levels::bundled_list();
         let levels = gibake_eval::levels::read_specs(&list).unwrap();
@@ -159,11 +168,19 @@ fn main() {
             .collect();
         let cam = gibake_reference::View::from_scene(&stat, 0.0).unwrap();
         let per_vpl = std::sync::Mutex::new(vec![0f64; cl.vpls.len()]);
-        let px: Vec<[Vec3; 9]> = (0..size * size)
+        let nodes: Vec<Vec<gibake_asset::VplRecord>> = cl
+            .rects
+            .iter()
+            .enumerate()
+            .map(|(i, &r)| {
+                gibake_bake::near_field::vpl_nodes(&rsm, r, |t| cl.texel_vpl[t] == i as u32)
+            })
+            .collect();
+        let px: Vec<[Vec3; 10]> = (0..size * size)
             .into_par_iter()
             .map(|p| {
                 let (x, y) = (p % size, p / size);
-                let mut out = [Vec3::ZERO; 9];
+                let mut out = [Vec3::ZERO; 10];
                 let (o, d, t0) = cam.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
                 let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
                     return out;
@@ -228,12 +245,30 @@ fn main() {
                     out[3] += ga * visc;
                     let lift: f32 = std::env::var("LIFT")
                         .map(|s| s.parse().unwrap())
-                        .unwrap_or(0.05);
+                        .unwrap_or(hemisphere::VPL_ORIGIN_OFFSET);
                     let orgb = surf[vi] + n * (lift * (v.area / PI).sqrt());
                     let gb = g(orgb, n, v.area, v.flux);
                     let visb = rays.visible(orgb, n, xg, h.geometric_normal);
                     if gb != Vec3::ZERO && visb {
                         out[2] += gb;
+                    }
+                    if visb {
+                        let rec = gibake_asset::VplRecord {
+                            position: orgb.to_array(),
+                            area: v.area,
+                            normal: n.to_array(),
+                            texels: v.texels,
+                            flux: v.flux.to_array(),
+                            map: 0,
+                        };
+                        out[9] += gibake_eval::transport::static_vpl_irradiance(
+                            &rec,
+                            orgb,
+                            &nodes[vi],
+                            xg,
+                            h.shading_normal,
+                            h.geometric_normal,
+                        );
                     }
                     for &(sp, sn, sf, sa) in &sub[vi] {
                         let gs = g(sp, sn, sa, sf);
@@ -304,7 +339,7 @@ fn main() {
         let rm = (r.x + r.y + r.z) / 3.0;
         let mut line = format!("{:>14}", &s);
         let mut errs = String::new();
-        for k in 1..9 {
+        for k in 1..10 {
             let m = mean(k);
             let bias = ((m / r) - Vec3::ONE) * 100.0;
             line += &format!(" {:>+7.1}", bias.min_element().min(bias.max_element()));
