@@ -349,13 +349,8 @@ fn bake_with(
         .collect();
 
     // Near-field trees (one per VPL, from its node's texels).
-    let vpl_nodes: Vec<VplRecord> = clusters
-        .rects
-        .iter()
-        .enumerate()
-        .flat_map(|(i, &r)| {
-            crate::near_field::vpl_nodes(&rsm, r, |t| clusters.texel_vpl[t] == i as u32)
-        })
+    let vpl_nodes: Vec<VplRecord> = (0..clusters.vpls.len())
+        .flat_map(|i| crate::near_field::tree_of(&rsm, &clusters, i))
         .collect();
 
     // Hemisphere maps by ray casting (a shard: only its VPLs', kept apart).

@@ -30,6 +30,7 @@
 use gibake_asset::{NEAR_FIELD_LEVELS, NODES_PER_VPL, VplRecord};
 use glam::{DVec3, Vec3};
 
+use crate::cluster::Clustering;
 use crate::rsm::Rsm;
 
 /// Offset of level `l` (1-based) in a VPL's node block.
@@ -98,6 +99,14 @@ impl Sums {
             map: gibake_asset::NO_MAP,
         }
     }
+}
+
+/// The near-field tree of VPL `i` of `clusters`: its leaf's rectangle, its
+/// own depth layer's texels ([`vpl_nodes`]).
+pub fn tree_of(rsm: &Rsm, clusters: &Clustering, i: usize) -> Vec<VplRecord> {
+    vpl_nodes(rsm, clusters.rects[i], |t| {
+        clusters.texel_vpl[t] == i as u32
+    })
 }
 
 /// The near-field tree of the VPL made of the lit texels of `rect`

@@ -168,13 +168,8 @@ fn main() {
             .collect();
         let cam = gibake_reference::View::from_scene(&stat, 0.0).unwrap();
         let per_vpl = std::sync::Mutex::new(vec![0f64; cl.vpls.len()]);
-        let nodes: Vec<Vec<gibake_asset::VplRecord>> = cl
-            .rects
-            .iter()
-            .enumerate()
-            .map(|(i, &r)| {
-                gibake_bake::near_field::vpl_nodes(&rsm, r, |t| cl.texel_vpl[t] == i as u32)
-            })
+        let nodes: Vec<Vec<gibake_asset::VplRecord>> = (0..cl.vpls.len())
+            .map(|i| gibake_bake::near_field::tree_of(&rsm, &cl, i))
             .collect();
         let px: Vec<[Vec3; 10]> = (0..size * size)
             .into_par_iter()
