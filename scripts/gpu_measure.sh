@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# The real-GPU measurements of docs/h100/, in one run (≈ 2 min on an H100
+# with 16 CPU cores; far longer on lavapipe, which is not what it is for).
+#
+#   scripts/gpu_measure.sh [BIN_DIR] [OUT_DIR]
+#
+# BIN_DIR holds release builds of `gibake` and of the eval examples
+# `cascade_cost` and `eval_levels` (default: target/release and
+# target/release/examples; build them with
+# `cargo build --release -p gibake -p gibake-eval --examples --bins`).
+# Every command is also runnable on its own; this script only runs them in
+# turn, each under a time limit, and writes its output into OUT_DIR
+# (default: gpu-out): log.txt, and one folder per `gibake bench` run.
+#
+# The examples find the bundled levels by the path they were compiled in
+# (crates/eval/../../data/levels): run the binaries on a copy of the
+# repository at that same path, or build them where they run.
+set -uo pipefail
+
+root=$(cd "$(dirname "$0")/.." && pwd)
+bin=${1:-$root/target/release}
+out=${2:-gpu-out}
+examples=$bin/examples
+[ -x "$examples/cascade_cost" ] || examples=$bin
+mkdir -p "$out"
+log=$out/log.txt
+: >"$log"
+
+step() {
+    local limit=$1
+    shift
+    echo "=== $(date -u +%T) $*" | tee -a "$log"
+    local start
+    start=$(date +%s%N)
+    timeout "$limit" "$@" 2>&1 | tee -a "$log"
+    local rc=${PIPESTATUS[0]}
+    echo "=== rc=$rc wall=$((($(date +%s%N) - start) / 1000000)) ms" | tee -a "$log"
+}
+
+cd "$root"
+command -v nvidia-smi >/dev/null &&
+    nvidia-smi --query-gpu=name,driver_version --format=csv | tee -a "$log"
+echo "cpus: $(nproc)" | tee -a "$log"
+
+# The demo (bake, animation, per-pass times, error against the reference).
+step 120 "$bin/gibake" demo --output "$out/demo"
+# The paper's Table 1 at the paper's size, then the default sweep.
+step 300 "$bin/gibake" bench table1 --table1-size 1280x720 --out "$out/table1-1280x720"
+step 600 "$bin/gibake" bench --out "$out/bench"
+# Per-pass frame time on the real levels, at the eval's size and at 720p.
+for size in "480 270" "1280 720"; do
+    set -- $size
+    for level in arena town living_room rooms roboblast cave city; do
+        step 120 "$examples/cascade_cost" "$level" --width "$1" --height "$2" --frames 8
+    done
+done
+# The real levels' accuracy (adapter-independent: compare with docs/results.md).
+step 900 "$examples/eval_levels" --size 40 --blur 1 --markdown --out "$out/levels"
+# Same scene, settings and adapter: identical bytes.
+step 120 "$bin/gibake" bake data/corner_bunny.glb -o "$out/det1.gibake" --force
+step 120 "$bin/gibake" bake data/corner_bunny.glb -o "$out/det2.gibake" --force
+step 60 "$bin/gibake" diff "$out/det1.gibake" "$out/det2.gibake"
