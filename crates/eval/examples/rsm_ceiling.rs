@@ -1,0 +1,163 @@
+//! How far the RSM itself is from the reference, before any clustering:
+//! the one-bounce light of **every lit RSM texel** as its own point VPL,
+//! with exact ray-cast visibility, against the CPU reference's one-bounce
+//! light at the same receivers. The gap between this and the clustered
+//! VPLs (`vpl_diag`, column T) is what clustering and one visibility point
+//! per VPL cost; the gap between this and 1 is the RSM and the point
+//! kernel's own limit. Also: which share of the reference's bounce light
+//! comes from secondary hits within N RSM footprints of the receiver
+//! (creases and contact, where no texel-sized point can be accurate).
+//!
+//! CPU only, static part, the level's camera, 512² RSM as the bake makes it.
+//! `cargo run --release -p gibake-eval --example rsm_ceiling -- LEVEL… [--size N]`
+//! (default 32² receivers; ≈ 5 s a level on 2 cores at 32²).
+use gibake_bake::rsm::render_rsm;
+use gibake_gpu::LightView;
+use gibake_raycast::RayScene;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::f32::consts::PI;
+
+/// Reference samples per receiver (stratified, cosine-weighted).
+const REF_SAMPLES_SIDE: u32 = 24;
+/// Distance buckets, in RSM footprints, for the reference's near light.
+const BUCKETS: [f32; 4] = [1.0, 2.0, 4.0, 8.0];
+
+fn hash(p: u32, i: u32, c: u32) -> f32 {
+    let mut z = (p as u64) << 32 | (i as u64) << 2 | c as u64;
+    z = z.wrapping_add(0x9e3779b97f4a7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58476d1ce4e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d049bb133111eb);
+    z ^= z >> 31;
+    (z >> 40) as f32 / (1u64 << 24) as f32
+}
+
+/// Per receiver: reference (total, then per bucket), per-texel sums
+/// (bounded kernel with and without visibility, unbounded with visibility).
+#[derive(Clone, Copy, Default)]
+struct Sums {
+    reference: f64,
+    near: [f64; BUCKETS.len()],
+    bounded: f64,
+    bounded_unshadowed: f64,
+    point: f64,
+}
+
+fn main() {
+    let mut names = Vec::new();
+    let mut size = 32u32;
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        if a == "--size" {
+            size = args.next().and_then(|s| s.parse().ok()).expect("--size N");
+        } else {
+            names.push(a);
+        }
+    }
+    let list = gibake_eval::levels::bundled_list();
+    let levels = gibake_eval::levels::read_specs(&list).unwrap();
+    println!(
+        "per-texel point VPLs (every lit texel of the 512² RSM) against the reference, {size}² receivers"
+    );
+    println!(
+        "{:>12} | {:>9} {:>9} {:>9} {:>11} | reference's bounce light from hits within 1 / 2 / 4 / 8 footprints",
+        "level", "bounded", "point", "no vis", "footprint"
+    );
+    for name in names {
+        let l = levels.iter().find(|l| l.name == name).expect("a bundled level");
+        let scene = l.load(list.parent().unwrap()).unwrap();
+        let stat = gibake_bake::static_only(&scene);
+        let rays = RayScene::build(&stat, 0.0);
+        let view = LightView::for_scene(&scene, 2048).resized(512);
+        let rsm = render_rsm(&rays, &scene.light, &view, None);
+        let cam = gibake_reference::View::from_scene(&stat, 0.0).unwrap();
+        let fp = view.footprint(Vec3::ZERO);
+        let lit: Vec<usize> = (0..rsm.flux.len())
+            .filter(|&t| rsm.flux[t].max_element() > 0.0 && rsm.metric[t].is_finite())
+            .collect();
+        let total = (0..size * size)
+            .into_par_iter()
+            .map(|p| {
+                let mut s = Sums::default();
+                let (x, y) = (p % size, p / size);
+                let (o, d, t0) = cam.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
+                let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
+                    return s;
+                };
+                let a = h.albedo / PI;
+                let (t, b) = gibake_gpu::orthonormal_basis(h.shading_normal);
+                let m = REF_SAMPLES_SIDE;
+                for i in 0..m {
+                    for j in 0..m {
+                        let u1 = (i as f32 + hash(p, i * m + j, 0)) / m as f32;
+                        let u2 = (j as f32 + hash(p, i * m + j, 1)) / m as f32;
+                        let r = u1.sqrt();
+                        let phi = 2.0 * PI * u2;
+                        let dl = t * (r * phi.cos())
+                            + b * (r * phi.sin())
+                            + h.shading_normal * (1.0 - u1).max(0.0).sqrt();
+                        if h.geometric_normal.dot(dl) <= 0.0 {
+                            continue;
+                        }
+                        let o2 = rays.offset_point(h.position, h.geometric_normal);
+                        let Some(y2) = rays.intersect(o2, dl, f32::INFINITY) else {
+                            continue;
+                        };
+                        let lr = gibake_reference::direct_radiance(&rays, &y2);
+                        let v = f64::from((h.albedo * lr).element_sum()) / f64::from(m * m);
+                        s.reference += v;
+                        let dist = (y2.position - h.position).length() / fp;
+                        for (k, &limit) in BUCKETS.iter().enumerate() {
+                            if dist < limit {
+                                s.near[k] += v;
+                            }
+                        }
+                    }
+                }
+                for &ti in &lit {
+                    let (pp, nn) = (rsm.position[ti], rsm.normal[ti]);
+                    let dv = h.position - pp;
+                    let d2 = dv.length_squared();
+                    if d2 <= 0.0 {
+                        continue;
+                    }
+                    let dir = dv / d2.sqrt();
+                    let (cv, cr) = (nn.dot(dir), h.shading_normal.dot(-dir));
+                    if cv <= 0.0 || cr <= 0.0 || h.geometric_normal.dot(-dir) <= 0.0 {
+                        continue;
+                    }
+                    let r2 = rsm.area[ti] / PI;
+                    let f = (a * rsm.flux[ti]).element_sum() * cv * cr / PI;
+                    let bounded = f64::from(f / (d2 * d2 + r2 * r2).sqrt());
+                    s.bounded_unshadowed += bounded;
+                    if rays.visible(pp, nn, h.position, h.geometric_normal) {
+                        s.bounded += bounded;
+                        s.point += f64::from(f / d2);
+                    }
+                }
+                s
+            })
+            .reduce(Sums::default, |mut a, b| {
+                a.reference += b.reference;
+                for k in 0..BUCKETS.len() {
+                    a.near[k] += b.near[k];
+                }
+                a.bounded += b.bounded;
+                a.bounded_unshadowed += b.bounded_unshadowed;
+                a.point += b.point;
+                a
+            });
+        let r = total.reference.max(f64::MIN_POSITIVE);
+        println!(
+            "{name:>12} | {:>+8.1}% {:>+8.1}% {:>+8.1}% {:>9.4} m | {:.1}% / {:.1}% / {:.1}% / {:.1}%",
+            100.0 * (total.bounded / r - 1.0),
+            100.0 * (total.point / r - 1.0),
+            100.0 * (total.bounded_unshadowed / r - 1.0),
+            fp,
+            100.0 * total.near[0] / r,
+            100.0 * total.near[1] / r,
+            100.0 * total.near[2] / r,
+            100.0 * total.near[3] / r,
+        );
+    }
+}
