@@ -148,16 +148,23 @@ impl BakedGpu {
         // On the GPU a VPL's position is its map origin (position lifted
         // along the normal, `hemisphere::vpl_origin`), computed once here
         // rather than per pixel and VPL in the shader; a record with no
-        // stored map says so.
+        // stored map says so; its `texels` carries its far-field lobe
+        // coherence, from its own near-field tree (`GpuVpl::texels`).
         let vpls: Vec<GpuVpl> = asset
             .vpls
             .iter()
-            .map(|v| {
+            .enumerate()
+            .map(|(i, v)| {
                 let n = Vec3::from_array(v.normal);
                 let o = gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
+                let tree = asset
+                    .vpl_nodes
+                    .get(i * gibake_asset::NODES_PER_VPL..(i + 1) * gibake_asset::NODES_PER_VPL)
+                    .unwrap_or(&[]);
                 GpuVpl {
                     position: o.to_array(),
                     map: if v.map < m.map_count { v.map } else { NO_MAP },
+                    texels: gibake_gpu::vpl::lobe_fixed(gibake_asset::lobe_coherence(tree)),
                     ..gpu_vpl(v)
                 }
             })

@@ -182,9 +182,20 @@ fn vpl_visibility(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ng: vec3<f32>
     return mix(mix(lit.x, lit.y, f.x), mix(lit.z, lit.w, f.x), f.y);
 }
 
-// Irradiance from a disk-like VPL at `origin` (normal nv, area a, flux phi).
+// Irradiance from a disk-like VPL at `origin` (normal nv, area a, flux phi)
+// with its cosine lobe: vpl_lobe_irradiance with coherence 1.
 fn vpl_irradiance(origin: vec3<f32>, nv: vec3<f32>, a: f32, phi: vec3<f32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
-    let dv = x - origin;
+    return vpl_lobe_irradiance(origin, nv, 1.0, a, phi, x, ns, ng);
+}
+
+// A VPL seen from afar: the disk of vpl_irradiance with the far-field lobe
+// c·cosθ_v/π + (1 − c)/2π per unit flux in place of its cosine lobe, c its
+// texels' flux-weighted normal coherence (gibake_asset::lobe_coherence):
+// texels facing every way (a tree's crown) send light sideways too, as
+// one lobe with their mean normal would not; the first moment is kept.
+// CPU twin: gibake_eval::transport::lobe_irradiance.
+fn vpl_lobe_irradiance(p: vec3<f32>, nv: vec3<f32>, coherence: f32, a: f32, phi: vec3<f32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
+    let dv = x - p;
     let d2 = dot(dv, dv);
     if (d2 <= 0.0) {
         return vec3<f32>(0.0);
@@ -195,10 +206,12 @@ fn vpl_irradiance(origin: vec3<f32>, nv: vec3<f32>, a: f32, phi: vec3<f32>, x: v
     if (cos_v <= 0.0 || cos_r <= 0.0 || dot(ng, -dir) <= 0.0) {
         return vec3<f32>(0.0);
     }
+    let c = clamp(coherence, 0.0, 1.0);
+    let lobe = c * cos_v + (1.0 - c) * 0.5;
     // sqrt(d⁴ + (A/π)²): equals the disk's irradiance at contact (Φ/A),
     // and 1/d² within (A/π)²/(2d⁴) beyond the disk's radius.
     let r2 = a * INV_PI;
-    return finite_or_zero3(phi * (INV_PI * cos_v * cos_r * inverseSqrt(d2 * d2 + r2 * r2)));
+    return finite_or_zero3(phi * (INV_PI * lobe * cos_r * inverseSqrt(d2 * d2 + r2 * r2)));
 }
 
 fn is_near(x: vec3<f32>, p: vec3<f32>, a: f32) -> bool {
@@ -218,7 +231,9 @@ fn node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f
 // gibake_runtime::transport::static_vpl_irradiance.
 fn static_vpl_irradiance(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
     if (!is_near(x, origin, v.area)) {
-        return vpl_irradiance(origin, v.normal, v.area, v.flux, x, ns, ng);
+        // A static VPL's own record carries its lobe coherence in `texels`
+        // (gibake_gpu::vpl::GpuVpl::texels), fixed point.
+        return vpl_lobe_irradiance(origin, v.normal, f32(v.texels) / LOBE_ONE, v.area, v.flux, x, ns, ng);
     }
     let base = params.n_static + i * NODES_PER_VPL;   // its tree, after the VPLs
     var e = vec3<f32>(0.0);

@@ -87,6 +87,43 @@ pub const NEAR_FIELD_LEVELS: u32 = 3;
 /// row-major).
 pub const NODES_PER_VPL: usize = 84;
 
+/// How well one cosine lobe stands for a VPL's texels: the flux-weighted
+/// coherence `c = |Σ Φₖ nₖ| / Σ Φₖ` of the deepest level of its near-field
+/// tree `nodes` ([`NODES_PER_VPL`] records; fewer: 1). 1 where every node
+/// faces the same way; towards 0 for texels facing every way (a tree's
+/// crown, a mech). Shading draws a VPL seen from afar with the lobe
+/// `c · cos θ/π + (1 − c)/2π` per unit flux, whose first moment is the
+/// texels' own (docs/method.md, "Far-field lobe"). Computed at load from
+/// what the asset stores, so it needs no field of its own. Flux weights
+/// are the channel sum; the result is finite and in `[0, 1]`.
+pub fn lobe_coherence(nodes: &[VplRecord]) -> f32 {
+    if nodes.len() < NODES_PER_VPL {
+        return 1.0;
+    }
+    let side = 1usize << NEAR_FIELD_LEVELS;
+    let deepest = &nodes[NODES_PER_VPL - side * side..NODES_PER_VPL];
+    let (mut sum, mut weight) = ([0f64; 3], 0f64);
+    for n in deepest {
+        let w = f64::from(n.flux[0]) + f64::from(n.flux[1]) + f64::from(n.flux[2]);
+        if !(w > 0.0 && w.is_finite()) {
+            continue;
+        }
+        for (s, c) in sum.iter_mut().zip(n.normal) {
+            *s += w * f64::from(c);
+        }
+        weight += w;
+    }
+    if weight <= 0.0 {
+        return 1.0;
+    }
+    let c = (sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]).sqrt() / weight;
+    if c.is_finite() {
+        c.clamp(0.0, 1.0) as f32
+    } else {
+        1.0
+    }
+}
+
 /// Bake settings, as given (or resolved) at bake time.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BakeSettings {
@@ -300,6 +337,36 @@ impl VplRecord {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn lobe_coherence_of_aligned_and_opposed_nodes() {
+        let node = |n: [f32; 3], f: f32| crate::VplRecord {
+            position: [0.0; 3],
+            area: 1.0,
+            normal: n,
+            texels: 1,
+            flux: [f; 3],
+            map: crate::NO_MAP,
+        };
+        let zero = node([0.0, 1.0, 0.0], 0.0);
+        let mut nodes = vec![zero; crate::NODES_PER_VPL];
+        // Too few records: one lobe.
+        assert_eq!(crate::lobe_coherence(&nodes[..10]), 1.0);
+        // No flux: one lobe.
+        assert_eq!(crate::lobe_coherence(&nodes), 1.0);
+        let first = crate::NODES_PER_VPL - 64;
+        nodes[first] = node([0.0, 1.0, 0.0], 2.0);
+        nodes[first + 1] = node([0.0, 1.0, 0.0], 1.0);
+        assert!((crate::lobe_coherence(&nodes) - 1.0).abs() < 1e-6);
+        // Two equal nodes at right angles: |(1, 1)| / 2.
+        nodes[first] = node([1.0, 0.0, 0.0], 1.0);
+        let c = crate::lobe_coherence(&nodes);
+        assert!((c - std::f32::consts::FRAC_1_SQRT_2).abs() < 1e-6, "{c}");
+        // Opposed: 0; a NaN flux is skipped.
+        nodes[first] = node([0.0, -1.0, 0.0], 1.0);
+        nodes[first + 2] = node([0.0, 0.0, 1.0], f32::NAN);
+        assert!(crate::lobe_coherence(&nodes).abs() < 1e-6);
+    }
+
     use super::*;
 
     /// Each VPL's texel shares add up to the whole VPL (to within the

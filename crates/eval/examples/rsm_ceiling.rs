@@ -64,7 +64,10 @@ fn main() {
         "level", "bounded", "point", "no vis", "footprint"
     );
     for name in names {
-        let l = levels.iter().find(|l| l.name == name).expect("a bundled level");
+        let l = levels
+            .iter()
+            .find(|l| l.name == name)
+            .expect("a bundled level");
         let scene = l.load(list.parent().unwrap()).unwrap();
         let stat = gibake_bake::static_only(&scene);
         let rays = RayScene::build(&stat, 0.0);

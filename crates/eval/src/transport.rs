@@ -24,6 +24,25 @@ pub fn disk_irradiance(
     ns: Vec3,
     ng: Vec3,
 ) -> Vec3 {
+    lobe_irradiance(origin, nv, 1.0, a, phi, x, ns, ng)
+}
+
+/// Irradiance at `x` from a VPL seen from afar: the disk of
+/// [`disk_irradiance`] with the far-field lobe `c · cos θ_v/π + (1 − c)/2π`
+/// per unit flux (`c`: [`gibake_asset::lobe_coherence`]) in place of the
+/// cosine lobe; `c = 1` gives [`disk_irradiance`] (shade.wgsl
+/// `vpl_lobe_irradiance`).
+#[allow(clippy::too_many_arguments)]
+pub fn lobe_irradiance(
+    origin: Vec3,
+    nv: Vec3,
+    c: f32,
+    a: f32,
+    phi: Vec3,
+    x: Vec3,
+    ns: Vec3,
+    ng: Vec3,
+) -> Vec3 {
     let dv = x - origin;
     let d2 = dv.length_squared();
     if d2 <= 0.0 {
@@ -34,8 +53,10 @@ pub fn disk_irradiance(
     if cv <= 0.0 || cr <= 0.0 || ng.dot(-dir) <= 0.0 {
         return Vec3::ZERO;
     }
+    let c = c.clamp(0.0, 1.0);
+    let lobe = c * cv + (1.0 - c) * 0.5;
     let r2 = a / std::f32::consts::PI;
-    let e = phi * (cv * cr / std::f32::consts::PI / (d2 * d2 + r2 * r2).sqrt());
+    let e = phi * (lobe * cr / std::f32::consts::PI / (d2 * d2 + r2 * r2).sqrt());
     if e.is_finite() { e } else { Vec3::ZERO }
 }
 
@@ -70,7 +91,8 @@ pub fn static_vpl_irradiance(
 ) -> Vec3 {
     let nv = Vec3::from_array(v.normal);
     if !is_near(x, origin, v.area) || nodes.len() < NODES_PER_VPL {
-        return disk_irradiance(origin, nv, v.area, Vec3::from_array(v.flux), x, ns, ng);
+        let c = gibake_asset::lobe_coherence(nodes);
+        return lobe_irradiance(origin, nv, c, v.area, Vec3::from_array(v.flux), x, ns, ng);
     }
     let mut e = Vec3::ZERO;
     for c1 in 0..4 {

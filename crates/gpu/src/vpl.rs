@@ -20,12 +20,27 @@ pub struct GpuVpl {
     pub area: f32,
     /// Unit normal.
     pub normal: [f32; 3],
-    /// RSM texels (0: an empty node).
+    /// A near-field node: its RSM texels (0: an empty node). A static
+    /// VPL's own record: its far-field lobe coherence in fixed point
+    /// ([`LOBE_ONE`] = 1, [`lobe_fixed`]), which shading reads where it
+    /// draws the VPL as one disk and which no pass needs the texel count
+    /// for (a fifth storage buffer would refuse downlevel devices).
     pub texels: u32,
     /// Flux (W, linear RGB).
     pub flux: [f32; 3],
     /// Tile of its baked map in the map atlas, or [`NO_MAP`].
     pub map: u32,
+}
+
+/// Fixed-point one of a static VPL's far-field lobe coherence in
+/// [`GpuVpl::texels`] (`LOBE_ONE` in [`VPL_WGSL`], the same number).
+pub const LOBE_ONE: f32 = 16_777_216.0;
+
+/// A lobe coherence `c ∈ [0, 1]` in fixed point (anything else clamped;
+/// NaN: 1, one cosine lobe).
+pub fn lobe_fixed(c: f32) -> u32 {
+    let c = if c.is_nan() { 1.0 } else { c.clamp(0.0, 1.0) };
+    (c * LOBE_ONE).round() as u32
 }
 
 impl GpuVpl {
@@ -46,15 +61,27 @@ struct Vpl {              // gibake_gpu::vpl::GpuVpl (48 bytes)
     position: vec3<f32>,  // emission point: a VPL's map origin, a node's centroid
     area: f32,
     normal: vec3<f32>,
-    texels: u32,
+    texels: u32,          // a node's texels; a VPL's own record: lobe coherence × LOBE_ONE
     flux: vec3<f32>,
     map: u32,             // baked map tile or 0xffffffff
 }
+const LOBE_ONE: f32 = 16777216.0;   // gibake_gpu::vpl::LOBE_ONE
 ";
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lobe_fixed_point_round_trips_and_clamps() {
+        assert!(VPL_WGSL.contains(&format!("const LOBE_ONE: f32 = {}.0;", LOBE_ONE as u32)));
+        for c in [0.0f32, 0.25, std::f32::consts::FRAC_1_SQRT_2, 1.0] {
+            assert!((lobe_fixed(c) as f32 / LOBE_ONE - c).abs() < 1e-7);
+        }
+        assert_eq!(lobe_fixed(2.0), lobe_fixed(1.0));
+        assert_eq!(lobe_fixed(-1.0), 0);
+        assert_eq!(lobe_fixed(f32::NAN), lobe_fixed(1.0));
+    }
 
     /// The WGSL struct's layout (from naga) is the Rust struct's.
     #[test]
