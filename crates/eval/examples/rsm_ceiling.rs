@@ -23,15 +23,6 @@ const REF_SAMPLES_SIDE: u32 = 24;
 /// Distance buckets, in RSM footprints, for the reference's near light.
 const BUCKETS: [f32; 4] = [1.0, 2.0, 4.0, 8.0];
 
-fn hash(p: u32, i: u32, c: u32) -> f32 {
-    let mut z = (p as u64) << 32 | (i as u64) << 2 | c as u64;
-    z = z.wrapping_add(0x9e3779b97f4a7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58476d1ce4e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d049bb133111eb);
-    z ^= z >> 31;
-    (z >> 40) as f32 / (1u64 << 24) as f32
-}
-
 /// Per receiver: reference (total, then per bucket), per-texel sums
 /// (bounded kernel with and without visibility, unbounded with visibility).
 #[derive(Clone, Copy, Default)]
@@ -88,35 +79,17 @@ fn main() {
                     return s;
                 };
                 let a = h.albedo / PI;
-                let (t, b) = gibake_gpu::orthonormal_basis(h.shading_normal);
                 let m = REF_SAMPLES_SIDE;
-                for i in 0..m {
-                    for j in 0..m {
-                        let u1 = (i as f32 + hash(p, i * m + j, 0)) / m as f32;
-                        let u2 = (j as f32 + hash(p, i * m + j, 1)) / m as f32;
-                        let r = u1.sqrt();
-                        let phi = 2.0 * PI * u2;
-                        let dl = t * (r * phi.cos())
-                            + b * (r * phi.sin())
-                            + h.shading_normal * (1.0 - u1).max(0.0).sqrt();
-                        if h.geometric_normal.dot(dl) <= 0.0 {
-                            continue;
-                        }
-                        let o2 = rays.offset_point(h.position, h.geometric_normal);
-                        let Some(y2) = rays.intersect(o2, dl, f32::INFINITY) else {
-                            continue;
-                        };
-                        let lr = gibake_reference::direct_radiance(&rays, &y2);
-                        let v = f64::from((h.albedo * lr).element_sum()) / f64::from(m * m);
-                        s.reference += v;
-                        let dist = (y2.position - h.position).length() / fp;
-                        for (k, &limit) in BUCKETS.iter().enumerate() {
-                            if dist < limit {
-                                s.near[k] += v;
-                            }
+                gibake_eval::bounce::one_bounce_samples(&rays, &h, p, m, |y2, lr| {
+                    let v = f64::from((h.albedo * lr).element_sum()) / f64::from(m * m);
+                    s.reference += v;
+                    let dist = (y2.position - h.position).length() / fp;
+                    for (k, &limit) in BUCKETS.iter().enumerate() {
+                        if dist < limit {
+                            s.near[k] += v;
                         }
                     }
-                }
+                });
                 for &ti in &lit {
                     let (pp, nn) = (rsm.position[ti], rsm.normal[ti]);
                     let dv = h.position - pp;

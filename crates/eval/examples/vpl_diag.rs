@@ -182,28 +182,9 @@ fn main() {
                 };
                 let a = h.albedo / PI;
                 // REF
-                let n_ref = 1024u32;
+                let m = 32u32; // 1024 samples
                 let mut s = Vec3::ZERO;
-                let (t, b) = gibake_gpu::orthonormal_basis(h.shading_normal);
-                let m = (n_ref as f32).sqrt() as u32;
-                for i in 0..m {
-                    for j in 0..m {
-                        let u1 = (i as f32 + hash(p, i * m + j, 0)) / m as f32;
-                        let u2 = (j as f32 + hash(p, i * m + j, 1)) / m as f32;
-                        let r = u1.sqrt();
-                        let phi = 2.0 * PI * u2;
-                        let dl = t * (r * phi.cos())
-                            + b * (r * phi.sin())
-                            + h.shading_normal * (1.0 - u1).max(0.0).sqrt();
-                        if h.geometric_normal.dot(dl) <= 0.0 {
-                            continue;
-                        }
-                        let o2 = rays.offset_point(h.position, h.geometric_normal);
-                        if let Some(y2) = rays.intersect(o2, dl, f32::INFINITY) {
-                            s += gibake_reference::direct_radiance(&rays, &y2);
-                        }
-                    }
-                }
+                gibake_eval::bounce::one_bounce_samples(&rays, &h, p, m, |_, l| s += l);
                 out[0] = h.albedo * s / (m * m) as f32;
                 let xg = h.position;
                 let g = |org: Vec3, n: Vec3, area: f32, flux: Vec3| -> Vec3 {
@@ -381,13 +362,4 @@ fn sub_n() -> usize {
     std::env::var("SUB")
         .map(|s| s.parse().unwrap())
         .unwrap_or(4)
-}
-
-fn hash(p: u32, i: u32, c: u32) -> f32 {
-    let mut z = (p as u64) << 32 | (i as u64) << 2 | c as u64;
-    z = z.wrapping_add(0x9e3779b97f4a7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58476d1ce4e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d049bb133111eb);
-    z ^= z >> 31;
-    (z >> 40) as f32 / (1u64 << 24) as f32
 }

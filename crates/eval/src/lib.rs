@@ -20,6 +20,7 @@
 //! [`frame`] (render a scene's own frame, read an output back) and
 //! [`transport`] (the CPU twin of the shading's VPL transport).
 
+pub mod bounce;
 pub mod fit;
 pub mod flip;
 pub mod frame;
