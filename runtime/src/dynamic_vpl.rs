@@ -67,7 +67,9 @@ pub(crate) struct GpuDynVpl {
     /// xyz unit normal, w = 1 if this slot holds a VPL, else 0 (and the
     /// whole slot is zero).
     pub normal: [f32; 4],
-    /// rgb flux, w = 0.
+    /// rgb flux, w = its lobe coherence `|Σ w·n| / Σ w` over its texels
+    /// (shading draws it with the far-field lobe of `shade.wgsl`
+    /// `vpl_lobe_irradiance`; 0 in an empty slot).
     pub flux: [f32; 4],
 }
 

@@ -255,10 +255,17 @@ fn cs_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         // Divide by the weight first: dot(Σw·n, Σw·n) overflows f32 for
         // very bright lights (w ~ 1e20), and normalize() would give zero.
         var normal = n.wn / n.w;
+        // Its far-field lobe's coherence |Σw·n| / Σw (shade.wgsl
+        // vpl_lobe_irradiance): a dynamic VPL is always drawn as one disk.
+        var coherence = 1.0;
         if (dot(normal, normal) > 0.0) {
+            coherence = clamp(length(normal), 0.0, 1.0);
             normal = normalize(normal);
         } else {
             normal = normalize(n.normal);
+        }
+        if (!is_finite_f32(coherence)) {
+            coherence = 1.0;
         }
         let position = n.wp / n.w;
         let ok = is_finite_f32(position.x) && is_finite_f32(position.y) && is_finite_f32(position.z)
@@ -270,7 +277,7 @@ fn cs_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
             }
             out.position = vec4<f32>(position, area);
             out.normal = vec4<f32>(normal, 1.0);
-            out.flux = vec4<f32>(finite_or_zero3(n.flux), 0.0);
+            out.flux = vec4<f32>(finite_or_zero3(n.flux), coherence);
         }
     }
     vpls[s] = out;

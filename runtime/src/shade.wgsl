@@ -313,7 +313,7 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
             for (var i = k; i < params.n_dynamic; i += stride) {
                 let v = dyn_vpls[i];
                 if (v.normal.w > 0.5) {
-                    e += vpl_irradiance(v.position.xyz, v.normal.xyz, v.position.w, v.flux.rgb, x, ns, ng);
+                    e += vpl_lobe_irradiance(v.position.xyz, v.normal.xyz, v.flux.w, v.position.w, v.flux.rgb, x, ns, ng);
                 }
             }
         }
