@@ -47,10 +47,13 @@ step 120 "$bin/gibake" demo --output "$out/demo"
 # The paper's Table 1 at the paper's size, then the default sweep.
 step 300 "$bin/gibake" bench table1 --table1-size 1280x720 --out "$out/table1-1280x720"
 step 600 "$bin/gibake" bench --out "$out/bench"
-# Per-pass frame time on the real levels, at the eval's size and at 720p.
+# Per-pass frame time on every bundled real level (data/levels/levels.json),
+# at the eval's size and at 720p.
+levels=$(python3 -c 'import json; print(" ".join(l["name"] for l in json.load(open("data/levels/levels.json"))))' 2>/dev/null ||
+    echo arena town living_room rooms roboblast cave city garden)
 for size in "480 270" "1280 720"; do
     set -- $size
-    for level in arena town living_room rooms roboblast cave city; do
+    for level in $levels; do
         step 120 "$examples/cascade_cost" "$level" --width "$1" --height "$2" --frames 8
     done
 done
