@@ -153,18 +153,14 @@ impl BakedGpu {
         let vpls: Vec<GpuVpl> = asset
             .vpls
             .iter()
-            .enumerate()
-            .map(|(i, v)| {
+            .zip(asset.lobe_coherences())
+            .map(|(v, lobe)| {
                 let n = Vec3::from_array(v.normal);
                 let o = gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
-                let tree = asset
-                    .vpl_nodes
-                    .get(i * gibake_asset::NODES_PER_VPL..(i + 1) * gibake_asset::NODES_PER_VPL)
-                    .unwrap_or(&[]);
                 GpuVpl {
                     position: o.to_array(),
                     map: if v.map < m.map_count { v.map } else { NO_MAP },
-                    texels: gibake_gpu::vpl::lobe_fixed(gibake_asset::lobe_coherence(tree)),
+                    texels: gibake_gpu::vpl::lobe_fixed(lobe),
                     ..gpu_vpl(v)
                 }
             })

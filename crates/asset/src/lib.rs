@@ -294,6 +294,21 @@ pub struct Asset {
 }
 
 impl Asset {
+    /// Each VPL's far-field lobe coherence ([`lobe_coherence`] of its
+    /// near-field tree), in VPL order: what shading uses where it draws a
+    /// VPL as one disk (1 for a VPL without a full tree).
+    pub fn lobe_coherences(&self) -> Vec<f32> {
+        (0..self.vpls.len())
+            .map(|i| {
+                let tree = self
+                    .vpl_nodes
+                    .get(i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL)
+                    .unwrap_or(&[]);
+                lobe_coherence(tree)
+            })
+            .collect()
+    }
+
     /// Number of stored hemisphere maps.
     pub fn stored_map_count(&self) -> usize {
         self.vpl_maps.count() as usize

@@ -171,6 +171,10 @@ fn main() {
         let nodes: Vec<Vec<gibake_asset::VplRecord>> = (0..cl.vpls.len())
             .map(|i| gibake_bake::near_field::tree_of(&rsm, &cl, i))
             .collect();
+        let lobes: Vec<f32> = nodes
+            .iter()
+            .map(|t| gibake_asset::lobe_coherence(t))
+            .collect();
         let px: Vec<[Vec3; 10]> = (0..size * size)
             .into_par_iter()
             .map(|p| {
@@ -241,6 +245,7 @@ fn main() {
                             &rec,
                             orgb,
                             &nodes[vi],
+                            lobes[vi],
                             xg,
                             h.shading_normal,
                             h.geometric_normal,

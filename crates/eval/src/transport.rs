@@ -79,20 +79,25 @@ fn node(n: &VplRecord, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 {
     )
 }
 
-/// Unshadowed irradiance at `x` from VPL `v` whose map origin is `origin`
-/// and whose near-field tree is `nodes` ([`NODES_PER_VPL`] records).
+/// Unshadowed irradiance at `x` from VPL `v` whose map origin is `origin`,
+/// whose near-field tree is `nodes` ([`NODES_PER_VPL`] records; none: one
+/// disk at every distance) and whose far-field lobe coherence is
+/// `coherence` ([`gibake_asset::Asset::lobe_coherences`], computed once
+/// per VPL as the runtime does at load).
+#[allow(clippy::too_many_arguments)]
 pub fn static_vpl_irradiance(
     v: &VplRecord,
     origin: Vec3,
     nodes: &[VplRecord],
+    coherence: f32,
     x: Vec3,
     ns: Vec3,
     ng: Vec3,
 ) -> Vec3 {
     let nv = Vec3::from_array(v.normal);
     if !is_near(x, origin, v.area) || nodes.len() < NODES_PER_VPL {
-        let c = gibake_asset::lobe_coherence(nodes);
-        return lobe_irradiance(origin, nv, c, v.area, Vec3::from_array(v.flux), x, ns, ng);
+        let phi = Vec3::from_array(v.flux);
+        return lobe_irradiance(origin, nv, coherence, v.area, phi, x, ns, ng);
     }
     let mut e = Vec3::ZERO;
     for c1 in 0..4 {
@@ -139,9 +144,11 @@ pub struct TwinIrradiance {
     pub visible_disk: Vec3,
 }
 
-/// [`TwinIrradiance`] at `h` from the static VPLs of `asset`.
+/// [`TwinIrradiance`] at `h` from the static VPLs of `asset`, whose lobe
+/// coherences are `lobes` ([`gibake_asset::Asset::lobe_coherences`]).
 pub fn twin_irradiance(
     asset: &gibake_asset::Asset,
+    lobes: &[f32],
     rays: &gibake_reference::RayScene,
     h: &gibake_reference::Hit,
 ) -> TwinIrradiance {
@@ -150,9 +157,10 @@ pub fn twin_irradiance(
         let n = Vec3::from_array(v.normal);
         let origin = gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
         let nodes = &asset.vpl_nodes[i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL];
+        let c = lobes.get(i).copied().unwrap_or(1.0);
         let (x, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
-        let near = static_vpl_irradiance(v, origin, nodes, x, ns, ng);
-        let disk = static_vpl_irradiance(v, origin, &[], x, ns, ng);
+        let near = static_vpl_irradiance(v, origin, nodes, c, x, ns, ng);
+        let disk = static_vpl_irradiance(v, origin, &[], c, x, ns, ng);
         if near == Vec3::ZERO && disk == Vec3::ZERO {
             continue;
         }
