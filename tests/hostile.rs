@@ -425,11 +425,11 @@ fn a_closed_pipe_is_a_quiet_exit() {
 fn each_scene_warning_is_printed_once() {
     let dir = tempfile::tempdir().expect("tempdir");
     let mut v = base_scene();
-    v["extensions"]["KHR_lights_punctual"]["lights"][0]["range"] = json!(10);
+    v["extensions"]["KHR_lights_punctual"]["lights"][0]["spot"]["innerConeAngle"] = json!(0.9);
     let scene = write_json(dir.path(), "s.gltf", &v);
     let r = run(&render_args(&scene, &dir.path().join("f.exr")));
     assert_ok(&r);
-    assert_eq!(r.stderr.matches("range is ignored").count(), 1, "{r}");
+    assert_eq!(r.stderr.matches("innerConeAngle").count(), 1, "{r}");
 }
 
 // ------------------------------------------------------------ panics

@@ -237,7 +237,7 @@ fn full_mode_is_scale_invariant_and_finite_for_extreme_lights() {
     }
     for k in [1e-20f32, 1e20] {
         let mut scene = base.clone();
-        scene.light.color *= k;
+        scene.lights[0].color *= k;
         let a = bake(&ctx, &scene, 128, 64);
         let img = render(&ctx, &scene, &a, Mode::Full, 64, 0.7, 1);
         let ratio = img.mean().x / reference_img.mean().x;

@@ -30,9 +30,11 @@ pub struct Cli {
 pub struct SceneArgs {
     /// The glTF 2.0 scene (.gltf or .glb).
     pub scene: PathBuf,
-    /// Pick the primary light by name when the scene has several.
-    #[arg(long, value_name = "NAME")]
-    pub light: Option<String>,
+    /// Only this light (its glTF light name, else its node's name); give
+    /// it again for several. The bake takes one spot or directional light
+    /// so far: pick it with this when the scene has several.
+    #[arg(long = "light", value_name = "NAME")]
+    pub lights: Vec<String>,
     /// What the level needs that its file lacks (sun, moving objects).
     #[command(flatten)]
     pub level: LevelArgs,
@@ -48,7 +50,8 @@ impl SceneArgs {
     /// The importer's options.
     pub fn load_options(&self) -> gibake_scene::LoadOptions {
         gibake_scene::LoadOptions {
-            light: self.light.clone(),
+            lights: self.lights.clone(),
+            all_lights: false,
             limits: self.limits.to_limits(),
             sun: self.level.sun(),
             camera: self.camera.choice(),
@@ -233,9 +236,11 @@ pub struct BakeArgs {
     /// (a batch: each is baked into DIR/NAME.gibake, NAME = the file stem).
     #[arg(required = true, value_name = "SCENE")]
     pub scenes: Vec<PathBuf>,
-    /// Pick the primary light by name when the scene has several.
-    #[arg(long, value_name = "NAME")]
-    pub light: Option<String>,
+    /// Only this light (its glTF light name, else its node's name); give
+    /// it again for several. The bake takes one spot or directional light
+    /// so far: pick it with this when the scene has several.
+    #[arg(long = "light", value_name = "NAME")]
+    pub lights: Vec<String>,
     /// What the level needs that its file lacks (sun, moving objects).
     #[command(flatten)]
     pub level: LevelArgs,

@@ -32,6 +32,11 @@ pub struct LimitArgs {
     /// Let external buffer and image URIs point outside the scene's directory.
     #[arg(long)]
     pub allow_outside_uris: bool,
+    /// Most primary lights a scene may have (each costs maps and passes); a
+    /// file with more is refused (pick some with --light NAME).
+    #[arg(long, value_name = "N", default_value_t = 256,
+          value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub max_lights: u32,
 }
 
 impl LimitArgs {
@@ -44,6 +49,7 @@ impl LimitArgs {
             max_texture_size: self.max_texture_size,
             max_animation_work: self.max_animation_work,
             allow_outside_uris: self.allow_outside_uris,
+            max_lights: self.max_lights,
         }
     }
 }

@@ -83,7 +83,7 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
     let total = Instant::now();
     let scene = load_scene(&SceneArgs {
         scene: scene_path.clone(),
-        light: a.light.clone(),
+        lights: a.lights.clone(),
         level: a.level.clone(),
         camera: Default::default(),
         limits: a.limits.clone(),
@@ -449,7 +449,7 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
         let r = (|| {
             let scene = load_scene(&SceneArgs {
                 scene: scene_path.clone(),
-                light: a.light.clone(),
+                lights: a.lights.clone(),
                 level: a.level.clone(),
                 camera: Default::default(),
                 limits: a.limits.clone(),

@@ -148,7 +148,7 @@ pub fn choose(
     height: u32,
     size: u32,
 ) -> Option<CascadeLayout> {
-    if !matches!(scene.light.kind, LightKind::Directional) || !primary.directional {
+    if !matches!(scene.light().kind, LightKind::Directional) || !primary.directional {
         return None;
     }
     let r = coarseness(scene, primary, height);

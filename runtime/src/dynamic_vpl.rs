@@ -12,7 +12,7 @@
 //!   0.5 · footprint` (`moving_in_front` of `occlusion.wgsl`); it is **lit**
 //!   iff valid with `flux.r + flux.g + flux.b > 0` (finite);
 //! - its flux and area follow `gibake_bake::rsm::render_rsm`:
-//!   `flux = albedo · color · spot_attenuation(dir) · lv_texel_measure(dir)`,
+//!   `flux = albedo · color · attenuation(dir, d) · lv_texel_measure(dir)`,
 //!   `area = measure · d² / max(cos, 0.05)` (spot; `d` the distance to the
 //!   light) or `measure / max(cos, 0.05)` (directional), with `dir` the
 //!   light → texel direction and `cos = normal · (−dir)`;

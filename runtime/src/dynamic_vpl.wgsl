@@ -91,7 +91,7 @@ fn texel_node(x: u32, y: u32) -> Node {
     let directional = light.position.w > 0.5;
     if (!directional) {
         dir = normalize(p - light.position.xyz);
-        att = spot_attenuation(light, dir);
+        att = light_attenuation(light, dir, length(p - light.position.xyz));
     }
     let measure = lv_texel_measure(view, dir);
     let cos_s = max(dot(nrm, -dir), MIN_AREA_COSINE);

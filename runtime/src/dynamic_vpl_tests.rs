@@ -85,7 +85,7 @@ fn frame(ctx: &GpuContext, scene: &Scene, asset: &Asset, time: f32) -> Frame {
         .device
         .create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("primary light"),
-            contents: bytemuck::bytes_of(&GpuPrimaryLight::new(&scene.light)),
+            contents: bytemuck::bytes_of(&GpuPrimaryLight::new(scene.light())),
             usage: wgpu::BufferUsages::UNIFORM,
         });
     let threshold = asset.manifest.settings.threshold;
@@ -177,7 +177,7 @@ fn cpu_rsm(ctx: &GpuContext, scene: &Scene, f: &Frame) -> Rsm {
     };
     let albedo = half(&f.rsm.textures[1]);
     let normal = half(&f.rsm.textures[2]);
-    let light = &scene.light;
+    let light = scene.light();
     let directional = matches!(light.kind, LightKind::Directional);
     let view = f.view;
     let n = (size * size) as usize;

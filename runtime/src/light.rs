@@ -58,7 +58,7 @@ impl PrimaryLight {
             _own_static: own,
             light_buf: uniform(
                 "primary light",
-                bytemuck::bytes_of(&GpuPrimaryLight::new(&scene.light)),
+                bytemuck::bytes_of(&GpuPrimaryLight::new(scene.light())),
             ),
             view_buf: uniform("primary light view", bytemuck::bytes_of(&view.to_gpu())),
         }

@@ -306,7 +306,7 @@ fn bake_with(
         moving: scene.dynamic_swept_bounds(),
     };
     let rsm_view = view.resized(opts.rsm_size);
-    let rsm = render_rsm(&rays, &scene.light, &rsm_view, Some(&reach));
+    let rsm = render_rsm(&rays, scene.light(), &rsm_view, Some(&reach));
     progress.end();
     lap("rsm", &mut stages);
 

@@ -58,7 +58,7 @@ pub const MIN_AREA_COSINE: f32 = 0.05;
 
 /// Renders the RSM of the static geometry in `rays` by casting one ray per
 /// texel centre (exact and deterministic on every machine). Radiometry:
-/// spot `Φ = albedo · I(ω) · Ω_texel · s`, directional `Φ = albedo · E ·
+/// spot and point `Φ = albedo · I(ω) · att(ω, d) · Ω_texel · s`, directional `Φ = albedo · E ·
 /// A_texel · s`, `s = cos_s / cos_g` the shading normal's cosine over the
 /// geometric one (1 on flat-shaded surfaces; at most `1/MIN_AREA_COSINE`);
 /// area `= Ω·d²/cos θ` (spot) or `A_texel/cos θ` (directional), with
@@ -98,7 +98,7 @@ pub fn render_rsm(
                         )
                     } else {
                         let dist = (p - light.position).length();
-                        let i = light.color * light.spot_attenuation(d);
+                        let i = light.color * light.attenuation(d, dist);
                         (
                             hit.albedo * i * (measure * shading),
                             measure * dist * dist / cos_a,

@@ -270,7 +270,7 @@ fn vpl_flux_sums_to_the_rsm_reflected_power() {
             rays: &rays,
             moving: scene.dynamic_swept_bounds(),
         };
-        let rsm = render_rsm(&rays, &scene.light, &view, Some(&reach));
+        let rsm = render_rsm(&rays, scene.light(), &view, Some(&reach));
         let texel_total: f64 = rsm.flux.iter().map(|f| flux_sum(f.to_array())).sum();
         assert!(texel_total > 0.0, "{name}: the RSM reflects nothing");
 
@@ -398,7 +398,7 @@ fn total_cluster_flux(scene: &Scene, opts: &BakeOptions) -> DVec3 {
     let stat = static_only(scene);
     let rays = RayScene::build(&stat, 0.0);
     let view = LightView::for_scene(scene, opts.shadow_map_size).resized(opts.rsm_size);
-    let rsm = render_rsm(&rays, &scene.light, &view, None);
+    let rsm = render_rsm(&rays, scene.light(), &view, None);
     cluster(&rsm, opts.target)
         .vpls
         .iter()
@@ -475,7 +475,7 @@ fn spot_light_on_a_plane_reflects_a_i_times_the_cone() {
     let asset = run_bake(&scene, &small_options());
 
     // ∫ att(ω) dω over the cone, glTF falloff as the scene implements it.
-    let light = &scene.light;
+    let light = scene.light();
     let steps = 200_000;
     let d_theta = (outer * 1.001) / f64::from(steps);
     let solid: f64 = (0..steps)

@@ -98,6 +98,7 @@ fn spot(position: Vec3, direction: Vec3, outer: f32) -> Light {
         color: Vec3::new(10.0, 9.0, 8.0),
         position,
         direction: direction.normalize(),
+        range: None,
     }
 }
 
@@ -108,6 +109,7 @@ fn sun(direction: Vec3) -> Light {
         color: Vec3::splat(3.0),
         position: Vec3::new(0.0, 5.0, 0.0),
         direction: direction.normalize(),
+        range: None,
     }
 }
 

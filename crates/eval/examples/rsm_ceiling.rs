@@ -63,7 +63,7 @@ fn main() {
         let stat = gibake_bake::static_only(&scene);
         let rays = RayScene::build(&stat, 0.0);
         let view = LightView::for_scene(&scene, 2048).resized(512);
-        let rsm = render_rsm(&rays, &scene.light, &view, None);
+        let rsm = render_rsm(&rays, scene.light(), &view, None);
         let cam = gibake_reference::View::from_scene(&stat, 0.0).unwrap();
         let fp = view.footprint(Vec3::ZERO);
         let lit: Vec<usize> = (0..rsm.flux.len())

@@ -89,7 +89,7 @@ fn main() {
             moving: scene.dynamic_swept_bounds(),
         };
         let view = LightView::for_scene(&scene, 2048).resized(512);
-        let rsm = render_rsm(&rays, &scene.light, &view, Some(&reach));
+        let rsm = render_rsm(&rays, scene.light(), &view, Some(&reach));
         let mut cl = cluster(&rsm, ClusterTarget::Count(vpls));
         cl.retain(|_, c| {
             reach.sees_anything(hemisphere::vpl_origin(c.anchor, c.normal, c.area), c.normal)

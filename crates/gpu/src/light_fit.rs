@@ -151,10 +151,10 @@ fn is_ground(normals: &[Vec3]) -> bool {
 /// The light-space box of a directional light's view of `scene` (see the
 /// module docs). `None` for spot lights and scenes without static vertices.
 pub fn fit(scene: &Scene) -> Option<LightFit> {
-    if !matches!(scene.light.kind, LightKind::Directional) {
+    if !matches!(scene.light().kind, LightKind::Directional) {
         return None;
     }
-    let d = scene.light.direction.normalize();
+    let d = scene.light().direction.normalize();
     let (t, b) = orthonormal_basis(d);
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     // Every triangle's light-space box, and its (unnormalised) normal.
@@ -309,13 +309,14 @@ mod tests {
             .collect();
         Scene {
             source: "fit".into(),
-            light: Light {
+            lights: vec![Light {
                 name: "sun".into(),
                 kind: LightKind::Directional,
                 color: Vec3::ONE,
                 position: Vec3::ZERO,
                 direction: Vec3::new(0.3, -0.8, 0.2).normalize(),
-            },
+                range: None,
+            }],
             camera: None,
             materials: vec![Material::opaque("grey", Vec3::splat(0.5), None)],
             textures: vec![],

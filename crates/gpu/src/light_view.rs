@@ -139,9 +139,15 @@ impl LightView {
     pub fn new(light: &Light, bounds: &Aabb, size: u32) -> LightView {
         let dir = light.direction.normalize();
         let size_f = size as f32;
-        match light.kind {
-            LightKind::Spot { outer_cone, .. } => {
-                let half = outer_cone.clamp(1e-3, MAX_SPOT_HALF_ANGLE);
+        let half = match light.kind {
+            LightKind::Spot { outer_cone, .. } => Some(outer_cone.clamp(1e-3, MAX_SPOT_HALF_ANGLE)),
+            // One cube face: the 90° square frustum along `direction`
+            // ([`LightView::point_faces`] gives all six).
+            LightKind::Point => Some(std::f32::consts::FRAC_PI_4),
+            LightKind::Directional => None,
+        };
+        match half {
+            Some(half) => {
                 let view = look_to(light.position, dir);
                 let mut far = 0.0f32;
                 for i in 0..8 {
@@ -162,7 +168,7 @@ impl LightView {
                     texel_area: texel_scale * texel_scale,
                 }
             }
-            LightKind::Directional => {
+            None => {
                 let (t, b) = orthonormal_basis(dir);
                 let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
                 for i in 0..8 {
@@ -184,8 +190,8 @@ impl LightView {
     /// runtime's direct mode without an asset.
     pub fn for_scene(scene: &Scene, size: u32) -> LightView {
         match crate::light_fit::fit(scene) {
-            Some(f) => LightView::directional(scene.light.direction.normalize(), f.lo, f.hi, size),
-            None => LightView::new(&scene.light, &scene.full_bounds(), size),
+            Some(f) => LightView::directional(scene.light().direction.normalize(), f.lo, f.hi, size),
+            None => LightView::new(scene.light(), &scene.full_bounds(), size),
         }
     }
 
@@ -343,7 +349,8 @@ pub struct GpuPrimaryLight {
     pub direction: [f32; 4],
     /// rgb: W/sr (spot) or W/m² (directional).
     pub color: [f32; 4],
-    /// x: spot scale, y: spot offset (glTF falloff), zw unused.
+    /// x: spot scale, y: spot offset (glTF falloff), z: range (0: none), w
+    /// unused.
     pub spot: [f32; 4],
 }
 
@@ -352,7 +359,7 @@ impl GpuPrimaryLight {
     pub fn new(light: &Light) -> Self {
         let (dir_flag, scale, offset) = match light.kind {
             LightKind::Directional => (1.0, 0.0, 1.0),
-            LightKind::Spot { .. } => {
+            LightKind::Spot { .. } | LightKind::Point => {
                 let (scale, offset) = light.spot_scale_offset();
                 (0.0, scale, offset)
             }
@@ -361,7 +368,7 @@ impl GpuPrimaryLight {
             position: light.position.extend(dir_flag).to_array(),
             direction: light.direction.normalize().extend(0.0).to_array(),
             color: light.color.extend(0.0).to_array(),
-            spot: [scale, offset, 0.0, 0.0],
+            spot: [scale, offset, light.range.unwrap_or(0.0), 0.0],
         }
     }
 }
@@ -386,6 +393,7 @@ mod tests {
             color: Vec3::ONE,
             position: Vec3::new(0.5, 5.0, 0.25),
             direction: Vec3::new(0.1, -1.0, 0.05).normalize(),
+            range: None,
         };
         let sun = Light {
             kind: LightKind::Directional,
@@ -440,6 +448,7 @@ mod tests {
             color: Vec3::ONE,
             position: pos,
             direction: dir,
+            range: None,
         }
     }
 
@@ -481,6 +490,7 @@ mod tests {
             color: Vec3::ONE,
             position: Vec3::ZERO,
             direction: Vec3::new(0.3, -1.0, 0.2).normalize(),
+            range: None,
         };
         let b = Aabb {
             min: Vec3::new(-5.0, 0.0, -3.0),

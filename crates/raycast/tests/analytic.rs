@@ -17,13 +17,14 @@ const C: Vec3 = Vec3::new(0.1, 1.7, 0.4);
 fn triangle_scene(s: f32) -> Scene {
     Scene {
         source: "analytic".into(),
-        light: Light {
+        lights: vec![Light {
             name: "sun".into(),
             kind: LightKind::Directional,
             color: Vec3::ONE,
             position: Vec3::ZERO,
             direction: Vec3::NEG_Z,
-        },
+            range: None,
+        }],
         camera: None,
         materials: vec![Material::opaque("grey", Vec3::splat(0.5), None)],
         textures: vec![],

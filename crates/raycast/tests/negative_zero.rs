@@ -23,13 +23,14 @@ fn negative_zero_direction_components_hit() {
     };
     let scene = Scene {
         source: "negative zero".into(),
-        light: Light {
+        lights: vec![Light {
             name: "sun".into(),
             kind: LightKind::Directional,
             color: Vec3::ONE,
             position: Vec3::ZERO,
             direction: Vec3::NEG_Y,
-        },
+            range: None,
+        }],
         camera: None,
         materials: vec![Material::opaque("grey", Vec3::splat(0.5), None)],
         textures: vec![],

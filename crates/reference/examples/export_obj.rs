@@ -65,7 +65,7 @@ fn main() {
             if use_spot {
                 let pos = Vec3::new(0.9, 1.9, 1.3);
                 let cone = 35f32.to_radians();
-                scene.light = scenes::spot(
+                scene.lights[0] = scenes::spot(
                     pos,
                     Vec3::new(-0.3, 0.2, -0.4) - pos,
                     Vec3::splat(6.0),
@@ -140,7 +140,7 @@ fn main() {
             std::process::exit(2)
         }
     };
-    let l = &scene.light;
+    let l = scene.light();
     let light = match l.kind {
         LightKind::Directional => format!(
             "{{\"type\": \"directional\", \"direction\": {}, \"irradiance\": {}}}",
@@ -157,6 +157,11 @@ fn main() {
             v3(l.color),
             inner_cone.to_degrees(),
             outer_cone.to_degrees()
+        ),
+        LightKind::Point => format!(
+            "{{\"type\": \"point\", \"position\": {}, \"intensity\": {}}}",
+            v3(l.position),
+            v3(l.color)
         ),
     };
 

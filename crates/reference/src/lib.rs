@@ -175,9 +175,17 @@ fn check_scene(scene: &Scene) -> Result<(), ReferenceError> {
             )));
         }
     }
-    let l = &scene.light;
-    if !(l.color.is_finite() && l.position.is_finite() && l.direction.is_finite()) {
-        return Err(bad(format!("light {:?} has non-finite parameters", l.name)));
+    if scene.lights.is_empty() {
+        return Err(bad("the scene has no primary light".into()));
+    }
+    for l in &scene.lights {
+        if !(l.color.is_finite()
+            && l.position.is_finite()
+            && l.direction.is_finite()
+            && l.range.is_none_or(|r| r.is_finite() && r > 0.0))
+        {
+            return Err(bad(format!("light {:?} has non-finite parameters", l.name)));
+        }
     }
     Ok(())
 }

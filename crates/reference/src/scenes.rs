@@ -154,6 +154,7 @@ pub fn spot(
         color: intensity,
         position,
         direction: direction.normalize(),
+        range: None,
     }
 }
 
@@ -165,6 +166,7 @@ pub fn directional(direction: Vec3, irradiance: Vec3) -> Light {
         color: irradiance,
         position: Vec3::ZERO,
         direction: direction.normalize(),
+        range: None,
     }
 }
 
@@ -177,7 +179,7 @@ pub fn static_scene(
 ) -> Scene {
     Scene {
         source: name.into(),
-        light,
+        lights: vec![light],
         camera: None,
         materials,
         textures: vec![],

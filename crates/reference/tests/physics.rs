@@ -347,7 +347,7 @@ fn scaled_corner(s: f32, spot_light: bool) -> (Scene, View) {
         }
     }
     if spot_light {
-        scene.light = spot(
+        scene.lights[0] = spot(
             Vec3::new(0.3, 1.8, 0.6) * s,
             Vec3::new(-0.2, -1.0, -0.3),
             Vec3::splat(6.0 * s * s),
@@ -445,7 +445,7 @@ fn extreme_inputs_stay_finite() {
     for i in [1e30f32, 1e-30] {
         for spot_light in [true, false] {
             let (mut scene, view) = scaled_corner(1.0, spot_light);
-            scene.light.color = Vec3::splat(i);
+            scene.lights[0].color = Vec3::splat(i);
             let img = check(&scene, &view, "bright/dim light");
             assert!(img.mean().x > 0.0 || i < 1e-20, "bright light gave black");
         }
@@ -460,11 +460,11 @@ fn extreme_inputs_stay_finite() {
     }
     // Grazing directional light, and a light exactly on / extremely close to the floor.
     let (mut scene, view) = scaled_corner(1.0, false);
-    scene.light = directional(Vec3::new(1.0, -1e-7, 0.3), Vec3::splat(5.0));
+    scene.lights[0] = directional(Vec3::new(1.0, -1e-7, 0.3), Vec3::splat(5.0));
     check(&scene, &view, "grazing");
     for y in [0.0f32, 1e-30, 1e-7] {
         for dir in [Vec3::NEG_Y, Vec3::X] {
-            scene.light = spot(Vec3::new(0.2, y, 0.6), dir, Vec3::splat(1e10), 0.5, 1.5);
+            scene.lights[0] = spot(Vec3::new(0.2, y, 0.6), dir, Vec3::splat(1e10), 0.5, 1.5);
             check(&scene, &view, "light on the floor");
         }
     }

@@ -1,5 +1,5 @@
 //! BLAKE3 hash of the static part of a scene: what a baked asset depends on.
-//! Covers the primary light, the bake volume, static meshes (positions,
+//! Covers the primary lights, the bake volume, static meshes (positions,
 //! normals, uvs, indices), their materials (albedo, alpha mode and cutoff)
 //! and textures. Moving objects, the camera and animations are not part of
 //! it: an asset stays valid when they change.
@@ -16,23 +16,37 @@ use crate::{AlphaMode, LightKind, Scene};
 pub fn static_scene_hash(scene: &Scene) -> [u8; 32] {
     let mut h = blake3::Hasher::new();
     h.update(b"gibake static scene v1");
-    let l = &scene.light;
-    match l.kind {
-        LightKind::Spot {
-            inner_cone,
-            outer_cone,
-        } => {
-            h.update(b"spot");
-            h.update(&inner_cone.to_le_bytes());
-            h.update(&outer_cone.to_le_bytes());
+    // The first light hashes as the single primary light always did (an
+    // asset baked before lights had ranges or company stays up to date);
+    // a range, a point light and every further light add their bytes.
+    for (i, l) in scene.lights.iter().enumerate() {
+        if i > 0 {
+            h.update(b"light");
         }
-        LightKind::Directional => {
-            h.update(b"directional");
+        match l.kind {
+            LightKind::Spot {
+                inner_cone,
+                outer_cone,
+            } => {
+                h.update(b"spot");
+                h.update(&inner_cone.to_le_bytes());
+                h.update(&outer_cone.to_le_bytes());
+            }
+            LightKind::Directional => {
+                h.update(b"directional");
+            }
+            LightKind::Point => {
+                h.update(b"point");
+            }
         }
-    }
-    for v in [l.color, l.position, l.direction] {
-        for c in v.to_array() {
-            h.update(&c.to_le_bytes());
+        for v in [l.color, l.position, l.direction] {
+            for c in v.to_array() {
+                h.update(&c.to_le_bytes());
+            }
+        }
+        if let Some(r) = l.range {
+            h.update(b"range");
+            h.update(&r.to_le_bytes());
         }
     }
     if let Some(v) = &scene.bake_volume {

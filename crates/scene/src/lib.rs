@@ -56,7 +56,7 @@ pub use overrides::{CameraChoice, Sun, glob_match};
 
 use glam::{Mat4, Vec2, Vec3};
 
-/// The primary light's kind, with its kind-specific parameters.
+/// A primary light's kind, with its kind-specific parameters.
 #[derive(Clone, Debug, PartialEq)]
 pub enum LightKind {
     /// A spot light. `color` is radiant intensity (W/sr) on the axis.
@@ -68,21 +68,30 @@ pub enum LightKind {
     },
     /// A directional light. `color` is irradiance (W/m²) on a surface facing it.
     Directional,
+    /// A point light. `color` is radiant intensity (W/sr), the same in every
+    /// direction.
+    Point,
 }
 
-/// The one fixed primary light.
+/// A fixed primary light: a glTF `KHR_lights_punctual` light.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Light {
     /// Name from the glTF (or `light #i`).
     pub name: String,
-    /// Spot or directional, with parameters.
+    /// Spot, directional or point, with parameters.
     pub kind: LightKind,
-    /// `color × intensity`, linear RGB: W/sr (spot) or W/m² (directional).
+    /// `color × intensity`, linear RGB: W/sr (spot, point) or W/m²
+    /// (directional).
     pub color: Vec3,
     /// World-space position (meaningless for directional lights, kept for framing).
     pub position: Vec3,
-    /// World-space unit direction the light points to (the node's −Z).
+    /// World-space unit direction the light points to (the node's −Z; a
+    /// point light's first cube face looks along it).
     pub direction: Vec3,
+    /// glTF `range` (spot and point lights): no light at or beyond this
+    /// distance ([`Light::range_window`]). `None`: unbounded. Always `None`
+    /// for directional lights.
+    pub range: Option<f32>,
 }
 
 impl Light {
@@ -91,7 +100,7 @@ impl Light {
     /// CPU and for the GPU light record. `(0, 1)` for directional lights.
     pub fn spot_scale_offset(&self) -> (f32, f32) {
         match self.kind {
-            LightKind::Directional => (0.0, 1.0),
+            LightKind::Directional | LightKind::Point => (0.0, 1.0),
             LightKind::Spot {
                 inner_cone,
                 outer_cone,
@@ -104,13 +113,13 @@ impl Light {
     }
 
     /// glTF's recommended spot falloff for a unit direction `dir_from_light`
-    /// (from the light to the receiver). 1 for directional lights.
+    /// (from the light to the receiver). 1 for directional and point lights.
     ///
     /// `scale = 1 / max(0.001, cos(inner) − cos(outer))`,
     /// `offset = −cos(outer) · scale`, `att = saturate(cd · scale + offset)²`.
     pub fn spot_attenuation(&self, dir_from_light: Vec3) -> f32 {
         match self.kind {
-            LightKind::Directional => 1.0,
+            LightKind::Directional | LightKind::Point => 1.0,
             LightKind::Spot { .. } => {
                 let (scale, offset) = self.spot_scale_offset();
                 let cd = self.direction.dot(dir_from_light);
@@ -118,6 +127,36 @@ impl Light {
                 a * a
             }
         }
+    }
+
+    /// glTF's recommended range window at distance `d` from the light:
+    /// `saturate(1 − (d / range)⁴)`, 0 at and beyond `range` (no light
+    /// there), 1 without a range. Dimensionless: the same at every scale.
+    /// The one definition for the CPU; `light.wgsl` has the GPU's.
+    pub fn range_window(&self, d: f32) -> f32 {
+        match self.range {
+            Some(r) if r > 0.0 => {
+                let q = d / r;
+                let q2 = q * q;
+                (1.0 - q2 * q2).clamp(0.0, 1.0)
+            }
+            _ => 1.0,
+        }
+    }
+
+    /// Spot falloff times range window: what multiplies `color / d²` for a
+    /// receiver at distance `d` in unit direction `dir_from_light`. 1 for
+    /// directional lights.
+    pub fn attenuation(&self, dir_from_light: Vec3, d: f32) -> f32 {
+        match self.kind {
+            LightKind::Directional => 1.0,
+            _ => self.spot_attenuation(dir_from_light) * self.range_window(d),
+        }
+    }
+
+    /// Whether this light is a point light (an omnidirectional one).
+    pub fn is_point(&self) -> bool {
+        matches!(self.kind, LightKind::Point)
     }
 }
 
@@ -267,8 +306,11 @@ pub struct DynamicObject {
 pub struct Scene {
     /// Source file, for messages.
     pub source: std::path::PathBuf,
-    /// The primary light.
-    pub light: Light,
+    /// The primary lights, in file order (never empty). Until the bake and
+    /// the runtime take several (the every-light issue), the importer gives
+    /// one unless [`crate::LoadOptions::all_lights`] asks for every light,
+    /// and they use [`Scene::light`].
+    pub lights: Vec<Light>,
     /// The first camera, if the file has one.
     pub camera: Option<Camera>,
     /// Materials referenced by meshes.
@@ -293,6 +335,12 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// The first primary light: the one the bake and the runtime use while
+    /// they take one light.
+    pub fn light(&self) -> &Light {
+        &self.lights[0]
+    }
+
     /// World matrix of dynamic object `i` at time `t` seconds (each animation
     /// clamped to its own range).
     pub fn dynamic_transform(&self, i: usize, t: f32) -> Mat4 {

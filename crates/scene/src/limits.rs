@@ -39,6 +39,9 @@ pub struct Limits {
     pub max_animation_work: u64,
     /// Resolve external URIs (relative, `file:`) outside the scene's directory.
     pub allow_outside_uris: bool,
+    /// Most primary lights kept (`--max-lights`); a file with more is
+    /// refused (each light costs maps and passes).
+    pub max_lights: u32,
 }
 
 impl Default for Limits {
@@ -50,6 +53,7 @@ impl Default for Limits {
             max_texture_size: 8192,
             max_animation_work: 1 << 26,
             allow_outside_uris: false,
+            max_lights: 256,
         }
     }
 }

@@ -262,7 +262,7 @@ fn only_a_point_light() {
     assert!(matches!(e, SceneError::NotSupported { .. }), "{e:?}");
     // Picking it by name is also not supported.
     let opts = LoadOptions {
-        light: Some("Bulb".into()),
+        lights: vec!["Bulb".into()],
         ..Default::default()
     };
     let e = assert_err_contains(b.load_with(&opts), &[FILE, "Bulb", "point"]);
@@ -295,12 +295,12 @@ fn light_option_picks_one() {
     let b = two_spots();
     let s = b
         .load_with(&LoadOptions {
-            light: Some("Beta".into()),
+            lights: vec!["Beta".into()],
             ..Default::default()
         })
         .unwrap();
-    assert_eq!(s.light.name, "Beta");
-    assert_eq!(s.light.color, glam::Vec3::splat(2.0));
+    assert_eq!(s.light().name, "Beta");
+    assert_eq!(s.light().color, glam::Vec3::splat(2.0));
     assert!(
         s.warnings.iter().any(|w| w.contains("Alpha")),
         "{:?}",
@@ -309,19 +309,19 @@ fn light_option_picks_one() {
     // The node name works too.
     let s = b
         .load_with(&LoadOptions {
-            light: Some("A".into()),
+            lights: vec!["A".into()],
             ..Default::default()
         })
         .unwrap();
-    assert_eq!(s.light.name, "Alpha");
-    assert_eq!(s.light.position, glam::Vec3::Y);
+    assert_eq!(s.light().name, "Alpha");
+    assert_eq!(s.light().position, glam::Vec3::Y);
 }
 
 #[test]
 fn unknown_light_name() {
     let e = assert_err_contains(
         two_spots().load_with(&LoadOptions {
-            light: Some("Gamma".into()),
+            lights: vec!["Gamma".into()],
             ..Default::default()
         }),
         &[FILE, "Gamma", "Alpha", "Beta"],
@@ -410,7 +410,7 @@ fn light_under_dynamic_parent() {
     b.child(parent, n);
     b.root(parent);
     let opts = LoadOptions {
-        light: Some("Carried".into()),
+        lights: vec!["Carried".into()],
         ..Default::default()
     };
     assert_err_contains(b.load_with(&opts), &[FILE, "Carried", "must not move"]);

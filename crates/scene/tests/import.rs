@@ -14,19 +14,19 @@ fn close(a: Vec3, b: Vec3) -> bool {
 #[test]
 fn simple_scene_light_camera_geometry() {
     let s = basic().load().unwrap();
-    assert_eq!(s.light.name, "Key");
+    assert_eq!(s.light().name, "Key");
     assert!(
-        close(s.light.color, Vec3::new(10.0, 5.0, 2.5)),
+        close(s.light().color, Vec3::new(10.0, 5.0, 2.5)),
         "{}",
-        s.light.color
+        s.light().color
     );
-    assert!(close(s.light.position, Vec3::new(0.0, 5.0, 0.0)));
+    assert!(close(s.light().position, Vec3::new(0.0, 5.0, 0.0)));
     assert!(
-        close(s.light.direction, Vec3::NEG_Y),
+        close(s.light().direction, Vec3::NEG_Y),
         "{}",
-        s.light.direction
+        s.light().direction
     );
-    match s.light.kind {
+    match &s.light().kind {
         LightKind::Spot {
             inner_cone,
             outer_cone,
@@ -74,7 +74,7 @@ fn glb_loads_like_gltf() {
     .unwrap();
     let from_gltf = b.load().unwrap();
     assert_eq!(from_glb.static_meshes, from_gltf.static_meshes);
-    assert_eq!(from_glb.light, from_gltf.light);
+    assert_eq!(from_glb.lights, from_gltf.lights);
 }
 
 #[test]
@@ -112,10 +112,10 @@ fn directional_light_and_orthographic_camera() {
     let n = b.node(json!({ "camera": c }));
     b.root(n);
     let s = b.load().unwrap();
-    assert_eq!(s.light.kind, LightKind::Directional);
-    assert_eq!(s.light.name, "light #0");
-    assert!(close(s.light.color, Vec3::splat(3.0)));
-    assert!(close(s.light.direction, Vec3::NEG_Z));
+    assert_eq!(s.light().kind, LightKind::Directional);
+    assert_eq!(s.light().name, "light #0");
+    assert!(close(s.light().color, Vec3::splat(3.0)));
+    assert!(close(s.light().direction, Vec3::NEG_Z));
     assert_eq!(
         s.camera.unwrap().projection,
         Projection::Orthographic {
@@ -128,29 +128,32 @@ fn directional_light_and_orthographic_camera() {
 }
 
 #[test]
-fn spot_defaults_and_range_warning() {
+fn spot_defaults_and_range() {
     let mut b = Builder::new();
     let q = b.quad("Floor", true);
     b.root_mesh_node("F", q);
+    // The range is in the node's space: a uniform scale of 2 doubles it.
     b.light_node(
         json!({ "name": "S", "type": "spot", "range": 5.0, "spot": {} }),
-        json!({}),
+        json!({ "scale": [2.0, 2.0, 2.0] }),
     );
     let s = b.load().unwrap();
     assert_eq!(
-        s.light.kind,
+        s.light().kind,
         LightKind::Spot {
             inner_cone: 0.0,
             outer_cone: std::f32::consts::FRAC_PI_4
         }
     );
-    assert!(close(s.light.color, Vec3::ONE));
-    assert!(
-        s.warnings.iter().any(|w| w.contains("range")),
-        "{:?}",
-        s.warnings
-    );
+    assert!(close(s.light().color, Vec3::ONE));
+    assert_eq!(s.light().range, Some(10.0));
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     assert!(s.camera.is_none());
+    // The window: 1 at the light, 0 at and beyond the range.
+    assert_eq!(s.light().range_window(0.0), 1.0);
+    assert_eq!(s.light().range_window(10.0), 0.0);
+    assert_eq!(s.light().range_window(1e30), 0.0);
+    assert!((s.light().range_window(5.0) - (1.0 - 0.0625)).abs() < 1e-6);
 }
 
 #[test]
@@ -547,7 +550,7 @@ fn skins_and_point_lights_beside_the_primary_are_warnings() {
         s.warnings
     );
     assert_eq!(s.triangle_counts(), (2, 0), "skinned mesh rendered rigid");
-    assert_eq!(s.light.name, "Key");
+    assert_eq!(s.light().name, "Key");
     assert!(
         s.warnings.iter().any(|w| w.contains("Bulb")),
         "{:?}",

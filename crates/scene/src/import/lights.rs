@@ -1,6 +1,8 @@
-//! Lights: finds the primary light (`KHR_lights_punctual` spot or
-//! directional, chosen by name when there are several) and converts glTF's
-//! photometric units to gibake's radiometric ones.
+//! Lights: finds the primary lights (every `KHR_lights_punctual` light, or
+//! while the bake takes one, the one spot or directional light, chosen by
+//! name when there are several) and converts glTF's units to gibake's
+//! radiometric ones (`color × intensity`; glTF's photometric intensity is
+//! read as W/sr or W/m², docs/method.md).
 
 use glam::Vec3;
 use gltf::json;
@@ -40,33 +42,32 @@ impl<'a> Ctx<'a> {
             color: sun.color * sun.irradiance,
             position: Vec3::ZERO,
             direction: -sun.toward(),
+            range: None,
         })
     }
 
-    pub(super) fn primary_light(
+    /// The primary lights: every `KHR_lights_punctual` light on a node of
+    /// the scene ([`LoadOptions::all_lights`]), or the one the bake and the
+    /// runtime take today (a spot or directional light, chosen by
+    /// `--light NAME` when there are several). `--light` (repeatable)
+    /// restricts the set in both modes; more than `max_lights` is refused.
+    pub(super) fn primary_lights(
         &mut self,
         order: &[usize],
         dynamic: &[bool],
         animator: &Animator,
         options: &LoadOptions,
-    ) -> Result<Light, SceneError> {
-        use json::extensions::scene::khr_lights_punctual::Type;
+    ) -> Result<Vec<Light>, SceneError> {
         let root = self.root;
         let lights: &[json::extensions::scene::khr_lights_punctual::Light] = root.as_ref();
-        struct Cand {
-            node: usize,
-            light: usize,
-            name: String,
-            ty: Option<Type>,
-        }
         let light_name = |i: usize| match lights.get(i).and_then(|l| l.name.as_deref()) {
             Some(n) => n.to_string(),
             None => format!("light #{i}"),
         };
-        let mut cands = Vec::new();
         if let Some(sun) = &options.sun {
-            return self.sun_light(sun, order, lights.len());
+            return Ok(vec![self.sun_light(sun, order, lights.len())?]);
         }
+        let mut cands = Vec::new();
         for &v in order {
             let Some(l) = root.nodes[v]
                 .extensions
@@ -76,13 +77,13 @@ impl<'a> Ctx<'a> {
             else {
                 continue;
             };
-            let Some(lj) = lights.get(l) else {
+            if lights.get(l).is_none() {
                 return Err(self.invalid(format!(
                     "node {} uses light {l}, which does not exist",
                     self.node_name(v)
                 )));
-            };
-            let ty = match lj.type_ {
+            }
+            let ty = match lights[l].type_ {
                 Checked::Valid(t) => Some(t),
                 Checked::Invalid => None,
             };
@@ -93,21 +94,18 @@ impl<'a> Ctx<'a> {
                 ty,
             });
         }
-        let kind_str = |t: Option<Type>| match t {
-            Some(Type::Spot) => "spot",
-            Some(Type::Directional) => "directional",
-            Some(Type::Point) => "point",
-            None => "unknown type",
-        };
-        let usable = |c: &Cand| matches!(c.ty, Some(Type::Spot | Type::Directional));
-        let describe = |c: &Cand| {
-            format!(
-                "'{}' ({} on node {})",
-                c.name,
-                kind_str(c.ty),
-                self.node_name(c.node)
-            )
-        };
+        let described: Vec<String> = cands
+            .iter()
+            .map(|c: &Cand| {
+                format!(
+                    "'{}' ({} on node {})",
+                    c.name,
+                    kind_str(c.ty),
+                    self.node_name(c.node)
+                )
+            })
+            .collect();
+        let describe = |i: usize| described[i].clone();
 
         if cands.is_empty() {
             let extra = if lights.is_empty() {
@@ -118,90 +116,168 @@ impl<'a> Ctx<'a> {
                     lights.len()
                 )
             };
+            let kinds = if options.all_lights {
+                "light"
+            } else {
+                "spot or directional light"
+            };
             return Err(self.invalid(format!(
-                "no KHR_lights_punctual spot or directional light{extra}; gibake needs one as its primary light (add a sun with --sun AZIMUTH,ELEVATION)"
+                "no KHR_lights_punctual {kinds}{extra}; gibake needs one as its primary light (add a sun with --sun AZIMUTH,ELEVATION)"
             )));
         }
 
-        let chosen = if let Some(want) = options.light.as_deref() {
+        // `--light NAME…`: each name picks exactly one light (by light
+        // name, else by node name).
+        let mut picked: Vec<usize> = Vec::new();
+        for want in &options.lights {
             let mut matches: Vec<usize> = (0..cands.len())
-                .filter(|&i| cands[i].name == want)
+                .filter(|&i| cands[i].name == *want)
                 .collect();
             if matches.is_empty() {
-                // Fall back to the node name.
                 matches = (0..cands.len())
-                    .filter(|&i| root.nodes[cands[i].node].name.as_deref() == Some(want))
+                    .filter(|&i| root.nodes[cands[i].node].name.as_deref() == Some(want.as_str()))
                     .collect();
             }
             match matches.len() {
                 0 => {
-                    let all: Vec<String> = cands.iter().map(describe).collect();
+                    let all: Vec<String> = (0..cands.len()).map(describe).collect();
                     return Err(self.invalid(format!(
                         "no light named '{want}'; available lights: {}",
                         all.join(", ")
                     )));
                 }
-                1 => {}
+                1 => {
+                    if !picked.contains(&matches[0]) {
+                        picked.push(matches[0]);
+                    }
+                }
                 _ => {
-                    let all: Vec<String> = matches.iter().map(|&i| describe(&cands[i])).collect();
+                    let all: Vec<String> = matches.iter().map(|&i| describe(i)).collect();
                     return Err(self.invalid(format!(
                         "the light name '{want}' is ambiguous: {}",
                         all.join(", ")
                     )));
                 }
             }
-            let c = &cands[matches[0]];
-            if !usable(c) {
-                return Err(self.not_supported(format!(
-                    "light {} is a {} light; gibake supports only spot and directional lights",
-                    describe(c),
-                    kind_str(c.ty)
+        }
+        picked.sort_unstable();
+
+        let chosen: Vec<usize> = if options.all_lights {
+            let set: Vec<usize> = if picked.is_empty() {
+                (0..cands.len()).collect()
+            } else {
+                picked
+            };
+            let mut kept = Vec::with_capacity(set.len());
+            for i in set {
+                if cands[i].ty.is_none() {
+                    self.warn(format!(
+                        "ignoring light {}: its type is not directional, spot or point",
+                        describe(i)
+                    ));
+                } else {
+                    kept.push(i);
+                }
+            }
+            if kept.is_empty() {
+                return Err(self.not_supported(
+                    "no light of a known type (directional, spot or point)".to_string(),
+                ));
+            }
+            let max = options.limits.max_lights as usize;
+            if kept.len() > max {
+                return Err(self.invalid(format!(
+                    "{} lights, over the limit of {max} (raise it with --max-lights, or pick lights with --light NAME)",
+                    kept.len()
                 )));
             }
-            matches[0]
+            kept
         } else {
-            let valid: Vec<usize> = (0..cands.len()).filter(|&i| usable(&cands[i])).collect();
-            match valid.len() {
-                0 => {
-                    let all: Vec<String> = cands.iter().map(describe).collect();
-                    return Err(self.not_supported(format!(
-                        "only point lights: {}; gibake needs one KHR_lights_punctual spot or directional light",
-                        all.join(", ")
-                    )));
-                }
-                1 => valid[0],
-                _ => {
-                    let all: Vec<String> = valid.iter().map(|&i| describe(&cands[i])).collect();
-                    return Err(self.invalid(format!(
-                        "several spot/directional lights: {}; pick one with --light NAME",
-                        all.join(", ")
-                    )));
-                }
-            }
+            vec![self.one_light(&cands, &picked, &described)?]
         };
 
         let ignored: Vec<String> = (0..cands.len())
-            .filter(|&i| i != chosen)
-            .map(|i| describe(&cands[i]))
+            .filter(|i| !chosen.contains(i))
+            .map(describe)
             .collect();
         if !ignored.is_empty() {
-            self.warn(format!(
-                "ignoring light(s) other than the primary one: {}",
-                ignored.join(", ")
-            ));
+            let what = if options.all_lights {
+                "the lights --light left out"
+            } else {
+                "light(s) other than the primary one"
+            };
+            self.warn(format!("ignoring {what}: {}", ignored.join(", ")));
         }
+        chosen
+            .into_iter()
+            .map(|i| self.convert(&cands[i], dynamic, animator))
+            .collect()
+    }
 
-        let c = &cands[chosen];
+    /// Today's single primary light: the one `--light` picked, else the one
+    /// spot or directional light of the file.
+    fn one_light(
+        &self,
+        cands: &[Cand],
+        picked: &[usize],
+        described: &[String],
+    ) -> Result<usize, SceneError> {
+        match picked {
+            [] => {}
+            [i] => {
+                let c = &cands[*i];
+                if !usable(c) {
+                    return Err(self.not_supported(format!(
+                        "light {} is a {} light; gibake bakes only spot and directional lights so far",
+                        described[*i],
+                        kind_str(c.ty)
+                    )));
+                }
+                return Ok(*i);
+            }
+            _ => {
+                let all: Vec<String> = picked.iter().map(|&i| described[i].clone()).collect();
+                return Err(self.not_supported(format!(
+                    "several lights picked: {}; the bake takes one primary light so far, pick one with --light NAME",
+                    all.join(", ")
+                )));
+            }
+        }
+        let valid: Vec<usize> = (0..cands.len()).filter(|&i| usable(&cands[i])).collect();
+        match valid.len() {
+            0 => {
+                Err(self.not_supported(format!(
+                    "only point lights: {}; gibake needs one KHR_lights_punctual spot or directional light",
+                    described.join(", ")
+                )))
+            }
+            1 => Ok(valid[0]),
+            _ => {
+                let all: Vec<String> = valid.iter().map(|&i| described[i].clone()).collect();
+                Err(self.invalid(format!(
+                    "several spot/directional lights: {}; pick one with --light NAME",
+                    all.join(", ")
+                )))
+            }
+        }
+    }
+
+    /// One glTF light on its node, in gibake's units.
+    fn convert(
+        &mut self,
+        c: &Cand,
+        dynamic: &[bool],
+        animator: &Animator,
+    ) -> Result<Light, SceneError> {
+        use json::extensions::scene::khr_lights_punctual::Type;
+        let lights: &[json::extensions::scene::khr_lights_punctual::Light] = self.root.as_ref();
         let lj = &lights[c.light];
         if dynamic[c.node] || animator.is_animated(c.node) {
             return Err(self.invalid(format!(
-                "light '{}' is on node {}, which is animated or marked dynamic: the primary light must not move",
+                "light '{}' is on node {}, which is animated or marked dynamic: a primary light must not move (moving a light is a re-bake)",
                 c.name,
                 self.node_name(c.node)
             )));
-        }
-        if lj.range.is_some() {
-            self.warn(format!("light '{}': range is ignored", c.name));
         }
         let color = Vec3::from(lj.color) * lj.intensity;
         if !color.is_finite() || color.min_element() < 0.0 {
@@ -222,8 +298,16 @@ impl<'a> Ctx<'a> {
                     self.node_name(c.node)
                 ))
             })?;
+        if !position.is_finite() {
+            return Err(self.invalid(format!(
+                "light '{}': node {} has a non-finite position",
+                c.name,
+                self.node_name(c.node)
+            )));
+        }
         let kind = match c.ty {
             Some(Type::Directional) => LightKind::Directional,
+            Some(Type::Point) => LightKind::Point,
             _ => {
                 let (mut inner, outer) = match &lj.spot {
                     Some(s) => (s.inner_cone_angle, s.outer_cone_angle),
@@ -255,12 +339,61 @@ impl<'a> Ctx<'a> {
                 }
             }
         };
+        // glTF `range`: in the light's node space; the world distance
+        // scales with the node's uniform scale (the mean of the axes'
+        // scales for a non-uniform one).
+        let range = match (lj.range, &kind) {
+            (None, _) => None,
+            (Some(_), LightKind::Directional) => {
+                self.warn(format!(
+                    "light '{}': range is ignored on a directional light",
+                    c.name
+                ));
+                None
+            }
+            (Some(r), _) => {
+                let (scale, _, _) = world.to_scale_rotation_translation();
+                let world_r = r * (scale.abs().element_sum() / 3.0);
+                if !(r.is_finite() && r > 0.0 && world_r.is_finite() && world_r > 0.0) {
+                    return Err(self.invalid(format!(
+                        "light '{}': range {r} must be a finite number > 0",
+                        c.name
+                    )));
+                }
+                Some(world_r)
+            }
+        };
         Ok(Light {
             name: c.name.clone(),
             kind,
             color,
             position,
             direction,
+            range,
         })
     }
+}
+
+/// A light on a node of the scene.
+struct Cand {
+    node: usize,
+    light: usize,
+    name: String,
+    ty: Option<json::extensions::scene::khr_lights_punctual::Type>,
+}
+
+fn kind_str(t: Option<json::extensions::scene::khr_lights_punctual::Type>) -> &'static str {
+    use json::extensions::scene::khr_lights_punctual::Type;
+    match t {
+        Some(Type::Spot) => "spot",
+        Some(Type::Directional) => "directional",
+        Some(Type::Point) => "point",
+        None => "unknown type",
+    }
+}
+
+/// What the single-light bake takes.
+fn usable(c: &Cand) -> bool {
+    use json::extensions::scene::khr_lights_punctual::Type;
+    matches!(c.ty, Some(Type::Spot | Type::Directional))
 }

@@ -63,8 +63,14 @@ use precheck::{check_glb_header, precheck};
 /// Options for [`load`].
 #[derive(Clone, Debug, Default)]
 pub struct LoadOptions {
-    /// Pick the primary light by name when the file has several candidates.
-    pub light: Option<String>,
+    /// `--light NAME` (repeatable): only these lights (by light name, else
+    /// node name). Empty: every light ([`LoadOptions::all_lights`]) or the
+    /// one spot/directional light.
+    pub lights: Vec<String>,
+    /// Every `KHR_lights_punctual` light, point lights included, into
+    /// [`Scene::lights`]. `false` (the default until the bake and the
+    /// runtime take several lights): one spot or directional light.
+    pub all_lights: bool,
     /// Resource budgets (file sizes, accessor elements, texels, animation
     /// work, where external URIs may point).
     pub limits: Limits,
@@ -345,7 +351,7 @@ impl<'a> Ctx<'a> {
             }
         }
 
-        let light = self.primary_light(&order, &dynamic, &animator, options)?;
+        let lights = self.primary_lights(&order, &dynamic, &animator, options)?;
         let camera = self.camera(&order, &options.camera, &mut animator)?;
 
         let mut table = MaterialTable::default();
@@ -518,7 +524,7 @@ impl<'a> Ctx<'a> {
         }
         Ok(Scene {
             source: self.path.to_path_buf(),
-            light,
+            lights,
             camera,
             materials: table.materials,
             textures: table.textures,
