@@ -3,16 +3,27 @@
 //!
 //! ```text
 //! cargo run -p gibake-reference --release --example export_obj -- OUT_DIR \
-//!     [--scene SCENE.glb] [--time T] [--size N] [--spp N] [--segments N] [--seed S] [--spot]
+//!     [--scene SCENE.glb [--all-lights]] [--time T] [--size N] [--spp N] [--segments N] [--seed S]
+//!     [--spot | --multi]
 //! ```
 //!
 //! Without `--scene` the hand-built validation corner
 //! (`gibake_reference::scenes::validation_corner`) is used; `--spot` replaces
 //! its directional light by a hard-edged spot (glTF inner = outer = 35°,
-//! 6 W/sr), which Mitsuba's `spot` emitter reproduces up to a 0.1°-wide rim. Writes to `OUT_DIR`:
-//! one OBJ per mesh (world space at time T, positions and vertex normals),
-//! `scene.json` (camera, light, meshes with albedo, image size, spp, timings)
-//! and `gibake_direct.exr` / `gibake_one_bounce.exr` (N × N, `spp` samples).
+//! 6 W/sr), which Mitsuba's `spot` emitter reproduces up to a 0.1°-wide rim;
+//! `--multi` uses `validation_corner_multi` (the corner's directional light,
+//! a point light and a hard-edged spot, distinct colours). With `--scene`,
+//! `--all-lights` imports every glTF light (`LoadOptions::all_lights`, point
+//! lights included) instead of the one spot/directional light. Writes to
+//! `OUT_DIR`: one OBJ per mesh (world space at time T, positions and vertex
+//! normals), `scene.json` (camera, `lights` — every light of the scene —,
+//! meshes with albedo, image size, spp, timings) and `gibake_direct.exr` /
+//! `gibake_one_bounce.exr` (N × N, `spp` samples).
+//!
+//! A light with a glTF `range` is refused (exit status 2, before anything is
+//! written): Mitsuba's emitters have no range window, so the comparison
+//! would differ by design.
+//!
 //! `crates/reference/validation/mitsuba_validate.py OUT_DIR` renders the same
 //! scene with Mitsuba and compares.
 
@@ -21,12 +32,12 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use gibake_reference::{Depth, RayScene, Settings, View, render_view, scenes};
-use gibake_scene::{LightKind, LoadOptions, Projection, Scene};
+use gibake_scene::{Light, LightKind, LoadOptions, Projection, Scene};
 use glam::Vec3;
 
 fn usage() -> ! {
     eprintln!(
-        "usage: export_obj OUT_DIR [--scene SCENE.glb] [--time T] [--size N] [--spp N] [--segments N] [--seed S] [--spot]"
+        "usage: export_obj OUT_DIR [--scene SCENE.glb [--all-lights]] [--time T] [--size N] [--spp N] [--segments N] [--seed S] [--spot | --multi]"
     );
     std::process::exit(2);
 }
@@ -39,7 +50,7 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let mut out: Option<PathBuf> = None;
     let mut scene_path: Option<PathBuf> = None;
-    let mut use_spot = false;
+    let (mut use_spot, mut multi, mut all_lights) = (false, false, false);
     let (mut time, mut size, mut spp, mut segments, mut seed) =
         (0.0f32, 128u32, 1024u32, 48u32, 0u64);
     while let Some(a) = args.next() {
@@ -52,14 +63,26 @@ fn main() {
             "--segments" => segments = val().parse().unwrap_or_else(|_| usage()),
             "--seed" => seed = val().parse().unwrap_or_else(|_| usage()),
             "--spot" => use_spot = true,
+            "--multi" => multi = true,
+            "--all-lights" => all_lights = true,
             s if s.starts_with("--") => usage(),
             s => out = Some(s.into()),
         }
     }
     let out = out.unwrap_or_else(|| usage());
-    std::fs::create_dir_all(&out).expect("create OUT_DIR");
+    if use_spot && multi || scene_path.is_some() && (use_spot || multi) {
+        eprintln!(
+            "--spot and --multi choose a light for the built-in corner: use one, without --scene"
+        );
+        std::process::exit(2);
+    }
+    if all_lights && scene_path.is_none() {
+        eprintln!("--all-lights is for --scene");
+        std::process::exit(2);
+    }
 
     let (scene, view): (Scene, View) = match &scene_path {
+        None if multi => scenes::validation_corner_multi(segments),
         None => {
             let (mut scene, view) = scenes::validation_corner(segments);
             if use_spot {
@@ -76,7 +99,11 @@ fn main() {
             (scene, view)
         }
         Some(p) => {
-            let scene = gibake_scene::load(p, &LoadOptions::default()).unwrap_or_else(|e| {
+            let options = LoadOptions {
+                all_lights,
+                ..LoadOptions::default()
+            };
+            let scene = gibake_scene::load(p, &options).unwrap_or_else(|e| {
                 eprintln!("{e}");
                 std::process::exit(2)
             });
@@ -87,6 +114,17 @@ fn main() {
             (scene, view)
         }
     };
+    // Mitsuba has no range window: refuse rather than compare different scenes.
+    if let Some(l) = scene.lights.iter().find(|l| l.range.is_some()) {
+        eprintln!(
+            "light {:?} has a glTF range ({} units): Mitsuba's emitters have no range window, so \
+             the validation cannot reproduce it; remove the range (or the light) from the scene",
+            l.name,
+            l.range.unwrap_or_default()
+        );
+        std::process::exit(2);
+    }
+    std::fs::create_dir_all(&out).expect("create OUT_DIR");
     if !scene.textures.is_empty() {
         eprintln!("warning: textures are not exported; Mitsuba gets the base colour factors only");
     }
@@ -140,30 +178,7 @@ fn main() {
             std::process::exit(2)
         }
     };
-    let l = scene.light();
-    let light = match l.kind {
-        LightKind::Directional => format!(
-            "{{\"type\": \"directional\", \"direction\": {}, \"irradiance\": {}}}",
-            v3(l.direction),
-            v3(l.color)
-        ),
-        LightKind::Spot {
-            inner_cone,
-            outer_cone,
-        } => format!(
-            "{{\"type\": \"spot\", \"position\": {}, \"direction\": {}, \"intensity\": {}, \"inner_deg\": {:?}, \"outer_deg\": {:?}}}",
-            v3(l.position),
-            v3(l.direction),
-            v3(l.color),
-            inner_cone.to_degrees(),
-            outer_cone.to_degrees()
-        ),
-        LightKind::Point => format!(
-            "{{\"type\": \"point\", \"position\": {}, \"intensity\": {}}}",
-            v3(l.position),
-            v3(l.color)
-        ),
-    };
+    let lights: Vec<String> = scene.lights.iter().map(light_json).collect();
 
     // gibake reference renders.
     let rs = RayScene::build(&scene, time);
@@ -193,11 +208,44 @@ fn main() {
 
     let threads = rayon::current_num_threads();
     let json = format!(
-        "{{\n  \"source\": {:?},\n  \"width\": {size},\n  \"height\": {size},\n  \"spp\": {spp},\n  \"time\": {time:?},\n  \"triangles\": {triangles},\n  \"threads\": {threads},\n  \"camera\": {camera},\n  \"light\": {light},\n  \"meshes\": [\n{}\n  ],\n  \"gibake\": {{\n{}\n  }}\n}}\n",
+        "{{\n  \"source\": {:?},\n  \"width\": {size},\n  \"height\": {size},\n  \"spp\": {spp},\n  \"time\": {time:?},\n  \"triangles\": {triangles},\n  \"threads\": {threads},\n  \"camera\": {camera},\n  \"lights\": [\n{}\n  ],\n  \"meshes\": [\n{}\n  ],\n  \"gibake\": {{\n{}\n  }}\n}}\n",
         scene.source.display().to_string(),
+        lights.join(",\n"),
         meshes_json.join(",\n"),
         renders.join(",\n")
     );
     std::fs::write(out.join("scene.json"), json).expect("write scene.json");
-    eprintln!("wrote {} ({triangles} triangles)", out.display());
+    eprintln!(
+        "wrote {} ({triangles} triangles, {} lights)",
+        out.display(),
+        scene.lights.len()
+    );
+}
+
+/// One light of `scene.json` (no range: refused before).
+fn light_json(l: &Light) -> String {
+    let body = match l.kind {
+        LightKind::Directional => format!(
+            "\"type\": \"directional\", \"direction\": {}, \"irradiance\": {}",
+            v3(l.direction),
+            v3(l.color)
+        ),
+        LightKind::Spot {
+            inner_cone,
+            outer_cone,
+        } => format!(
+            "\"type\": \"spot\", \"position\": {}, \"direction\": {}, \"intensity\": {}, \"inner_deg\": {:?}, \"outer_deg\": {:?}",
+            v3(l.position),
+            v3(l.direction),
+            v3(l.color),
+            inner_cone.to_degrees(),
+            outer_cone.to_degrees()
+        ),
+        LightKind::Point => format!(
+            "\"type\": \"point\", \"position\": {}, \"intensity\": {}",
+            v3(l.position),
+            v3(l.color)
+        ),
+    };
+    format!("    {{\"name\": {:?}, {body}}}", l.name)
 }

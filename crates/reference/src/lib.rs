@@ -11,10 +11,19 @@
 //!   pixel, stratified on a √spp grid, averaged); a miss is black;
 //! - two-sided Lambertian surfaces, BRDF = albedo/π; the geometric normal is
 //!   flipped to face the ray origin and the shading normal with it;
-//! - the primary light is a delta light (spot or directional,
-//!   [`irradiance`]), never seen directly; shadow rays are exact;
+//! - the primary lights ([`Scene::lights`], one or many) are delta lights —
+//!   spot, point (both with glTF's optional `range` window) or directional —
+//!   never seen directly. The direct-light estimator is next-event estimation
+//!   over **every** light at each shading point: [`irradiance`] is the sum of
+//!   [`direct::light_irradiance`] over the lights, each with its own exact
+//!   shadow ray (no light sampling, so no noise from the number of lights,
+//!   and the cost grows linearly with it). The random numbers a path draws do
+//!   not depend on the lights, so a render with several lights equals the
+//!   sum of the single-light renders with the same seed to float rounding
+//!   (`tests/many_lights.rs`);
 //! - one bounce: a cosine-weighted direction about the shading normal (0 if
-//!   below the geometric hemisphere), contribution `albedo(x) · L_direct(y)`;
+//!   below the geometric hemisphere), contribution `albedo(x) · L_direct(y)`,
+//!   `L_direct(y)` again summed over every light;
 //! - scale-invariant ray offsets (no epsilon in scene units), deterministic
 //!   results independent of the thread count, never NaN or ∞.
 //!

@@ -1,5 +1,6 @@
 //! Hand-built scenes for tests and for the Mitsuba validation: meshes (quads,
-//! boxes, spheres), a scene wrapper, and the validation scene.
+//! boxes, spheres), lights (spot, point, directional), a scene wrapper, and
+//! the validation scenes (one light, and three of different kinds).
 //!
 //! Scenes built here have no camera node (the importer's node hierarchy is
 //! not needed); they are rendered with [`crate::render_view`] and an explicit
@@ -158,6 +159,19 @@ pub fn spot(
     }
 }
 
+/// A point light at `position` with intensity `intensity` W/sr in every
+/// direction (no range).
+pub fn point(position: Vec3, intensity: Vec3) -> Light {
+    Light {
+        name: "point".into(),
+        kind: LightKind::Point,
+        color: intensity,
+        position,
+        direction: Vec3::NEG_Y,
+        range: None,
+    }
+}
+
 /// A directional light travelling along `direction` with irradiance `irradiance` W/m².
 pub fn directional(direction: Vec3, irradiance: Vec3) -> Light {
     Light {
@@ -254,6 +268,40 @@ pub fn validation_corner(sphere_segments: u32) -> (Scene, View) {
             zfar: None,
         },
     );
+    (scene, view)
+}
+
+/// The many-lights variant of [`validation_corner`] (the Mitsuba validation's
+/// `--multi`): the same geometry and camera lit by three lights of distinct
+/// colours and kinds, all without a range (Mitsuba has none):
+///
+/// - the corner's directional light, from the same direction, tinted warm
+///   white (2.4, 2.1, 1.6) W/m²;
+/// - a blue point light of (0.3, 0.5, 1.2) W/sr at (0.6, 1.1, 0.6), above
+///   the floor in front of the block;
+/// - an orange hard-edged spot (glTF inner = outer = 25°, so Mitsuba's
+///   linear falloff band is ~0.1° wide) of (5, 2.5, 0.8) W/sr at
+///   (−0.7, 1.8, 1.2), aimed at (0.1, 0.3, −0.6) (the block's left side and
+///   the back wall).
+///
+/// The lights are in that order in [`Scene::lights`].
+pub fn validation_corner_multi(sphere_segments: u32) -> (Scene, View) {
+    let (mut scene, view) = validation_corner(sphere_segments);
+    let sun = scene.lights[0].direction;
+    scene.source = "validation_corner_multi".into();
+    let spot_pos = Vec3::new(-0.7, 1.8, 1.2);
+    let cone = 25f32.to_radians();
+    scene.lights = vec![
+        directional(sun, Vec3::new(2.4, 2.1, 1.6)),
+        point(Vec3::new(0.6, 1.1, 0.6), Vec3::new(0.3, 0.5, 1.2)),
+        spot(
+            spot_pos,
+            Vec3::new(0.1, 0.3, -0.6) - spot_pos,
+            Vec3::new(5.0, 2.5, 0.8),
+            cone,
+            cone,
+        ),
+    ];
     (scene, view)
 }
 

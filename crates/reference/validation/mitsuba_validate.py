@@ -3,14 +3,17 @@
 
 Usage:
     pip install mitsuba numpy
-    cargo run -p gibake-reference --release --example export_obj -- OUT_DIR --size 128 --spp 1024
+    cargo run -p gibake-reference --release --example export_obj -- OUT_DIR --size 128 --spp 1024 [--multi]
     python3 crates/reference/validation/mitsuba_validate.py OUT_DIR [--spp N] [--variant scalar_rgb]
 
 Reads OUT_DIR/scene.json and the OBJ meshes written by the example, renders
 the same scene with Mitsuba's `path` integrator (max_depth 2 = direct light
 only, max_depth 3 = direct + one bounce), two-sided diffuse BSDFs, a
-perspective sensor (fov_axis 'y'), an `independent` sampler and a box
-reconstruction filter, and compares with gibake_direct.exr and
+perspective sensor (fov_axis 'y'), an `independent` sampler, a box
+reconstruction filter and one emitter per light of scene.json's `lights`
+(`directional`, `point` with intensity in W/sr, `spot`; an older scene.json
+with a single `light` is read too; lights with a glTF range are refused by
+the exporter: Mitsuba has no range window), and compares with gibake_direct.exr and
 gibake_one_bounce.exr:
 
   rel MSE   = mean over pixels and channels of (x - r)^2 / (r^2 + 0.01),
@@ -48,6 +51,56 @@ def look_at(mi, origin, target, up):
         return t.look_at(origin=origin, target=target, up=up)
 
 
+def scene_lights(desc):
+    """The lights of scene.json: the `lights` list, or the single `light` of
+    files written before the reference had several lights."""
+    if "lights" in desc:
+        return desc["lights"]
+    return [desc["light"]]
+
+
+def emitter(mi, light):
+    """The Mitsuba emitter of one scene.json light (all delta lights)."""
+    if "range" in light:  # export_obj refuses these; guard against hand-made files
+        sys.exit(f"light {light.get('name', '?')!r} has a range: Mitsuba has no range window")
+    if light["type"] == "directional":
+        return {
+            "type": "directional",
+            "direction": light["direction"],
+            "irradiance": {"type": "rgb", "value": light["irradiance"]},
+        }
+    if light["type"] == "point":
+        # Mitsuba's `point`: `intensity` is radiant intensity (W/sr), E = I cos / d^2,
+        # as glTF's and gibake's point light.
+        return {
+            "type": "point",
+            "position": light["position"],
+            "intensity": {"type": "rgb", "value": light["intensity"]},
+        }
+    if light["type"] != "spot":
+        sys.exit(f"unknown light type {light['type']!r}")
+    # glTF falloff: saturate((cos θ − cos outer) / w)², w = max(0.001, cos inner − cos outer).
+    # Mitsuba's: 1 inside beam_width, linear in θ down to 0 at cutoff_angle. Match the
+    # band's ends; the curves differ inside the band, which is negligible only when it
+    # is thin (inner ≈ outer).
+    outer = np.radians(light["outer_deg"])
+    w = max(0.001, np.cos(np.radians(light["inner_deg"])) - np.cos(outer))
+    beam = np.degrees(np.arccos(min(1.0, np.cos(outer) + w)))
+    if light["outer_deg"] - beam > 0.5:
+        print(f"warning: spot falloff band {beam:.2f}..{light['outer_deg']:.2f} deg: Mitsuba's falloff "
+              "differs from glTF's inside it; expect differences there", file=sys.stderr)
+    p = np.array(light["position"], dtype=float)
+    dirn = np.array(light["direction"], dtype=float)
+    up = [0.0, 1.0, 0.0] if abs(dirn[1]) < 0.99 else [1.0, 0.0, 0.0]
+    return {
+        "type": "spot",
+        "to_world": look_at(mi, p.tolist(), (p + dirn).tolist(), up),
+        "intensity": {"type": "rgb", "value": light["intensity"]},
+        "cutoff_angle": float(light["outer_deg"]),
+        "beam_width": float(beam),
+    }
+
+
 def scene_dict(mi, desc, out_dir, max_depth, spp, seed):
     cam = desc["camera"]
     pos = np.array(cam["position"], dtype=float)
@@ -76,34 +129,8 @@ def scene_dict(mi, desc, out_dir, max_depth, spp, seed):
             "sampler": {"type": "independent", "sample_count": spp, "seed": seed},
         },
     }
-    light = desc["light"]
-    if light["type"] == "directional":
-        d["light"] = {
-            "type": "directional",
-            "direction": light["direction"],
-            "irradiance": {"type": "rgb", "value": light["irradiance"]},
-        }
-    else:
-        # glTF falloff: saturate((cos θ − cos outer) / w)², w = max(0.001, cos inner − cos outer).
-        # Mitsuba's: 1 inside beam_width, linear in θ down to 0 at cutoff_angle. Match the
-        # band's ends; the curves differ inside the band, which is negligible only when it
-        # is thin (inner ≈ outer).
-        outer = np.radians(light["outer_deg"])
-        w = max(0.001, np.cos(np.radians(light["inner_deg"])) - np.cos(outer))
-        beam = np.degrees(np.arccos(min(1.0, np.cos(outer) + w)))
-        if light["outer_deg"] - beam > 0.5:
-            print(f"warning: spot falloff band {beam:.2f}..{light['outer_deg']:.2f} deg: Mitsuba's falloff "
-                  "differs from glTF's inside it; expect differences there", file=sys.stderr)
-        p = np.array(light["position"], dtype=float)
-        dirn = np.array(light["direction"], dtype=float)
-        up = [0.0, 1.0, 0.0] if abs(dirn[1]) < 0.99 else [1.0, 0.0, 0.0]
-        d["light"] = {
-            "type": "spot",
-            "to_world": look_at(mi, p.tolist(), (p + dirn).tolist(), up),
-            "intensity": {"type": "rgb", "value": light["intensity"]},
-            "cutoff_angle": float(light["outer_deg"]),
-            "beam_width": float(beam),
-        }
+    for i, light in enumerate(scene_lights(desc)):
+        d[f"light_{i:03}"] = emitter(mi, light)
     for i, m in enumerate(desc["meshes"]):
         d[f"mesh_{i:03}"] = {
             "type": "obj",
@@ -151,7 +178,9 @@ def main():
     with open(os.path.join(args.out_dir, "scene.json")) as f:
         desc = json.load(f)
     spp = args.spp or desc["spp"]
-    print(f"scene {desc['source']}: {desc['width']}x{desc['height']}, {desc['triangles']} triangles; "
+    kinds = ", ".join(light["type"] for light in scene_lights(desc))
+    print(f"scene {desc['source']}: {desc['width']}x{desc['height']}, {desc['triangles']} triangles, "
+          f"lights: {kinds}; "
           f"gibake {desc['spp']} spp, Mitsuba {mi.__version__} {args.variant} {spp} spp")
     results = {"mitsuba_version": mi.__version__, "variant": args.variant, "mitsuba_spp": spp,
                "gibake_spp": desc["spp"], "width": desc["width"], "height": desc["height"]}
