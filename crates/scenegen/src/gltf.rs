@@ -2,13 +2,13 @@
 //!
 //! The [`Builder`] takes everything in metres at scale 1 and applies the
 //! scene scale `s` itself, in one place, so no scene can forget a quantity:
-//! vertex positions, node and animation translations, camera `znear`/`zfar`
-//! and orthographic `xmag`/`ymag` are multiplied by `s`, spot intensities (W/sr)
-//! by `s²`; directions, angles, colours, albedos, times and directional
-//! irradiance are left as they are. Output is deterministic: typed structs
-//! serialise their fields in declaration order, there are no maps whose order
-//! could depend on features, and all arithmetic is done in `f64` and rounded
-//! to `f32` once.
+//! vertex positions, node and animation translations, camera `znear`/`zfar`,
+//! orthographic `xmag`/`ymag` and light `range`s are multiplied by `s`, spot
+//! and point intensities (W/sr) by `s²`; directions, angles, colours,
+//! albedos, times and directional irradiance are left as they are. Output is
+//! deterministic: typed structs serialise their fields in declaration order,
+//! there are no maps whose order could depend on features, and all
+//! arithmetic is done in `f64` and rounded to `f32` once.
 
 use glam::{DMat3, DQuat, DVec3};
 use gltf_json as json;
@@ -277,15 +277,20 @@ impl Builder {
         node
     }
 
+    /// A light node at `pos`; `dir` (if any) turns the node's −Z toward it
+    /// (a point light's node has no rotation).
     fn light(
         &mut self,
         name: &str,
         pos: DVec3,
-        dir: DVec3,
+        dir: Option<DVec3>,
         light: json::extensions::scene::khr_lights_punctual::Light,
     ) {
         let light = self.root.push(light);
-        let rot = look_rotation(dir);
+        let rotation = dir.map(|d| {
+            let rot = look_rotation(d);
+            scene::UnitQuaternion([f(rot.x), f(rot.y), f(rot.z), f(rot.w)])
+        });
         // The struct has one more field when gltf-json's `extensions` feature
         // is on (features unify across a workspace): keep the struct update.
         #[allow(clippy::needless_update)]
@@ -298,12 +303,7 @@ impl Builder {
         self.node(json::Node {
             name: Some(name.to_owned()),
             translation: Some(v3(pos * self.s)),
-            rotation: Some(scene::UnitQuaternion([
-                f(rot.x),
-                f(rot.y),
-                f(rot.z),
-                f(rot.w),
-            ])),
+            rotation,
             extensions: Some(ext),
             ..Default::default()
         });
@@ -333,23 +333,81 @@ impl Builder {
         inner: f64,
         outer: f64,
     ) {
+        self.spot_with_range(name, pos, dir, color, intensity, inner, outer, None);
+    }
+
+    /// [`Builder::spot`] with a glTF `range` (metres at scale 1, multiplied
+    /// by `s`; `None`: unbounded, no `range` written).
+    #[allow(clippy::too_many_arguments)]
+    pub fn spot_with_range(
+        &mut self,
+        name: &str,
+        pos: DVec3,
+        dir: DVec3,
+        color: [f32; 3],
+        intensity: f64,
+        inner: f64,
+        outer: f64,
+        range: Option<f64>,
+    ) {
+        self.lamp(
+            name,
+            pos,
+            color,
+            intensity,
+            range,
+            Some((dir, inner, outer)),
+        );
+    }
+
+    /// A point light at `pos`: `intensity` is the radiant intensity (W/sr)
+    /// at scale 1, the same in every direction, multiplied by `s²` as for
+    /// [`Builder::spot`]; `range` is glTF's `range` (metres at scale 1,
+    /// multiplied by `s`; `None`: unbounded, no `range` written). The node
+    /// has no rotation.
+    pub fn point(
+        &mut self,
+        name: &str,
+        pos: DVec3,
+        color: [f32; 3],
+        intensity: f64,
+        range: Option<f64>,
+    ) {
+        self.lamp(name, pos, color, intensity, range, None);
+    }
+
+    /// A spot (`spot`: direction, inner and outer cone angles) or point
+    /// light: intensity (W/sr) scaled by `s²`, range by `s`.
+    fn lamp(
+        &mut self,
+        name: &str,
+        pos: DVec3,
+        color: [f32; 3],
+        intensity: f64,
+        range: Option<f64>,
+        spot: Option<(DVec3, f64, f64)>,
+    ) {
         use json::extensions::scene::khr_lights_punctual as kl;
         self.light(
             name,
             pos,
-            dir,
+            spot.map(|(dir, _, _)| dir),
             kl::Light {
                 color,
                 extensions: None,
                 extras: None,
                 intensity: f(intensity * self.s * self.s),
                 name: Some(name.to_owned()),
-                range: None,
-                spot: Some(kl::Spot {
+                range: range.map(|r| f(r * self.s)),
+                spot: spot.map(|(_, inner, outer)| kl::Spot {
                     inner_cone_angle: f(inner),
                     outer_cone_angle: f(outer),
                 }),
-                type_: Valid(kl::Type::Spot),
+                type_: Valid(if spot.is_some() {
+                    kl::Type::Spot
+                } else {
+                    kl::Type::Point
+                }),
             },
         );
     }
@@ -368,7 +426,7 @@ impl Builder {
         self.light(
             name,
             pos,
-            dir,
+            Some(dir),
             kl::Light {
                 color,
                 extensions: None,

@@ -1,6 +1,7 @@
 //! Generator of gibake's bundled glTF scenes (`data/*.glb`).
 //!
-//! Three scenes, each a function from [`Params`] to GLB bytes:
+//! Four scenes, each a function from [`Params`] to GLB bytes. Three with one
+//! primary light, listed by [`all`]:
 //! - [`corner_bunny`]: the paper's experiment — a floor and two walls forming a
 //!   corner, the Stanford bunny, 13 small balls circling it, one spot light.
 //! - [`occluded`]: the paper's Fig. 10 situation — brightly coloured panels lit
@@ -9,8 +10,19 @@
 //! - [`sun`]: a directional light over a ground plane, static blocks, three
 //!   moving objects.
 //!
+//! And one with several primary lights, kept out of [`all`] (the bake and
+//! the runtime take one light so far, and the tests that bake or judge
+//! every scene of [`all`] import with the default, one-light options),
+//! listed by [`multi_light`]:
+//! - [`lamps`]: a room lit by a ceiling spot with a glTF `range` and two
+//!   point lamps (one with a range), static blocks, three moving balls.
+//!
+//! Seeded random scenes: [`random()`] (one spot or directional light) and
+//! [`random_lights()`] (1–8 lights of all three kinds, interiors and
+//! exteriors).
+//!
 //! Units are metres, Y is up; lights and cameras look down their node's −Z
-//! (glTF conventions). Moving objects are nodes targeted by one LINEAR
+//! (glTF conventions; point lights' nodes have no rotation). Moving objects are nodes targeted by one LINEAR
 //! translation animation that loops every [`LOOP_SECONDS`] seconds, and are
 //! also marked `extras: {"dynamic": true}`. All output is deterministic: the
 //! same parameters give the same bytes.
@@ -22,11 +34,14 @@ mod corner_bunny;
 pub mod geom;
 pub mod gltf;
 pub mod inspect;
+mod lamps;
 mod occluded;
 pub mod random;
+pub mod random_lights;
 mod sun;
 
 pub use random::{RandomInfo, random};
+pub use random_lights::{LightInfo, RandomLightsInfo, random_lights};
 
 /// Period of every bundled scene's animation loop, in seconds.
 pub const LOOP_SECONDS: f64 = 4.0;
@@ -39,10 +54,11 @@ pub const LOOP_SECONDS: f64 = 4.0;
 /// camera `znear`/`zfar` and orthographic `xmag`/`ymag`. Angles, directions,
 /// rotations, colours, albedos and animation times are unchanged.
 ///
-/// The image is kept identical too: a spot light's `intensity` is radiant
-/// intensity `I` in W/sr, and the irradiance it gives is `E = I·cos θ / d²`;
-/// scaling every distance `d` by `s` would divide `E` by `s²`, so the spot
-/// intensity is multiplied by `s²`. A directional light's intensity is an
+/// The image is kept identical too: a spot or point light's `intensity` is
+/// radiant intensity `I` in W/sr, and the irradiance it gives is
+/// `E = I·cos θ / d²`; scaling every distance `d` by `s` would divide `E` by
+/// `s²`, so the intensity is multiplied by `s²`, and a light's glTF `range`
+/// (a distance) by `s`. A directional light's intensity is an
 /// irradiance (W/m²), independent of distance, and stays as it is. Since
 /// radiance reflected by a Lambertian surface depends only on irradiance and
 /// albedo, and one-bounce transport between surfaces (`cos·cos·dA/d²`) is
@@ -119,7 +135,18 @@ pub fn sun(p: &Params) -> Vec<u8> {
     sun::build(p)
 }
 
-/// Every bundled scene: its name (the file is `data/NAME.glb`) and generator.
+/// A room lit by three lamps: a ceiling spot (glTF `range` 6 m), a hanging
+/// point lamp (no range) and a low point lamp (range 2.5 m); four static
+/// blocks, three balls on LINEAR loops. Imported with the default options
+/// (one primary light) it keeps the spot and ignores the point lamps with a
+/// warning; with `all_lights` it has all three.
+pub fn lamps(p: &Params) -> Vec<u8> {
+    lamps::build(p)
+}
+
+/// Every bundled scene with exactly one primary light (a spot or a
+/// directional light): its name (the file is `data/NAME.glb`) and generator.
+/// The scenes with several lights are in [`multi_light`].
 pub fn all() -> Vec<(&'static str, SceneFn)> {
     vec![
         ("corner_bunny", corner_bunny as SceneFn),
@@ -128,9 +155,21 @@ pub fn all() -> Vec<(&'static str, SceneFn)> {
     ]
 }
 
-/// The generator of the bundled scene called `name`, if there is one.
+/// The bundled scenes with several primary lights (point lights among
+/// them), also written to `data/NAME.glb`; kept out of [`all`] until the
+/// bake and the runtime take every light.
+pub fn multi_light() -> Vec<(&'static str, SceneFn)> {
+    vec![("lamps", lamps as SceneFn)]
+}
+
+/// The generator of the bundled scene called `name` (in [`all`] or
+/// [`multi_light`]), if there is one.
 pub fn by_name(name: &str) -> Option<SceneFn> {
-    all().into_iter().find(|(n, _)| *n == name).map(|(_, f)| f)
+    all()
+        .into_iter()
+        .chain(multi_light())
+        .find(|(n, _)| *n == name)
+        .map(|(_, f)| f)
 }
 
 /// The bundled scene `name` uniformly scaled by `scale` (see [`Params`]),
@@ -183,6 +222,7 @@ mod tests {
     fn names_resolve() {
         assert_eq!(all().len(), 3);
         assert!(by_name("sun").is_some() && by_name("nope").is_none());
+        assert!(by_name("lamps").is_some() && scaled("lamps", 2.0).is_some());
         assert!(scaled("nope", 2.0).is_none());
     }
 

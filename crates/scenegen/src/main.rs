@@ -1,6 +1,6 @@
 //! `gibake-scenegen [OUT_DIR]`: writes the bundled scenes (`corner_bunny.glb`,
-//! `occluded.glb`, `sun.glb`) with default parameters into `OUT_DIR`
-//! (default `data/`). The output is deterministic.
+//! `occluded.glb`, `sun.glb`, and the multi-light `lamps.glb`) with default
+//! parameters into `OUT_DIR` (default `data/`). The output is deterministic.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -19,7 +19,10 @@ fn main() -> ExitCode {
         eprintln!("gibake-scenegen: cannot create {}: {e}", out.display());
         return ExitCode::from(2);
     }
-    for (name, f) in gibake_scenegen::all() {
+    for (name, f) in gibake_scenegen::all()
+        .into_iter()
+        .chain(gibake_scenegen::multi_light())
+    {
         let bytes = f(&gibake_scenegen::Params::default());
         let path = out.join(format!("{name}.glb"));
         // Write to a temporary file and rename, so no half-written scene is left.

@@ -1,13 +1,20 @@
 //! Tests of the generated scenes: the committed `data/*.glb` are exactly what
 //! the generator writes, scaled variants differ only by the documented
 //! scaling, heavy variants have the promised static triangle counts, and the
-//! scenes keep the design's contracts (one light, dynamic nodes marked).
+//! scenes keep the design's contracts (one light in those of `all()`, dynamic
+//! nodes marked). The multi-light scenes (`multi_light()`) are held to the
+//! same, but for the light count.
 
 use std::path::{Path, PathBuf};
 
 use gibake_scenegen::inspect::{split_glb, triangle_counts};
-use gibake_scenegen::{Params, all};
+use gibake_scenegen::{Params, SceneFn, all, multi_light};
 use serde_json::Value;
+
+/// Every bundled scene: those of `all()` (one light), then the multi-light ones.
+fn bundled() -> Vec<(&'static str, SceneFn)> {
+    all().into_iter().chain(multi_light()).collect()
+}
 
 fn data_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data")
@@ -25,7 +32,7 @@ fn committed_data_is_reproducible() {
         .status()
         .expect("run gibake-scenegen");
     assert!(status.success());
-    for (name, f) in all() {
+    for (name, f) in bundled() {
         let file = format!("{name}.glb");
         let written = std::fs::read(out.join(&file)).expect("generated file");
         let committed = std::fs::read(data_dir().join(&file))
@@ -132,10 +139,11 @@ fn compare(
 
 /// Scaling by `s` multiplies exactly the documented quantities: positions,
 /// translations (nodes and animation keys), camera near/far and orthographic
-/// magnifications by `s`, spot intensity by `s²`; nothing else changes.
+/// magnifications and light ranges by `s`, spot and point intensity by `s²`;
+/// nothing else changes.
 #[test]
 fn scaled_scenes_differ_only_by_the_documented_scaling() {
-    for (name, f) in all() {
+    for (name, f) in bundled() {
         let base = f(&Params::default());
         let (ja, bin_a) = split_glb(&base).unwrap();
         let lengths = length_accessors(&ja);
@@ -164,7 +172,15 @@ fn scaled_scenes_differ_only_by_the_documented_scaling() {
                         "lights",
                         i,
                         "intensity",
-                    ] if lights[i.parse::<usize>().unwrap()]["type"] == "spot" => sd * sd,
+                    ] if ["spot", "point"].contains(
+                        &lights[i.parse::<usize>().unwrap()]["type"]
+                            .as_str()
+                            .unwrap(),
+                    ) =>
+                    {
+                        sd * sd
+                    }
+                    ["extensions", "KHR_lights_punctual", "lights", _, "range"] => sd,
                     ["accessors", i, "min" | "max", _] if lengths.contains(&i.parse().unwrap()) => {
                         sd
                     }
@@ -234,7 +250,7 @@ fn light_and_camera_scaling_values() {
 /// more), and leaves the dynamic part alone.
 #[test]
 fn heavy_multiplies_static_triangles() {
-    for (name, f) in all() {
+    for (name, f) in bundled() {
         let base = triangle_counts(&f(&Params::default())).unwrap();
         let heavy = triangle_counts(&f(&Params {
             heavy: 20,
@@ -251,18 +267,24 @@ fn heavy_multiplies_static_triangles() {
     }
 }
 
-/// The design's scene contract: exactly one spot or directional light, a
-/// perspective camera first, every animated node marked dynamic and every
-/// node marked dynamic animated, metallic 0 everywhere, normals everywhere.
+/// The design's scene contract: exactly one spot or directional light (the
+/// scenes of `all()`; the multi-light ones have several), a perspective
+/// camera first, every animated node marked dynamic and every node marked
+/// dynamic animated, LINEAR loops, metallic 0 everywhere, normals everywhere.
 #[test]
 fn scenes_keep_the_contract() {
-    for (name, f) in all() {
+    let one_light: Vec<&str> = all().iter().map(|(n, _)| *n).collect();
+    for (name, f) in bundled() {
         let (j, _) = split_glb(&f(&Params::default())).unwrap();
         let lights = j["extensions"]["KHR_lights_punctual"]["lights"]
             .as_array()
             .unwrap();
-        assert_eq!(lights.len(), 1, "{name}");
-        assert!(["spot", "directional"].contains(&lights[0]["type"].as_str().unwrap()));
+        if one_light.contains(&name) {
+            assert_eq!(lights.len(), 1, "{name}");
+            assert!(["spot", "directional"].contains(&lights[0]["type"].as_str().unwrap()));
+        } else {
+            assert!(lights.len() >= 2, "{name}");
+        }
         assert_eq!(j["cameras"][0]["type"], "perspective", "{name}");
         let animated: Vec<u64> = j["animations"][0]["channels"]
             .as_array()
@@ -287,6 +309,7 @@ fn scenes_keep_the_contract() {
         }
         // Every loop lasts 4 s.
         for s in j["animations"][0]["samplers"].as_array().unwrap() {
+            assert_eq!(s["interpolation"], "LINEAR", "{name}");
             let a = &j["accessors"][s["input"].as_u64().unwrap() as usize];
             assert_eq!(a["min"][0].as_f64(), Some(0.0));
             assert_eq!(a["max"][0].as_f64(), Some(gibake_scenegen::LOOP_SECONDS));
@@ -307,7 +330,7 @@ fn khronos_validator_accepts_committed_scenes() {
         dir.join("node_modules/gltf-validator").exists(),
         "run `cd data/validate && npm ci` first"
     );
-    let files: Vec<PathBuf> = all()
+    let files: Vec<PathBuf> = bundled()
         .iter()
         .map(|(n, _)| data_dir().join(format!("{n}.glb")))
         .collect();
