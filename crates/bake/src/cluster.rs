@@ -334,7 +334,7 @@ pub fn cluster(rsm: &Rsm, target: ClusterTarget) -> Clustering {
     let pyramid = Pyramid::new(rsm);
     match target {
         ClusterTarget::Threshold(t) => {
-            let (vpls, texel_vpl, rects, _) = emit(rsm, &pyramid, |node| {
+            let (vpls, texel_vpl, rects, _, _) = emit(rsm, &pyramid, |node| {
                 pyramid.score(rsm, node).is_some_and(|s| s >= t)
             });
             Clustering {
@@ -355,6 +355,7 @@ fn emit(rsm: &Rsm, pyramid: &Pyramid, split: impl Fn(Node) -> bool) -> Emitted {
     let mut rects = Vec::new();
     let mut texel_vpl = vec![NO_VPL; rsm.metric.len()];
     let mut extra = 0u64;
+    let mut counted = 0u64;
     let texel_level = pyramid.texel_level();
     let mut stack = vec![pyramid.root()];
     let mut kids = Vec::with_capacity(4);
@@ -368,6 +369,8 @@ fn emit(rsm: &Rsm, pyramid: &Pyramid, split: impl Fn(Node) -> bool) -> Emitted {
         }
         let rect = pyramid.rect(node);
         let layers = leaf_layers(rsm, rect);
+        let leaf_counts = pyramid.counts(&pyramid.moments(rsm, node));
+        counted += u64::from(leaf_counts);
         if layers.len() > 1 {
             // Layers beyond the first that count against a budget as the
             // leaf itself would (pyramid::counts).
@@ -380,8 +383,7 @@ fn emit(rsm: &Rsm, pyramid: &Pyramid, split: impl Fn(Node) -> bool) -> Emitted {
                     pyramid.counts(&m)
                 })
                 .count() as u64;
-            let leaf_counts = u64::from(pyramid.counts(&pyramid.moments(rsm, node)));
-            extra += counting.saturating_sub(leaf_counts);
+            extra += counting.saturating_sub(u64::from(leaf_counts));
         }
         for layer in layers {
             let Some(vpl) = cluster_of(rsm, &layer) else {
@@ -395,12 +397,13 @@ fn emit(rsm: &Rsm, pyramid: &Pyramid, split: impl Fn(Node) -> bool) -> Emitted {
             rects.push(rect);
         }
     }
-    (vpls, texel_vpl, rects, extra)
+    (vpls, texel_vpl, rects, extra, counted)
 }
 
-/// VPLs, texel → VPL, each VPL's node rectangle, and how many more VPLs
-/// than leaves count against a budget (a leaf's second and later layers).
-type Emitted = (Vec<Cluster>, Vec<u32>, Vec<(u32, u32, u32, u32)>, u64);
+/// VPLs, texel → VPL, each VPL's node rectangle, how many more VPLs than
+/// leaves count against a budget (a leaf's second and later layers), and
+/// how many leaves count.
+type Emitted = (Vec<Cluster>, Vec<u32>, Vec<(u32, u32, u32, u32)>, u64, u64);
 
 /// A depth gap splits a leaf where it exceeds this many texel footprints
 /// (and the leaf's own width): a continuous surface's metric changes by at
@@ -706,7 +709,7 @@ fn cluster_count(rsm: &Rsm, pyramid: &Pyramid, n: u32) -> Clustering {
             best = this;
         }
     }
-    let (_, _, (mut g, last_e, prev_e, group_start), (vpls, texel_vpl, rects, _)) = best;
+    let (_, _, (mut g, last_e, prev_e, group_start), (vpls, texel_vpl, rects, _, _)) = best;
     let result = g.count;
 
     // Any threshold in the gap between two consecutive capped scores splits
@@ -753,6 +756,121 @@ fn cluster_count(rsm: &Rsm, pyramid: &Pyramid, n: u32) -> Clustering {
         rects,
         threshold,
     }
+}
+
+/// The clustering of several maps under one budget: every light's views
+/// ([`cluster_joint`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointClustering {
+    /// One clustering per map, in the order given.
+    pub maps: Vec<Clustering>,
+    /// The threshold every map was cut with.
+    pub threshold: f32,
+}
+
+impl JointClustering {
+    /// VPLs over all maps.
+    pub fn vpl_count(&self) -> usize {
+        self.maps.iter().map(|c| c.vpls.len()).sum()
+    }
+}
+
+/// Clusters several RSMs — every view of every light — as one: each node's
+/// `share` is its reaching flux over the total of **all** maps, so one
+/// threshold spends one budget where the light is, across lights, by the
+/// same rule as within one map (module docs; a light whose bounce is a
+/// millionth of the others' gets its root node and no splits).
+/// `Threshold(t)` cuts every map at `t`; `Count(n)` finds the threshold by
+/// bisection on the `f32` scores (the VPL count is non-increasing in `t`),
+/// taking the one whose count is nearest `n`. With one map,
+/// `Threshold(t)` gives exactly [`cluster`]'s clustering; `Count(n)` may
+/// differ from [`cluster`]'s greedy refinement by a few VPLs.
+pub fn cluster_joint(rsms: &[&Rsm], target: ClusterTarget) -> JointClustering {
+    let live: Vec<(usize, Pyramid)> = rsms
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.size > 0)
+        .map(|(i, r)| (i, Pyramid::new(r)))
+        .collect();
+    let (mut reaching, mut flux) = (0.0f64, 0.0f64);
+    for (i, p) in &live {
+        let (r, f) = p.root_totals(rsms[*i]);
+        reaching += r;
+        flux += f;
+    }
+    let by_reach = reaching > 0.0;
+    let total = if by_reach { reaching } else { flux };
+    let live: Vec<(usize, Pyramid)> = live
+        .into_iter()
+        .map(|(i, mut p)| {
+            p.share_with(total, by_reach);
+            (i, p)
+        })
+        .collect();
+    let cut = |t: f32| -> (Vec<Emitted>, u64) {
+        let mut counted = 0u64;
+        let out: Vec<Emitted> = live
+            .iter()
+            .map(|(i, p)| {
+                let rsm = rsms[*i];
+                let e = emit(rsm, p, |node| p.score(rsm, node).is_some_and(|s| s >= t));
+                counted += e.3 + e.4;
+                e
+            })
+            .collect();
+        (out, counted)
+    };
+    let threshold = match target {
+        ClusterTarget::Threshold(t) => t,
+        ClusterTarget::Count(n) => {
+            let n = u64::from(n);
+            // Non-negative f32s order as their bit patterns: bisect the
+            // bits between 0 (split all) and +∞ (split none).
+            let (mut lo, mut hi) = (0u32, f32::INFINITY.to_bits());
+            let count_at = |bits: u32| cut(f32::from_bits(bits)).1;
+            if count_at(lo) <= n {
+                hi = lo;
+            }
+            while hi - lo > 1 {
+                let mid = lo + (hi - lo) / 2;
+                if count_at(mid) > n {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            // count(lo) > n ≥ count(hi): the nearer of the two.
+            let (c_lo, c_hi) = (count_at(lo), count_at(hi));
+            if lo != hi && c_lo.abs_diff(n) < c_hi.abs_diff(n) {
+                f32::from_bits(lo)
+            } else {
+                f32::from_bits(hi)
+            }
+        }
+    };
+    let (emitted, _) = cut(threshold);
+    let mut emitted = emitted.into_iter();
+    let maps = rsms
+        .iter()
+        .map(|r| {
+            if r.size == 0 {
+                return Clustering {
+                    vpls: Vec::new(),
+                    texel_vpl: Vec::new(),
+                    rects: Vec::new(),
+                    threshold,
+                };
+            }
+            let (vpls, texel_vpl, rects, _, _) = emitted.next().expect("one per live map");
+            Clustering {
+                vpls,
+                texel_vpl,
+                rects,
+                threshold,
+            }
+        })
+        .collect();
+    JointClustering { maps, threshold }
 }
 
 /// The slot of `node` in a power-of-two quadtree: `(4^level − 1)/3 +

@@ -25,6 +25,7 @@ pub mod fit;
 pub mod flip;
 pub mod frame;
 pub mod levels;
+pub mod lights;
 pub mod pareto;
 pub mod transport;
 

@@ -148,13 +148,20 @@ fn is_ground(normals: &[Vec3]) -> bool {
     })
 }
 
-/// The light-space box of a directional light's view of `scene` (see the
-/// module docs). `None` for spot lights and scenes without static vertices.
+/// The light-space box of the first light's view of `scene` when it is
+/// directional ([`fit_light`]).
 pub fn fit(scene: &Scene) -> Option<LightFit> {
-    if !matches!(scene.light().kind, LightKind::Directional) {
+    fit_light(scene, scene.light())
+}
+
+/// The light-space box of directional light `light`'s view of `scene` (see
+/// the module docs). `None` for spot and point lights and scenes without
+/// static vertices.
+pub fn fit_light(scene: &Scene, light: &gibake_scene::Light) -> Option<LightFit> {
+    if !matches!(light.kind, LightKind::Directional) {
         return None;
     }
-    let d = scene.light().direction.normalize();
+    let d = light.direction.normalize();
     let (t, b) = orthonormal_basis(d);
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     // Every triangle's light-space box, and its (unnormalised) normal.

@@ -6,6 +6,8 @@
 //!   field of view `2 × outer cone` (clamped to 2 × 80°: a single perspective
 //!   map cannot hold a wider cone; light outside it counts as unshadowed).
 //!   The stored metric is Euclidean distance to the light.
+//! - **Point**: six such perspective views, the faces of a cube around the
+//!   light (90° each, [`LightView::point_faces`]).
 //! - **Directional**: orthographic along the light direction, fitted to the
 //!   given bounds (static geometry plus the swept bounds of moving objects).
 //!   The stored metric is the distance along the light direction from the
@@ -135,7 +137,10 @@ impl LightView {
     }
 
     /// The light's view fitted to `bounds` (must include every surface that
-    /// can cast a shadow or receive light), with a `size × size` map.
+    /// can cast a shadow or receive light), with a `size × size` map. A
+    /// point light's is one cube face, the one along its `direction`;
+    /// [`LightView::point_faces`] gives the six that cover its sphere. A
+    /// spot or point light's far plane stops at its range.
     pub fn new(light: &Light, bounds: &Aabb, size: u32) -> LightView {
         let dir = light.direction.normalize();
         let size_f = size as f32;
@@ -153,6 +158,9 @@ impl LightView {
                 for i in 0..8 {
                     let c = corner(bounds, i);
                     far = far.max((c - light.position).length());
+                }
+                if let Some(r) = light.range {
+                    far = far.min(r);
                 }
                 let far = (far * 1.01).max(f32::MIN_POSITIVE);
                 let near = far * 1e-5;
@@ -182,6 +190,35 @@ impl LightView {
         }
     }
 
+    /// The six cube faces of a point light at `light.position`, looking
+    /// along +X, −X, +Y, −Y, +Z, −Z (world axes), each a 90° square
+    /// perspective view fitted to `bounds` like a spot's. Together they
+    /// cover the sphere once: a direction belongs to the face of its largest
+    /// absolute component, the frustum of that face (the omnidirectional
+    /// layout, docs/method.md "Point lights"). Works for any light kind's
+    /// position; only point lights use it.
+    pub fn point_faces(light: &Light, bounds: &Aabb, size: u32) -> [LightView; 6] {
+        let face = |dir: Vec3| {
+            LightView::new(
+                &Light {
+                    kind: LightKind::Point,
+                    direction: dir,
+                    ..light.clone()
+                },
+                bounds,
+                size,
+            )
+        };
+        [
+            face(Vec3::X),
+            face(Vec3::NEG_X),
+            face(Vec3::Y),
+            face(Vec3::NEG_Y),
+            face(Vec3::Z),
+            face(Vec3::NEG_Z),
+        ]
+    }
+
     /// The view of `scene`'s light with a `size × size` map: a directional
     /// light's extent chosen by [`crate::light_fit::fit`] (a bake volume, or
     /// the static geometry without outliers, plus the moving objects' swept
@@ -190,8 +227,29 @@ impl LightView {
     /// runtime's direct mode without an asset.
     pub fn for_scene(scene: &Scene, size: u32) -> LightView {
         match crate::light_fit::fit(scene) {
-            Some(f) => LightView::directional(scene.light().direction.normalize(), f.lo, f.hi, size),
+            Some(f) => {
+                LightView::directional(scene.light().direction.normalize(), f.lo, f.hi, size)
+            }
             None => LightView::new(scene.light(), &scene.full_bounds(), size),
+        }
+    }
+
+    /// Every view of `light` (one of `scene.lights`) with `size × size`
+    /// maps: a spot's one, a directional light's fitted one (as
+    /// [`LightView::for_scene`]), a point light's six cube faces. The one
+    /// definition of "a light's views" for the bake of every light.
+    pub fn of_light(scene: &Scene, light: &Light, size: u32) -> Vec<LightView> {
+        match light.kind {
+            LightKind::Point => LightView::point_faces(light, &scene.full_bounds(), size).to_vec(),
+            _ => match crate::light_fit::fit_light(scene, light) {
+                Some(f) => vec![LightView::directional(
+                    light.direction.normalize(),
+                    f.lo,
+                    f.hi,
+                    size,
+                )],
+                None => vec![LightView::new(light, &scene.full_bounds(), size)],
+            },
         }
     }
 
@@ -376,6 +434,97 @@ impl GpuPrimaryLight {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A point light's six faces cover every direction exactly once: the
+    /// texel coordinates of a point seen from the light fall inside exactly
+    /// one face's map (ties on the faces' shared edges aside), and the
+    /// faces' texel solid angles sum to 4π.
+    #[test]
+    fn point_faces_tile_the_sphere() {
+        let bounds = Aabb {
+            min: Vec3::splat(-10.0),
+            max: Vec3::splat(10.0),
+        };
+        let light = Light {
+            name: "bulb".into(),
+            kind: LightKind::Point,
+            color: Vec3::ONE,
+            position: Vec3::new(0.3, -0.2, 0.1),
+            direction: Vec3::NEG_Z,
+            range: None,
+        };
+        let size = 32;
+        let faces = LightView::point_faces(&light, &bounds, size);
+        // A Fibonacci sphere of directions, none on a face edge.
+        let n = 2000;
+        for i in 0..n {
+            let z = 1.0 - (2.0 * i as f32 + 1.0) / n as f32;
+            let r = (1.0 - z * z).sqrt();
+            let phi = i as f32 * 2.399_963;
+            let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            let a = d.abs();
+            let m = a.max_element();
+            let sorted = {
+                let mut v = a.to_array();
+                v.sort_by(f32::total_cmp);
+                v
+            };
+            if sorted[2] - sorted[1] < 1e-3 * m {
+                continue;
+            }
+            let p = light.position + d * 3.0;
+            let inside = faces
+                .iter()
+                .filter(|f| {
+                    f.texel_coords(p).is_some_and(|c| {
+                        c.x >= 0.0 && c.y >= 0.0 && c.x <= size as f32 && c.y <= size as f32
+                    }) && f.direction.dot(d) > 0.0
+                })
+                .count();
+            assert_eq!(inside, 1, "direction {d}");
+        }
+        let mut total = 0.0f64;
+        for f in &faces {
+            for y in 0..size {
+                for x in 0..size {
+                    let (o, d) = f.texel_ray(x, y);
+                    assert_eq!(o, light.position);
+                    total += f64::from(f.texel_measure(d));
+                }
+            }
+        }
+        let rel = (total / (4.0 * std::f64::consts::PI) - 1.0).abs();
+        assert!(rel < 2e-3, "Σ texel solid angles = {total}, 4π·(1 ± {rel})");
+    }
+
+    /// A range shortens a spot or point light's view: its far plane stops
+    /// just past the range.
+    #[test]
+    fn range_bounds_the_far_plane() {
+        let bounds = Aabb {
+            min: Vec3::splat(-100.0),
+            max: Vec3::splat(100.0),
+        };
+        let mut light = Light {
+            name: "bulb".into(),
+            kind: LightKind::Point,
+            color: Vec3::ONE,
+            position: Vec3::ZERO,
+            direction: Vec3::NEG_Z,
+            range: Some(2.0),
+        };
+        let v = LightView::new(&light, &bounds, 64);
+        // Beyond 2.02 along the axis the clip depth is behind the far plane.
+        let depth = |v: &LightView, t: f32| {
+            let c = v.view_proj * (Vec3::NEG_Z * t).extend(1.0);
+            c.z / c.w
+        };
+        assert!(depth(&v, 1.9) > 0.0);
+        assert!(depth(&v, 2.1) < 0.0);
+        light.range = None;
+        let v = LightView::new(&light, &bounds, 64);
+        assert!(depth(&v, 100.0) > 0.0);
+    }
 
     /// Record → view → record is the identity, bit for bit, for both kinds.
     #[test]

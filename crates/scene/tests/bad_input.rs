@@ -5,7 +5,7 @@ mod common;
 use std::path::Path;
 
 use common::{Builder, assert_err_contains, basic, spot_light};
-use gibake_scene::{LoadOptions, SceneError, load_from_slice};
+use gibake_scene::{LightKind, LoadOptions, SceneError, load_from_slice};
 use serde_json::json;
 
 const FILE: &str = "test_scene.gltf";
@@ -485,4 +485,129 @@ fn bad_light_and_camera_parameters() {
     let mut b = basic();
     b.json["cameras"][0] = json!({ "type": "perspective", "orthographic": { "xmag": 1, "ymag": 1, "znear": 0, "zfar": 1 } });
     assert_err_contains(b.load(), &[FILE, "perspective"]);
+}
+
+// ------------------------------------------------- every light (all_lights)
+
+fn every_light() -> LoadOptions {
+    LoadOptions {
+        all_lights: true,
+        ..Default::default()
+    }
+}
+
+/// A spot, a directional and a point light with a range.
+fn three_kinds() -> Builder {
+    let mut b = two_spots();
+    b.light_node(
+        json!({ "name": "Bulb", "type": "point", "intensity": 5.0, "range": 3.0 }),
+        json!({ "name": "C", "translation": [1.0, 2.0, 3.0] }),
+    );
+    b
+}
+
+#[test]
+fn every_light_is_kept_in_file_order() {
+    let s = three_kinds().load_with(&every_light()).unwrap();
+    let names: Vec<&str> = s.lights.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["Alpha", "Beta", "Bulb"]);
+    assert!(matches!(s.lights[0].kind, LightKind::Spot { .. }));
+    assert_eq!(s.lights[1].kind, LightKind::Directional);
+    assert_eq!(s.lights[2].kind, LightKind::Point);
+    assert_eq!(s.lights[2].color, glam::Vec3::splat(5.0));
+    assert_eq!(s.lights[2].position, glam::Vec3::new(1.0, 2.0, 3.0));
+    assert_eq!(s.lights[2].range, Some(3.0));
+    assert_eq!(s.lights[0].range, None);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    // Today's default still takes one light and names the candidates.
+    assert_err_contains(three_kinds().load(), &[FILE, "Alpha", "Beta", "--light"]);
+}
+
+#[test]
+fn repeated_light_option_restricts_the_set() {
+    let opts = LoadOptions {
+        lights: vec!["Bulb".into(), "A".into(), "Bulb".into()],
+        ..every_light()
+    };
+    let s = three_kinds().load_with(&opts).unwrap();
+    let names: Vec<&str> = s.lights.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["Alpha", "Bulb"], "file order, each once");
+    assert!(
+        s.warnings.iter().any(|w| w.contains("Beta")),
+        "{:?}",
+        s.warnings
+    );
+    // In the one-light mode two names are refused, clearly.
+    let opts = LoadOptions {
+        lights: vec!["Alpha".into(), "Beta".into()],
+        ..Default::default()
+    };
+    let e = assert_err_contains(
+        three_kinds().load_with(&opts),
+        &[FILE, "Alpha", "Beta", "one"],
+    );
+    assert!(matches!(e, SceneError::NotSupported { .. }), "{e:?}");
+}
+
+#[test]
+fn too_many_lights_are_refused() {
+    let mut b = Builder::new();
+    let q = b.quad("Floor", true);
+    b.root_mesh_node("F", q);
+    for i in 0..5 {
+        b.light_node(
+            json!({ "name": format!("L{i}"), "type": "point" }),
+            json!({ "translation": [0.0, 1.0 + i as f32, 0.0] }),
+        );
+    }
+    let mut opts = every_light();
+    opts.limits.max_lights = 4;
+    let e = assert_err_contains(b.load_with(&opts), &[FILE, "5 lights", "--max-lights"]);
+    assert!(matches!(e, SceneError::Invalid { .. }), "{e:?}");
+    opts.limits.max_lights = 5;
+    assert_eq!(b.load_with(&opts).unwrap().lights.len(), 5);
+}
+
+#[test]
+fn bad_ranges_are_refused() {
+    for range in [json!(0.0), json!(-1.0)] {
+        let mut b = Builder::new();
+        let q = b.quad("Floor", true);
+        b.root_mesh_node("F", q);
+        b.light_node(
+            json!({ "name": "Bulb", "type": "point", "range": range }),
+            json!({}),
+        );
+        let e = assert_err_contains(b.load_with(&every_light()), &[FILE, "Bulb", "range"]);
+        assert!(matches!(e, SceneError::Invalid { .. }), "{e:?}");
+    }
+    // On a directional light a range means nothing: warned, dropped.
+    let mut b = Builder::new();
+    let q = b.quad("Floor", true);
+    b.root_mesh_node("F", q);
+    b.light_node(
+        json!({ "name": "Sun", "type": "directional", "range": 4.0 }),
+        json!({}),
+    );
+    let s = b.load_with(&every_light()).unwrap();
+    assert_eq!(s.light().range, None);
+    assert!(
+        s.warnings.iter().any(|w| w.contains("range")),
+        "{:?}",
+        s.warnings
+    );
+}
+
+#[test]
+fn only_point_lights_load_in_the_every_light_mode() {
+    let mut b = Builder::new();
+    let q = b.quad("Floor", true);
+    b.root_mesh_node("F", q);
+    b.light_node(
+        json!({ "name": "Bulb", "type": "point", "intensity": 5.0 }),
+        json!({ "name": "BulbNode" }),
+    );
+    let s = b.load_with(&every_light()).unwrap();
+    assert_eq!(s.lights.len(), 1);
+    assert_eq!(s.light().kind, LightKind::Point);
 }

@@ -263,6 +263,20 @@ impl Pyramid {
         pyramid
     }
 
+    /// The root's reaching and total flux, `(Σ flux·reach, Σ flux)`.
+    pub fn root_totals(&self, rsm: &Rsm) -> (f64, f64) {
+        let root = self.moments(rsm, self.root());
+        (root.sum_reaching, root.sum_flux)
+    }
+
+    /// Scores against a denominator shared by several maps (every light's
+    /// views, [`crate::cluster::cluster_joint`]): `total_flux` is the sum
+    /// over all of them, `by_reach` whether any of them reaches a surface.
+    pub fn share_with(&mut self, total_flux: f64, by_reach: bool) {
+        self.total_flux = total_flux;
+        self.by_reach = by_reach;
+    }
+
     /// The split score of `node` ([`Moments::score`] with this map's size
     /// and total flux).
     pub fn score(&self, rsm: &Rsm, node: Node) -> Option<f32> {

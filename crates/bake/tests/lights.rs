@@ -1,0 +1,269 @@
+//! Every light's maps (issue 19). A point light's six cube faces
+//! ([`LightView::point_faces`]) cover the sphere once, so inside a closed
+//! room every emitted watt is reflected exactly once — the faces' RSM flux
+//! sums to `albedo · 4π · I` — and a range cuts the light off: walls beyond
+//! it reflect nothing. Several maps clustered under one budget
+//! ([`cluster_joint`]) cut like one map, spend the budget by light, and
+//! meet a VPL count. CPU only (the RSM is ray cast).
+
+use gibake_bake::cluster::{ClusterTarget, cluster, cluster_joint};
+use gibake_bake::lights::every_light;
+use gibake_bake::reach::Reach;
+use gibake_bake::rsm::{Rsm, render_rsm};
+use gibake_gpu::LightView;
+use gibake_raycast::RayScene;
+use gibake_reference::scenes::{cuboid, material, point, static_scene};
+use gibake_scene::{Light, Scene};
+use glam::{DVec3, Vec3};
+
+/// A closed room `[-1, 1] × [0, 2] × [-1.5, 1.5] · s`, faces inward, grey
+/// albedo `a`, lit by `light`.
+fn closed_room(a: f32, s: f32, light: Light) -> Scene {
+    let mut room = cuboid(
+        "room",
+        Vec3::new(-1.0, 0.0, -1.5) * s,
+        Vec3::new(1.0, 2.0, 1.5) * s,
+        0,
+    );
+    // Inward: flip the normals and the winding.
+    for n in &mut room.normals {
+        *n = -*n;
+    }
+    for t in room.indices.chunks_exact_mut(3) {
+        t.swap(1, 2);
+    }
+    static_scene(
+        "closed_room",
+        light,
+        vec![material("grey", Vec3::splat(a))],
+        vec![room],
+    )
+}
+
+/// The six faces' RSMs of the scene's (point) light.
+fn face_rsms(scene: &Scene, size: u32) -> Vec<Rsm> {
+    let rays = RayScene::build(scene, 0.0);
+    LightView::point_faces(scene.light(), &scene.full_bounds(), size)
+        .iter()
+        .map(|f| render_rsm(&rays, scene.light(), f, None))
+        .collect()
+}
+
+/// Σ flux over the six faces' RSMs, per channel.
+fn faces_flux(scene: &Scene, size: u32) -> DVec3 {
+    let mut sum = DVec3::ZERO;
+    for rsm in face_rsms(scene, size) {
+        for (k, flux) in rsm.flux.iter().enumerate() {
+            assert!(flux.is_finite() && flux.min_element() >= 0.0, "texel {k}");
+            sum += flux.as_dvec3();
+        }
+    }
+    sum
+}
+
+#[test]
+fn a_point_light_in_a_closed_room_reflects_albedo_times_its_power() {
+    let a = 0.6;
+    for (s, pos) in [
+        (1.0, Vec3::new(0.2, 1.3, -0.4)),
+        // Tiny and huge rooms, the light near a wall: the same fraction.
+        (1e-3, Vec3::new(0.99, 0.5, 0.0) * 1e-3),
+        (1e3, Vec3::new(-0.3, 1.999, 1.2) * 1e3),
+    ] {
+        let i = 7.0 * s * s;
+        let scene = closed_room(a, s, point(pos, Vec3::new(i, 2.0 * i, 0.5 * i)));
+        let got = faces_flux(&scene, 64);
+        let expected = f64::from(a) * 4.0 * std::f64::consts::PI * f64::from(i);
+        for (c, k) in [(got.x, 1.0), (got.y, 2.0), (got.z, 0.5)] {
+            let rel = c / (expected * k) - 1.0;
+            assert!(
+                rel.abs() < 3e-3,
+                "scale {s}: Σ RSM flux {c} W, a·4π·I = {} W (rel {rel:.2e})",
+                expected * k
+            );
+        }
+    }
+}
+
+#[test]
+fn a_range_cuts_the_light_off() {
+    let pos = Vec3::new(0.0, 1.0, 0.0);
+    let mut light = point(pos, Vec3::splat(5.0));
+    let unbounded = faces_flux(&closed_room(0.5, 1.0, light.clone()), 32);
+    // Nearest wall 1 away: a range of 0.9 reaches nothing.
+    light.range = Some(0.9);
+    assert_eq!(
+        faces_flux(&closed_room(0.5, 1.0, light.clone()), 32),
+        DVec3::ZERO
+    );
+    // A range past the nearest walls but short of the far corners: less
+    // light than unbounded, and more than none.
+    light.range = Some(2.0);
+    let bounded = faces_flux(&closed_room(0.5, 1.0, light), 32);
+    assert!(
+        bounded.x > 0.05 * unbounded.x && bounded.x < 0.9 * unbounded.x,
+        "range 2: {bounded} against {unbounded} unbounded"
+    );
+}
+
+/// One map clustered jointly is the map clustered alone; two copies of a
+/// map each carry half the light, so each is cut at a joint threshold `t`
+/// exactly as alone at `4t` (`share²`: the scores scale by exactly ¼).
+#[test]
+fn joint_clustering_cuts_like_one_map() {
+    let scene = closed_room(0.6, 1.0, point(Vec3::new(0.2, 1.3, -0.4), Vec3::splat(7.0)));
+    let rsms = face_rsms(&scene, 32);
+    let one = &rsms[3]; // the floor's face
+    for t in [1e-3f32, 1e-4, 1e-5] {
+        let alone = cluster(one, ClusterTarget::Threshold(t));
+        let joint = cluster_joint(&[one], ClusterTarget::Threshold(t));
+        assert_eq!(joint.maps.len(), 1);
+        assert_eq!(joint.maps[0], alone, "t = {t}");
+        let twice = cluster_joint(&[one, one], ClusterTarget::Threshold(t));
+        let alone4 = cluster(one, ClusterTarget::Threshold(4.0 * t));
+        for m in &twice.maps {
+            assert_eq!(m.vpls, alone4.vpls, "t = {t}");
+            assert_eq!(m.texel_vpl, alone4.texel_vpl, "t = {t}");
+        }
+    }
+}
+
+/// `Count(n)` over a point light's six faces meets the budget, and the
+/// budget follows the light: a second, dim light (10⁻⁶ of the bright one)
+/// in the same room gets almost none of it.
+#[test]
+fn joint_count_meets_the_budget_and_follows_the_light() {
+    let bright = closed_room(0.6, 1.0, point(Vec3::new(0.2, 1.3, -0.4), Vec3::splat(7.0)));
+    let dim = closed_room(
+        0.6,
+        1.0,
+        point(Vec3::new(-0.5, 0.4, 1.0), Vec3::splat(7e-6)),
+    );
+    let mut rsms = face_rsms(&bright, 32);
+    rsms.extend(face_rsms(&dim, 32));
+    let refs: Vec<&Rsm> = rsms.iter().collect();
+    for n in [20u32, 100, 400] {
+        let joint = cluster_joint(&refs, ClusterTarget::Count(n));
+        let total = joint.vpl_count();
+        let dim_vpls: usize = joint.maps[6..].iter().map(|m| m.vpls.len()).sum();
+        assert!(
+            total.abs_diff(n as usize) <= (n as usize / 20).max(3),
+            "Count({n}) gave {total} VPLs"
+        );
+        // Each dim face is at most its root (one VPL per depth layer).
+        assert!(
+            dim_vpls <= 12,
+            "Count({n}): the dim light got {dim_vpls} VPLs"
+        );
+        // The threshold reproduces the clustering.
+        let again = cluster_joint(&refs, ClusterTarget::Threshold(joint.threshold));
+        assert_eq!(again, joint);
+    }
+}
+
+/// [`every_light`] on `scene`: its maps and VPLs, with a reach probe over
+/// the static geometry.
+fn every(scene: &Scene, rsm: u32, target: ClusterTarget) -> gibake_bake::lights::EveryLight {
+    let rays = RayScene::build(scene, 0.0);
+    let reach = Reach {
+        rays: &rays,
+        moving: gibake_scene::Aabb::EMPTY,
+    };
+    every_light(scene, &reach, rsm, 2 * rsm, target)
+}
+
+/// Stiff cases, each through the whole front part: a point light 10⁻⁶ of
+/// the room's size from a wall, 64 lights, and lights of 10⁻⁶ and 10⁶
+/// side by side. No NaN or infinity anywhere, the VPLs carry exactly the
+/// maps' clustered flux, and the budget is met.
+#[test]
+fn stiff_light_sets_stay_finite_and_conserve_flux() {
+    let room = |lights: Vec<Light>| {
+        let mut s = closed_room(0.5, 1.0, lights[0].clone());
+        s.lights = lights;
+        s
+    };
+    let grazing_wall = room(vec![point(
+        Vec3::new(1.0 - 1e-6, 1.0, 0.0),
+        Vec3::splat(3.0),
+    )]);
+    let many = room(
+        (0..64)
+            .map(|k| {
+                let t = k as f32 / 64.0;
+                let mut l = point(
+                    Vec3::new(
+                        -0.9 + 1.8 * t,
+                        0.1 + 1.8 * (t * 7.0).fract(),
+                        -1.4 + 2.8 * (t * 3.0).fract(),
+                    ),
+                    Vec3::new(1.0 + t, 1.0, 2.0 - t),
+                );
+                if k % 4 == 0 {
+                    l.range = Some(0.5 + t);
+                }
+                l
+            })
+            .collect(),
+    );
+    let extremes = room(vec![
+        point(Vec3::new(0.5, 1.0, 0.5), Vec3::splat(1e6)),
+        point(Vec3::new(-0.5, 1.0, -0.5), Vec3::splat(1e-6)),
+    ]);
+    for (what, scene, n) in [
+        ("a point light 1e-6 from a wall", grazing_wall, 200u32),
+        ("64 lights", many, 664),
+        ("1e6 and 1e-6 side by side", extremes, 200),
+    ] {
+        let e = every(&scene, 32, ClusterTarget::Count(n));
+        let records = e.vpl_records();
+        assert!(
+            records.len().abs_diff(n as usize) <= (n as usize / 20).max(3) + e.dropped_vpls,
+            "{what}: {} VPLs for a budget of {n}",
+            records.len()
+        );
+        for v in &records {
+            let ok = v.flux.iter().all(|f| f.is_finite() && *f >= 0.0)
+                && v.position.iter().all(|p| p.is_finite())
+                && v.normal.iter().all(|p| p.is_finite())
+                && v.area.is_finite()
+                && v.area >= 0.0;
+            assert!(ok, "{what}: {v:?}");
+        }
+        // Every lit texel's flux is in exactly one VPL (a closed room: no
+        // VPL sees nothing, none is dropped).
+        assert_eq!(e.dropped_vpls, 0, "{what}");
+        let maps: f64 = e
+            .maps
+            .iter()
+            .flat_map(|m| m.rsm.flux.iter())
+            .map(|f| f.as_dvec3().element_sum())
+            .sum();
+        let vpls: f64 = records
+            .iter()
+            .map(|v| Vec3::from_array(v.flux).as_dvec3().element_sum())
+            .sum();
+        assert!(
+            (vpls / maps - 1.0).abs() < 1e-5,
+            "{what}: VPL flux {vpls} W against the maps' {maps} W"
+        );
+        assert_eq!(
+            e.vpl_nodes().len(),
+            records.len() * gibake_asset::NODES_PER_VPL
+        );
+    }
+}
+
+/// A light whose range reaches no surface keeps no map and no VPL: it is
+/// left out, not baked as darkness.
+#[test]
+fn a_light_that_reaches_nothing_keeps_no_map() {
+    let mut out_of_reach = point(Vec3::new(0.0, 1.0, 0.0), Vec3::splat(5.0));
+    out_of_reach.range = Some(0.5);
+    let mut scene = closed_room(0.5, 1.0, point(Vec3::new(0.3, 1.5, 0.2), Vec3::splat(2.0)));
+    scene.lights.push(out_of_reach);
+    let e = every(&scene, 32, ClusterTarget::Count(100));
+    assert_eq!(e.unlit_views, 6, "the six faces of the light out of reach");
+    assert!(e.maps.iter().all(|m| m.light == 0));
+    assert_eq!(e.vpls_per_light(2)[1], 0);
+}

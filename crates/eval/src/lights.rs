@@ -1,0 +1,172 @@
+//! Every light's VPLs judged on the CPU (issue 19, before the asset format
+//! and the runtime take several lights): the bake's front part for every
+//! light ([`gibake_bake::lights::every_light`]: each light's views, one RSM
+//! per view, one VPL budget) and the runtime's transport evaluated on the
+//! CPU ([`crate::transport`]: near-field trees and far-field lobes) with
+//! exact visibility, against the reference's one-bounce indirect light
+//! from every light ([`crate::bounce`]), at the pixel centres of a small
+//! image from the scene's camera, static part only. Used by the
+//! `lights_twin` example and `tests/every_light.rs`.
+
+use gibake_bake::cluster::{ClusterTarget, cluster_joint};
+use gibake_bake::lights::{EveryLight, every_light_with};
+use gibake_bake::reach::Reach;
+use gibake_bake::rsm::Rsm;
+use gibake_gpu::hemisphere;
+use gibake_reference::RayScene;
+use gibake_scene::Scene;
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use std::f32::consts::PI;
+
+/// How the VPL budget is spent over the lights.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Budget {
+    /// One budget spread by each light's bounce (the method).
+    Joint,
+    /// Each light `N / lights` VPLs over its own views (the alternative).
+    EqualSplit,
+}
+
+/// What [`judge`] measured.
+pub struct Judgement {
+    /// The maps and VPLs that were judged.
+    pub every: EveryLight,
+    /// VPLs per light.
+    pub per_light: Vec<usize>,
+    /// Seconds of the front part (RSMs, clustering).
+    pub bake_seconds: f64,
+    /// Mean indirect bias per channel: Σ twin / Σ reference − 1.
+    pub bias: DVec3,
+    /// Relative RMS error of the 3×3-blurred indirect image.
+    pub blurred_error: f64,
+    /// Σ reference indirect radiance per channel (0: the camera sees no
+    /// bounce light, and the bias means nothing).
+    pub reference_sum: DVec3,
+}
+
+/// Judges `scene`'s every-light VPLs at `vpls` (budget) on a `size²` image
+/// with `side²` one-bounce samples per receiver for the reference.
+/// `keep_negligible`: keep the views whose light is negligible.
+pub fn judge(
+    scene: &Scene,
+    vpls: u32,
+    size: u32,
+    side: u32,
+    budget: Budget,
+    keep_negligible: bool,
+) -> Judgement {
+    let stat = gibake_bake::static_only(scene);
+    let rays = RayScene::build(&stat, 0.0);
+    let reach = Reach {
+        rays: &rays,
+        moving: scene.dynamic_swept_bounds(),
+    };
+    let t0 = std::time::Instant::now();
+    let mut every = every_light_with(
+        scene,
+        &reach,
+        512,
+        2048,
+        ClusterTarget::Count(vpls),
+        !keep_negligible,
+    );
+    if budget == Budget::EqualSplit {
+        let mut lit: Vec<usize> = every.maps.iter().map(|m| m.light).collect();
+        lit.dedup();
+        let share = (vpls / lit.len().max(1) as u32).max(1);
+        let mut maps = Vec::new();
+        for &l in &lit {
+            let refs: Vec<&Rsm> = every
+                .maps
+                .iter()
+                .filter(|m| m.light == l)
+                .map(|m| &m.rsm)
+                .collect();
+            maps.extend(cluster_joint(&refs, ClusterTarget::Count(share)).maps);
+        }
+        every.dropped_vpls = 0;
+        for c in &mut maps {
+            every.dropped_vpls += c.retain(|_, v| {
+                let origin = hemisphere::vpl_origin(v.anchor, v.normal, v.area);
+                reach.sees_anything(origin, v.normal)
+            });
+        }
+        every.clusters.maps = maps;
+    }
+    let bake_seconds = t0.elapsed().as_secs_f64();
+    let records = every.vpl_records();
+    let nodes = every.vpl_nodes();
+    let per = gibake_asset::NODES_PER_VPL;
+    let lobes: Vec<f32> = (0..records.len())
+        .map(|i| gibake_asset::lobe_coherence(&nodes[i * per..(i + 1) * per]))
+        .collect();
+    let per_light = every.vpls_per_light(scene.lights.len());
+    let cam = gibake_reference::View::from_scene(scene, 0.0).expect("the scene has a camera");
+    // Per pixel: (reference, twin) indirect radiance.
+    let px: Vec<(Vec3, Vec3)> = (0..size * size)
+        .into_par_iter()
+        .map(|p| {
+            let (x, y) = (p % size, p / size);
+            let (o, d, t0) = cam.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
+            let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
+                return (Vec3::ZERO, Vec3::ZERO);
+            };
+            let mut s = Vec3::ZERO;
+            crate::bounce::one_bounce_samples(&rays, &h, p, side, |_, l| s += l);
+            let reference = h.albedo * s / (side * side) as f32;
+            let mut e = Vec3::ZERO;
+            for (k, v) in records.iter().enumerate() {
+                let n = Vec3::from_array(v.normal);
+                let origin = hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
+                let irr = crate::transport::static_vpl_irradiance(
+                    v,
+                    origin,
+                    &nodes[k * per..(k + 1) * per],
+                    lobes[k],
+                    h.position,
+                    h.shading_normal,
+                    h.geometric_normal,
+                );
+                if irr != Vec3::ZERO && rays.visible(origin, n, h.position, h.geometric_normal) {
+                    e += irr;
+                }
+            }
+            (reference, h.albedo / PI * e)
+        })
+        .collect();
+    let (mut sr, mut st) = (DVec3::ZERO, DVec3::ZERO);
+    for (r, t) in &px {
+        sr += r.as_dvec3();
+        st += t.as_dvec3();
+    }
+    let bias = st / sr.max(DVec3::splat(1e-300)) - 1.0;
+    let blur = |img: &dyn Fn(usize) -> Vec3, x: u32, y: u32| {
+        let mut s = Vec3::ZERO;
+        for dy in -1i32..=1 {
+            for dx in -1i32..=1 {
+                let xx = (x as i32 + dx).clamp(0, size as i32 - 1) as u32;
+                let yy = (y as i32 + dy).clamp(0, size as i32 - 1) as u32;
+                s += img((yy * size + xx) as usize);
+            }
+        }
+        s / 9.0
+    };
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for y in 0..size {
+        for x in 0..size {
+            let r = blur(&|i| px[i].0, x, y);
+            let t = blur(&|i| px[i].1, x, y);
+            num += f64::from((t - r).length_squared());
+            den += f64::from(r.length_squared());
+        }
+    }
+    Judgement {
+        every,
+        per_light,
+        bake_seconds,
+        bias,
+        blurred_error: (num / den.max(1e-300)).sqrt(),
+        reference_sum: sr,
+    }
+}
