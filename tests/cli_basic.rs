@@ -160,6 +160,7 @@ fn help_of_every_subcommand() {
                 "--direct-only",
                 "--output",
                 "--light",
+                "--all-lights",
             ],
         ),
         (
@@ -362,6 +363,53 @@ fn reference_direct_only_writes_exr() {
     assert_eq!((img.width, img.height), (24, 16));
     assert_sane(&img, "reference --direct-only");
     assert_eq!(list_dir(out.path()), vec!["ref.exr".to_string()]);
+}
+
+/// `reference --all-lights` shades every lamp of the multi-light scene: no
+/// lamp is ignored, and the image is the sum of its lights (here: brighter
+/// than the one spot the default takes, everywhere on average, and the
+/// direct image equals the sum of the per-light images up to rounding).
+#[test]
+fn reference_all_lights_shades_every_lamp() {
+    let out = tempfile::tempdir().unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let p = out.path().join(name);
+        let mut c = common::gibake();
+        c.arg("reference")
+            .arg(common::data("lamps.glb"))
+            .args(["--direct-only", "--spp", "2", "--width", "16", "--height", "12"])
+            .args(extra)
+            .arg("-o")
+            .arg(&p);
+        let r = run_command(c);
+        assert_ok(&r);
+        (r, read_exr(&p))
+    };
+    let (r, all) = run("all.exr", &["--all-lights"]);
+    assert!(!r.stderr.contains("ignoring"), "{r}");
+    assert_sane(&all, "reference --all-lights");
+    let (r, spot) = run("spot.exr", &[]);
+    assert!(r.stderr.contains("ignoring"), "{r}");
+    let mut sum = spot.clone();
+    for lamp in ["point_lamp", "point_lamp_low"] {
+        let (_, one) = run(&format!("{lamp}.exr"), &["--all-lights", "--light", lamp]);
+        for (s, o) in sum.pixels.iter_mut().zip(&one.pixels) {
+            *s += *o;
+        }
+    }
+    let mean = |img: &gibake_image::Image| {
+        img.pixels
+            .iter()
+            .map(|v| v.as_dvec3().element_sum())
+            .sum::<f64>()
+    };
+    assert!(mean(&all) > mean(&spot) * 1.05, "the point lamps add light");
+    for (k, (a, s)) in all.pixels.iter().zip(&sum.pixels).enumerate() {
+        assert!(
+            (*a - *s).abs().max_element() <= 1e-5 * a.max_element().max(1e-6),
+            "pixel {k}: all lights {a}, sum of each {s}"
+        );
+    }
 }
 
 #[test]

@@ -525,6 +525,12 @@ pub struct ReferenceArgs {
     /// Direct light only (path depth 2) instead of direct + one bounce.
     #[arg(long)]
     pub direct_only: bool,
+    /// Every KHR_lights_punctual light of the scene (directional, spot and
+    /// point, glTF ranges honoured), not only the one primary light the bake
+    /// and the runtime take so far: what the level looks like lit by all
+    /// of them (--light NAME, repeatable, restricts the set).
+    #[arg(long)]
+    pub all_lights: bool,
     /// Random seed (the image is deterministic for a given seed).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,

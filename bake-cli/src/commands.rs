@@ -264,7 +264,9 @@ pub(crate) fn reference(a: ReferenceArgs) -> anyhow::Result<ExitCode> {
     crate::output::check_extension("-o", &a.output, &["exr", "png"])?;
     crate::output::check_not_input("-o", &a.output, &[&a.scene.scene])?;
     crate::guard::check_file_output("-o", &a.output)?;
-    let scene = load_scene(&a.scene)?;
+    let mut options = a.scene.load_options();
+    options.all_lights = a.all_lights;
+    let scene = gibake_scene::load(&a.scene.scene, &options)?;
     let settings = gibake_reference::Settings {
         width: a.width,
         height: a.height,
