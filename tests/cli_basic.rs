@@ -377,7 +377,15 @@ fn reference_all_lights_shades_every_lamp() {
         let mut c = common::gibake();
         c.arg("reference")
             .arg(common::data("lamps.glb"))
-            .args(["--direct-only", "--spp", "2", "--width", "16", "--height", "12"])
+            .args([
+                "--direct-only",
+                "--spp",
+                "2",
+                "--width",
+                "16",
+                "--height",
+                "12",
+            ])
             .args(extra)
             .arg("-o")
             .arg(&p);

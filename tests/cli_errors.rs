@@ -396,6 +396,42 @@ fn scene_two_spot_lights_need_light_flag() {
     assert!(!frame2.exists(), "{r}");
 }
 
+/// More lights than `--max-lights` (with every light) is one clear error,
+/// exit 2, no output; a limit of 0 is a usage error.
+#[test]
+fn reference_over_max_lights() {
+    let out = tempfile::tempdir().unwrap();
+    let exr = out.path().join("ref.exr");
+    let r = gibake!(
+        "reference",
+        common::data("lamps.glb"),
+        "--all-lights",
+        "--max-lights",
+        "2",
+        "--spp",
+        "1",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "-o",
+        &exr
+    );
+    assert_bad(&r, &["lamps.glb", "3 lights", "--max-lights"]);
+    assert_empty(out.path(), &r);
+    let r = gibake!(
+        "reference",
+        common::data("lamps.glb"),
+        "--all-lights",
+        "--max-lights",
+        "0",
+        "-o",
+        &exr
+    );
+    assert_bad(&r, &["--max-lights"]);
+    assert_empty(out.path(), &r);
+}
+
 #[test]
 fn scene_no_static_triangles() {
     let dir = tempfile::tempdir().unwrap();

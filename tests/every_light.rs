@@ -1,27 +1,55 @@
 //! Every light's VPLs against the reference (issue 19), on the CPU: the
 //! bake's front part for every light and the runtime's transport with exact
 //! visibility (`gibake_eval::lights::judge`), on the bundled multi-light
-//! scene and on the seeded random multi-light generator's first seeds
-//! (nothing chosen: seeds 0–3). The runtime does not shade several lights
-//! yet; this judges what the bake gives it.
+//! scene, on the seeded random multi-light generator's first seeds (nothing
+//! chosen: seeds 0–3) and on two real levels other people made with their
+//! own lights (data/lights/: a Blenvy demo level, a sun, a spot and three
+//! points; a game's store, 97 spots). The runtime does not shade several
+//! lights yet; this judges what the bake gives it.
 
-use gibake_eval::lights::{Budget, judge};
-use gibake_scene::{LoadOptions, Scene};
+use gibake_eval::lights::{Budget, JudgeSettings, judge};
+use gibake_scene::{CameraChoice, LoadOptions, Scene};
 
-const VPLS: u32 = 664;
-const SIZE: u32 = 24;
-const SIDE: u32 = 16;
+/// 664 VPLs in all; RSMs of the bake's default 512² per view, except the
+/// 97-spot store (`lights > 16`) at 256² (a quarter of the rays: at 512²
+/// its 97 views take minutes on CI's two cores); 24² receivers, 16²
+/// reference samples each.
+fn settings(scene: &Scene, budget: Budget, keep_negligible: bool) -> JudgeSettings {
+    JudgeSettings {
+        vpls: 664,
+        rsm_size: if scene.lights.len() > 16 { 256 } else { 512 },
+        size: 24,
+        side: 16,
+        budget,
+        keep_negligible,
+    }
+}
+
+fn options() -> LoadOptions {
+    LoadOptions {
+        all_lights: true,
+        ..Default::default()
+    }
+}
 
 fn every_light(bytes: &[u8], name: &str) -> Scene {
-    gibake_scene::load_from_slice(
-        bytes,
-        std::path::Path::new(name),
+    gibake_scene::load_from_slice(bytes, std::path::Path::new(name), &options())
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// A real level of data/lights/ with every light.
+fn level(path: &str, camera: CameraChoice) -> Scene {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join(path);
+    gibake_scene::load(
+        &p,
         &LoadOptions {
-            all_lights: true,
-            ..Default::default()
+            camera,
+            ..options()
         },
     )
-    .unwrap_or_else(|e| panic!("{name}: {e}"))
+    .unwrap_or_else(|e| panic!("{path}: {e}"))
 }
 
 fn scenes() -> Vec<(String, Scene)> {
@@ -36,6 +64,25 @@ fn scenes() -> Vec<(String, Scene)> {
             every_light(&bytes, &format!("random_lights_{seed}.glb")),
         ));
     }
+    out.push((
+        "blenvy_start_level".into(),
+        level(
+            "data/lights/blenvy_start_level/StartLevel.glb",
+            CameraChoice::First,
+        ),
+    ));
+    // No camera in the file: the game's player start (data/lights/README.md).
+    out.push((
+        "pyraxia_store (97 spots)".into(),
+        level(
+            "data/lights/pyraxia_store/Store.gltf",
+            CameraChoice::LookAt {
+                eye: glam::Vec3::new(0.0, 3.0, 0.0),
+                target: glam::Vec3::new(10.0, 0.0, 0.0),
+                yfov_deg: 60.0,
+            },
+        ),
+    ));
     out
 }
 
@@ -45,7 +92,18 @@ fn scenes() -> Vec<(String, Scene)> {
 /// gives each ~100, and at ~100 VPLs the sun alone is −6.3/−8.0/−6.7%
 /// (`lights_twin random:1 --only 0 --vpls 110`): the clustering's bias at
 /// a low VPL count per light, not the sharing (an equal split is worse).
-const KNOWN_FAILURES: &[(usize, f64, &str)] = &[(2, 0.10, "664 VPLs shared by 8 lights")];
+///
+/// The Blenvy level is a sun over a 94 m ground plane with a few small
+/// objects, plus four lamps: the sun alone is −10.8/−9.6/−13.6% at 664 VPLs
+/// and still −9.5/−5.2/−11.3% with 2656 in all (`lights_twin
+/// data/lights/blenvy_start_level/StartLevel.glb --only 0`): the
+/// clustering transport's loss over open ground that issue 16's levels show,
+/// not the lights' sharing. It also needs the RSM's resolution: at 256² it
+/// is −18.0/−13.7/−23.4% (the ground's texels are 37 cm wide).
+const KNOWN_FAILURES: &[(usize, f64, &str)] = &[
+    (2, 0.10, "664 VPLs shared by 8 lights"),
+    (5, 0.20, "a sun over open ground"),
+];
 
 /// Mean indirect within ±7% per channel on every scene (known failures
 /// within their bound); one budget spread by the lights' bounce no worse in
@@ -58,8 +116,12 @@ fn every_light_indirect_is_within_seven_percent() {
     let mut failures = Vec::new();
     let mut left_out = 0;
     for (k, (name, scene)) in scenes().into_iter().enumerate() {
-        let j = judge(&scene, VPLS, SIZE, SIDE, Budget::Joint, false);
-        let e = judge(&scene, VPLS, SIZE, SIDE, Budget::EqualSplit, false);
+        let j = judge(&scene, &settings(&scene, Budget::Joint, false));
+        // The equal split is compared where it is cheap (its own front part
+        // again): up to 16 lights, not the 97-spot store.
+        let e = (scene.lights.len() <= 16)
+            .then(|| judge(&scene, &settings(&scene, Budget::EqualSplit, false)));
+        let e_err = e.as_ref().map_or(f64::NAN, |e| e.blurred_error);
         println!(
             "{name}: {} lights, {} VPLs {:?}; bias {:+.1}/{:+.1}/{:+.1}%, error {:.3} (equal split {:.3})",
             scene.lights.len(),
@@ -69,7 +131,7 @@ fn every_light_indirect_is_within_seven_percent() {
             j.bias.y * 100.0,
             j.bias.z * 100.0,
             j.blurred_error,
-            e.blurred_error
+            e_err
         );
         assert!(
             j.reference_sum.min_element() > 0.0,
@@ -83,11 +145,13 @@ fn every_light_indirect_is_within_seven_percent() {
         if j.bias.abs().max_element() > bound {
             failures.push(format!("{name}: bias {:.3?} beyond ±{bound} {why}", j.bias));
         }
-        joint_err += j.blurred_error;
-        equal_err += e.blurred_error;
+        if e.is_some() {
+            joint_err += j.blurred_error;
+            equal_err += e_err;
+        }
         if j.every.negligible_views > 0 {
             left_out += j.every.negligible_views;
-            let kept = judge(&scene, VPLS, SIZE, SIDE, Budget::Joint, true);
+            let kept = judge(&scene, &settings(&scene, Budget::Joint, true));
             let change = (j.bias - kept.bias).abs().max_element();
             assert!(
                 change < 0.005,

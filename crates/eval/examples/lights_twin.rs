@@ -15,6 +15,9 @@
 //! (`gibake_bake::lights::NEGLIGIBLE_VPL_FRACTION`), to see what leaving
 //! them out changes.
 //!
+//! `--look-at EX,EY,EZ,TX,TY,TZ`: a 60° camera at the eye looking at the
+//! target (for a level without a camera).
+//!
 //! `--only K`: light `K` alone (where a scene's error comes from).
 //!
 //! `--equal-split`: each light gets `N / lights` VPLs over its own views
@@ -35,6 +38,7 @@ fn main() {
     let mut equal = false;
     let mut keep_negligible = false;
     let mut only: Option<usize> = None;
+    let mut camera = gibake_scene::CameraChoice::First;
     let mut files = Vec::new();
     let mut i = 0;
     while i < args.len() {
@@ -49,6 +53,19 @@ fn main() {
             }
             "--equal-split" => equal = true,
             "--keep-negligible" => keep_negligible = true,
+            "--look-at" => {
+                let v: Vec<f32> = args[i + 1]
+                    .split(',')
+                    .map(|x| x.parse().expect("--look-at EX,EY,EZ,TX,TY,TZ"))
+                    .collect();
+                assert_eq!(v.len(), 6, "--look-at EX,EY,EZ,TX,TY,TZ");
+                camera = gibake_scene::CameraChoice::LookAt {
+                    eye: glam::Vec3::new(v[0], v[1], v[2]),
+                    target: glam::Vec3::new(v[3], v[4], v[5]),
+                    yfov_deg: 60.0,
+                };
+                i += 1
+            }
             "--only" => {
                 only = Some(args[i + 1].parse().expect("--only K"));
                 i += 1
@@ -63,6 +80,7 @@ fn main() {
     }
     let opts = LoadOptions {
         all_lights: true,
+        camera,
         ..Default::default()
     };
     for f in files {
@@ -134,7 +152,17 @@ fn judge(
     } else {
         Budget::Joint
     };
-    let j = gibake_eval::lights::judge(scene, vpls, size, 32, budget, keep_negligible);
+    let j = gibake_eval::lights::judge(
+        scene,
+        &gibake_eval::lights::JudgeSettings {
+            vpls,
+            rsm_size: 512,
+            size,
+            side: 32,
+            budget,
+            keep_negligible,
+        },
+    );
     println!(
         "{name}: {} lights, {} VPLs ({:.1} s), {} views reflect nothing, {} negligible, {} VPLs see nothing",
         scene.lights.len(),

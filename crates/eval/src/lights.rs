@@ -36,7 +36,8 @@ pub struct Judgement {
     pub per_light: Vec<usize>,
     /// Seconds of the front part (RSMs, clustering).
     pub bake_seconds: f64,
-    /// Mean indirect bias per channel: Σ twin / Σ reference − 1.
+    /// Mean indirect bias per channel: Σ twin / Σ reference − 1 (NaN on a
+    /// channel where the reference sees no bounce light).
     pub bias: DVec3,
     /// Relative RMS error of the 3×3-blurred indirect image.
     pub blurred_error: f64,
@@ -45,17 +46,33 @@ pub struct Judgement {
     pub reference_sum: DVec3,
 }
 
-/// Judges `scene`'s every-light VPLs at `vpls` (budget) on a `size²` image
-/// with `side²` one-bounce samples per receiver for the reference.
-/// `keep_negligible`: keep the views whose light is negligible.
-pub fn judge(
-    scene: &Scene,
-    vpls: u32,
-    size: u32,
-    side: u32,
-    budget: Budget,
-    keep_negligible: bool,
-) -> Judgement {
+/// The bake settings [`judge`] uses.
+#[derive(Clone, Copy, Debug)]
+pub struct JudgeSettings {
+    /// VPL budget over every light.
+    pub vpls: u32,
+    /// RSM resolution per view (the bake's default: 512).
+    pub rsm_size: u32,
+    /// Receivers: a `size²` image from the scene's camera.
+    pub size: u32,
+    /// The reference's one-bounce samples per receiver: `side²`.
+    pub side: u32,
+    /// How the budget is spent.
+    pub budget: Budget,
+    /// Keep the views whose light is negligible.
+    pub keep_negligible: bool,
+}
+
+/// Judges `scene`'s every-light VPLs (see [`JudgeSettings`]).
+pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
+    let JudgeSettings {
+        vpls,
+        rsm_size,
+        size,
+        side,
+        budget,
+        keep_negligible,
+    } = *j;
     let stat = gibake_bake::static_only(scene);
     let rays = RayScene::build(&stat, 0.0);
     let reach = Reach {
@@ -66,7 +83,7 @@ pub fn judge(
     let mut every = every_light_with(
         scene,
         &reach,
-        512,
+        rsm_size,
         2048,
         ClusterTarget::Count(vpls),
         !keep_negligible,
@@ -140,7 +157,8 @@ pub fn judge(
         sr += r.as_dvec3();
         st += t.as_dvec3();
     }
-    let bias = st / sr.max(DVec3::splat(1e-300)) - 1.0;
+    // No bounce light in view on a channel: no bias to speak of (NaN).
+    let bias = DVec3::select(sr.cmpgt(DVec3::ZERO), st / sr - 1.0, DVec3::NAN);
     let blur = |img: &dyn Fn(usize) -> Vec3, x: u32, y: u32| {
         let mut s = Vec3::ZERO;
         for dy in -1i32..=1 {
@@ -153,6 +171,7 @@ pub fn judge(
         s / 9.0
     };
     let (mut num, mut den) = (0.0f64, 0.0f64);
+    // (An image without bounce light has no relative error: NaN.)
     for y in 0..size {
         for x in 0..size {
             let r = blur(&|i| px[i].0, x, y);
@@ -166,7 +185,11 @@ pub fn judge(
         per_light,
         bake_seconds,
         bias,
-        blurred_error: (num / den.max(1e-300)).sqrt(),
+        blurred_error: if den > 0.0 {
+            (num / den).sqrt()
+        } else {
+            f64::NAN
+        },
         reference_sum: sr,
     }
 }
