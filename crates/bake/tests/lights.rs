@@ -267,3 +267,54 @@ fn a_light_that_reaches_nothing_keeps_no_map() {
     assert!(e.maps.iter().all(|m| m.light == 0));
     assert_eq!(e.vpls_per_light(2)[1], 0);
 }
+
+/// Scale invariance of the whole front part: the seeded multi-light scenes
+/// at 10⁻³ and 10³ of their size (lamp intensities × s², so the image is the
+/// same) give the same views, the same VPLs per light and the same relative
+/// flux per VPL (flux scales by s²).
+#[test]
+fn every_light_is_scale_invariant() {
+    let load = |seed: u64, scale: f32| {
+        let (bytes, _) = gibake_scenegen::random_lights(
+            seed,
+            &gibake_scenegen::Params {
+                scale,
+                ..Default::default()
+            },
+        );
+        gibake_scene::load_from_slice(
+            &bytes,
+            std::path::Path::new("random_lights.glb"),
+            &gibake_scene::LoadOptions {
+                all_lights: true,
+                ..Default::default()
+            },
+        )
+        .expect("generated scenes load")
+    };
+    for seed in [0u64, 3] {
+        let base = load(seed, 1.0);
+        let e1 = every(&base, 64, ClusterTarget::Count(100));
+        let v1 = e1.vpl_records();
+        let total1: f64 = v1.iter().map(|v| f64::from(v.flux[1])).sum();
+        for s in [1e-3f32, 1e3] {
+            let scaled = load(seed, s);
+            let e = every(&scaled, 64, ClusterTarget::Count(100));
+            assert_eq!(e.maps.len(), e1.maps.len(), "seed {seed} ×{s}: views");
+            assert_eq!(
+                e.vpls_per_light(scaled.lights.len()),
+                e1.vpls_per_light(base.lights.len()),
+                "seed {seed} ×{s}: VPLs per light"
+            );
+            let v = e.vpl_records();
+            let total: f64 = v.iter().map(|v| f64::from(v.flux[1])).sum();
+            for (a, b) in v.iter().zip(&v1) {
+                let (fa, fb) = (f64::from(a.flux[1]) / total, f64::from(b.flux[1]) / total1);
+                assert!(
+                    (fa - fb).abs() <= 1e-3 * fb.max(1e-6),
+                    "seed {seed} ×{s}: a VPL's share {fa} against {fb}"
+                );
+            }
+        }
+    }
+}
