@@ -267,21 +267,24 @@ fn reader_refuses_damaged_assets() {
 
     // Re-sealed manifests (payload edited, length and BLAKE3 trailer
     // recomputed): what the spec says a reader must refuse or accept.
-    let reseal_cases: [(&str, &str, Option<&str>); 5] = [
+    // The bake writes the current minor (3.1: the lights end the payload).
+    let reseal_cases: [(&str, &str, Option<&str>); 6] = [
         // One byte after the last field, same minor: refused.
-        ("payload += b'\\x00'", "0", Some("after the last field")),
-        // The same from a newer minor (3.1): accepted and ignored.
-        ("payload += b'\\x00'", "1", None),
-        // The file list cut short: refused.
-        ("payload = payload[:-40]", "0", Some("payload ends inside")),
+        ("payload += b'\\x00'", "1", Some("after the last field")),
+        // The same from a newer minor (3.2): accepted and ignored.
+        ("payload += b'\\x00'", "2", None),
+        // Read as 3.0, the lights are bytes after its last field: refused.
+        ("pass", "0", Some("after the last field")),
+        // The lights cut short: refused.
+        ("payload = payload[:-40]", "1", Some("payload ends inside")),
         // A varint marker bincode does not define (254), as the first length.
         (
             "payload = b'\\xfe' + payload[1:]",
-            "0",
+            "1",
             Some("invalid varint marker"),
         ),
         // Control: re-sealed unchanged, accepted.
-        ("pass", "0", None),
+        ("pass", "1", None),
     ];
     for (k, (edit, minor, refusal)) in reseal_cases.iter().enumerate() {
         let copy = copy_asset(&asset, work.path(), &format!("reseal{k}.gibake"));
@@ -308,8 +311,12 @@ fn reader_refuses_damaged_assets() {
     std::fs::write(copy.join("manifest.bin"), m).unwrap();
     let r = read(&py, &copy);
     assert!(
-        r.code == Some(1) && r.stderr.contains(&format!("{next}.0 is not supported")),
-        "a {next}.0 manifest must be refused by version\n{r}"
+        r.code == Some(1)
+            && r.stderr.contains(&format!(
+                "{next}.{} is not supported",
+                gibake_asset::FORMAT_MINOR
+            )),
+        "a {next}.x manifest must be refused by version\n{r}"
     );
 
     // A file the manifest lists, removed.

@@ -49,7 +49,7 @@ except ImportError as e:  # pragma: no cover - environment problem
 
 MAGIC = b"GIBAKE\x00\x01"
 READER_MAJOR = 3
-READER_MINOR = 0
+READER_MINOR = 1
 MAX_PAYLOAD = 16 * 1024 * 1024
 NO_MAP = 0xFFFFFFFF
 # Fixed-point 1.0 of an RSM texel's flux share (`share` in rsm.exr).
@@ -215,6 +215,25 @@ def read_manifest(asset: str) -> dict:
         digest = d.take(32, f"files[{i}].blake3")
         files.append((name, size, digest))
     m["files"] = files
+    # 3.1: the baked lights (absent from a 3.0 payload).
+    lights = []
+    if minor >= 1:
+        for i in range(d.u64("lights length")):
+            lights.append(
+                {
+                    "name": d.string(f"lights[{i}].name"),
+                    "kind": {0: "directional", 1: "spot", 2: "point"}.get(
+                        d.take(1, f"lights[{i}].kind")[0], "unknown"
+                    ),
+                    "color": d.f32s(3, f"lights[{i}].color"),
+                    "position": d.f32s(3, f"lights[{i}].position"),
+                    "direction": d.f32s(3, f"lights[{i}].direction"),
+                    "inner_cone": d.f32(f"lights[{i}].inner_cone"),
+                    "outer_cone": d.f32(f"lights[{i}].outer_cone"),
+                    "range": d.f32(f"lights[{i}].range"),
+                }
+            )
+    m["lights"] = lights
     extra = length - d.pos
     if extra and minor <= READER_MINOR:
         raise AssetError(
@@ -878,6 +897,13 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
         (
             f"  light: {'directional' if m['light_view']['directional'] else 'spot'}; "
             f"{m['vpl_count']} VPLs, {m['map_count']} maps, dynamic {m['has_dynamic']}"
+        ),
+        (
+            "  baked lights: "
+            + (
+                ", ".join(f"'{l['name']}' ({l['kind']})" for l in m["lights"])
+                or "none recorded (a 3.0 asset)"
+            )
         ),
         f"  files (manifest order): {', '.join(names)}; all sizes and BLAKE3 hashes match",
         f"  vpl_nodes.bin: {len(nodes)} nodes, level sums match",

@@ -190,6 +190,9 @@ pub struct DiffReport {
     pub provenance: Vec<FieldDiff>,
     /// Static scene hash, when it differs.
     pub static_scene_hash: Option<FieldDiff>,
+    /// How the baked lights differ ([`crate::light_changes`]; both assets
+    /// 3.1 or later), one line each.
+    pub lights: Vec<String>,
     /// Light view fields that differ beyond `map_rel`.
     pub light_view: Vec<FieldDiff>,
     /// The VPL sets.
@@ -862,12 +865,22 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
             b: hex(&mb.static_scene_hash),
         }
     });
+    let lights = if ma.lights.is_empty() || mb.lights.is_empty() {
+        Vec::new()
+    } else {
+        crate::light_changes(&ma.lights, &mb.lights)
+    };
     if static_scene_hash.is_some() {
         // First: every other difference follows from it.
+        let how = if lights.is_empty() {
+            String::new()
+        } else {
+            format!(" (lights: {})", lights.join("; "))
+        };
         differences.insert(
             0,
             format!(
-                "different scenes: A was baked from `{}`, B from `{}`, and their static parts differ (static-scene hash); what follows compares two different scenes",
+                "different scenes: A was baked from `{}`, B from `{}`, and their static parts differ (static-scene hash){how}; what follows compares two different scenes",
                 pa.scene_name, pb.scene_name
             ),
         );
@@ -957,6 +970,7 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
         settings,
         provenance,
         static_scene_hash,
+        lights,
         light_view,
         vpls,
         maps,
@@ -1019,6 +1033,9 @@ impl fmt::Display for DiffReport {
         match &self.static_scene_hash {
             None => writeln!(f, "static scene hash: same")?,
             Some(h) => writeln!(f, "static scene hash: {} vs {}", h.a, h.b)?,
+        }
+        for l in &self.lights {
+            writeln!(f, "  {l}")?;
         }
         list(f, "light view", &self.light_view)?;
         let v = &self.vpls;

@@ -9,8 +9,8 @@ use std::path::Path;
 use crate::atlas::{MapAtlas, atlas_grid};
 use crate::exrio::{self, Kind, Samples};
 use crate::{
-    Asset, AssetError, FORMAT_MAJOR, FORMAT_MINOR, FileEntry, MAGIC, Manifest, Map, NO_MAP,
-    NODES_PER_VPL, RsmData, SHARE_ONE, VplRecord,
+    Asset, AssetError, FORMAT_MAJOR, FORMAT_MINOR, FileEntry, LIGHT_POINT, LightRecord, MAGIC,
+    Manifest, Map, NO_MAP, NODES_PER_VPL, RsmData, SHARE_ONE, VplRecord,
 };
 
 /// The manifest file name.
@@ -70,6 +70,20 @@ fn encode_manifest(manifest: &Manifest, path: &Path) -> Result<Vec<u8>, AssetErr
     Ok(out)
 }
 
+/// The manifest's fields of format 3.0, in order: what every 3.x payload
+/// starts with (later minors append fields after them).
+#[derive(serde::Deserialize)]
+struct ManifestHead {
+    provenance: crate::Provenance,
+    settings: crate::BakeSettings,
+    static_scene_hash: [u8; 32],
+    light_view: crate::LightViewRecord,
+    vpl_count: u32,
+    map_count: u32,
+    has_dynamic: bool,
+    files: Vec<FileEntry>,
+}
+
 /// Decodes `manifest.bin` bytes; returns the manifest and the file's minor version.
 fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetError> {
     let bad = |m: String| AssetError::invalid(path, m);
@@ -106,9 +120,29 @@ fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetEr
         return Err(bad("checksum mismatch: the manifest is damaged".into()));
     }
     let payload = &bytes[HEADER_BYTES..end];
-    let (manifest, used): (Manifest, usize) =
+    // 3.0's fields, then what each later minor appended (3.1: the lights).
+    let (head, mut used): (ManifestHead, usize) =
         bincode::serde::decode_from_slice(payload, bincode_config())
             .map_err(|e| bad(format!("damaged manifest payload: {e}")))?;
+    let mut lights = Vec::new();
+    if minor >= 1 {
+        let (l, n): (Vec<LightRecord>, usize) =
+            bincode::serde::decode_from_slice(&payload[used..], bincode_config())
+                .map_err(|e| bad(format!("damaged manifest payload (lights): {e}")))?;
+        lights = l;
+        used += n;
+    }
+    let manifest = Manifest {
+        provenance: head.provenance,
+        settings: head.settings,
+        static_scene_hash: head.static_scene_hash,
+        light_view: head.light_view,
+        vpl_count: head.vpl_count,
+        map_count: head.map_count,
+        has_dynamic: head.has_dynamic,
+        files: head.files,
+        lights,
+    };
     if used != payload.len() && !is_newer_minor(minor) {
         return Err(bad(format!(
             "{} unexpected bytes after the manifest payload",
@@ -226,6 +260,21 @@ fn validate_manifest(
         .all(|x| x.is_finite());
     if !lv_finite {
         return bad("light_view holds a value that is not finite".into());
+    }
+    for (i, l) in m.lights.iter().enumerate() {
+        let finite = l
+            .color
+            .iter()
+            .chain(&l.position)
+            .chain(&l.direction)
+            .chain([&l.inner_cone, &l.outer_cone, &l.range])
+            .all(|x| x.is_finite());
+        if !finite || l.kind > LIGHT_POINT || l.range < 0.0 || l.color.iter().any(|c| *c < 0.0) {
+            return bad(format!(
+                "lights[{i}] ('{}') is not a valid light (kind {}, values finite and colour and range non-negative required)",
+                l.name, l.kind
+            ));
+        }
     }
     if m.map_count > m.vpl_count {
         return bad(format!(

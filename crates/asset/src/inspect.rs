@@ -116,7 +116,10 @@ pub struct Inspection {
     pub settings: BakeSettings,
     /// Static scene hash (64 hex digits).
     pub static_scene_hash: String,
-    /// `"spot"` or `"directional"`.
+    /// The primary lights baked (format 3.1; empty for a 3.0 asset).
+    pub lights: Vec<crate::LightRecord>,
+    /// The primary maps' view: `"spot"` (a perspective view) or
+    /// `"directional"`.
     pub light: String,
     /// Light origin.
     pub light_origin: [f32; 3],
@@ -182,6 +185,7 @@ pub fn inspect(asset: &Asset) -> Inspection {
             .iter()
             .map(|b| format!("{b:02x}"))
             .collect(),
+        lights: m.lights.clone(),
         light: if m.light_view.directional {
             "directional"
         } else {
@@ -268,9 +272,37 @@ impl fmt::Display for Inspection {
         let (o, d) = (self.light_origin, self.light_direction);
         writeln!(
             f,
-            "  light: {} at ({}, {}, {}) toward ({}, {}, {})",
+            "  light view: {} at ({}, {}, {}) toward ({}, {}, {})",
             self.light, o[0], o[1], o[2], d[0], d[1], d[2]
         )?;
+        for l in &self.lights {
+            let (p, d, c) = (l.position, l.direction, l.color);
+            let cone = if l.kind == crate::LIGHT_SPOT {
+                format!(", cone {}–{} rad", l.inner_cone, l.outer_cone)
+            } else {
+                String::new()
+            };
+            let range = if l.range > 0.0 {
+                format!(", range {}", l.range)
+            } else {
+                String::new()
+            };
+            writeln!(
+                f,
+                "  light '{}': {} at ({}, {}, {}) toward ({}, {}, {}), colour × intensity ({}, {}, {}){cone}{range}",
+                l.name,
+                l.kind_name(),
+                p[0],
+                p[1],
+                p[2],
+                d[0],
+                d[1],
+                d[2],
+                c[0],
+                c[1],
+                c[2]
+            )?;
+        }
         let budget = s
             .vpl_budget
             .map(|b| format!(", VPL budget {b}"))

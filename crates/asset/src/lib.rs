@@ -51,8 +51,9 @@ pub use tolerance::{MAX_TOLERANCE, ToleranceError, parse_tolerance};
 pub const MAGIC: [u8; 8] = *b"GIBAKE\0\x01";
 /// Format major version: readers reject any other major.
 pub const FORMAT_MAJOR: u16 = 3;
-/// Format minor version: additive changes only.
-pub const FORMAT_MINOR: u16 = 0;
+/// Format minor version: additive changes only (3.1: the baked lights,
+/// [`Manifest::lights`]).
+pub const FORMAT_MINOR: u16 = 1;
 
 /// One static VPL record. Stored as a little-endian array in `vpls.bin`
 /// (48 bytes each, fields in this order).
@@ -203,6 +204,51 @@ pub struct Manifest {
     pub has_dynamic: bool,
     /// Per-stage bake times are NOT stored (determinism); files and checksums are.
     pub files: Vec<FileEntry>,
+    /// The primary lights the asset was baked with, in the scene's order
+    /// (format 3.1; empty when read from a 3.0 asset). What the up-to-date
+    /// check, `inspect` and `diff` report about lights.
+    pub lights: Vec<LightRecord>,
+}
+
+/// [`LightRecord::kind`] of a directional light.
+pub const LIGHT_DIRECTIONAL: u8 = 0;
+/// [`LightRecord::kind`] of a spot light.
+pub const LIGHT_SPOT: u8 = 1;
+/// [`LightRecord::kind`] of a point light.
+pub const LIGHT_POINT: u8 = 2;
+
+/// A baked primary light (format 3.1), as the scene gave it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LightRecord {
+    /// glTF light name (or `light #i`, or `--sun`).
+    pub name: String,
+    /// [`LIGHT_DIRECTIONAL`], [`LIGHT_SPOT`] or [`LIGHT_POINT`].
+    pub kind: u8,
+    /// `color × intensity`, linear RGB: W/sr (spot, point) or W/m²
+    /// (directional).
+    pub color: [f32; 3],
+    /// World-space position.
+    pub position: [f32; 3],
+    /// World-space unit direction the light points to.
+    pub direction: [f32; 3],
+    /// Spot inner cone angle, radians (0 for other kinds).
+    pub inner_cone: f32,
+    /// Spot outer cone angle, radians (0 for other kinds).
+    pub outer_cone: f32,
+    /// glTF range in world units; 0: none.
+    pub range: f32,
+}
+
+impl LightRecord {
+    /// `directional`, `spot`, `point` (or `unknown`).
+    pub fn kind_name(&self) -> &'static str {
+        match self.kind {
+            LIGHT_DIRECTIONAL => "directional",
+            LIGHT_SPOT => "spot",
+            LIGHT_POINT => "point",
+            _ => "unknown",
+        }
+    }
 }
 
 /// A single-channel square f32 map.
@@ -402,5 +448,93 @@ mod tests {
             [SHARE_ONE / 3, 2 * SHARE_ONE / 3 + 1, SHARE_ONE, 0, 0]
         );
         assert!(r.share[0] + r.share[1] - SHARE_ONE <= 1);
+    }
+}
+
+/// What changed from the lights `was` to the lights `now` (format 3.1
+/// records), one line per change, lights matched by name: added, removed,
+/// or which of kind, position, direction, colour, cones and range changed
+/// (compared exactly, as the static-scene hash does). Empty when equal;
+/// used by the up-to-date check and `diff`.
+pub fn light_changes(was: &[LightRecord], now: &[LightRecord]) -> Vec<String> {
+    let mut out = Vec::new();
+    for w in was {
+        match now.iter().find(|n| n.name == w.name) {
+            None => out.push(format!("light '{}' ({}) removed", w.name, w.kind_name())),
+            Some(n) => {
+                let mut what = Vec::new();
+                if n.kind != w.kind {
+                    what.push(format!("kind {} → {}", w.kind_name(), n.kind_name()));
+                }
+                for (field, a, b) in [
+                    ("position", w.position, n.position),
+                    ("direction", w.direction, n.direction),
+                    ("colour × intensity", w.color, n.color),
+                ] {
+                    if a != b {
+                        what.push(format!("{field} {a:?} → {b:?}"));
+                    }
+                }
+                for (field, a, b) in [
+                    ("inner cone", w.inner_cone, n.inner_cone),
+                    ("outer cone", w.outer_cone, n.outer_cone),
+                    ("range", w.range, n.range),
+                ] {
+                    if a.to_bits() != b.to_bits() {
+                        what.push(format!("{field} {a} → {b}"));
+                    }
+                }
+                if !what.is_empty() {
+                    out.push(format!("light '{}' changed: {}", w.name, what.join(", ")));
+                }
+            }
+        }
+    }
+    for n in now {
+        if !was.iter().any(|w| w.name == n.name) {
+            out.push(format!("light '{}' ({}) added", n.name, n.kind_name()));
+        }
+    }
+    if out.is_empty() && was != now {
+        out.push("the lights' order changed".into());
+    }
+    out
+}
+
+#[cfg(test)]
+mod light_change_tests {
+    use super::*;
+
+    fn lamp(name: &str, kind: u8, x: f32) -> LightRecord {
+        LightRecord {
+            name: name.into(),
+            kind,
+            color: [1.0, 2.0, 3.0],
+            position: [x, 1.0, 0.0],
+            direction: [0.0, -1.0, 0.0],
+            inner_cone: 0.0,
+            outer_cone: 0.0,
+            range: 0.0,
+        }
+    }
+
+    /// Each kind of change is named with the light; nothing for equal sets.
+    #[test]
+    fn light_changes_name_what_changed() {
+        let was = vec![lamp("A", LIGHT_POINT, 0.0), lamp("B", LIGHT_SPOT, 1.0)];
+        assert!(light_changes(&was, &was).is_empty());
+        let mut now = was.clone();
+        now[0].position[0] = 0.5;
+        now[1].range = 4.0;
+        now.push(lamp("C", LIGHT_DIRECTIONAL, 0.0));
+        let c = light_changes(&was, &now);
+        assert_eq!(c.len(), 3, "{c:?}");
+        assert!(c[0].starts_with("light 'A' changed: position"), "{c:?}");
+        assert!(c[1].contains("'B' changed: range 0 → 4"), "{c:?}");
+        assert_eq!(c[2], "light 'C' (directional) added");
+        let c = light_changes(&now, &was[..1]);
+        assert!(c.iter().any(|l| l == "light 'B' (spot) removed"), "{c:?}");
+        let swapped = vec![was[1].clone(), was[0].clone()];
+        assert_eq!(light_changes(&was, &swapped), ["the lights' order changed"]);
     }
 }

@@ -629,6 +629,7 @@ mod tests {
             map_count: 0,
             has_dynamic: false,
             files: Vec::new(),
+            lights: Vec::new(),
         };
         let rec = VplRecord {
             position: [0.0; 3],

@@ -278,7 +278,59 @@ fn manifest_bin_has_the_documented_layout() {
     assert_eq!(&p[1..6], b"0.1.0");
     assert_eq!(p[6] as usize, "corner.gltf".len());
     assert_eq!(&p[7..18], b"corner.gltf");
-    // ... and it ends with the file list, then the last entry's 32-byte hash.
+    // ... then the file list, whose last entry ends with its 32-byte hash,
+    // then (3.1) the lights: a varint count, each light's name, kind (u8),
+    // nine f32 of colour, position and direction, and three of cones and
+    // range — the payload ends with the last light's range.
     let m = load_manifest(&dir).unwrap();
-    assert_eq!(&p[len - 32..], &m.files.last().unwrap().blake3);
+    let hash = &m.files.last().unwrap().blake3;
+    let end_of_files = p
+        .windows(32)
+        .position(|w| w == hash)
+        .expect("the last file's hash is in the payload")
+        + 32;
+    assert_eq!(usize::from(p[end_of_files]), m.lights.len());
+    let light_bytes: usize = m.lights.iter().map(|l| 1 + l.name.len() + 1 + 12 * 4).sum();
+    assert_eq!(end_of_files + 1 + light_bytes, len);
+    let last = m.lights.last().expect("the sample has lights");
+    assert_eq!(&p[len - 4..], &last.range.to_le_bytes());
+    assert_eq!(m.lights, asset.manifest.lights);
+}
+
+/// `manifest.bin` with its payload replaced by `payload` and minor `minor`
+/// (length and checksum recomputed).
+fn rewrap(bytes: &[u8], payload: &[u8], minor: u16) -> Vec<u8> {
+    let mut out = bytes[..20].to_vec();
+    out[10..12].copy_from_slice(&minor.to_le_bytes());
+    out[12..20].copy_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(payload);
+    let h = blake3::hash(&out);
+    out.extend_from_slice(h.as_bytes());
+    out
+}
+
+/// A 3.0 asset (no lights after the file list) still loads, with no
+/// lights; a 3.1 manifest whose lights are cut short is refused.
+#[test]
+fn a_3_0_manifest_loads_without_lights() {
+    let tmp = tempfile::tempdir().unwrap();
+    let asset = sample_asset(false);
+    let dir = written(tmp.path(), &asset);
+    let path = dir.join("manifest.bin");
+    let bytes = std::fs::read(&path).unwrap();
+    let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
+    let p = &bytes[20..20 + len];
+    let m = load_manifest(&dir).unwrap();
+    let hash = &m.files.last().unwrap().blake3;
+    let end_of_files = p.windows(32).position(|w| w == hash).unwrap() + 32;
+
+    std::fs::write(&path, rewrap(&bytes, &p[..end_of_files], 0)).unwrap();
+    let old = load_manifest(&dir).expect("a 3.0 manifest loads");
+    assert!(old.lights.is_empty());
+    assert_eq!(old.files, m.files);
+    load(&dir).expect("a 3.0 asset loads");
+
+    std::fs::write(&path, rewrap(&bytes, &p[..len - 3], FORMAT_MINOR)).unwrap();
+    let e = load_manifest(&dir).expect_err("lights cut short");
+    assert!(e.to_string().contains("lights"), "{e}");
 }

@@ -167,6 +167,36 @@ pub fn light_view_warnings(scene: &Scene, view: &LightView, opts: &BakeOptions) 
     out
 }
 
+/// The manifest's records of `scene`'s primary lights (what the up-to-date
+/// check compares, `inspect` and `diff` show).
+pub fn light_records(scene: &Scene) -> Vec<gibake_asset::LightRecord> {
+    use gibake_scene::LightKind;
+    scene
+        .lights
+        .iter()
+        .map(|l| {
+            let (kind, inner, outer) = match l.kind {
+                LightKind::Directional => (gibake_asset::LIGHT_DIRECTIONAL, 0.0, 0.0),
+                LightKind::Spot {
+                    inner_cone,
+                    outer_cone,
+                } => (gibake_asset::LIGHT_SPOT, inner_cone, outer_cone),
+                LightKind::Point => (gibake_asset::LIGHT_POINT, 0.0, 0.0),
+            };
+            gibake_asset::LightRecord {
+                name: l.name.clone(),
+                kind,
+                color: l.color.to_array(),
+                position: l.position.to_array(),
+                direction: l.direction.to_array(),
+                inner_cone: inner,
+                outer_cone: outer,
+                range: l.range.unwrap_or(0.0),
+            }
+        })
+        .collect()
+}
+
 /// The static part of `scene` only (moving objects removed).
 pub fn static_only(scene: &Scene) -> Scene {
     let mut s = scene.clone();
@@ -421,6 +451,7 @@ fn bake_with(
         map_count,
         has_dynamic,
         files: Vec::new(),
+        lights: light_records(scene),
     };
     let asset = Asset {
         manifest,

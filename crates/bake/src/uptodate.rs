@@ -78,8 +78,20 @@ pub fn differences(
     let mut r = Vec::new();
     let hash = gibake_scene::static_scene_hash(scene);
     if hash != m.static_scene_hash {
+        // Which lights changed, when the asset records them (3.1); a scene
+        // whose lights are the same changed its geometry or materials.
+        let lights = if m.lights.is_empty() {
+            Vec::new()
+        } else {
+            gibake_asset::light_changes(&m.lights, &crate::bake::light_records(scene))
+        };
+        let what = match (m.lights.is_empty(), lights.is_empty()) {
+            (true, _) => String::new(),
+            (false, true) => ": the static geometry or materials (not the lights)".into(),
+            (false, false) => format!(": {}", lights.join("; ")),
+        };
         r.push(format!(
-            "scene changed (static-scene hash {} → {})",
+            "scene changed (static-scene hash {} → {}){what}",
             hex8(&m.static_scene_hash),
             hex8(&hash)
         ));

@@ -95,7 +95,26 @@ fn every_changed_input_is_named_and_nothing_else() {
     // A static vertex moved: the static-scene hash.
     let mut moved = scene.clone();
     moved.static_meshes[0].positions[0].x += 1e-3;
-    one(diff(&moved, &opts, "1.0.0"), "scene changed");
+    one(
+        diff(&moved, &opts, "1.0.0"),
+        "scene changed (static-scene hash",
+    );
+    one(diff(&moved, &opts, "1.0.0"), "not the lights");
+
+    // The light moved, or a light was added: said by name.
+    let mut lit = scene.clone();
+    lit.lights[0].position.y += 0.5;
+    one(diff(&lit, &opts, "1.0.0"), "changed: position");
+    let mut lamp = scene.clone();
+    let mut extra = lamp.lights[0].clone();
+    extra.name = "Extra lamp".into();
+    extra.kind = gibake_scene::LightKind::Point;
+    extra.range = Some(3.0);
+    lamp.lights.push(extra);
+    one(
+        diff(&lamp, &opts, "1.0.0"),
+        "light 'Extra lamp' (point) added",
+    );
 
     // Moving objects' swept bounds grown: same static hash, other light view.
     let mut big = scene.clone();

@@ -18,6 +18,8 @@
 //! `--look-at EX,EY,EZ,TX,TY,TZ`: a 60° camera at the eye looking at the
 //! target (for a level without a camera).
 //!
+//! `--rsm N`: RSM resolution per view (default 512, the bake's).
+//!
 //! `--only K`: light `K` alone (where a scene's error comes from).
 //!
 //! `--equal-split`: each light gets `N / lights` VPLs over its own views
@@ -38,6 +40,7 @@ fn main() {
     let mut equal = false;
     let mut keep_negligible = false;
     let mut only: Option<usize> = None;
+    let mut rsm = 512u32;
     let mut camera = gibake_scene::CameraChoice::First;
     let mut files = Vec::new();
     let mut i = 0;
@@ -64,6 +67,10 @@ fn main() {
                     target: glam::Vec3::new(v[3], v[4], v[5]),
                     yfov_deg: 60.0,
                 };
+                i += 1
+            }
+            "--rsm" => {
+                rsm = args[i + 1].parse().expect("--rsm N");
                 i += 1
             }
             "--only" => {
@@ -103,7 +110,14 @@ fn main() {
                 )
                 .unwrap_or_else(|e| panic!("{name}: {e}"));
                 let scene = only_light(scene, only);
-                all.push(judge(&name, &scene, vpls, size, equal, keep_negligible));
+                all.push(judge(
+                    &name,
+                    &scene,
+                    (vpls, rsm),
+                    size,
+                    equal,
+                    keep_negligible,
+                ));
             }
             if all.len() > 1 {
                 let worst = all
@@ -125,7 +139,7 @@ fn main() {
             let scene = gibake_scene::load(std::path::Path::new(&f), &opts)
                 .unwrap_or_else(|e| panic!("{f}: {e}"));
             let scene = only_light(scene, only);
-            judge(&f, &scene, vpls, size, equal, keep_negligible);
+            judge(&f, &scene, (vpls, rsm), size, equal, keep_negligible);
         }
     }
 }
@@ -142,7 +156,7 @@ fn only_light(mut scene: gibake_scene::Scene, only: Option<usize>) -> gibake_sce
 fn judge(
     name: &str,
     scene: &gibake_scene::Scene,
-    vpls: u32,
+    (vpls, rsm_size): (u32, u32),
     size: u32,
     equal: bool,
     keep_negligible: bool,
@@ -156,7 +170,7 @@ fn judge(
         scene,
         &gibake_eval::lights::JudgeSettings {
             vpls,
-            rsm_size: 512,
+            rsm_size,
             size,
             side: 32,
             budget,
