@@ -88,6 +88,7 @@ pub use gibake_scene::{
 };
 #[cfg(feature = "gltf")]
 pub use gibake_scene::{LoadOptions, load as load_scene};
+pub use light::LightInfo;
 pub use plan::{FramePlan, Pass, PassSet, ShadeFlag};
 pub use requirements::Requirements;
 pub use settings::{Cascades, Mode, RenderSettings};
@@ -204,6 +205,13 @@ impl Renderer {
     /// The frame plan: which passes this renderer's frames have.
     pub fn plan(&self) -> &FramePlan {
         &self.world.plan
+    }
+
+    /// The scene's primary lights: kind, radiometry, placement, their VPLs
+    /// (the budget share the asset records) and whether this renderer
+    /// shades them. Lights are fixed: moving one is a re-bake.
+    pub fn lights(&self) -> &[LightInfo] {
+        &self.world.lights
     }
 
     /// The moving objects: handle and name, in the scene's order (removed

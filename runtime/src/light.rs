@@ -10,6 +10,58 @@ use wgpu::util::DeviceExt;
 
 use crate::baked::BakedGpu;
 
+/// A primary light of the scene, as a game sees it ([`crate::Renderer::lights`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightInfo {
+    /// glTF light name.
+    pub name: String,
+    /// Spot, directional or point, with parameters.
+    pub kind: gibake_scene::LightKind,
+    /// `color × intensity`: W/sr (spot, point) or W/m² (directional).
+    pub color: glam::Vec3,
+    /// World position.
+    pub position: glam::Vec3,
+    /// World unit direction it points to.
+    pub direction: glam::Vec3,
+    /// glTF range, world units.
+    pub range: Option<f32>,
+    /// VPLs baked from it: its share of the budget (`None` without an
+    /// asset, or from an asset of format 3.0, which records no lights).
+    pub vpls: Option<u32>,
+    /// Whether this renderer shades it. Today the first light only: the
+    /// bake and the runtime take one primary light (moving a light is a
+    /// re-bake; the every-light issue adds the others).
+    pub shaded: bool,
+}
+
+impl LightInfo {
+    /// The lights of `scene`, with their VPL counts from `asset`'s records
+    /// (matched by name).
+    pub(crate) fn of(scene: &Scene, asset: Option<&gibake_asset::Asset>) -> Vec<LightInfo> {
+        scene
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(i, l)| LightInfo {
+                name: l.name.clone(),
+                kind: l.kind.clone(),
+                color: l.color,
+                position: l.position,
+                direction: l.direction,
+                range: l.range,
+                vpls: asset.and_then(|a| {
+                    a.manifest
+                        .lights
+                        .iter()
+                        .find(|r| r.name == l.name)
+                        .map(|r| r.vpls)
+                }),
+                shaded: i == 0,
+            })
+            .collect()
+    }
+}
+
 /// The primary light's GPU resources.
 pub(crate) struct PrimaryLight {
     /// The primary maps' light view.

@@ -27,6 +27,8 @@ pub(crate) struct World {
     pub scene_gpu: SceneGpu,
     pub baked: Option<BakedGpu>,
     pub light: PrimaryLight,
+    /// The scene's primary lights, as the API reports them.
+    pub lights: Vec<crate::LightInfo>,
     pub moving: MovingPasses,
     pub gbuffer: GBufferPass,
     pub gi: ShadeGi,
@@ -127,6 +129,7 @@ impl World {
             scene_gpu,
             baked,
             light,
+            lights: crate::LightInfo::of(scene, asset),
             moving,
             gbuffer,
             gi,

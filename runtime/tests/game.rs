@@ -145,6 +145,25 @@ fn a_renderer_is_send_and_sync() {
     send_sync::<Renderer>();
 }
 
+/// A game sees the scene's lights, what the asset baked from each, and
+/// which the renderer shades.
+#[test]
+fn the_lights_are_visible_to_a_game() {
+    let f = fixture();
+    let r = renderer(&f.scene, Some(&f.asset), &settings(Mode::Full));
+    let lights = r.lights();
+    assert_eq!(lights.len(), 1);
+    let l = &lights[0];
+    assert_eq!(l.name, f.scene.lights[0].name);
+    assert_eq!(l.position, f.scene.lights[0].position);
+    assert!(matches!(l.kind, gibake_scene::LightKind::Spot { .. }));
+    assert_eq!(l.vpls, Some(f.asset.vpls.len() as u32));
+    assert!(l.shaded);
+    // Without an asset (direct mode) nothing is baked from it.
+    let r = renderer(&f.scene, None, &settings(Mode::Direct));
+    assert_eq!(r.lights()[0].vpls, None);
+}
+
 #[test]
 fn the_plan_decides_each_modes_passes() {
     let f = fixture();

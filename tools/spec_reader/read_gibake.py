@@ -231,6 +231,7 @@ def read_manifest(asset: str) -> dict:
                     "inner_cone": d.f32(f"lights[{i}].inner_cone"),
                     "outer_cone": d.f32(f"lights[{i}].outer_cone"),
                     "range": d.f32(f"lights[{i}].range"),
+                    "vpls": d.u32(f"lights[{i}].vpls"),
                 }
             )
     m["lights"] = lights
@@ -901,7 +902,7 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
         (
             "  baked lights: "
             + (
-                ", ".join(f"'{l['name']}' ({l['kind']})" for l in m["lights"])
+                ", ".join(f"'{l['name']}' ({l['kind']}, {l['vpls']} VPLs)" for l in m["lights"])
                 or "none recorded (a 3.0 asset)"
             )
         ),

@@ -289,7 +289,7 @@ impl fmt::Display for Inspection {
             };
             writeln!(
                 f,
-                "  light '{}': {} at ({}, {}, {}) toward ({}, {}, {}), colour × intensity ({}, {}, {}){cone}{range}",
+                "  light '{}': {} at ({}, {}, {}) toward ({}, {}, {}), colour × intensity ({}, {}, {}){cone}{range}; {} VPLs",
                 l.name,
                 l.kind_name(),
                 p[0],
@@ -300,7 +300,8 @@ impl fmt::Display for Inspection {
                 d[2],
                 c[0],
                 c[1],
-                c[2]
+                c[2],
+                l.vpls
             )?;
         }
         let budget = s

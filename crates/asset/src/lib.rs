@@ -237,6 +237,8 @@ pub struct LightRecord {
     pub outer_cone: f32,
     /// glTF range in world units; 0: none.
     pub range: f32,
+    /// VPLs made from this light's views (its share of the budget).
+    pub vpls: u32,
 }
 
 impl LightRecord {
@@ -454,7 +456,8 @@ mod tests {
 /// What changed from the lights `was` to the lights `now` (format 3.1
 /// records), one line per change, lights matched by name: added, removed,
 /// or which of kind, position, direction, colour, cones and range changed
-/// (compared exactly, as the static-scene hash does). Empty when equal;
+/// (compared exactly, as the static-scene hash does; the VPL counts, a
+/// result, are not compared). Empty when equal;
 /// used by the up-to-date check and `diff`.
 pub fn light_changes(was: &[LightRecord], now: &[LightRecord]) -> Vec<String> {
     let mut out = Vec::new();
@@ -495,7 +498,8 @@ pub fn light_changes(was: &[LightRecord], now: &[LightRecord]) -> Vec<String> {
             out.push(format!("light '{}' ({}) added", n.name, n.kind_name()));
         }
     }
-    if out.is_empty() && was != now {
+    // (The VPL counts are results, not inputs: not compared.)
+    if out.is_empty() && !was.iter().map(|l| &l.name).eq(now.iter().map(|l| &l.name)) {
         out.push("the lights' order changed".into());
     }
     out
@@ -515,6 +519,7 @@ mod light_change_tests {
             inner_cone: 0.0,
             outer_cone: 0.0,
             range: 0.0,
+            vpls: 1,
         }
     }
 
@@ -523,6 +528,12 @@ mod light_change_tests {
     fn light_changes_name_what_changed() {
         let was = vec![lamp("A", LIGHT_POINT, 0.0), lamp("B", LIGHT_SPOT, 1.0)];
         assert!(light_changes(&was, &was).is_empty());
+        let mut rebaked = was.clone();
+        rebaked[0].vpls = 99;
+        assert!(
+            light_changes(&was, &rebaked).is_empty(),
+            "VPL counts are results"
+        );
         let mut now = was.clone();
         now[0].position[0] = 0.5;
         now[1].range = 4.0;

@@ -280,8 +280,8 @@ fn manifest_bin_has_the_documented_layout() {
     assert_eq!(&p[7..18], b"corner.gltf");
     // ... then the file list, whose last entry ends with its 32-byte hash,
     // then (3.1) the lights: a varint count, each light's name, kind (u8),
-    // nine f32 of colour, position and direction, and three of cones and
-    // range — the payload ends with the last light's range.
+    // nine f32 of colour, position and direction, three of cones and range,
+    // and its VPL count (a varint) — the payload ends with the last light's.
     let m = load_manifest(&dir).unwrap();
     let hash = &m.files.last().unwrap().blake3;
     let end_of_files = p
@@ -290,10 +290,16 @@ fn manifest_bin_has_the_documented_layout() {
         .expect("the last file's hash is in the payload")
         + 32;
     assert_eq!(usize::from(p[end_of_files]), m.lights.len());
-    let light_bytes: usize = m.lights.iter().map(|l| 1 + l.name.len() + 1 + 12 * 4).sum();
+    assert!(m.lights.iter().all(|l| l.vpls <= 250), "one-byte varints");
+    let light_bytes: usize = m
+        .lights
+        .iter()
+        .map(|l| 1 + l.name.len() + 1 + 12 * 4 + 1)
+        .sum();
     assert_eq!(end_of_files + 1 + light_bytes, len);
     let last = m.lights.last().expect("the sample has lights");
-    assert_eq!(&p[len - 4..], &last.range.to_le_bytes());
+    assert_eq!(&p[len - 5..len - 1], &last.range.to_le_bytes());
+    assert_eq!(u32::from(p[len - 1]), last.vpls);
     assert_eq!(m.lights, asset.manifest.lights);
 }
 

@@ -168,7 +168,7 @@ pub fn light_view_warnings(scene: &Scene, view: &LightView, opts: &BakeOptions) 
 }
 
 /// The manifest's records of `scene`'s primary lights (what the up-to-date
-/// check compares, `inspect` and `diff` show).
+/// check compares, `inspect` and `diff` show), their VPL counts 0.
 pub fn light_records(scene: &Scene) -> Vec<gibake_asset::LightRecord> {
     use gibake_scene::LightKind;
     scene
@@ -192,6 +192,7 @@ pub fn light_records(scene: &Scene) -> Vec<gibake_asset::LightRecord> {
                 inner_cone: inner,
                 outer_cone: outer,
                 range: l.range.unwrap_or(0.0),
+                vpls: 0,
             }
         })
         .collect()
@@ -451,7 +452,14 @@ fn bake_with(
         map_count,
         has_dynamic,
         files: Vec::new(),
-        lights: light_records(scene),
+        lights: {
+            // The one-light bake: every VPL is its light's.
+            let mut l = light_records(scene);
+            if let Some(first) = l.first_mut() {
+                first.vpls = vpls.len() as u32;
+            }
+            l
+        },
     };
     let asset = Asset {
         manifest,

@@ -159,6 +159,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
                     inner_cone: 0.49,
                     outer_cone: 0.7,
                     range: 0.0,
+                    vpls: 5,
                 },
                 gibake_asset::LightRecord {
                     name: "Lamp".into(),
@@ -169,6 +170,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
                     inner_cone: 0.0,
                     outer_cone: 0.0,
                     range: 2.5,
+                    vpls: 3,
                 },
             ],
         },
