@@ -149,6 +149,11 @@ fn only_light(mut scene: gibake_scene::Scene, only: Option<usize>) -> gibake_sce
     if let Some(k) = only {
         scene.lights = vec![scene.lights[k].clone()];
     }
+    if std::env::var_os("GIBAKE_NO_RANGE").is_some() {
+        for l in &mut scene.lights {
+            l.range = None;
+        }
+    }
     scene
 }
 

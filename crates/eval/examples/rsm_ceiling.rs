@@ -10,6 +10,9 @@
 //!
 //! CPU only, static part, the level's camera, 512² RSM as the bake makes it.
 //! `cargo run --release -p gibake-eval --example rsm_ceiling -- LEVEL… [--size N]`
+//! (`LEVEL`: a name in data/levels/levels.json, or `random_lights:SEED` or
+//! `random_lights:SEED:K` — a seeded multi-light scene, every view of every
+//! light (or of light `K` alone) as the every-light bake makes them)
 //! (default 32² receivers; ≈ 5 s a level on 2 cores at 32²).
 use gibake_bake::rsm::render_rsm;
 use gibake_gpu::LightView;
@@ -55,19 +58,59 @@ fn main() {
         "level", "bounded", "point", "no vis", "footprint"
     );
     for name in names {
-        let l = levels
-            .iter()
-            .find(|l| l.name == name)
-            .expect("a bundled level");
-        let scene = l.load(list.parent().unwrap()).unwrap();
+        let scene = if let Some(spec) = name.strip_prefix("random_lights:") {
+            let mut parts = spec.split(':');
+            let seed: u64 = parts.next().and_then(|s| s.parse().ok()).expect("SEED");
+            let only: Option<usize> = parts.next().and_then(|s| s.parse().ok());
+            let (bytes, _) = gibake_scenegen::random_lights(seed, &Default::default());
+            let mut scene = gibake_scene::load_from_slice(
+                &bytes,
+                std::path::Path::new("random_lights.glb"),
+                &gibake_scene::LoadOptions {
+                    all_lights: true,
+                    ..Default::default()
+                },
+            )
+            .expect("generated scenes load");
+            if let Some(k) = only {
+                scene.lights = vec![scene.lights[k].clone()];
+            }
+            scene
+        } else {
+            let l = levels
+                .iter()
+                .find(|l| l.name == name)
+                .expect("a bundled level");
+            l.load(list.parent().unwrap()).unwrap()
+        };
         let stat = gibake_bake::static_only(&scene);
         let rays = RayScene::build(&stat, 0.0);
-        let view = LightView::for_scene(&scene, 2048).resized(512);
-        let rsm = render_rsm(&rays, scene.light(), &view, None);
+        // Every view of every light (one for a level's one light).
+        let maps: Vec<(LightView, gibake_bake::rsm::Rsm)> = scene
+            .lights
+            .iter()
+            .flat_map(|light| {
+                LightView::of_light(&scene, light, 2048)
+                    .into_iter()
+                    .map(|v| {
+                        let v = v.resized(512);
+                        (v, render_rsm(&rays, light, &v, None))
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect();
         let cam = gibake_reference::View::from_scene(&stat, 0.0).unwrap();
-        let fp = view.footprint(Vec3::ZERO);
-        let lit: Vec<usize> = (0..rsm.flux.len())
-            .filter(|&t| rsm.flux[t].max_element() > 0.0 && rsm.metric[t].is_finite())
+        // Footprint buckets in the first view's texels at its origin's
+        // scale (a level's one view; indicative for several).
+        let fp = maps[0].0.footprint(Vec3::ZERO);
+        let texels: Vec<(Vec3, Vec3, f32, Vec3)> = maps
+            .iter()
+            .flat_map(|(_, rsm)| {
+                (0..rsm.flux.len())
+                    .filter(|&t| rsm.flux[t].max_element() > 0.0 && rsm.metric[t].is_finite())
+                    .map(|t| (rsm.position[t], rsm.normal[t], rsm.area[t], rsm.flux[t]))
+                    .collect::<Vec<_>>()
+            })
             .collect();
         let total = (0..size * size)
             .into_par_iter()
@@ -90,8 +133,7 @@ fn main() {
                         }
                     }
                 });
-                for &ti in &lit {
-                    let (pp, nn) = (rsm.position[ti], rsm.normal[ti]);
+                for &(pp, nn, area, flux) in &texels {
                     let dv = h.position - pp;
                     let d2 = dv.length_squared();
                     if d2 <= 0.0 {
@@ -102,8 +144,8 @@ fn main() {
                     if cv <= 0.0 || cr <= 0.0 || h.geometric_normal.dot(-dir) <= 0.0 {
                         continue;
                     }
-                    let r2 = rsm.area[ti] / PI;
-                    let f = (a * rsm.flux[ti]).element_sum() * cv * cr / PI;
+                    let r2 = area / PI;
+                    let f = (a * flux).element_sum() * cv * cr / PI;
                     let bounded = f64::from(f / (d2 * d2 + r2 * r2).sqrt());
                     s.bounded_unshadowed += bounded;
                     if rays.visible(pp, nn, h.position, h.geometric_normal) {
