@@ -22,6 +22,9 @@
 //!
 //! `--only K`: light `K` alone (where a scene's error comes from).
 //!
+//! `GIBAKE_NO_RANGE=1`: the lights without their glTF ranges (a
+//! diagnostic: what the range changes).
+//!
 //! `--equal-split`: each light gets `N / lights` VPLs over its own views
 //! (the alternative to one budget spread by the light's bounce).
 //!
@@ -201,10 +204,11 @@ fn judge(
         println!("  {:<24} {kind:<11} {n:>5} VPLs{range}", l.name);
     }
     println!(
-        "  indirect bias {:+.1}/{:+.1}/{:+.1}%, blurred rel RMS error {:.3}",
+        "  indirect bias {:+.1}/{:+.1}/{:+.1}% (reference noise ±{:.1}%), blurred rel RMS error {:.3}",
         j.bias.x * 100.0,
         j.bias.y * 100.0,
         j.bias.z * 100.0,
+        j.bias_sigma.max_element() * 100.0,
         j.blurred_error
     );
     (j.bias, j.blurred_error)

@@ -44,6 +44,11 @@ pub struct Judgement {
     /// Σ reference indirect radiance per channel (0: the camera sees no
     /// bounce light, and the bias means nothing).
     pub reference_sum: DVec3,
+    /// The reference's own noise on the bias, per channel: the standard
+    /// error of Σ reference over Σ reference (from each receiver's sample
+    /// variance; the samples are stratified, so this overestimates it). A
+    /// bias within a few of these is not measured.
+    pub bias_sigma: DVec3,
 }
 
 /// The bake settings [`judge`] uses.
@@ -120,18 +125,25 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
         .collect();
     let per_light = every.vpls_per_light(scene.lights.len());
     let cam = gibake_reference::View::from_scene(scene, 0.0).expect("the scene has a camera");
-    // Per pixel: (reference, twin) indirect radiance.
-    let px: Vec<(Vec3, Vec3)> = (0..size * size)
+    // Per pixel: (reference, twin) indirect radiance, and the variance of
+    // the reference's mean.
+    let px: Vec<(Vec3, Vec3, DVec3)> = (0..size * size)
         .into_par_iter()
         .map(|p| {
             let (x, y) = (p % size, p / size);
             let (o, d, t0) = cam.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
             let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
-                return (Vec3::ZERO, Vec3::ZERO);
+                return (Vec3::ZERO, Vec3::ZERO, DVec3::ZERO);
             };
-            let mut s = Vec3::ZERO;
-            crate::bounce::one_bounce_samples(&rays, &h, p, side, |_, l| s += l);
+            let (mut s, mut s2) = (Vec3::ZERO, DVec3::ZERO);
+            crate::bounce::one_bounce_samples(&rays, &h, p, side, |_, l| {
+                s += l;
+                s2 += (h.albedo * l).as_dvec3() * (h.albedo * l).as_dvec3();
+            });
+            let n = f64::from(side * side);
             let reference = h.albedo * s / (side * side) as f32;
+            let mean = reference.as_dvec3();
+            let var_mean = ((s2 / n - mean * mean) * (n / (n - 1.0).max(1.0)) / n).max(DVec3::ZERO);
             let mut e = Vec3::ZERO;
             for (k, v) in records.iter().enumerate() {
                 let n = Vec3::from_array(v.normal);
@@ -149,13 +161,14 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
                     e += irr;
                 }
             }
-            (reference, h.albedo / PI * e)
+            (reference, h.albedo / PI * e, var_mean)
         })
         .collect();
-    let (mut sr, mut st) = (DVec3::ZERO, DVec3::ZERO);
-    for (r, t) in &px {
+    let (mut sr, mut st, mut var) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+    for (r, t, v) in &px {
         sr += r.as_dvec3();
         st += t.as_dvec3();
+        var += *v;
     }
     // No bounce light in view on a channel: no bias to speak of (NaN).
     let bias = DVec3::select(sr.cmpgt(DVec3::ZERO), st / sr - 1.0, DVec3::NAN);
@@ -191,5 +204,6 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
             f64::NAN
         },
         reference_sum: sr,
+        bias_sigma: DVec3::select(sr.cmpgt(DVec3::ZERO), var.sqrt() / sr, DVec3::NAN),
     }
 }
