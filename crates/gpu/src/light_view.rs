@@ -303,6 +303,31 @@ impl LightView {
         }
     }
 
+    /// Whether anything inside `bounds` may be in this view's map: false
+    /// only when the box lies wholly outside one plane of the view's
+    /// frustum (left, right, bottom, top, near, far), or wholly behind a
+    /// perspective view's eye. Conservative (a box beside a frustum's edge
+    /// may still say true). What decides which views a moving object is
+    /// merged into; an empty box is in no view.
+    pub fn may_see(&self, bounds: &Aabb) -> bool {
+        if !(bounds.min.cmple(bounds.max).all()) {
+            return false;
+        }
+        let clip: Vec<Vec4> = (0..8)
+            .map(|i| self.view_proj * corner(bounds, i).extend(1.0))
+            .collect();
+        // Reversed Z in wgpu's [0, 1]: inside is −w ≤ x, y ≤ w, 0 ≤ z ≤ w.
+        let outside = [
+            |c: &Vec4| c.x < -c.w,
+            |c: &Vec4| c.x > c.w,
+            |c: &Vec4| c.y < -c.w,
+            |c: &Vec4| c.y > c.w,
+            |c: &Vec4| c.z < 0.0,
+            |c: &Vec4| c.z > c.w,
+        ];
+        !outside.iter().any(|plane| clip.iter().all(plane))
+    }
+
     /// World size of one map texel at `p`.
     pub fn footprint(&self, p: Vec3) -> f32 {
         if self.directional {
@@ -495,6 +520,60 @@ mod tests {
         }
         let rel = (total / (4.0 * std::f64::consts::PI) - 1.0).abs();
         assert!(rel < 2e-3, "Σ texel solid angles = {total}, 4π·(1 ± {rel})");
+    }
+
+    /// A box in front of a face is seen by it (and by no face it lies
+    /// wholly behind), a box beyond the range by none, an empty box by
+    /// none; a directional view sees what its fitted box holds.
+    #[test]
+    fn may_see_culls_boxes_outside_a_view() {
+        let bounds = Aabb {
+            min: Vec3::splat(-10.0),
+            max: Vec3::splat(10.0),
+        };
+        let light = Light {
+            name: "bulb".into(),
+            kind: LightKind::Point,
+            color: Vec3::ONE,
+            position: Vec3::ZERO,
+            direction: Vec3::NEG_Z,
+            range: Some(5.0),
+        };
+        let faces = LightView::point_faces(&light, &bounds, 64);
+        let ball = |c: Vec3| Aabb {
+            min: c - 0.2,
+            max: c + 0.2,
+        };
+        // +X, −X, +Y, −Y, +Z, −Z
+        let seen = |b: &Aabb| faces.iter().map(|f| f.may_see(b)).collect::<Vec<_>>();
+        assert_eq!(
+            seen(&ball(Vec3::new(3.0, 0.0, 0.0))),
+            [true, false, false, false, false, false]
+        );
+        assert_eq!(
+            seen(&ball(Vec3::new(0.0, -2.0, 0.0))),
+            [false, false, false, true, false, false]
+        );
+        // On the +X/+Y edge: both faces (conservative, never neither).
+        let edge = seen(&ball(Vec3::new(2.0, 2.0, 0.0)));
+        assert!(edge[0] && edge[2], "{edge:?}");
+        // Beyond the range (5.05 with the margin): no face.
+        assert!(seen(&ball(Vec3::new(0.0, 0.0, -7.0))).iter().all(|s| !s));
+        assert!(seen(&Aabb::EMPTY).iter().all(|s| !s));
+        // A sun's view sees inside its fitted box, not beside it.
+        let sun = Light {
+            kind: LightKind::Directional,
+            direction: Vec3::new(0.3, -1.0, 0.2).normalize(),
+            range: None,
+            ..light.clone()
+        };
+        let small = Aabb {
+            min: Vec3::splat(-1.0),
+            max: Vec3::splat(1.0),
+        };
+        let v = LightView::new(&sun, &small, 64);
+        assert!(v.may_see(&ball(Vec3::ZERO)));
+        assert!(!v.may_see(&ball(Vec3::new(30.0, 0.0, 0.0))));
     }
 
     /// A range shortens a spot or point light's view: its far plane stops
