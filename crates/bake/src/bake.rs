@@ -365,19 +365,8 @@ fn bake_with(
         crate::budget::check_with(opts, n as u64, mapped as u64, limit)?;
     }
 
-    let mut vpls: Vec<VplRecord> = clusters
-        .vpls
-        .iter()
-        .map(|c| VplRecord {
-            // On the cluster's own surface (see Cluster::anchor).
-            position: c.anchor.to_array(),
-            area: c.area,
-            normal: c.normal.to_array(),
-            texels: c.texels,
-            flux: c.flux.to_array(),
-            map: NO_MAP,
-        })
-        .collect();
+    // On the clusters' own surfaces (see Cluster::anchor).
+    let mut vpls: Vec<VplRecord> = clusters.vpls.iter().map(|c| c.record()).collect();
 
     // Near-field trees (one per VPL, from its node's texels).
     let vpl_nodes: Vec<VplRecord> = (0..clusters.vpls.len())

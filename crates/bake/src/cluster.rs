@@ -246,6 +246,21 @@ pub struct Cluster {
     pub texels: u32,
 }
 
+impl Cluster {
+    /// The asset's record of this VPL: at its anchor (on its own surface),
+    /// no hemisphere map yet ([`gibake_asset::NO_MAP`]).
+    pub fn record(&self) -> gibake_asset::VplRecord {
+        gibake_asset::VplRecord {
+            position: self.anchor.to_array(),
+            area: self.area,
+            normal: self.normal.to_array(),
+            texels: self.texels,
+            flux: self.flux.to_array(),
+            map: gibake_asset::NO_MAP,
+        }
+    }
+}
+
 /// The result of clustering.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Clustering {

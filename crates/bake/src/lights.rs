@@ -18,11 +18,11 @@
 //! (`gibake-eval`'s `lights_twin` example) judges against the reference;
 //! the one-light bake ([`crate::bake()`]) is unchanged.
 
-use gibake_asset::{NO_MAP, VplRecord};
+use gibake_asset::VplRecord;
 use gibake_gpu::{LightView, hemisphere};
 use gibake_scene::Scene;
 
-use crate::cluster::{ClusterTarget, JointClustering, cluster_joint};
+use crate::cluster::{Cluster, ClusterTarget, JointClustering, cluster_joint};
 use crate::reach::Reach;
 
 /// A view whose reaching flux is under this fraction of an average VPL's
@@ -68,20 +68,13 @@ impl EveryLight {
     }
 
     /// The VPL records of every map, in map order (no hemisphere maps yet:
-    /// `map` is [`NO_MAP`]).
+    /// `map` is [`gibake_asset::NO_MAP`]).
     pub fn vpl_records(&self) -> Vec<VplRecord> {
         self.clusters
             .maps
             .iter()
             .flat_map(|c| c.vpls.iter())
-            .map(|c| VplRecord {
-                position: c.anchor.to_array(),
-                area: c.area,
-                normal: c.normal.to_array(),
-                texels: c.texels,
-                flux: c.flux.to_array(),
-                map: NO_MAP,
-            })
+            .map(Cluster::record)
             .collect()
     }
 

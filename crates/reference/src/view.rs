@@ -28,6 +28,26 @@ pub struct View {
 }
 
 impl View {
+    /// The same view of the scene scaled by `s` about the origin: the eye
+    /// moves with it, a perspective camera's near plane scales (its far
+    /// plane and field of view stay), an orthographic one is unchanged
+    /// (scale invariance tests).
+    pub fn scaled(&self, s: f32) -> View {
+        let projection = match self.projection {
+            Projection::Perspective { yfov, znear, zfar } => Projection::Perspective {
+                yfov,
+                znear: znear * s,
+                zfar,
+            },
+            p => p,
+        };
+        View {
+            position: self.position * s,
+            rotation: self.rotation,
+            projection,
+        }
+    }
+
     /// The scene camera at `time` seconds; an error if the scene has none.
     pub fn from_scene(scene: &Scene, time: f32) -> Result<View, ReferenceError> {
         let camera = scene

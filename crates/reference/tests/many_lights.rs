@@ -13,13 +13,15 @@
 //! trace exactly the same rays with the same seed. What separates the two is
 //! float rounding only, bounded below.
 
+mod common;
+use common::{draw, ortho};
 use gibake_image::{Image, rel_mse};
 use gibake_reference::direct::light_irradiance;
 use gibake_reference::scenes::{
     cuboid, directional, material, point, quad, spot, static_scene, validation_corner,
     validation_corner_multi,
 };
-use gibake_reference::{Depth, RayScene, Settings, View, irradiance, render_view};
+use gibake_reference::{Depth, RayScene, Settings, View, irradiance};
 use gibake_scene::{Light, LightKind, Projection, Scene};
 use glam::{DVec3, Vec3};
 
@@ -27,19 +29,7 @@ use glam::{DVec3, Vec3};
 const U: f64 = f32::EPSILON as f64 / 2.0;
 
 fn settings(w: u32, h: u32, spp: u32, depth: Depth) -> Settings {
-    Settings {
-        width: w,
-        height: h,
-        spp,
-        time: 0.0,
-        depth,
-        seed: 7,
-    }
-}
-
-fn draw(scene: &Scene, view: &View, s: &Settings) -> Image {
-    let rs = RayScene::build(scene, s.time);
-    render_view(&rs, view, s, &|_| {}).expect("render")
+    common::settings_seeded(w, h, spp, depth, 7)
 }
 
 /// `scene` with only `lights`.
@@ -47,21 +37,6 @@ fn with_lights(scene: &Scene, lights: Vec<Light>) -> Scene {
     let mut s = scene.clone();
     s.lights = lights;
     s
-}
-
-/// Orthographic camera at `eye` looking at `target`, half height `ymag`.
-fn ortho(eye: Vec3, target: Vec3, up: Vec3, ymag: f32) -> View {
-    View::look_at(
-        eye,
-        target,
-        up,
-        Projection::Orthographic {
-            xmag: ymag,
-            ymag,
-            znear: 0.0,
-            zfar: 1.0,
-        },
-    )
 }
 
 /// Looking straight down (−Y) at the floor around `centre` (image right = +X,
@@ -723,22 +698,7 @@ fn scaled_multi(s: f32) -> (Scene, View) {
             l.color *= s * s;
         }
     }
-    let projection = match view.projection {
-        Projection::Perspective { yfov, znear, zfar } => Projection::Perspective {
-            yfov,
-            znear: znear * s,
-            zfar,
-        },
-        p => p,
-    };
-    (
-        scene,
-        View {
-            position: view.position * s,
-            rotation: view.rotation,
-            projection,
-        },
-    )
+    (scene, view.scaled(s))
 }
 
 #[test]

@@ -3,6 +3,8 @@
 //! perpendicular planes against an independent quadrature, scale invariance,
 //! determinism across thread counts, and finite output for extreme inputs.
 
+mod common;
+use common::{draw, ortho};
 use std::f64::consts::PI;
 
 use gibake_image::{Image, rel_mse};
@@ -14,34 +16,7 @@ use gibake_scene::{Light, Projection, Scene};
 use glam::Vec3;
 
 fn settings(w: u32, h: u32, spp: u32, depth: Depth) -> Settings {
-    Settings {
-        width: w,
-        height: h,
-        spp,
-        time: 0.0,
-        depth,
-        seed: 1,
-    }
-}
-
-fn draw(scene: &Scene, view: &View, s: &Settings) -> Image {
-    let rs = RayScene::build(scene, s.time);
-    render_view(&rs, view, s, &|_| {}).expect("render")
-}
-
-/// Orthographic camera at `eye` looking at `target`, half height `ymag`.
-fn ortho(eye: Vec3, target: Vec3, up: Vec3, ymag: f32) -> View {
-    View::look_at(
-        eye,
-        target,
-        up,
-        Projection::Orthographic {
-            xmag: ymag,
-            ymag,
-            znear: 0.0,
-            zfar: 1.0,
-        },
-    )
+    common::settings_seeded(w, h, spp, depth, 1)
 }
 
 /// A large floor (y = 0, ±half) with albedo `a` under `light`.
@@ -355,22 +330,7 @@ fn scaled_corner(s: f32, spot_light: bool) -> (Scene, View) {
             0.9,
         );
     }
-    let projection = match view.projection {
-        Projection::Perspective { yfov, znear, zfar } => Projection::Perspective {
-            yfov,
-            znear: znear * s,
-            zfar,
-        },
-        p => p,
-    };
-    (
-        scene,
-        View {
-            position: view.position * s,
-            rotation: view.rotation,
-            projection,
-        },
-    )
+    (scene, view.scaled(s))
 }
 
 #[test]
