@@ -20,6 +20,8 @@
 //!
 //! `--rsm N`: RSM resolution per view (default 512, the bake's).
 //!
+//! `--side N`: the reference's samples per receiver, `N²` (default 32).
+//!
 //! `--only K`: light `K` alone (where a scene's error comes from).
 //!
 //! `GIBAKE_NO_RANGE=1`: the lights without their glTF ranges (a
@@ -44,6 +46,7 @@ fn main() {
     let mut keep_negligible = false;
     let mut only: Option<usize> = None;
     let mut rsm = 512u32;
+    let mut side = 32u32;
     let mut camera = gibake_scene::CameraChoice::First;
     let mut files = Vec::new();
     let mut i = 0;
@@ -70,6 +73,10 @@ fn main() {
                     target: glam::Vec3::new(v[3], v[4], v[5]),
                     yfov_deg: 60.0,
                 };
+                i += 1
+            }
+            "--side" => {
+                side = args[i + 1].parse().expect("--side N");
                 i += 1
             }
             "--rsm" => {
@@ -116,7 +123,7 @@ fn main() {
                 all.push(judge(
                     &name,
                     &scene,
-                    (vpls, rsm),
+                    (vpls, rsm, side),
                     size,
                     equal,
                     keep_negligible,
@@ -142,7 +149,7 @@ fn main() {
             let scene = gibake_scene::load(std::path::Path::new(&f), &opts)
                 .unwrap_or_else(|e| panic!("{f}: {e}"));
             let scene = only_light(scene, only);
-            judge(&f, &scene, (vpls, rsm), size, equal, keep_negligible);
+            judge(&f, &scene, (vpls, rsm, side), size, equal, keep_negligible);
         }
     }
 }
@@ -164,7 +171,7 @@ fn only_light(mut scene: gibake_scene::Scene, only: Option<usize>) -> gibake_sce
 fn judge(
     name: &str,
     scene: &gibake_scene::Scene,
-    (vpls, rsm_size): (u32, u32),
+    (vpls, rsm_size, side): (u32, u32, u32),
     size: u32,
     equal: bool,
     keep_negligible: bool,
@@ -180,7 +187,7 @@ fn judge(
             vpls,
             rsm_size,
             size,
-            side: 32,
+            side,
             budget,
             keep_negligible,
         },
