@@ -90,8 +90,10 @@ fn texel_node(x: u32, y: u32) -> Node {
     var att = 1.0;
     let directional = light.position.w > 0.5;
     if (!directional) {
-        dir = normalize(p - light.position.xyz);
-        att = light_attenuation(light, dir, length(p - light.position.xyz));
+        let from_light = p - light.position.xyz;
+        let dist = length(from_light);
+        dir = from_light / dist;
+        att = light_attenuation(light, dir, dist);
     }
     let measure = lv_texel_measure(view, dir);
     let cos_s = max(dot(nrm, -dir), MIN_AREA_COSINE);

@@ -9,7 +9,7 @@ use gibake_asset::{
 };
 use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::passes::shadow::ShadowPass;
-use gibake_gpu::{GpuContext, LightView, hemisphere, readback};
+use gibake_gpu::{GpuContext, LightView, readback};
 use gibake_raycast::RayScene;
 use gibake_scene::Scene;
 
@@ -350,10 +350,7 @@ fn bake_with(
             path: scene.source.clone(),
         });
     }
-    let dropped = clusters.retain(|_, c| {
-        let origin = hemisphere::vpl_origin(c.anchor, c.normal, c.area);
-        reach.sees_anything(origin, c.normal)
-    });
+    let dropped = clusters.retain(|_, c| reach.sees_cluster(c));
     progress.end();
     lap("clustering", &mut stages);
     if let Some(limit) = progress.memory_limit() {

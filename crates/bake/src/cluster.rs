@@ -841,21 +841,25 @@ pub fn cluster_joint(rsms: &[&Rsm], target: ClusterTarget) -> JointClustering {
             let n = u64::from(n);
             // Non-negative f32s order as their bit patterns: bisect the
             // bits between 0 (split all) and +∞ (split none).
-            let (mut lo, mut hi) = (0u32, f32::INFINITY.to_bits());
             let count_at = |bits: u32| cut(f32::from_bits(bits)).1;
-            if count_at(lo) <= n {
+            let (mut lo, mut hi) = (0u32, f32::INFINITY.to_bits());
+            let mut c_lo = count_at(lo);
+            let mut c_hi = c_lo;
+            if c_lo > n {
+                c_hi = count_at(hi);
+                while hi - lo > 1 {
+                    let mid = lo + (hi - lo) / 2;
+                    let c = count_at(mid);
+                    if c > n {
+                        (lo, c_lo) = (mid, c);
+                    } else {
+                        (hi, c_hi) = (mid, c);
+                    }
+                }
+            } else {
                 hi = lo;
             }
-            while hi - lo > 1 {
-                let mid = lo + (hi - lo) / 2;
-                if count_at(mid) > n {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
             // count(lo) > n ≥ count(hi): the nearer of the two.
-            let (c_lo, c_hi) = (count_at(lo), count_at(hi));
             if lo != hi && c_lo.abs_diff(n) < c_hi.abs_diff(n) {
                 f32::from_bits(lo)
             } else {

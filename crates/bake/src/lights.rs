@@ -19,7 +19,7 @@
 //! the one-light bake ([`crate::bake()`]) is unchanged.
 
 use gibake_asset::VplRecord;
-use gibake_gpu::{LightView, hemisphere};
+use gibake_gpu::LightView;
 use gibake_scene::Scene;
 
 use crate::cluster::{Cluster, ClusterTarget, JointClustering, cluster_joint};
@@ -165,10 +165,7 @@ pub fn every_light_with(
     }
     let mut dropped_vpls = 0;
     for c in &mut clusters.maps {
-        dropped_vpls += c.retain(|_, v| {
-            let origin = hemisphere::vpl_origin(v.anchor, v.normal, v.area);
-            reach.sees_anything(origin, v.normal)
-        });
+        dropped_vpls += c.retain(|_, v| reach.sees_cluster(v));
     }
     EveryLight {
         maps,

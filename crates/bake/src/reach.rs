@@ -102,6 +102,13 @@ impl Reach<'_, '_> {
         hit as f32 / RAYS_PER_TEXEL as f32
     }
 
+    /// Whether the VPL of cluster `c` sees anything: [`Reach::sees_anything`]
+    /// from its map origin ([`hemisphere::vpl_origin`] of its anchor). A
+    /// VPL that sees nothing carries light to nothing; the bakes drop it.
+    pub fn sees_cluster(&self, c: &crate::cluster::Cluster) -> bool {
+        self.sees_anything(hemisphere::vpl_origin(c.anchor, c.normal, c.area), c.normal)
+    }
+
     /// Whether a VPL at `origin` (its map origin, off its surface) with
     /// normal `n` sees anything in its hemisphere (see the module docs).
     pub fn sees_anything(&self, origin: Vec3, n: Vec3) -> bool {

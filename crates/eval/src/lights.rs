@@ -12,7 +12,6 @@ use gibake_bake::cluster::{ClusterTarget, cluster_joint};
 use gibake_bake::lights::{EveryLight, every_light_with};
 use gibake_bake::reach::Reach;
 use gibake_bake::rsm::Rsm;
-use gibake_gpu::hemisphere;
 use gibake_reference::RayScene;
 use gibake_scene::Scene;
 use glam::{DVec3, Vec3};
@@ -109,10 +108,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
         }
         every.dropped_vpls = 0;
         for c in &mut maps {
-            every.dropped_vpls += c.retain(|_, v| {
-                let origin = hemisphere::vpl_origin(v.anchor, v.normal, v.area);
-                reach.sees_anything(origin, v.normal)
-            });
+            every.dropped_vpls += c.retain(|_, v| reach.sees_cluster(v));
         }
         every.clusters.maps = maps;
     }
@@ -144,23 +140,8 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
             let reference = h.albedo * s / (side * side) as f32;
             let mean = reference.as_dvec3();
             let var_mean = ((s2 / n - mean * mean) * (n / (n - 1.0).max(1.0)) / n).max(DVec3::ZERO);
-            let mut e = Vec3::ZERO;
-            for (k, v) in records.iter().enumerate() {
-                let n = Vec3::from_array(v.normal);
-                let origin = hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
-                let irr = crate::transport::static_vpl_irradiance(
-                    v,
-                    origin,
-                    &nodes[k * per..(k + 1) * per],
-                    lobes[k],
-                    h.position,
-                    h.shading_normal,
-                    h.geometric_normal,
-                );
-                if irr != Vec3::ZERO && rays.visible(origin, n, h.position, h.geometric_normal) {
-                    e += irr;
-                }
-            }
+            let e =
+                crate::transport::twin_irradiance_of(&records, &nodes, &lobes, &rays, &h).visible;
             (reference, h.albedo / PI * e, var_mean)
         })
         .collect();

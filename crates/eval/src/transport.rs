@@ -152,11 +152,24 @@ pub fn twin_irradiance(
     rays: &gibake_reference::RayScene,
     h: &gibake_reference::Hit,
 ) -> TwinIrradiance {
+    twin_irradiance_of(&asset.vpls, &asset.vpl_nodes, lobes, rays, h)
+}
+
+/// [`twin_irradiance`] from VPL records `vpls` and their near-field trees
+/// `vpl_nodes` ([`NODES_PER_VPL`] each, in the same order): an asset's, or
+/// the every-light bake's before it is an asset.
+pub fn twin_irradiance_of(
+    vpls: &[VplRecord],
+    vpl_nodes: &[VplRecord],
+    lobes: &[f32],
+    rays: &gibake_reference::RayScene,
+    h: &gibake_reference::Hit,
+) -> TwinIrradiance {
     let mut sum = TwinIrradiance::default();
-    for (i, v) in asset.vpls.iter().enumerate() {
+    for (i, v) in vpls.iter().enumerate() {
         let n = Vec3::from_array(v.normal);
         let origin = gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
-        let nodes = &asset.vpl_nodes[i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL];
+        let nodes = &vpl_nodes[i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL];
         let c = lobes.get(i).copied().unwrap_or(1.0);
         let (x, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
         let near = static_vpl_irradiance(v, origin, nodes, c, x, ns, ng);

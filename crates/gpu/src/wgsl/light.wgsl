@@ -47,8 +47,9 @@ fn light_incident(light: PrimaryLight, p: vec3<f32>) -> Incident {
     } else {
         let to_light = light.position.xyz - p;
         let d2 = dot(to_light, to_light);
-        r.wi = to_light * inverseSqrt(d2);
-        r.irradiance = finite_or_zero3(light.color.rgb * (light_attenuation(light, -r.wi, sqrt(d2)) / d2));
+        let inv_d = inverseSqrt(d2);
+        r.wi = to_light * inv_d;
+        r.irradiance = finite_or_zero3(light.color.rgb * (light_attenuation(light, -r.wi, d2 * inv_d) / d2));
         if (d2 <= 0.0) {
             r.wi = vec3<f32>(0.0);
             r.irradiance = vec3<f32>(0.0);
