@@ -98,8 +98,9 @@ fn scenes() -> Vec<(String, Scene)> {
 /// The Blenvy level is a sun over a 94 m ground plane with a few small
 /// objects, plus four lamps (−9.2/−9.8/−8.6% ± 1.1% with a sharper
 /// reference: `lights_twin … --size 48`): the sun alone is −10.8/−9.6/−13.6% at 664 VPLs
-/// and still −9.5/−5.2/−11.3% with 2656 in all (`lights_twin
-/// data/lights/blenvy_start_level/StartLevel.glb --only 0`): the
+/// and still −9.6/−8.3/−12.1% at 2656 (`lights_twin
+/// data/lights/blenvy_start_level/StartLevel.glb --size 24 --only 0
+/// [--vpls 2656]`): the
 /// clustering transport's loss over open ground that issue 16's levels show,
 /// not the lights' sharing. It also needs the RSM's resolution: at 256² it
 /// is −18.0/−13.7/−23.4% (the ground's texels are 37 cm wide).
