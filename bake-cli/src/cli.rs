@@ -31,10 +31,17 @@ pub struct SceneArgs {
     /// The glTF 2.0 scene (.gltf or .glb).
     pub scene: PathBuf,
     /// Only this light (its glTF light name, else its node's name); give
-    /// it again for several. The bake takes one spot or directional light
-    /// so far: pick it with this when the scene has several.
+    /// it again for several. Without --all-lights the level is lit by one
+    /// spot or directional light: pick it with this when it has several.
     #[arg(long = "light", value_name = "NAME")]
     pub lights: Vec<String>,
+    /// Every KHR_lights_punctual light of the scene (directional, spot and
+    /// point, glTF ranges honoured), each with its shadow maps and its
+    /// share of one VPL budget (asset format 4). The first spot or
+    /// directional light leads: its maps take moving objects. Give the same
+    /// flag to `bake` and `render` (the asset records its lights).
+    #[arg(long)]
+    pub all_lights: bool,
     /// What the level needs that its file lacks (sun, moving objects).
     #[command(flatten)]
     pub level: LevelArgs,
@@ -51,7 +58,7 @@ impl SceneArgs {
     pub fn load_options(&self) -> gibake_scene::LoadOptions {
         gibake_scene::LoadOptions {
             lights: self.lights.clone(),
-            all_lights: false,
+            all_lights: self.all_lights,
             limits: self.limits.to_limits(),
             sun: self.level.sun(),
             camera: self.camera.choice(),
@@ -237,10 +244,17 @@ pub struct BakeArgs {
     #[arg(required = true, value_name = "SCENE")]
     pub scenes: Vec<PathBuf>,
     /// Only this light (its glTF light name, else its node's name); give
-    /// it again for several. The bake takes one spot or directional light
-    /// so far: pick it with this when the scene has several.
+    /// it again for several. Without --all-lights the level is lit by one
+    /// spot or directional light: pick it with this when it has several.
     #[arg(long = "light", value_name = "NAME")]
     pub lights: Vec<String>,
+    /// Every KHR_lights_punctual light of the scene (directional, spot and
+    /// point, glTF ranges honoured), each with its shadow maps and its
+    /// share of one VPL budget (asset format 4). The first spot or
+    /// directional light leads: its maps take moving objects. Give the same
+    /// flag to `bake` and `render` (the asset records its lights).
+    #[arg(long)]
+    pub all_lights: bool,
     /// What the level needs that its file lacks (sun, moving objects).
     #[command(flatten)]
     pub level: LevelArgs,
@@ -525,12 +539,6 @@ pub struct ReferenceArgs {
     /// Direct light only (path depth 2) instead of direct + one bounce.
     #[arg(long)]
     pub direct_only: bool,
-    /// Every KHR_lights_punctual light of the scene (directional, spot and
-    /// point, glTF ranges honoured), not only the one primary light the bake
-    /// and the runtime take so far: what the level looks like lit by all
-    /// of them (--light NAME, repeatable, restricts the set).
-    #[arg(long)]
-    pub all_lights: bool,
     /// Random seed (the image is deterministic for a given seed).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,

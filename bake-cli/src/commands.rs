@@ -135,6 +135,18 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
     };
     let scene = load_scene(&a.scene)?;
     if let (Some(dir), Some(asset)) = (&a.bake, &asset) {
+        let baked = &asset.manifest.lights;
+        if !baked.is_empty() && baked.len() != scene.lights.len() {
+            let names = |v: Vec<&str>| v.join(", ");
+            bail!(
+                "{} was baked with {} light(s) ({}) but the scene is loaded with {} ({}): give `bake` and `render` the same --all-lights and --light flags",
+                dir.display(),
+                baked.len(),
+                names(baked.iter().map(|l| l.name.as_str()).collect()),
+                scene.lights.len(),
+                names(scene.lights.iter().map(|l| l.name.as_str()).collect())
+            );
+        }
         let hash = gibake_scene::static_scene_hash(&scene);
         gibake_asset::check_scene_hash_for(dir, &asset.manifest, &hash, &a.scene.scene)?;
     }
@@ -264,9 +276,7 @@ pub(crate) fn reference(a: ReferenceArgs) -> anyhow::Result<ExitCode> {
     crate::output::check_extension("-o", &a.output, &["exr", "png"])?;
     crate::output::check_not_input("-o", &a.output, &[&a.scene.scene])?;
     crate::guard::check_file_output("-o", &a.output)?;
-    let mut options = a.scene.load_options();
-    options.all_lights = a.all_lights;
-    let scene = gibake_scene::load(&a.scene.scene, &options)?;
+    let scene = gibake_scene::load(&a.scene.scene, &a.scene.load_options())?;
     let settings = gibake_reference::Settings {
         width: a.width,
         height: a.height,

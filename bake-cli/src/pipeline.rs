@@ -84,6 +84,7 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
     let scene = load_scene(&SceneArgs {
         scene: scene_path.clone(),
         lights: a.lights.clone(),
+        all_lights: a.all_lights,
         level: a.level.clone(),
         camera: Default::default(),
         limits: a.limits.clone(),
@@ -450,6 +451,7 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
             let scene = load_scene(&SceneArgs {
                 scene: scene_path.clone(),
                 lights: a.lights.clone(),
+                all_lights: a.all_lights,
                 level: a.level.clone(),
                 camera: Default::default(),
                 limits: a.limits.clone(),

@@ -57,7 +57,7 @@ pub(crate) fn light_view(asset: &Asset, size: u32) -> LightView {
     .resized(size)
 }
 
-fn r32_texture(
+pub(crate) fn r32_texture(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     label: &str,

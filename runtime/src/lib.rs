@@ -63,6 +63,7 @@ mod interleave;
 mod light;
 mod merge;
 mod moving;
+mod other_lights;
 mod plan;
 mod requirements;
 mod settings;
@@ -629,8 +630,15 @@ impl Renderer {
         self.world.moving.exists()
     }
 
-    /// GPU bytes uploaded from the asset.
+    /// GPU bytes uploaded from the asset (the lights after the first's
+    /// shadow maps included).
     pub fn asset_bytes(&self) -> u64 {
-        self.world.baked.as_ref().map_or(0, |b| b.bytes)
+        self.world.baked.as_ref().map_or(0, |b| b.bytes) + self.other_light_bytes()
+    }
+
+    /// GPU bytes of the lights after the first's shadow maps (0 for a scene
+    /// with one light: nothing is allocated for them).
+    pub fn other_light_bytes(&self) -> u64 {
+        self.world.other_lights.as_ref().map_or(0, |o| o.bytes)
     }
 }

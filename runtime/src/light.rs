@@ -26,12 +26,16 @@ pub struct LightInfo {
     /// glTF range, world units.
     pub range: Option<f32>,
     /// VPLs baked from it: its share of the budget (`None` without an
-    /// asset, or from an asset of format 3.0, which records no lights).
+    /// asset).
     pub vpls: Option<u32>,
-    /// Whether this renderer shades it. Today the first light only: the
-    /// bake and the runtime take one primary light (moving a light is a
-    /// re-bake; the every-light issue adds the others).
+    /// Whether this renderer shades its direct light: every light of the
+    /// scene (each with its static shadow maps; moving a light is a
+    /// re-bake).
     pub shaded: bool,
+    /// Whether moving objects cast its shadows and bounce its light per
+    /// frame: the first light only, so far (its maps take the moving
+    /// objects; the others' maps are static).
+    pub moving_objects: bool,
 }
 
 impl LightInfo {
@@ -56,7 +60,8 @@ impl LightInfo {
                         .find(|r| r.name == l.name)
                         .map(|r| r.vpls)
                 }),
-                shaded: i == 0,
+                shaded: true,
+                moving_objects: i == 0,
             })
             .collect()
     }

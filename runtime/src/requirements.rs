@@ -12,9 +12,9 @@ use gibake_scene::Scene;
 use crate::plan::{FramePlan, Pass};
 use crate::{RenderSettings, RuntimeError, interleave};
 
-/// Storage buffers one shader stage binds: shading's four (VPLs and their
-/// trees, occlusion, tiles, dynamic VPLs).
-const SHADE_STORAGE_BUFFERS: u32 = 4;
+/// Storage buffers one shader stage binds: shading's six (VPLs and their
+/// trees, occlusion, tiles, dynamic VPLs, the other lights and their views).
+const SHADE_STORAGE_BUFFERS: u32 = 6;
 /// The VPL-map merge's rasterizer binds five (draws, vertices, indices,
 /// jobs, instances) in its vertex and fragment stages.
 const MERGE_STORAGE_BUFFERS: u32 = 5;
@@ -133,6 +133,19 @@ impl Requirements {
         );
         if asset.is_none() {
             r.gpu_bytes += 8 * sq(shadow);
+            // The lights after the first: their maps, rendered here.
+            let views = gibake_gpu::passes::light_maps::view_count(scene);
+            if views > 0 {
+                let max = u32::MAX;
+                let (size, _) = gibake_gpu::passes::light_maps::light_map_size(shadow, views, max);
+                let (c, rw) = atlas_grid(views as u32);
+                r.need(
+                    Limit::Texture2d,
+                    "the other lights' shadow maps",
+                    u64::from(c.max(rw)) * u64::from(size),
+                );
+                r.gpu_bytes += 4 * u64::from(c) * u64::from(rw) * sq(size);
+            }
         }
         if plan.has(Pass::PrimaryMerge) {
             r.gpu_bytes += 8 * sq(shadow);
@@ -165,6 +178,22 @@ impl Requirements {
             records,
         );
         let mut upload = 4 * atlas + 4 * sq(a.primary_depth.size) + records;
+        if !m.views.is_empty() {
+            // The lights after the first: their stored maps (one +inf
+            // texel when none is stored).
+            let lm = &a.light_maps;
+            let (w, h) = if lm.count() == 0 {
+                (1, 1)
+            } else {
+                (lm.width(), lm.height())
+            };
+            self.need(
+                Limit::Texture2d,
+                "the other lights' shadow maps",
+                u64::from(w.max(h)),
+            );
+            upload += 4 * u64::from(w) * u64::from(h);
+        }
         if let Some(rsm) = &a.rsm {
             self.need(Limit::Texture2d, "the baked RSM", u64::from(rsm.size));
             let texels = sq(rsm.size);

@@ -62,8 +62,10 @@ pub(crate) struct GpuGiParams {
     pub n_dynamic: u32,
     /// Tiles per row of the baked map atlas.
     pub static_cols: u32,
+    /// Number of lights after the first (`other_lights`).
+    pub n_other_lights: u32,
     /// Padding (16-byte struct size).
-    pub _pad: [u32; 2],
+    pub _pad: u32,
 }
 
 /// The shading pass: pipeline, bind group layouts, and what is bound where
@@ -78,6 +80,8 @@ pub(crate) struct ShadePass {
     fallback_map: wgpu::TextureView,
     /// Bound without cascades (a zero count).
     fallback_cascades: wgpu::Buffer,
+    /// Bound without lights after the first (one zero record each).
+    fallback_other: [wgpu::Buffer; 2],
     /// Layout of group 0 (a view: G-buffer, params, output).
     view_layout: wgpu::BindGroupLayout,
     /// Layout of group 1 (light and GI data).
@@ -150,6 +154,8 @@ pub(crate) struct GiInputs<'a> {
     pub dyn_vpls: Option<&'a wgpu::Buffer>,
     /// The cascades: `GpuCascades` uniform, static maps, moving maps.
     pub cascades: Option<CascadeBindings<'a>>,
+    /// The lights after the first.
+    pub other_lights: Option<&'a crate::other_lights::OtherLights>,
 }
 
 /// What shading binds of the cascades (see [`crate::cascades`]).
@@ -212,6 +218,9 @@ impl ShadePass {
                 tex_entry(18),
                 tex_entry(19),
                 tex_entry(20),
+                storage_entry(21),
+                storage_entry(22),
+                tex_entry(23),
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -253,6 +262,16 @@ impl ShadePass {
                 "no cascades",
                 &<crate::cascades::GpuCascades as bytemuck::Zeroable>::zeroed(),
             ),
+            fallback_other: [
+                storage(
+                    "no other lights",
+                    std::mem::size_of::<crate::other_lights::GpuOtherLight>() as u64,
+                ),
+                storage(
+                    "no other lights' views",
+                    std::mem::size_of::<crate::other_lights::GpuOtherView>() as u64,
+                ),
+            ],
             view_layout,
             gi_layout,
         }
@@ -291,6 +310,10 @@ impl ShadePass {
             None => (&self.fallback_cascades, &[][..], &[][..]),
         };
         let cmap = |v: &[&'a wgpu::TextureView], k: usize| map(v.get(k).copied());
+        let (ol, ov, om) = match i.other_lights {
+            Some(o) => (&o.lights, &o.views, Some(&o.maps)),
+            None => (&self.fallback_other[0], &self.fallback_other[1], None),
+        };
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shade gi"),
             layout: &self.gi_layout,
@@ -317,6 +340,9 @@ impl ShadePass {
                 (18, cmap(cm, 1)),
                 (19, cmap(cm, 2)),
                 (20, cmap(cm, 3)),
+                (21, ol.as_entire_binding()),
+                (22, ov.as_entire_binding()),
+                (23, map(om)),
             ]),
         })
     }
@@ -362,6 +388,8 @@ pub(crate) struct GiSources<'a> {
     pub moving: &'a crate::moving::MovingPasses,
     /// The cascades, when planned.
     pub cascades: Option<&'a crate::cascades::CascadePasses>,
+    /// The lights after the first, when the scene has them.
+    pub other_lights: Option<&'a crate::other_lights::OtherLights>,
 }
 
 impl ShadeGi {
@@ -374,7 +402,8 @@ impl ShadeGi {
             atlas_cols: s.moving.atlas_cols(),
             n_dynamic: s.moving.dynamic_vpl_slots(),
             static_cols: s.baked.map_or(1, |b| b.static_cols),
-            _pad: [0; 2],
+            n_other_lights: s.other_lights.map_or(0, |o| o.count),
+            _pad: 0,
         };
         let params_buf = uniform(device, "shade gi params", &params);
         let group = Self::group(device, shade, s, &params_buf);
@@ -407,6 +436,7 @@ impl ShadeGi {
                 atlas: m.atlas,
                 dyn_vpls: m.dyn_vpls,
                 cascades: s.cascades.map(crate::cascades::CascadePasses::bindings),
+                other_lights: s.other_lights,
             },
         )
     }

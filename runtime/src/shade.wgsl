@@ -1,6 +1,7 @@
 // shade.wgsl — deferred shading (needs common.wgsl, light.wgsl,
 // projection.wgsl, hemisphere.wgsl, cascades.wgsl). One invocation per pixel:
 //   direct light with the merged primary shadow map (static ∪ moving),
+//   and of every other light with its static shadow map,
 // + every static VPL with its merged hemisphere map, its flux scaled by the
 //   lit fraction of its own RSM texels,
 // + every dynamic VPL, unshadowed.
@@ -29,8 +30,18 @@ struct GiParams {         // GpuGiParams in shade.rs
     atlas_cols: u32,
     n_dynamic: u32,
     static_cols: u32,     // tiles per row of the baked map atlas
-    _pad0: u32,
+    n_other_lights: u32,  // lights after the first (other_lights)
     _pad1: u32,
+}
+
+struct OtherLight {       // GpuOtherLight in other_lights.rs
+    light: PrimaryLight,
+    views: vec4<u32>,     // x first view in other_views, y view count (6: cube faces)
+}
+
+struct OtherView {        // GpuOtherView in other_lights.rs
+    view: LightView,
+    tile: vec4<i32>,      // xy the map's origin in light_maps; z 1 stored, 0 none
 }
 
 const NONE: u32 = 0xffffffffu;
@@ -61,6 +72,9 @@ const VPL_MAX_SLOPE: f32 = 10.0;
 @group(1) @binding(9) var<uniform> light: PrimaryLight;
 @group(1) @binding(10) var<uniform> light_view: LightView;
 @group(1) @binding(11) var<uniform> params: GiParams;
+@group(1) @binding(21) var<storage, read> other_lights: array<OtherLight>;
+@group(1) @binding(22) var<storage, read> other_views: array<OtherView>;
+@group(1) @binding(23) var light_maps: texture_2d<f32>;
 
 // Near field (gibake_bake::near_field): a VPL, or a node of its tree, whose
 // receiver is nearer than NEAR_FIELD_RATIO × its disk radius √(A/π) is
@@ -90,21 +104,63 @@ fn primary_visibility(p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
             return cascade_visibility(c, p, ng, wi);
         }
     }
-    return lv_visibility(light_view, primary_static, primary_dynamic, has(FLAG_DYN_PRIMARY), p, ng, wi);
+    return lv_visibility(light_view, primary_static, primary_dynamic, has(FLAG_DYN_PRIMARY), vec2<i32>(0), p, ng, wi);
 }
 
-// Direct light with the shading normal's cosine, as engines shade: a light
-// behind the geometric plane but in front of the shading normal (a smooth
-// low-poly terminator) lights the point if the shadow map says so; the
-// shadow lookup offsets along the geometric normal on the light's side.
-fn direct_radiance(p: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
-    let inc = light_incident(light, p);
+// Static-map visibility of light k after the first: its one view, or for
+// a point light the cube face of the receiver's direction (the face of the
+// largest absolute component, +X, −X, +Y, −Y, +Z, −Z as baked). A view
+// with no stored map holds no surface: nothing shadows there.
+fn other_visibility(k: u32, p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
+    let l = other_lights[k];
+    var face = 0u;
+    if (l.views.y == 6u) {
+        let d = p - l.light.position.xyz;
+        let a = abs(d);
+        if (a.x >= a.y && a.x >= a.z) {
+            face = select(1u, 0u, d.x >= 0.0);
+        } else if (a.y >= a.z) {
+            face = select(3u, 2u, d.y >= 0.0);
+        } else {
+            face = select(5u, 4u, d.z >= 0.0);
+        }
+    }
+    let v = other_views[l.views.x + face];
+    if (v.tile.z == 0) {
+        return 1.0;
+    }
+    return lv_visibility(v.view, light_maps, light_maps, false, v.tile.xy, p, ng, wi);
+}
+
+// Direct light of one light with the shading normal's cosine, as engines
+// shade: a light behind the geometric plane but in front of the shading
+// normal (a smooth low-poly terminator) lights the point if the shadow map
+// says so; the shadow lookup offsets along the geometric normal on the
+// light's side. `other`: NONE for the primary light (its merged map and
+// cascades), else the index of a light after the first.
+fn light_radiance(l: PrimaryLight, other: u32, p: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
+    let inc = light_incident(l, p);
     let cos_s = max(dot(ns, inc.wi), 0.0);
     if (cos_s <= 0.0 || all(inc.irradiance == vec3<f32>(0.0))) {
         return vec3<f32>(0.0);
     }
     let ng_light = select(ng, -ng, dot(ng, inc.wi) < 0.0);
-    return albedo * INV_PI * inc.irradiance * (cos_s * primary_visibility(p, ng_light, inc.wi));
+    var vis: f32;
+    if (other == NONE) {
+        vis = primary_visibility(p, ng_light, inc.wi);
+    } else {
+        vis = other_visibility(other, p, ng_light, inc.wi);
+    }
+    return albedo * INV_PI * inc.irradiance * (cos_s * vis);
+}
+
+// Direct light of every light.
+fn direct_radiance(p: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
+    var r = light_radiance(light, NONE, p, ns, ng, albedo);
+    for (var k = 0u; k < params.n_other_lights; k++) {
+        r += light_radiance(other_lights[k].light, k, p, ns, ng, albedo);
+    }
+    return r;
 }
 
 // Distance stored for VPL i in direction texel c (min of its static map and

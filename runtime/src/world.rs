@@ -16,6 +16,7 @@ use crate::cascades::CascadePasses;
 use crate::gbuffer::GBufferPass;
 use crate::light::PrimaryLight;
 use crate::moving::{MovingPasses, UpdateInputs};
+use crate::other_lights::OtherLights;
 use crate::plan::FramePlan;
 use crate::shade::{GiSources, ShadeGi, ShadePass};
 use crate::stats::Timer;
@@ -34,6 +35,8 @@ pub(crate) struct World {
     pub gi: ShadeGi,
     /// Cascaded shadow maps of the direct light (when planned).
     pub cascades: Option<CascadePasses>,
+    /// The lights after the first (a scene with several).
+    pub other_lights: Option<OtherLights>,
     /// The draws of the moving objects that are shown (hidden and removed
     /// ones are left out of every pass).
     pub moving_draws: Vec<Draw>,
@@ -89,6 +92,14 @@ impl World {
             baked.as_ref(),
             settings.shadow_map_size,
         );
+        let other_lights = OtherLights::new(
+            device,
+            queue,
+            scene,
+            &scene_gpu,
+            asset,
+            settings.shadow_map_size,
+        )?;
         let moving = MovingPasses::new(
             device,
             &UpdateInputs {
@@ -121,6 +132,7 @@ impl World {
                 light: &light,
                 moving: &moving,
                 cascades: cascades.as_ref(),
+                other_lights: other_lights.as_ref(),
             },
         );
         let moving_draws = scene_gpu.dynamic_draws.clone();
@@ -134,6 +146,7 @@ impl World {
             gbuffer,
             gi,
             cascades,
+            other_lights,
             moving_draws,
         })
     }
@@ -182,6 +195,7 @@ impl World {
                 light: &self.light,
                 moving: &self.moving,
                 cascades: self.cascades.as_ref(),
+                other_lights: self.other_lights.as_ref(),
             };
             self.gi.atlas_changed(device, queue, shade, &sources);
         }

@@ -159,6 +159,10 @@ fn the_lights_are_visible_to_a_game() {
     assert!(matches!(l.kind, gibake_scene::LightKind::Spot { .. }));
     assert_eq!(l.vpls, Some(f.asset.vpls.len() as u32));
     assert!(l.shaded);
+    assert!(
+        l.moving_objects,
+        "the first light's maps take moving objects"
+    );
     // Without an asset (direct mode) nothing is baked from it.
     let r = renderer(&f.scene, None, &settings(Mode::Direct));
     assert_eq!(r.lights()[0].vpls, None);

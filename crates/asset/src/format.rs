@@ -9,8 +9,8 @@ use std::path::Path;
 use crate::atlas::{MapAtlas, atlas_grid};
 use crate::exrio::{self, Kind, Samples};
 use crate::{
-    Asset, AssetError, FORMAT_MAJOR, FORMAT_MINOR, FileEntry, LIGHT_POINT, LightRecord, MAGIC,
-    Manifest, Map, NO_MAP, NODES_PER_VPL, RsmData, SHARE_ONE, VplRecord,
+    Asset, AssetError, FORMAT_MAJOR, FORMAT_MINOR, FileEntry, LIGHT_POINT, MAGIC, Manifest, Map,
+    NO_MAP, NODES_PER_VPL, RsmData, SHARE_ONE, VplRecord,
 };
 
 /// The manifest file name.
@@ -25,6 +25,9 @@ pub const FILE_PRIMARY_DEPTH: &str = "primary_depth.exr";
 pub const FILE_VPL_MAPS: &str = "vpl_maps.exr";
 /// The static RSM file name (only when `has_dynamic`).
 pub const FILE_RSM: &str = "rsm.exr";
+/// The shadow maps of the lights other than the first (only when a view
+/// stores one).
+pub const FILE_LIGHT_MAPS: &str = "light_maps.exr";
 
 /// Size of one [`VplRecord`] in `vpls.bin`.
 pub const VPL_RECORD_BYTES: usize = 48;
@@ -70,20 +73,6 @@ fn encode_manifest(manifest: &Manifest, path: &Path) -> Result<Vec<u8>, AssetErr
     Ok(out)
 }
 
-/// The manifest's fields of format 3.0, in order: what every 3.x payload
-/// starts with (later minors append fields after them).
-#[derive(serde::Deserialize)]
-struct ManifestHead {
-    provenance: crate::Provenance,
-    settings: crate::BakeSettings,
-    static_scene_hash: [u8; 32],
-    light_view: crate::LightViewRecord,
-    vpl_count: u32,
-    map_count: u32,
-    has_dynamic: bool,
-    files: Vec<FileEntry>,
-}
-
 /// Decodes `manifest.bin` bytes; returns the manifest and the file's minor version.
 fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetError> {
     let bad = |m: String| AssetError::invalid(path, m);
@@ -120,29 +109,10 @@ fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetEr
         return Err(bad("checksum mismatch: the manifest is damaged".into()));
     }
     let payload = &bytes[HEADER_BYTES..end];
-    // 3.0's fields, then what each later minor appended (3.1: the lights).
-    let (head, mut used): (ManifestHead, usize) =
+    // A newer minor may append fields after the ones this reader knows.
+    let (manifest, used): (Manifest, usize) =
         bincode::serde::decode_from_slice(payload, bincode_config())
             .map_err(|e| bad(format!("damaged manifest payload: {e}")))?;
-    let mut lights = Vec::new();
-    if minor >= 1 {
-        let (l, n): (Vec<LightRecord>, usize) =
-            bincode::serde::decode_from_slice(&payload[used..], bincode_config())
-                .map_err(|e| bad(format!("damaged manifest payload (lights): {e}")))?;
-        lights = l;
-        used += n;
-    }
-    let manifest = Manifest {
-        provenance: head.provenance,
-        settings: head.settings,
-        static_scene_hash: head.static_scene_hash,
-        light_view: head.light_view,
-        vpl_count: head.vpl_count,
-        map_count: head.map_count,
-        has_dynamic: head.has_dynamic,
-        files: head.files,
-        lights,
-    };
     if used != payload.len() && !is_newer_minor(minor) {
         return Err(bad(format!(
             "{} unexpected bytes after the manifest payload",
@@ -214,6 +184,9 @@ fn required_files(m: &Manifest) -> Vec<&'static str> {
     if m.has_dynamic {
         v.push(FILE_RSM);
     }
+    if light_map_count(m) > 0 {
+        v.push(FILE_LIGHT_MAPS);
+    }
     v
 }
 
@@ -221,6 +194,99 @@ fn atlas_dims(m: &Manifest) -> (u64, u64) {
     let (cols, rows) = atlas_grid(m.map_count);
     let s = m.settings.vpl_map_size as u64;
     (cols as u64 * s, rows as u64 * s)
+}
+
+/// How many views store a shadow map in `light_maps.exr`.
+fn light_map_count(m: &Manifest) -> u32 {
+    m.views.iter().filter(|v| v.tile != NO_MAP).count() as u32
+}
+
+/// The size of `light_maps.exr`.
+fn light_atlas_dims(m: &Manifest) -> (u64, u64) {
+    let (cols, rows) = atlas_grid(light_map_count(m));
+    let s = m.light_map_size as u64;
+    (cols as u64 * s, rows as u64 * s)
+}
+
+/// The lights' and views' consistency: the first light is a spot or
+/// directional light (the one of `light_view`); each later light has its
+/// views in order (a point light six, any other one), and the stored maps
+/// are tiles `0, 1, …` in view order.
+fn check_views(m: &Manifest) -> Result<(), String> {
+    if let Some(first) = m.lights.first()
+        && first.kind == LIGHT_POINT
+    {
+        return Err(format!(
+            "lights[0] ('{}') is a point light; the first light must be a spot or directional light (the one of light_view)",
+            first.name
+        ));
+    }
+    let mut next_tile = 0u32;
+    let mut k = 0usize;
+    for (light, l) in m.lights.iter().enumerate().skip(1) {
+        let want = if l.kind == LIGHT_POINT { 6 } else { 1 };
+        for face in 0..want {
+            let Some(v) = m.views.get(k) else {
+                return Err(format!(
+                    "views ends at {k}: lights[{light}] ('{}') needs {want} views",
+                    l.name
+                ));
+            };
+            if v.light as usize != light {
+                return Err(format!(
+                    "views[{k}] is of light {} but lights[{light}]'s view {face} belongs there",
+                    v.light
+                ));
+            }
+            let r = &v.view;
+            let finite = r
+                .view_proj
+                .iter()
+                .chain(&r.origin)
+                .chain(&r.direction)
+                .chain([&r.texel_scale, &r.texel_area])
+                .all(|x| x.is_finite());
+            if !finite {
+                return Err(format!("views[{k}] holds a value that is not finite"));
+            }
+            if v.tile != NO_MAP {
+                if v.tile != next_tile {
+                    return Err(format!(
+                        "views[{k}] stores tile {} but the next tile is {next_tile} (tiles are numbered in view order)",
+                        v.tile
+                    ));
+                }
+                next_tile += 1;
+            }
+            k += 1;
+        }
+    }
+    if k != m.views.len() {
+        return Err(format!(
+            "{} views but the lights after the first have {k}",
+            m.views.len()
+        ));
+    }
+    if next_tile > 0 && (m.light_map_size == 0 || m.light_map_size > MAX_MAP_SIZE) {
+        return Err(format!(
+            "light_map_size = {} is not in 1..={MAX_MAP_SIZE}",
+            m.light_map_size
+        ));
+    }
+    if next_tile == 0 && m.light_map_size != 0 && m.views.is_empty() {
+        return Err(format!(
+            "light_map_size is {} but there are no views",
+            m.light_map_size
+        ));
+    }
+    let (w, h) = light_atlas_dims(m);
+    if w * h > MAX_TEXELS || w > i32::MAX as u64 || h > i32::MAX as u64 {
+        return Err(format!(
+            "{next_tile} light maps of {}² make an absurdly large atlas ({w}x{h})",
+            m.light_map_size
+        ));
+    }
+    Ok(())
 }
 
 /// Checks the manifest's values (sizes, counts, and unless writing, the file
@@ -276,6 +342,9 @@ fn validate_manifest(
             ));
         }
     }
+    if let Err(e) = check_views(m) {
+        return bad(e);
+    }
     if m.map_count > m.vpl_count {
         return bad(format!(
             "map_count {} is larger than vpl_count {} (each stored map belongs to one VPL)",
@@ -303,13 +372,17 @@ fn validate_manifest(
             FILE_PRIMARY_DEPTH,
             FILE_VPL_MAPS,
             FILE_RSM,
+            FILE_LIGHT_MAPS,
             FILE_MANIFEST,
         ];
         if known.contains(&f.name.as_str()) {
             if !required.contains(&f.name.as_str()) {
                 return bad(format!(
-                    "file `{}` is listed but the counts say it is not stored (map_count {}, has_dynamic {})",
-                    f.name, m.map_count, m.has_dynamic
+                    "file `{}` is listed but the counts say it is not stored (map_count {}, has_dynamic {}, stored light maps {})",
+                    f.name,
+                    m.map_count,
+                    m.has_dynamic,
+                    light_map_count(m)
                 ));
             }
         } else if !is_newer_minor(minor) || !is_plain_name(&f.name) {
@@ -337,6 +410,19 @@ fn validate_manifest(
         return bad(format!(
             "`{FILE_VPL_NODES}` is listed with {} bytes but vpl_count {} needs {nodes_size}",
             f.size, m.vpl_count
+        ));
+    }
+    Ok(())
+}
+
+/// Whether the lights' VPL counts add up to `vpl_count` (checked once the
+/// VPL records are read, so that a hostile count is named by its file).
+fn check_light_vpls(m: &Manifest) -> Result<(), String> {
+    let sum: u64 = m.lights.iter().map(|l| l.vpls as u64).sum();
+    if !m.lights.is_empty() && sum != m.vpl_count as u64 {
+        return Err(format!(
+            "the lights' VPL counts add up to {sum} but vpl_count is {}",
+            m.vpl_count
         ));
     }
     Ok(())
@@ -647,6 +733,8 @@ pub fn decoded_bytes(m: &Manifest) -> u64 {
     if m.has_dynamic {
         samples = samples.saturating_add(sq(s.rsm_size).saturating_mul(3));
     }
+    let (lw, lh) = light_atlas_dims(m);
+    samples = samples.saturating_add(lw.saturating_mul(lh));
     samples.saturating_mul(4)
 }
 
@@ -706,6 +794,10 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
         }),
         // Z, share, vpl: 4 bytes each.
         (FILE_RSM, 12 * s.rsm_size as u64 * s.rsm_size as u64),
+        (FILE_LIGHT_MAPS, {
+            let (w, h) = light_atlas_dims(&manifest);
+            4 * w * h
+        }),
     ] {
         let bytes = take(name);
         if !bytes.is_empty() {
@@ -726,6 +818,7 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
     let path = dir.join(FILE_VPLS);
     let vpls = decode_vpls(take(FILE_VPLS), &path, manifest.map_count, Records::Vpls)?;
     check_tiles(&vpls, manifest.map_count).map_err(|m| AssetError::invalid(&path, m))?;
+    check_light_vpls(&manifest).map_err(|m| AssetError::invalid(dir.join(FILE_MANIFEST), m))?;
     let path = dir.join(FILE_VPL_NODES);
     let vpl_nodes = decode_vpls(take(FILE_VPL_NODES), &path, 0, Records::Nodes)?;
 
@@ -809,6 +902,29 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
         None
     };
 
+    let light_count = light_map_count(&manifest);
+    let light_maps = if light_count > 0 {
+        let path = dir.join(FILE_LIGHT_MAPS);
+        let (w, h) = light_atlas_dims(&manifest);
+        let data = exrio::decode(
+            take(FILE_LIGHT_MAPS),
+            &path,
+            w as usize,
+            h as usize,
+            &[("Z", Kind::F32)],
+        )?;
+        let texels = data
+            .into_iter()
+            .next()
+            .map(Samples::into_f32)
+            .unwrap_or_default();
+        no_nan(&texels, &path, "channel Z")?;
+        MapAtlas::from_texels(manifest.light_map_size, light_count, texels)
+            .ok_or_else(|| AssetError::invalid(&path, "the atlas has the wrong number of texels"))?
+    } else {
+        MapAtlas::empty(manifest.light_map_size)
+    };
+
     Ok(Asset {
         manifest,
         vpls,
@@ -816,6 +932,7 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
         primary_depth,
         vpl_maps,
         rsm,
+        light_maps,
     })
 }
 
@@ -883,6 +1000,19 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
     if asset.primary_depth.data.iter().any(|x| x.is_nan()) {
         return bad("primary_depth holds NaN".into());
     }
+    let lm = &asset.light_maps;
+    let stored = light_map_count(&m);
+    if lm.count() != stored || (stored > 0 && lm.tile_size() != m.light_map_size) {
+        return bad(format!(
+            "light_maps holds {} maps of {}² but the views store {stored} of {}²",
+            lm.count(),
+            lm.tile_size(),
+            m.light_map_size
+        ));
+    }
+    if lm.texels().iter().any(|x| x.is_nan()) {
+        return bad("light_maps holds NaN".into());
+    }
     if maps.texels().iter().any(|x| x.is_nan()) {
         return bad("vpl_maps holds NaN".into());
     }
@@ -892,6 +1022,7 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
     }
     check_tiles(&asset.vpls, map_count)
         .map_err(|e| AssetError::invalid(dir, format!("cannot write: {e}")))?;
+    check_light_vpls(&m).map_err(|e| AssetError::invalid(dir, format!("cannot write: {e}")))?;
     if asset.vpl_nodes.len() != asset.vpls.len() * NODES_PER_VPL {
         return bad(format!(
             "vpl_nodes holds {} records but {} VPLs need {}",
@@ -923,6 +1054,7 @@ fn owned_names(dir: &Path) -> Vec<String> {
         FILE_PRIMARY_DEPTH,
         FILE_VPL_MAPS,
         FILE_RSM,
+        FILE_LIGHT_MAPS,
     ]
     .iter()
     .map(|s| s.to_string())
@@ -1062,6 +1194,12 @@ fn write_into(
             }
             FILE_VPL_MAPS => {
                 let m = &asset.vpl_maps;
+                let texels = Samples::F32(m.texels().to_vec());
+                let (w, h) = (m.width() as usize, m.height() as usize);
+                exrio::encode(w, h, vec![("Z", texels)]).map_err(exr_err)?
+            }
+            FILE_LIGHT_MAPS => {
+                let m = &asset.light_maps;
                 let texels = Samples::F32(m.texels().to_vec());
                 let (w, h) = (m.width() as usize, m.height() as usize);
                 exrio::encode(w, h, vec![("Z", texels)]).map_err(exr_err)?

@@ -116,8 +116,16 @@ pub struct Inspection {
     pub settings: BakeSettings,
     /// Static scene hash (64 hex digits).
     pub static_scene_hash: String,
-    /// The primary lights baked (format 3.1; empty for a 3.0 asset).
+    /// The primary lights baked.
     pub lights: Vec<crate::LightRecord>,
+    /// Shadow-map views of the lights after the first (a point light's six
+    /// faces, a spot's or sun's one).
+    pub views: usize,
+    /// How many of them store a map in `light_maps.exr` (the others hold
+    /// no surface).
+    pub light_maps_stored: usize,
+    /// Their maps' resolution (0 without views).
+    pub light_map_size: u32,
     /// The primary maps' view: `"spot"` (a perspective view) or
     /// `"directional"`.
     pub light: String,
@@ -186,6 +194,9 @@ pub fn inspect(asset: &Asset) -> Inspection {
             .map(|b| format!("{b:02x}"))
             .collect(),
         lights: m.lights.clone(),
+        views: m.views.len(),
+        light_maps_stored: m.views.iter().filter(|v| v.tile != NO_MAP).count(),
+        light_map_size: m.light_map_size,
         light: if m.light_view.directional {
             "directional"
         } else {
@@ -302,6 +313,13 @@ impl fmt::Display for Inspection {
                 c[1],
                 c[2],
                 l.vpls
+            )?;
+        }
+        if self.views > 0 {
+            writeln!(
+                f,
+                "  shadow maps of the lights after the first: {} views, {} maps of {}² stored (the others see no surface)",
+                self.views, self.light_maps_stored, self.light_map_size
             )?;
         }
         let budget = s

@@ -36,9 +36,10 @@ pub use error::AssetError;
 #[doc(hidden)]
 pub use format::testing;
 pub use format::{
-    DEFAULT_MAX_DECODED_BYTES, FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM, FILE_VPL_MAPS,
-    FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE, VPL_RECORD_BYTES, check_output, check_scene_hash,
-    check_scene_hash_for, decoded_bytes, load, load_manifest, load_with_limit, verify_files, write,
+    DEFAULT_MAX_DECODED_BYTES, FILE_LIGHT_MAPS, FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM,
+    FILE_VPL_MAPS, FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE, VPL_RECORD_BYTES, check_output,
+    check_scene_hash, check_scene_hash_for, decoded_bytes, load, load_manifest, load_with_limit,
+    verify_files, write,
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
 pub use shard::{
@@ -49,11 +50,11 @@ pub use tolerance::{MAX_TOLERANCE, ToleranceError, parse_tolerance};
 
 /// Magic bytes at the start of `manifest.bin`.
 pub const MAGIC: [u8; 8] = *b"GIBAKE\0\x01";
-/// Format major version: readers reject any other major.
-pub const FORMAT_MAJOR: u16 = 3;
-/// Format minor version: additive changes only (3.1: the baked lights,
-/// [`Manifest::lights`]).
-pub const FORMAT_MINOR: u16 = 1;
+/// Format major version: readers reject any other major (4: every light,
+/// [`Manifest::lights`] and [`Manifest::views`]; 3.x assets are re-baked).
+pub const FORMAT_MAJOR: u16 = 4;
+/// Format minor version: additive changes only.
+pub const FORMAT_MINOR: u16 = 0;
 
 /// One static VPL record. Stored as a little-endian array in `vpls.bin`
 /// (48 bytes each, fields in this order).
@@ -204,10 +205,30 @@ pub struct Manifest {
     pub has_dynamic: bool,
     /// Per-stage bake times are NOT stored (determinism); files and checksums are.
     pub files: Vec<FileEntry>,
-    /// The primary lights the asset was baked with, in the scene's order
-    /// (format 3.1; empty when read from a 3.0 asset). What the up-to-date
-    /// check, `inspect` and `diff` report about lights.
+    /// The primary lights the asset was baked with, in the scene's order;
+    /// `lights[0]` is the one of [`Manifest::light_view`] (a spot or
+    /// directional light). What the runtime lights with, and what the
+    /// up-to-date check, `inspect` and `diff` report about lights.
     pub lights: Vec<LightRecord>,
+    /// The shadow-map views of `lights[1..]`, in light order (a point
+    /// light's six cube faces +X, −X, +Y, −Y, +Z, −Z; a spot's or
+    /// directional light's one). Empty for a one-light asset.
+    pub views: Vec<ViewRecord>,
+    /// Resolution of every stored map of [`Manifest::views`] in
+    /// `light_maps.exr` (0 when there are no views).
+    pub light_map_size: u32,
+}
+
+/// One shadow-map view of a light other than the first (format 4.0).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ViewRecord {
+    /// Index into [`Manifest::lights`] (≥ 1).
+    pub light: u32,
+    /// The view (its `view_proj` at [`Manifest::light_map_size`]).
+    pub view: LightViewRecord,
+    /// Its static shadow map's tile in `light_maps.exr`, or [`NO_MAP`]
+    /// when the map holds no surface (nothing shadows: not stored).
+    pub tile: u32,
 }
 
 /// [`LightRecord::kind`] of a directional light.
@@ -217,7 +238,7 @@ pub const LIGHT_SPOT: u8 = 1;
 /// [`LightRecord::kind`] of a point light.
 pub const LIGHT_POINT: u8 = 2;
 
-/// A baked primary light (format 3.1), as the scene gave it.
+/// A baked primary light, as the scene gave it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LightRecord {
     /// glTF light name (or `light #i`, or `--sun`).
@@ -339,6 +360,10 @@ pub struct Asset {
     pub vpl_maps: MapAtlas,
     /// RSM data for the dynamic merge, `None` without moving objects.
     pub rsm: Option<RsmData>,
+    /// The static shadow maps of [`Manifest::views`] (metric, as
+    /// `primary_depth`), one tile per view whose `tile` is not [`NO_MAP`],
+    /// in the atlas layout of `light_maps.exr` ([`MapAtlas`]).
+    pub light_maps: MapAtlas,
 }
 
 impl Asset {
@@ -453,8 +478,7 @@ mod tests {
     }
 }
 
-/// What changed from the lights `was` to the lights `now` (format 3.1
-/// records), one line per change, lights matched by name: added, removed,
+/// What changed from the lights `was` to the lights `now`, one line per change, lights matched by name: added, removed,
 /// or which of kind, position, direction, colour, cones and range changed
 /// (compared exactly, as the static-scene hash does; the VPL counts, a
 /// result, are not compared). Empty when equal;

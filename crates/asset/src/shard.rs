@@ -21,7 +21,7 @@ use crate::{Asset, AssetError, Manifest, Map, MapAtlas, NO_MAP, RsmData, VplReco
 /// Magic bytes at the start of a part file.
 pub const PART_MAGIC: [u8; 8] = *b"GIBKPART";
 /// Part format version: parts are transient, so any other version is refused.
-pub const PART_VERSION: u16 = 2;
+pub const PART_VERSION: u16 = 3;
 /// Largest shard count accepted.
 pub const MAX_SHARDS: u32 = 4096;
 /// Largest accepted part file (16 GiB).
@@ -106,6 +106,8 @@ struct PartPayload {
     primary: Vec<f32>,
     rsm: Option<RsmPayload>,
     maps: Vec<Option<Vec<f32>>>,
+    /// The other lights' shadow maps: tile size, count, atlas texels.
+    light_maps: (u32, u32, Vec<f32>),
 }
 
 #[derive(Serialize, Deserialize)]
@@ -264,6 +266,11 @@ fn encode_part(part: &ShardPart, path: &Path) -> Result<Vec<u8>, AssetError> {
             vpl: r.vpl.clone(),
         }),
         maps: part.maps.clone(),
+        light_maps: (
+            a.light_maps.tile_size(),
+            a.light_maps.count(),
+            a.light_maps.texels().to_vec(),
+        ),
     };
     let body = bincode::serde::encode_to_vec(&payload, part_config())
         .map_err(|e| AssetError::invalid(path, format!("cannot encode the part: {e}")))?;
@@ -314,6 +321,13 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
         return Err(bad("unexpected bytes after the part payload".into()));
     }
     let tile = p.manifest.settings.vpl_map_size;
+    let (lt, ln, lmaps) = p.light_maps;
+    let light_maps = if ln == 0 {
+        MapAtlas::empty(lt)
+    } else {
+        MapAtlas::from_texels(lt, ln, lmaps)
+            .ok_or_else(|| bad("the light maps have the wrong number of texels".into()))?
+    };
     let part = ShardPart {
         shard: p.shard,
         shards: p.shards,
@@ -332,6 +346,7 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
                 share: r.share,
                 vpl: r.vpl,
             }),
+            light_maps,
         },
         maps: p.maps,
     };
@@ -410,6 +425,9 @@ fn front_hash(a: &Asset) -> [u8; 32] {
     h.update(bytemuck::cast_slice(&a.vpl_nodes));
     h.update(&a.primary_depth.size.to_le_bytes());
     h.update(bytemuck::cast_slice(&a.primary_depth.data));
+    h.update(&a.light_maps.tile_size().to_le_bytes());
+    h.update(&a.light_maps.count().to_le_bytes());
+    h.update(bytemuck::cast_slice(a.light_maps.texels()));
     if let Some(r) = &a.rsm {
         h.update(b"rsm");
         h.update(&r.size.to_le_bytes());
@@ -630,6 +648,8 @@ mod tests {
             has_dynamic: false,
             files: Vec::new(),
             lights: Vec::new(),
+            views: Vec::new(),
+            light_map_size: 0,
         };
         let rec = VplRecord {
             position: [0.0; 3],
@@ -661,6 +681,7 @@ mod tests {
                 },
                 vpl_maps: MapAtlas::empty(2),
                 rsm: None,
+                light_maps: MapAtlas::empty(0),
             },
             maps: range.map(|i| (i != 1).then(|| vec![i as f32; 4])).collect(),
         }

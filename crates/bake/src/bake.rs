@@ -8,6 +8,7 @@ use gibake_asset::{
     ShardMaps, ShardPart, VplRecord, assign_map_tiles, shard_range,
 };
 use gibake_gpu::mesh::SceneGpu;
+use gibake_gpu::passes::light_maps::{self, LightMaps};
 use gibake_gpu::passes::shadow::ShadowPass;
 use gibake_gpu::{GpuContext, LightView, readback};
 use gibake_raycast::RayScene;
@@ -264,6 +265,125 @@ pub fn bake_shard(
     })
 }
 
+/// The other lights' maps as the asset stores them: the view records, and
+/// the maps that hold a surface in the `light_maps.exr` atlas (tiles
+/// renumbered in view order; a view without one says [`NO_MAP`]).
+fn stored_light_maps(
+    ctx: &GpuContext,
+    lm: &LightMaps,
+) -> Result<(Vec<gibake_asset::ViewRecord>, MapAtlas), BakeError> {
+    let texels = readback::read_texture_f32(ctx, &lm.atlas, 0, 1)?;
+    let (s, cols) = (lm.size as usize, lm.cols as usize);
+    let width = cols * s;
+    let mut records = Vec::with_capacity(lm.views.len());
+    let mut stored: Vec<Vec<f32>> = Vec::new();
+    for (k, (light, view)) in lm.views.iter().enumerate() {
+        let (x0, y0) = ((k % cols) * s, (k / cols) * s);
+        let mut map = Vec::with_capacity(s * s);
+        for y in y0..y0 + s {
+            map.extend_from_slice(&texels[y * width + x0..y * width + x0 + s]);
+        }
+        let mut any = false;
+        for v in &mut map {
+            if *v >= f32::MAX || !v.is_finite() {
+                *v = f32::INFINITY;
+            } else {
+                any = true;
+            }
+        }
+        let tile = if any {
+            stored.push(map);
+            stored.len() as u32 - 1
+        } else {
+            NO_MAP
+        };
+        records.push(gibake_asset::ViewRecord {
+            light: *light,
+            view: view.record(),
+            tile,
+        });
+    }
+    let atlas = MapAtlas::from_maps(lm.size, stored.iter().map(Vec::as_slice))
+        .expect("every map holds size² texels");
+    Ok((records, atlas))
+}
+
+/// The bake's front part: the VPLs, their near-field trees, and the
+/// primary light's RSM with its texels' VPLs (for the dynamic merge).
+struct Front {
+    vpls: Vec<VplRecord>,
+    vpl_nodes: Vec<VplRecord>,
+    /// VPLs per light, in light order (the VPLs are in that order).
+    per_light: Vec<u32>,
+    /// VPLs the clustering made, dropped ones included.
+    made: usize,
+    dropped: usize,
+    threshold: f32,
+    /// Per texel of `rsm`, its VPL (an index into `vpls`) or `NO_VPL`.
+    texel_vpl: Vec<u32>,
+    rsm: crate::rsm::Rsm,
+}
+
+/// The front part of a bake of several lights ([`crate::lights`]): one
+/// budget over every view of every light; the first light's VPLs come
+/// first, so its RSM's texels index `vpls` directly. `view` is the first
+/// light's (a spot or directional light's, [`LightView::for_scene`]).
+fn every_light_front(
+    scene: &Scene,
+    reach: &Reach<'_, '_>,
+    view: &LightView,
+    opts: &BakeOptions,
+) -> Front {
+    let every = crate::lights::every_light(
+        scene,
+        reach,
+        opts.rsm_size,
+        opts.shadow_map_size,
+        opts.target,
+    );
+    let per_light = every
+        .vpls_per_light(scene.lights.len())
+        .into_iter()
+        .map(|n| n as u32)
+        .collect();
+    let vpls = every.vpl_records();
+    let vpl_nodes = every.vpl_nodes();
+    // The first light's RSM (one view: a spot or directional light); when
+    // its bounce was left out as negligible, rendered for the dynamic merge
+    // with no texel of any VPL.
+    let first = every.maps.iter().position(|m| m.light == 0);
+    let made = vpls.len() + every.dropped_vpls;
+    let threshold = every.clusters.threshold;
+    let dropped = every.dropped_vpls;
+    let (rsm, texel_vpl) = match first {
+        Some(k) => {
+            let mut maps = every.maps;
+            let mut clusters = every.clusters.maps;
+            (maps.swap_remove(k).rsm, clusters.swap_remove(k).texel_vpl)
+        }
+        None => {
+            let rsm = render_rsm(
+                reach.rays,
+                scene.light(),
+                &view.resized(opts.rsm_size),
+                Some(reach),
+            );
+            let n = rsm.flux.len();
+            (rsm, vec![NO_VPL; n])
+        }
+    };
+    Front {
+        vpls,
+        vpl_nodes,
+        per_light,
+        made,
+        dropped,
+        threshold,
+        texel_vpl,
+        rsm,
+    }
+}
+
 /// The bake; with `shard`, the asset has no hemisphere maps and the maps of
 /// the shard's VPLs are returned apart.
 fn bake_with(
@@ -287,6 +407,14 @@ fn bake_with(
                 )));
             }
         }
+    }
+    if let Some(first) = scene.lights.first()
+        && matches!(first.kind, gibake_scene::LightKind::Point)
+    {
+        return Err(BakeError::InvalidSetting(format!(
+            "the first light ('{}') is a point light; the bake needs a spot or directional light first (its maps take moving objects): add one, or a sun with --sun",
+            first.name
+        )));
     }
     let mut stages = Vec::new();
     let mut clock = Instant::now();
@@ -329,46 +457,101 @@ fn bake_with(
     progress.end();
     lap("shadow map", &mut stages);
 
-    // RSM by ray casting, with how much of each texel's light reaches a
-    // surface (static geometry or where moving objects can be).
-    progress.begin("RSM", 0);
+    // The other lights' shadow maps (format 4.0), by the same pass.
+    let mut warnings = warnings;
+    let (views, light_maps, light_map_size) = if scene.lights.len() > 1 {
+        let n = light_maps::view_count(scene);
+        let (size, capped) = light_maps::light_map_size(opts.shadow_map_size, n, max_tex);
+        if capped {
+            let w = format!(
+                "{n} shadow-map views of {} lights after the first: their maps are {size}² to stay within {} texels",
+                scene.lights.len() - 1,
+                light_maps::MAX_LIGHT_MAP_TEXELS
+            );
+            tracing::warn!("{}: {w}", scene.source.display());
+            warnings.push(w);
+        }
+        progress.begin("other lights' shadow maps", n as u64);
+        let lm = LightMaps::render(&ctx.device, &ctx.queue, scene, &scene_gpu, size, &|| {
+            progress.advance(1)
+        })?;
+        let (v, m) = stored_light_maps(ctx, &lm)?;
+        progress.end();
+        lap("light maps", &mut stages);
+        (v, m, size)
+    } else {
+        (Vec::new(), MapAtlas::empty(0), 0)
+    };
+
+    // RSMs by ray casting, with how much of each texel's light reaches a
+    // surface (static geometry or where moving objects can be); quadtree
+    // clustering; a VPL whose hemisphere sees nothing carries light to
+    // nothing and is dropped (crate::reach).
     let reach = Reach {
         rays: &rays,
         moving: scene.dynamic_swept_bounds(),
     };
-    let rsm_view = view.resized(opts.rsm_size);
-    let rsm = render_rsm(&rays, scene.light(), &rsm_view, Some(&reach));
-    progress.end();
-    lap("rsm", &mut stages);
-
-    // Quadtree clustering; a VPL whose hemisphere sees nothing carries light
-    // to nothing and is dropped (crate::reach).
-    progress.begin("clustering", 0);
-    let mut clusters = cluster(&rsm, opts.target);
-    if clusters.vpls.is_empty() {
+    let front = if scene.lights.len() > 1 {
+        progress.begin("RSMs and clustering of every light", 0);
+        let f = every_light_front(scene, &reach, &view, opts);
+        progress.end();
+        lap("rsm+clustering", &mut stages);
+        f
+    } else {
+        progress.begin("RSM", 0);
+        let rsm_view = view.resized(opts.rsm_size);
+        let rsm = render_rsm(&rays, scene.light(), &rsm_view, Some(&reach));
+        progress.end();
+        lap("rsm", &mut stages);
+        progress.begin("clustering", 0);
+        let mut clusters = cluster(&rsm, opts.target);
+        let dropped = if clusters.vpls.is_empty() {
+            0
+        } else {
+            clusters.retain(|_, c| reach.sees_cluster(c))
+        };
+        progress.end();
+        lap("clustering", &mut stages);
+        // On the clusters' own surfaces (see Cluster::anchor); near-field
+        // trees, one per VPL, from its node's texels.
+        let vpls: Vec<VplRecord> = clusters.vpls.iter().map(|c| c.record()).collect();
+        let vpl_nodes: Vec<VplRecord> = (0..clusters.vpls.len())
+            .flat_map(|i| crate::near_field::tree_of(&rsm, &clusters, i))
+            .collect();
+        Front {
+            per_light: vec![vpls.len() as u32],
+            vpls,
+            vpl_nodes,
+            made: clusters.vpls.len() + dropped,
+            dropped,
+            threshold: clusters.threshold,
+            texel_vpl: clusters.texel_vpl,
+            rsm,
+        }
+    };
+    if front.made == 0 {
         return Err(BakeError::NothingLit {
             path: scene.source.clone(),
         });
     }
-    let dropped = clusters.retain(|_, c| reach.sees_cluster(c));
-    progress.end();
-    lap("clustering", &mut stages);
+    let Front {
+        mut vpls,
+        vpl_nodes,
+        per_light,
+        dropped,
+        threshold,
+        texel_vpl,
+        rsm,
+        ..
+    } = front;
     if let Some(limit) = progress.memory_limit() {
-        let n = clusters.vpls.len();
+        let n = vpls.len();
         let mapped = match shard {
             Some(s) => shard_range(n, s.index, s.count).len(),
             None => n,
         };
         crate::budget::check_with(opts, n as u64, mapped as u64, limit)?;
     }
-
-    // On the clusters' own surfaces (see Cluster::anchor).
-    let mut vpls: Vec<VplRecord> = clusters.vpls.iter().map(|c| c.record()).collect();
-
-    // Near-field trees (one per VPL, from its node's texels).
-    let vpl_nodes: Vec<VplRecord> = (0..clusters.vpls.len())
-        .flat_map(|i| crate::near_field::tree_of(&rsm, &clusters, i))
-        .collect();
 
     // Hemisphere maps by ray casting (a shard: only its VPLs', kept apart).
     let range = match shard {
@@ -395,8 +578,7 @@ fn bake_with(
     // Each texel's share of its VPL's flux, for partial occlusion.
     let rsm_data = has_dynamic.then(|| {
         let flux: Vec<[f32; 3]> = rsm.flux.iter().map(|f| f.to_array()).collect();
-        let texel_vpl = clusters
-            .texel_vpl
+        let texel_vpl = texel_vpl
             .iter()
             .map(|&v| if v == NO_VPL { u32::MAX } else { v })
             .collect();
@@ -422,8 +604,8 @@ fn bake_with(
             // Infinite when no node could split at all (e.g. a 1-texel
             // RSM): every threshold gives this clustering, and the format
             // stores a finite one.
-            threshold: if clusters.threshold.is_finite() {
-                clusters.threshold
+            threshold: if threshold.is_finite() {
+                threshold
             } else {
                 f32::MAX
             },
@@ -439,13 +621,14 @@ fn bake_with(
         has_dynamic,
         files: Vec::new(),
         lights: {
-            // The one-light bake: every VPL is its light's.
             let mut l = light_records(scene);
-            if let Some(first) = l.first_mut() {
-                first.vpls = vpls.len() as u32;
+            for (r, n) in l.iter_mut().zip(&per_light) {
+                r.vpls = *n;
             }
             l
         },
+        views,
+        light_map_size,
     };
     let asset = Asset {
         manifest,
@@ -457,6 +640,7 @@ fn bake_with(
         },
         vpl_maps: maps,
         rsm: rsm_data,
+        light_maps,
     };
     Ok((
         BakeOutput {

@@ -508,6 +508,7 @@ fn three_kinds() -> Builder {
 
 #[test]
 fn every_light_is_kept_in_file_order() {
+    // (Its first light is a spot: file order throughout.)
     let s = three_kinds().load_with(&every_light()).unwrap();
     let names: Vec<&str> = s.lights.iter().map(|l| l.name.as_str()).collect();
     assert_eq!(names, ["Alpha", "Beta", "Bulb"]);
@@ -547,6 +548,44 @@ fn repeated_light_option_restricts_the_set() {
         &[FILE, "Alpha", "Beta", "one"],
     );
     assert!(matches!(e, SceneError::NotSupported { .. }), "{e:?}");
+}
+
+/// The first light is the one whose maps take moving objects: the first
+/// spot or directional light in file order leads, the others keep their
+/// order; a file of point lights only keeps its order.
+#[test]
+fn the_first_spot_or_directional_light_leads() {
+    let mut b = Builder::new();
+    let q = b.quad("Floor", true);
+    b.root_mesh_node("F", q);
+    for (name, ty) in [
+        ("P1", "point"),
+        ("S", "spot"),
+        ("P2", "point"),
+        ("D", "directional"),
+    ] {
+        let light = if ty == "spot" {
+            json!({ "name": name, "type": ty, "spot": {} })
+        } else {
+            json!({ "name": name, "type": ty })
+        };
+        b.light_node(light, json!({ "translation": [0.0, 2.0, 0.0] }));
+    }
+    let s = b.load_with(&every_light()).unwrap();
+    let names: Vec<&str> = s.lights.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["S", "P1", "P2", "D"]);
+    let mut b = Builder::new();
+    let q = b.quad("Floor", true);
+    b.root_mesh_node("F", q);
+    for name in ["P1", "P2"] {
+        b.light_node(
+            json!({ "name": name, "type": "point" }),
+            json!({ "translation": [0.0, 2.0, 0.0] }),
+        );
+    }
+    let s = b.load_with(&every_light()).unwrap();
+    let names: Vec<&str> = s.lights.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["P1", "P2"]);
 }
 
 #[test]

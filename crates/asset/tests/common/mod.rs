@@ -30,6 +30,7 @@ pub const SHADOW: u32 = 16;
 pub const VPL_MAP: u32 = 8;
 pub const RSM: u32 = 8;
 pub const VPLS: usize = 10;
+pub const LIGHT_MAP: u32 = 4;
 
 /// A small asset: 10 VPLs, 7 of them with a hemisphere map (5x5 grid would be
 /// 3 cols x 3 rows), maps with some +inf texels; an RSM when `dynamic`.
@@ -97,6 +98,18 @@ pub fn sample_asset(dynamic: bool) -> Asset {
             }
         })
         .collect();
+    let lm = (LIGHT_MAP * LIGHT_MAP) as usize;
+    let light_texels: Vec<f32> = (0..4 * lm)
+        .map(|_| {
+            if rng.f32() < 0.25 {
+                f32::INFINITY
+            } else {
+                0.5 + rng.f32() * 2.0
+            }
+        })
+        .collect();
+    let light_maps =
+        MapAtlas::from_maps(LIGHT_MAP, light_texels.chunks(lm)).expect("maps of LIGHT_MAP²");
     let rsm = dynamic.then(|| {
         let n = (RSM * RSM) as usize;
         let metric = (0..n)
@@ -159,7 +172,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
                     inner_cone: 0.49,
                     outer_cone: 0.7,
                     range: 0.0,
-                    vpls: 5,
+                    vpls: 6,
                 },
                 gibake_asset::LightRecord {
                     name: "Lamp".into(),
@@ -170,9 +183,25 @@ pub fn sample_asset(dynamic: bool) -> Asset {
                     inner_cone: 0.0,
                     outer_cone: 0.0,
                     range: 2.5,
-                    vpls: 3,
+                    vpls: 4,
                 },
             ],
+            // The lamp's six faces; the ±Y faces store no map.
+            views: (0..6u32)
+                .map(|face| gibake_asset::ViewRecord {
+                    light: 1,
+                    view: LightViewRecord {
+                        directional: false,
+                        view_proj: std::array::from_fn(|i| (i as f32 + face as f32) * 0.125),
+                        origin: [0.0, 1.0, 0.0],
+                        direction: [0.0, 0.0, 1.0],
+                        texel_scale: 0.5,
+                        texel_area: 0.25,
+                    },
+                    tile: [0, 1, NO_MAP, NO_MAP, 2, 3][face as usize],
+                })
+                .collect(),
+            light_map_size: LIGHT_MAP,
         },
         vpls,
         vpl_nodes,
@@ -182,6 +211,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
         },
         vpl_maps,
         rsm,
+        light_maps,
     }
 }
 

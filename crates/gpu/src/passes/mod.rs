@@ -2,4 +2,5 @@
 //! owning its pipeline, bind groups and uniforms; its WGSL sits beside it).
 
 pub mod hemi_raster;
+pub mod light_maps;
 pub mod shadow;

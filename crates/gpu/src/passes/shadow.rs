@@ -82,6 +82,14 @@ impl ShadowPass {
         }
     }
 
+    /// Points the pass at another view of the same size (its uniform is
+    /// written through `queue`; the next [`ShadowPass::encode`] renders it).
+    pub fn set_view(&mut self, queue: &wgpu::Queue, view: LightView) {
+        debug_assert_eq!(view.size, self.view.size);
+        queue.write_buffer(&self.uniform_buf, 0, bytemuck::bytes_of(&view.to_gpu()));
+        self.view = view;
+    }
+
     /// Records the pass: clears to "infinitely far" and draws `draws`.
     pub fn encode(
         &self,

@@ -184,6 +184,13 @@ impl<'a> Ctx<'a> {
                     "no light of a known type (directional, spot or point)".to_string(),
                 ));
             }
+            // The first light is the one whose maps take moving objects: a
+            // spot or directional light. The first such light in file
+            // order leads; the others keep their order.
+            if let Some(p) = kept.iter().position(|&i| usable(&cands[i])) {
+                let lead = kept.remove(p);
+                kept.insert(0, lead);
+            }
             let max = options.limits.max_lights as usize;
             if kept.len() > max {
                 return Err(self.invalid(format!(

@@ -68,8 +68,10 @@ pub struct LoadOptions {
     /// one spot/directional light.
     pub lights: Vec<String>,
     /// Every `KHR_lights_punctual` light, point lights included, into
-    /// [`Scene::lights`]. `false` (the default until the bake and the
-    /// runtime take several lights): one spot or directional light.
+    /// [`Scene::lights`]: the first spot or directional light in file order
+    /// first (the bake's and the runtime's primary light, whose maps take
+    /// moving objects), then the others in file order. `false` (the
+    /// default): one spot or directional light.
     pub all_lights: bool,
     /// Resource budgets (file sizes, accessor elements, texels, animation
     /// work, where external URIs may point).
