@@ -3,7 +3,11 @@
 //! `tools/spec_reader/read_gibake.py`, a Python reader written from
 //! `docs/asset-format.md` alone (manifest decoded by hand, every checksum,
 //! the VPL records and near-field trees, the EXR maps, and the hemisphere-map
-//! and light-view lookups recomputed). Damaged copies must be refused.
+//! and light-view lookups recomputed), and so is a bake of `data/lamps.glb`
+//! with every light (format 4.0: the views of the lights after the first
+//! and `light_maps.exr`) and one of its two point lights only (a point
+//! light first: every light's views from light 0 on, no RSM). Damaged
+//! copies, and manifests that break the spec's rules, must be refused.
 //!
 //! The reader needs python3 with numpy, OpenEXR and blake3:
 //! `scripts/ensure-deps.sh --python` puts them in a venv at `target/pyenv`,
@@ -267,24 +271,41 @@ fn reader_refuses_damaged_assets() {
 
     // Re-sealed manifests (payload edited, length and BLAKE3 trailer
     // recomputed): what the spec says a reader must refuse or accept.
-    // The bake writes the current minor (3.1: the lights end the payload).
-    let reseal_cases: [(&str, &str, Option<&str>); 6] = [
+    // The bake writes the current minor (4.0: the views and light_map_size
+    // end the payload; a one-light asset has no views, so its last two
+    // bytes are the view count 0 and light_map_size 0).
+    assert_eq!(
+        (gibake_asset::FORMAT_MAJOR, gibake_asset::FORMAT_MINOR),
+        (4, 0),
+        "the re-sealed cases below are written for format 4.0"
+    );
+    let reseal_cases: [(&str, &str, Option<&str>); 7] = [
         // One byte after the last field, same minor: refused.
-        ("payload += b'\\x00'", "1", Some("after the last field")),
-        // The same from a newer minor (3.2): accepted and ignored.
-        ("payload += b'\\x00'", "2", None),
-        // Read as 3.0, the lights are bytes after its last field: refused.
-        ("pass", "0", Some("after the last field")),
+        ("payload += b'\\x00'", "0", Some("after the last field")),
+        // The same from a newer minor (4.1): accepted and ignored.
+        ("payload += b'\\x00'", "1", None),
+        // light_map_size cut off: refused.
+        (
+            "payload = payload[:-1]",
+            "0",
+            Some("payload ends inside light_map_size"),
+        ),
         // The lights cut short: refused.
-        ("payload = payload[:-40]", "1", Some("payload ends inside")),
+        ("payload = payload[:-40]", "0", Some("payload ends inside")),
         // A varint marker bincode does not define (254), as the first length.
         (
             "payload = b'\\xfe' + payload[1:]",
-            "1",
+            "0",
             Some("invalid varint marker"),
         ),
+        // light_map_size 5 without views: refused.
+        (
+            "payload = payload[:-1] + b'\\x05'",
+            "0",
+            Some("light_map_size is 5 but there are no views"),
+        ),
         // Control: re-sealed unchanged, accepted.
-        ("pass", "1", None),
+        ("pass", "0", None),
     ];
     for (k, (edit, minor, refusal)) in reseal_cases.iter().enumerate() {
         let copy = copy_asset(&asset, work.path(), &format!("reseal{k}.gibake"));
@@ -303,21 +324,30 @@ fn reader_refuses_damaged_assets() {
         }
     }
 
-    // A major version this reader does not know.
-    let next = gibake_asset::FORMAT_MAJOR + 1;
-    let copy = copy_asset(&asset, work.path(), "major_next.gibake");
-    let mut m = std::fs::read(copy.join("manifest.bin")).unwrap();
-    m[8..10].copy_from_slice(&next.to_le_bytes());
-    std::fs::write(copy.join("manifest.bin"), m).unwrap();
-    let r = read(&py, &copy);
-    assert!(
-        r.code == Some(1)
-            && r.stderr.contains(&format!(
-                "{next}.{} is not supported",
-                gibake_asset::FORMAT_MINOR
-            )),
-        "a {next}.x manifest must be refused by version\n{r}"
-    );
+    // A major version this reader does not know (5.0), and the previous
+    // one (3.1: its assets are re-baked).
+    for (major, minor, also) in [
+        (
+            gibake_asset::FORMAT_MAJOR + 1,
+            gibake_asset::FORMAT_MINOR,
+            "",
+        ),
+        (3, 1, "re-bake"),
+    ] {
+        let copy = copy_asset(&asset, work.path(), &format!("major_{major}.gibake"));
+        let mut m = std::fs::read(copy.join("manifest.bin")).unwrap();
+        m[8..10].copy_from_slice(&major.to_le_bytes());
+        m[10..12].copy_from_slice(&minor.to_le_bytes());
+        std::fs::write(copy.join("manifest.bin"), m).unwrap();
+        let r = read(&py, &copy);
+        assert!(
+            r.code == Some(1)
+                && r.stderr
+                    .contains(&format!("{major}.{minor} is not supported"))
+                && r.stderr.contains(also),
+            "a {major}.{minor} manifest must be refused by version\n{r}"
+        );
+    }
 
     // A file the manifest lists, removed.
     let copy = copy_asset(&asset, work.path(), "missing.gibake");
@@ -329,4 +359,304 @@ fn reader_refuses_damaged_assets() {
         "the reader accepted a missing rsm.exr\n{r}"
     );
     assert!(r.stderr.contains("rsm.exr"), "{r}");
+}
+
+/// Rewrites `asset`'s manifest as `edit` leaves the one it holds (encoded
+/// and sealed as the writer does: only the edit is wrong).
+fn edit_manifest(asset: &Path, edit: &dyn Fn(&mut gibake_asset::Manifest)) {
+    let path = asset.join(gibake_asset::FILE_MANIFEST);
+    let mut m = gibake_asset::load_manifest(asset).expect("the intact manifest loads");
+    edit(&mut m);
+    let bytes = gibake_asset::testing::manifest_bytes(&m).expect("the manifest encodes");
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// The test bake of `data/lamps.glb` with every light (the small settings
+/// of [`reader_checks_every_lights_views_and_maps`]), `extra` flags added.
+fn bake_lamps(dir: &Path, extra: &[&str]) -> PathBuf {
+    let mut flags = vec![
+        "--all-lights",
+        "--vpls",
+        "32",
+        "--rsm-size",
+        "64",
+        "--vpl-map-size",
+        "16",
+        "--shadow-map-size",
+        "128",
+    ];
+    flags.extend_from_slice(extra);
+    bake_with(&common::data("lamps.glb"), dir, &flags)
+}
+
+/// Format 4.0's other lights: a bake of `data/lamps.glb` with every light
+/// (a spot, then two point lights: 12 cube-face views, their maps in
+/// `light_maps.exr`) is read, its views checked against their lights and
+/// each point light's VPLs found on its maps' surfaces; manifests whose
+/// views, tiles or light counts break the spec's rules, and a missing or
+/// damaged `light_maps.exr`, are refused by the reader (and, for the rules
+/// `load` checks, by the reference reader too).
+#[test]
+fn reader_checks_every_lights_views_and_maps() {
+    use gibake_asset::{LIGHT_POINT, Manifest, NO_MAP};
+
+    let py = python();
+    let work = tempfile::tempdir().unwrap();
+    let asset = bake_lamps(work.path(), &[]);
+    let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
+    // What the cases below assume of the bake.
+    assert!(
+        m.lights.len() == 3
+            && m.lights[0].kind != LIGHT_POINT
+            && m.lights[1..].iter().all(|l| l.kind == LIGHT_POINT)
+            && m.views.len() == 12
+            && m.views.iter().all(|v| v.tile != NO_MAP)
+            && m.lights[1].vpls > 0,
+        "lamps.glb baked with every light: a spot and two point lights, 12 views, every map stored\n{m:#?}"
+    );
+    let r = read(&py, &asset);
+    assert!(
+        r.code == Some(0) && r.stdout.trim_end().ends_with("OK"),
+        "the intact asset must pass\n{r}"
+    );
+    assert!(
+        r.stdout
+            .contains("12 views of 2 lights after the first: 12 maps of")
+            && r.stdout
+                .contains("VPLs of the lights after the first on their views' map surfaces"),
+        "the summary does not report the other lights' maps\n{r}"
+    );
+
+    // (name, edit, the reader's message, whether `load` refuses it too)
+    type Edit = (&'static str, fn(&mut Manifest), &'static str, bool);
+    let edits: [Edit; 14] = [
+        (
+            "view_of_wrong_light",
+            |m| m.views[1].light = 2,
+            "views[1] is of light 2",
+            true,
+        ),
+        (
+            "tiles_out_of_order",
+            |m| {
+                m.views[0].tile = 1;
+                m.views[1].tile = 0;
+            },
+            "views[0] stores tile 1 but the next tile is 0",
+            true,
+        ),
+        (
+            "view_missing",
+            |m| {
+                m.views.pop();
+            },
+            "views ends at 11",
+            true,
+        ),
+        (
+            "view_extra",
+            |m| {
+                let v = m.views[11].clone();
+                m.views.push(v);
+            },
+            "13 views but the lights that have views (the lights after the first) have 12",
+            true,
+        ),
+        // The spot made a point light (and, as a point light first must,
+        // without an RSM): a point light first is valid, but then `views`
+        // begins with its six faces, and this one's begin with light 1's.
+        (
+            "first_light_point_without_its_views",
+            |m| {
+                m.lights[0].kind = LIGHT_POINT;
+                m.has_dynamic = false;
+                m.files.retain(|f| f.name != "rsm.exr");
+            },
+            "views[0] is of light 1 but lights[0]'s view 0 belongs there",
+            true,
+        ),
+        (
+            "view_not_finite",
+            |m| m.views[3].view.texel_scale = f32::NAN,
+            "views[3] holds a non-finite value",
+            true,
+        ),
+        (
+            "light_map_size_zero",
+            |m| m.light_map_size = 0,
+            "light_map_size = 0 outside 1..=16384",
+            true,
+        ),
+        // The atlas the manifest describes is not the file's.
+        (
+            "light_map_size_halved",
+            |m| m.light_map_size /= 2,
+            "light_maps.exr: data window",
+            true,
+        ),
+        (
+            "light_vpls_sum",
+            |m| m.lights[1].vpls += 1,
+            "the lights' VPL counts add up to",
+            true,
+        ),
+        (
+            "light_maps_not_listed",
+            |m| m.files.retain(|f| f.name != "light_maps.exr"),
+            "file list holds light_maps.exr 0 times",
+            true,
+        ),
+        (
+            "light_maps_listed_but_none_stored",
+            |m| m.views.iter_mut().for_each(|v| v.tile = NO_MAP),
+            "file list holds light_maps.exr, which the counts say is not stored",
+            true,
+        ),
+        // The first two cube faces swapped (−X where +X belongs): the
+        // reader's check of the face order (load does not look at views'
+        // geometry).
+        (
+            "faces_swapped",
+            |m| {
+                let v0 = m.views[0].view.clone();
+                m.views[0].view = std::mem::replace(&mut m.views[1].view, v0);
+            },
+            "views[0] (light 1 'point_lamp', point, view 0)",
+            false,
+        ),
+        // The last view's map declared not stored: 11 maps make the same
+        // 4 × 3 grid, whose tile 11, now unused, must be +inf (load does
+        // not look at unused tiles).
+        (
+            "stored_map_declared_none",
+            |m| m.views[11].tile = NO_MAP,
+            "light_maps.exr: unused tile 11 is not all +inf",
+            false,
+        ),
+        // No map stored at all (and none listed): a point light's VPLs then
+        // lie in views that hold no surface (load does not compare VPLs
+        // with maps).
+        (
+            "no_map_stored",
+            |m| {
+                m.views.iter_mut().for_each(|v| v.tile = NO_MAP);
+                m.files.retain(|f| f.name != "light_maps.exr");
+            },
+            "but that view stores no map (NO_MAP",
+            false,
+        ),
+    ];
+    for (name, edit, msg, load_refuses) in edits {
+        let copy = copy_asset(&asset, work.path(), &format!("{name}.gibake"));
+        edit_manifest(&copy, &edit);
+        let r = read(&py, &copy);
+        assert!(
+            r.code == Some(1) && r.stderr.contains(msg),
+            "{name}: the reader must refuse the edited manifest with `{msg}`\n{r}"
+        );
+        if load_refuses {
+            assert!(
+                gibake_asset::load(&copy).is_err(),
+                "{name}: the reference reader accepts what the reader refuses"
+            );
+        }
+    }
+
+    // light_maps.exr removed, and damaged.
+    let copy = copy_asset(&asset, work.path(), "light_maps_missing.gibake");
+    std::fs::remove_file(copy.join("light_maps.exr")).unwrap();
+    let r = read(&py, &copy);
+    assert!(
+        r.code == Some(1)
+            && r.stderr
+                .contains("light_maps.exr: listed in the manifest but missing"),
+        "the reader accepted a missing light_maps.exr\n{r}"
+    );
+    let copy = damaged_copy(
+        &asset,
+        work.path(),
+        "light_maps_bad.gibake",
+        "light_maps.exr",
+        |n| n / 2,
+    );
+    let r = read(&py, &copy);
+    assert!(
+        r.code == Some(1) && r.stderr.contains("light_maps.exr: BLAKE3 mismatch"),
+        "the reader accepted a damaged light_maps.exr\n{r}"
+    );
+}
+
+/// A point light first (format 4.0): it has no primary map, so `views`
+/// holds every light's views from light 0 on (its six faces first) and its
+/// VPLs lie on its own faces' maps; without a primary RSM `has_dynamic` is
+/// false even though `data/lamps.glb` has moving balls. A bake of its two
+/// point lamps is read (every VPL, light 0's included, found on its views'
+/// maps) and loaded; its manifest re-sealed with `has_dynamic = true` is
+/// refused by both readers.
+#[test]
+fn reader_accepts_a_point_light_first() {
+    use gibake_asset::LIGHT_POINT;
+
+    let py = python();
+    let work = tempfile::tempdir().unwrap();
+    let asset = bake_lamps(
+        work.path(),
+        &["--light", "point_lamp", "--light", "point_lamp_low"],
+    );
+    let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
+    assert!(
+        m.lights.len() == 2
+            && m.lights.iter().all(|l| l.kind == LIGHT_POINT)
+            && m.views.len() == 12
+            && m.views[..6].iter().all(|v| v.light == 0)
+            && m.views[6..].iter().all(|v| v.light == 1)
+            && m.lights[0].vpls > 0,
+        "lamps.glb baked with its two point lights: 12 views from light 0 on, light 0 with VPLs\n{m:#?}"
+    );
+    assert!(
+        !m.has_dynamic
+            && !m.files.iter().any(|f| f.name == "rsm.exr")
+            && !asset.join("rsm.exr").exists(),
+        "a point light first has no primary RSM: has_dynamic false, no rsm.exr\n{m:#?}"
+    );
+    let loaded = gibake_asset::load(&asset).expect("the reference reader loads the asset");
+    assert_eq!(loaded.manifest.views.len(), 12);
+    let r = read(&py, &asset);
+    assert!(
+        r.code == Some(0) && r.stdout.trim_end().ends_with("OK"),
+        "a point light first must pass the reader\n{r}"
+    );
+    let every = format!(
+        "{} VPLs of every light (lights[0] is a point light) on their views' map surfaces",
+        m.vpl_count
+    );
+    assert!(
+        r.stdout
+            .contains("12 views of 2 lights (every light: lights[0] is a point light)")
+            && r.stdout.contains(&every)
+            && r.stdout.contains("no rsm.exr (lights[0] is a point light"),
+        "the summary does not report light 0's views and every VPL on them (`{every}`)\n{r}"
+    );
+
+    // has_dynamic true with a point light first: refused (there is no
+    // primary RSM; the file list lacks rsm.exr as well).
+    let copy = copy_asset(&asset, work.path(), "point_first_dynamic.gibake");
+    edit_manifest(&copy, &|m| m.has_dynamic = true);
+    let r = read(&py, &copy);
+    assert!(
+        r.code == Some(1)
+            && r.stderr.contains("manifest.bin")
+            && (r.stderr.contains("has_dynamic") || r.stderr.contains("rsm.exr")),
+        "the reader must refuse has_dynamic with a point light first\n{r}"
+    );
+    match gibake_asset::load(&copy) {
+        Ok(_) => panic!("the reference reader accepts has_dynamic with a point light first"),
+        Err(e) => {
+            let e = e.to_string();
+            assert!(
+                e.contains("has_dynamic") || e.contains("rsm.exr"),
+                "load refuses has_dynamic with a point light first for another reason: {e}"
+            );
+        }
+    }
 }

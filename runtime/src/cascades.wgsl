@@ -50,9 +50,9 @@ fn cascade_visibility(k: u32, p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32
     let v = cascades.views[k];
     let m = cascades.merge != 0u;
     switch k {
-        case 0u: { return lv_visibility(v, cascade_static0, cascade_moving0, m, vec2<i32>(0), p, ng, wi); }
-        case 1u: { return lv_visibility(v, cascade_static1, cascade_moving1, m, vec2<i32>(0), p, ng, wi); }
-        case 2u: { return lv_visibility(v, cascade_static2, cascade_moving2, m, vec2<i32>(0), p, ng, wi); }
-        default: { return lv_visibility(v, cascade_static3, cascade_moving3, m, vec2<i32>(0), p, ng, wi); }
+        case 0u: { return lv_visibility(v, cascade_static0, cascade_moving0, m, vec4<i32>(0), p, ng, wi); }
+        case 1u: { return lv_visibility(v, cascade_static1, cascade_moving1, m, vec4<i32>(0), p, ng, wi); }
+        case 2u: { return lv_visibility(v, cascade_static2, cascade_moving2, m, vec4<i32>(0), p, ng, wi); }
+        default: { return lv_visibility(v, cascade_static3, cascade_moving3, m, vec4<i32>(0), p, ng, wi); }
     }
 }

@@ -480,7 +480,13 @@ impl Renderer {
         if !self.world.cascades_draw() {
             passes.retain(|(p, _)| *p != Pass::Cascades);
         }
-        let update_draw_calls = self.world.moving.draw_calls() + self.world.cascade_draw_calls();
+        let light_views = self.world.light_views_touched();
+        if light_views == 0 {
+            passes.retain(|(p, _)| *p != Pass::LightMerge);
+        }
+        let update_draw_calls = self.world.moving.draw_calls()
+            + self.world.cascade_draw_calls()
+            + self.world.light_merge_draw_calls();
         let view_draws: u32 = self
             .views
             .iter()
@@ -492,6 +498,7 @@ impl Renderer {
             static_vpls: self.world.gi.static_vpls(),
             dynamic_vpl_slots: self.world.moving.dynamic_vpl_slots(),
             affected_maps: affected,
+            light_views_merged: light_views,
             update_draw_calls,
             draw_calls: update_draw_calls + view_draws,
             views: views.len() as u32,

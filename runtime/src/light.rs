@@ -32,10 +32,11 @@ pub struct LightInfo {
     /// scene (each with its static shadow maps; moving a light is a
     /// re-bake).
     pub shaded: bool,
-    /// Whether moving objects cast its shadows and bounce its light per
-    /// frame: the first light only, so far (its maps take the moving
-    /// objects; the others' maps are static).
-    pub moving_objects: bool,
+    /// Whether its bounce off moving objects is computed per frame (the
+    /// dynamic RSM): the first light, when it is a spot or directional
+    /// light, so far. Moving objects cast shadows in every light (each
+    /// view they touch is merged).
+    pub dynamic_bounce: bool,
 }
 
 impl LightInfo {
@@ -61,10 +62,17 @@ impl LightInfo {
                         .map(|r| r.vpls)
                 }),
                 shaded: true,
-                moving_objects: i == 0,
+                dynamic_bounce: i == 0 && has_primary(scene),
             })
             .collect()
     }
+}
+
+/// Whether the scene's first light has the primary maps (a spot or
+/// directional light; a point light first is shaded by its six faces
+/// among the other lights, [`crate::other_lights`]).
+pub(crate) fn has_primary(scene: &Scene) -> bool {
+    gibake_gpu::passes::light_maps::first_viewed_light(scene) == 1
 }
 
 /// The primary light's GPU resources.
@@ -109,14 +117,17 @@ impl PrimaryLight {
                 usage: wgpu::BufferUsages::UNIFORM,
             })
         };
+        // A point light first has no primary map: it is shaded with its six
+        // faces among the other lights, and this uniform lights nothing.
+        let mut gpu = GpuPrimaryLight::new(scene.light());
+        if !has_primary(scene) {
+            gpu.color = [0.0; 4];
+        }
         PrimaryLight {
             view,
             static_map,
             _own_static: own,
-            light_buf: uniform(
-                "primary light",
-                bytemuck::bytes_of(&GpuPrimaryLight::new(scene.light())),
-            ),
+            light_buf: uniform("primary light", bytemuck::bytes_of(&gpu)),
             view_buf: uniform("primary light view", bytemuck::bytes_of(&view.to_gpu())),
         }
     }

@@ -8,15 +8,21 @@
 //! receiver's direction, `shade.wgsl`). A scene with one light has none of
 //! this: no buffer, no texture (the shader's fallbacks are bound).
 //!
-//! Moving objects do not enter these maps yet: they cast shadows in the
-//! first light only, and only the first light's bounce off them is
-//! computed per frame (docs/method.md "Every light").
+//! Moving objects are merged into the views their bounds touch
+//! ([`Pass::LightMerge`](crate::Pass::LightMerge)): a view their swept
+//! bounds can enter ([`LightView::may_see`]) gets a shadow pass of its own
+//! and a tile of a second atlas; each frame only the views their current
+//! bounds touch are rendered, and shading takes the minimum with the
+//! static map there (the primary light's z-min merge, per view). Only the
+//! first light's bounce off moving objects is computed per frame (the
+//! dynamic RSM); docs/method.md "Every light".
 
 use gibake_asset::{Asset, NO_MAP, atlas_grid};
-use gibake_gpu::mesh::SceneGpu;
+use gibake_gpu::mesh::{Draw, SceneGpu};
 use gibake_gpu::passes::light_maps::{self, LightMaps};
+use gibake_gpu::passes::shadow::ShadowPass;
 use gibake_gpu::{GpuLightView, GpuPrimaryLight, LightView};
-use gibake_scene::Scene;
+use gibake_scene::{Aabb, Scene};
 use wgpu::util::DeviceExt;
 
 use crate::RuntimeError;
@@ -39,14 +45,78 @@ pub(crate) struct GpuOtherLight {
 pub(crate) struct GpuOtherView {
     /// The view its map was rendered with.
     pub view: GpuLightView,
-    /// xy: the map's first texel in the atlas; z: 1 when a map is stored,
-    /// 0 when none is (no surface in the view: unshadowed); w unused.
+    /// xy: the static map's first texel in the atlas (−1: none stored, no
+    /// static surface in the view); zw: the moving objects' map's first
+    /// texel in the moving atlas this frame (−1: not touched this frame).
     pub tile: [i32; 4],
 }
 
 /// A view: its light's index, the view, its map's origin in the atlas
 /// (`None`: no map stored).
 type ViewTile = (u32, LightView, Option<[i32; 2]>);
+
+/// The views of the lights after the first (light index, view) and their
+/// maps' size: the asset's, or without one those the runtime renders
+/// (`LightView::of_light` at [`light_maps::light_map_size`], for a device
+/// of any size).
+pub(crate) fn views_of(
+    scene: &Scene,
+    asset: Option<&Asset>,
+    shadow_map_size: u32,
+) -> (Vec<(u32, LightView)>, u32) {
+    match asset {
+        Some(a) => {
+            let size = a.manifest.light_map_size;
+            let views = a
+                .manifest
+                .views
+                .iter()
+                .map(|v| (v.light, LightView::from_record(&v.view, size)))
+                .collect();
+            (views, size)
+        }
+        None => {
+            let n = light_maps::view_count(scene);
+            let (size, _) = light_maps::light_map_size(shadow_map_size, n, u32::MAX);
+            let views = scene
+                .lights
+                .iter()
+                .enumerate()
+                .skip(light_maps::first_viewed_light(scene))
+                .flat_map(|(k, l)| {
+                    LightView::of_light(scene, l, size)
+                        .into_iter()
+                        .map(move |v| (k as u32, v))
+                })
+                .collect();
+            (views, size)
+        }
+    }
+}
+
+/// The views (indices into `views`) moving objects within `swept` can
+/// ever enter: the only ones that get a moving-objects map.
+pub(crate) fn movable(views: &[(u32, LightView)], swept: &Aabb) -> Vec<usize> {
+    if swept.is_empty() {
+        return Vec::new();
+    }
+    (0..views.len())
+        .filter(|&k| views[k].1.may_see(swept))
+        .collect()
+}
+
+/// Moving objects into the views they can enter.
+struct Merge {
+    /// Per movable view: its index in the view array, its view, its pass.
+    passes: Vec<(usize, LightView, ShadowPass)>,
+    /// Their maps, one tile each (`R32Float`).
+    atlas: wgpu::Texture,
+    atlas_view: wgpu::TextureView,
+    /// Tiles per atlas row.
+    cols: u32,
+    /// Which movable views this frame's moving objects touch.
+    touched: Vec<bool>,
+}
 
 /// The GPU resources of the lights after the first.
 pub(crate) struct OtherLights {
@@ -58,8 +128,12 @@ pub(crate) struct OtherLights {
     pub maps: wgpu::TextureView,
     /// Number of lights after the first.
     pub count: u32,
-    /// Bytes uploaded or rendered.
+    /// Bytes uploaded or rendered (and allocated for moving objects).
     pub bytes: u64,
+    /// The views as uploaded (the moving tiles change per frame).
+    gpu_views: Vec<GpuOtherView>,
+    /// Moving objects into the views they touch (with the light merge).
+    merge: Option<Merge>,
 }
 
 impl OtherLights {
@@ -67,6 +141,8 @@ impl OtherLights {
     /// (which was baked from this scene: its static hash covers every
     /// light), or rendered now at the size the bake would use; `None` for
     /// a scene with one light.
+    /// With `merge` (the plan's light merge), moving objects get maps in
+    /// the views their swept bounds can enter.
     pub(crate) fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
@@ -74,10 +150,12 @@ impl OtherLights {
         scene_gpu: &SceneGpu,
         asset: Option<&Asset>,
         shadow_map_size: u32,
+        merge: bool,
     ) -> Result<Option<OtherLights>, RuntimeError> {
-        if scene.lights.len() < 2 {
+        if light_maps::view_count(scene) == 0 {
             return Ok(None);
         }
+        let first_light = light_maps::first_viewed_light(scene);
         let max = device.limits().max_texture_dimension_2d;
         // (light, view, tile origin or None), the atlas and its bytes.
         let (views, maps, bytes): (Vec<ViewTile>, _, u64) = match asset {
@@ -144,8 +222,8 @@ impl OtherLights {
                 (views, lm.atlas, bytes)
             }
         };
-        let mut gpu_lights = Vec::with_capacity(scene.lights.len() - 1);
-        for (k, l) in scene.lights.iter().enumerate().skip(1) {
+        let mut gpu_lights = Vec::with_capacity(scene.lights.len());
+        for (k, l) in scene.lights.iter().enumerate().skip(first_light) {
             let first = views.iter().position(|v| v.0 as usize == k);
             let count = views.iter().filter(|v| v.0 as usize == k).count();
             let Some(first) = first else {
@@ -164,8 +242,8 @@ impl OtherLights {
             .map(|(_, v, origin)| GpuOtherView {
                 view: v.to_gpu(),
                 tile: match origin {
-                    Some([x, y]) => [*x, *y, 1, 0],
-                    None => [0, 0, 0, 0],
+                    Some([x, y]) => [*x, *y, -1, -1],
+                    None => [-1, -1, -1, -1],
                 },
             })
             .collect();
@@ -173,15 +251,175 @@ impl OtherLights {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
                 contents,
-                usage: wgpu::BufferUsages::STORAGE,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             })
         };
+        let merge = if merge {
+            let pairs: Vec<(u32, LightView)> = views.iter().map(|(l, v, _)| (*l, *v)).collect();
+            Merge::new(
+                device,
+                scene_gpu,
+                &pairs,
+                &movable(&pairs, &scene.dynamic_swept_bounds()),
+            )?
+        } else {
+            None
+        };
+        let merge_bytes = merge.as_ref().map_or(0, Merge::bytes);
         Ok(Some(OtherLights {
             lights: storage("other lights", bytemuck::cast_slice(&gpu_lights)),
             views: storage("other lights' views", bytemuck::cast_slice(&gpu_views)),
             maps: maps.create_view(&Default::default()),
             count: gpu_lights.len() as u32,
-            bytes,
+            bytes: bytes + merge_bytes,
+            gpu_views,
+            merge,
         }))
+    }
+
+    /// The moving objects' maps (`None` without the light merge).
+    pub(crate) fn moving_maps(&self) -> Option<&wgpu::TextureView> {
+        self.merge.as_ref().map(|m| &m.atlas_view)
+    }
+
+    /// Picks the views this frame's moving objects (world `boxes`) touch
+    /// and uploads where shading finds their maps; returns how many.
+    pub(crate) fn prepare(&mut self, queue: &wgpu::Queue, boxes: &[Aabb]) -> u32 {
+        let Some(m) = self.merge.as_mut() else {
+            return 0;
+        };
+        let mut n = 0;
+        for (i, (k, view, pass)) in m.passes.iter().enumerate() {
+            let touched = boxes.iter().any(|b| view.may_see(b));
+            m.touched[i] = touched;
+            let size = pass.view.size;
+            let t = &mut self.gpu_views[*k].tile;
+            if touched {
+                n += 1;
+                let i = i as u32;
+                t[2] = ((i % m.cols) * size) as i32;
+                t[3] = ((i / m.cols) * size) as i32;
+            } else {
+                t[2] = -1;
+                t[3] = -1;
+            }
+        }
+        queue.write_buffer(&self.views, 0, bytemuck::cast_slice(&self.gpu_views));
+        n
+    }
+
+    /// Views the moving objects touch this frame.
+    pub(crate) fn touched(&self) -> u32 {
+        self.merge
+            .as_ref()
+            .map_or(0, |m| m.touched.iter().filter(|t| **t).count() as u32)
+    }
+
+    /// Records the light merge: the moving objects' `draws` into each view
+    /// they touch this frame, each copied into its atlas tile.
+    pub(crate) fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        scene_gpu: &SceneGpu,
+        draws: &[Draw],
+        timer: &crate::stats::Timer,
+    ) {
+        let Some(m) = &self.merge else { return };
+        let touched: Vec<usize> = (0..m.passes.len()).filter(|&i| m.touched[i]).collect();
+        for (j, &i) in touched.iter().enumerate() {
+            let (_, _, pass) = &m.passes[i];
+            let ts = timer.render_span(crate::Pass::LightMerge, j == 0, j + 1 == touched.len());
+            pass.encode(encoder, scene_gpu, &[draws], ts);
+            let size = pass.view.size;
+            let i = i as u32;
+            encoder.copy_texture_to_texture(
+                pass.metric.as_image_copy(),
+                wgpu::TexelCopyTextureInfo {
+                    texture: &m.atlas,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d {
+                        x: (i % m.cols) * size,
+                        y: (i / m.cols) * size,
+                        z: 0,
+                    },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                wgpu::Extent3d {
+                    width: size,
+                    height: size,
+                    depth_or_array_layers: 1,
+                },
+            );
+        }
+    }
+
+    /// Draw calls of this frame's light merge.
+    pub(crate) fn draw_calls(&self, moving_draws: u32) -> u32 {
+        self.touched() * moving_draws
+    }
+}
+
+impl Merge {
+    /// A pass and a tile for each of `movable` (indices into `views`);
+    /// `None` when there is none.
+    fn new(
+        device: &wgpu::Device,
+        scene_gpu: &SceneGpu,
+        views: &[(u32, LightView)],
+        movable: &[usize],
+    ) -> Result<Option<Merge>, RuntimeError> {
+        let Some(&first) = movable.first() else {
+            return Ok(None);
+        };
+        let size = views[first].1.size;
+        let (cols, rows) = atlas_grid(movable.len() as u32);
+        let max = device.limits().max_texture_dimension_2d;
+        let (w, h) = (cols * size, rows * size);
+        if w > max || h > max {
+            return Err(RuntimeError::DeviceLimit {
+                what: format!(
+                    "the moving objects' shadow maps in {} views of the lights after the first ({size}² texels in {cols}×{rows} tiles)",
+                    movable.len()
+                ),
+                needed: u64::from(w.max(h)),
+                limit: u64::from(max),
+            });
+        }
+        let atlas = gibake_gpu::util::texture_2d(
+            device,
+            "moving objects in the other lights' views",
+            w,
+            h,
+            wgpu::TextureFormat::R32Float,
+            wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        );
+        let passes = movable
+            .iter()
+            .map(|&k| {
+                (
+                    k,
+                    views[k].1,
+                    ShadowPass::new(device, scene_gpu, views[k].1),
+                )
+            })
+            .collect();
+        Ok(Some(Merge {
+            passes,
+            atlas_view: atlas.create_view(&Default::default()),
+            atlas,
+            cols,
+            touched: vec![false; movable.len()],
+        }))
+    }
+
+    /// Bytes: the atlas, and each pass's metric and depth targets.
+    fn bytes(&self) -> u64 {
+        let atlas = 4 * u64::from(self.atlas.width()) * u64::from(self.atlas.height());
+        let per: u64 = self
+            .passes
+            .iter()
+            .map(|(_, v, _)| 8 * u64::from(v.size) * u64::from(v.size))
+            .sum();
+        atlas + per
     }
 }

@@ -26,6 +26,9 @@ pub enum Pass {
     /// Moving objects into their own primary shadow map (z-min merge with
     /// the baked one at shading).
     PrimaryMerge,
+    /// Moving objects into the shadow maps of the other lights' views
+    /// their bounds touch this frame (one small pass per view touched).
+    LightMerge,
     /// Cascaded shadow maps fitted to the main view (a large level's direct
     /// light): static draws when a cascade moved, moving objects every
     /// frame.
@@ -52,8 +55,9 @@ pub enum Pass {
 
 impl Pass {
     /// Every pass, in recording order.
-    pub const ALL: [Pass; 10] = [
+    pub const ALL: [Pass; 11] = [
         Pass::PrimaryMerge,
+        Pass::LightMerge,
         Pass::Cascades,
         Pass::DynamicRsm,
         Pass::Occlusion,
@@ -69,6 +73,7 @@ impl Pass {
     pub fn name(self) -> &'static str {
         match self {
             Pass::PrimaryMerge => "primary merge",
+            Pass::LightMerge => "light merge",
             Pass::Cascades => "cascades",
             Pass::DynamicRsm => "dynamic rsm",
             Pass::Occlusion => "occlusion",
@@ -211,7 +216,11 @@ impl FramePlan {
     /// The plan for `settings.mode` over `scene` with `asset` (every mode
     /// but `Direct` needs one: [`RuntimeError::NeedsAsset`]).
     ///
-    /// - primary merge: the scene has moving objects (every mode);
+    /// - primary merge: the scene has moving objects (every mode) and its
+    ///   first light the primary maps (not a point light);
+    /// - light merge: moving objects, direct light shaded, and a view of a
+    ///   light after the first that their swept bounds can enter
+    ///   ([`gibake_gpu::LightView::may_see`]);
     /// - dynamic RSM and occlusion: moving objects, an asset that stores its
     ///   RSM, an indirect mode;
     /// - dynamic VPLs: as the dynamic RSM, with `max_dynamic_vpls > 0`;
@@ -256,7 +265,20 @@ impl FramePlan {
             )
         };
         let passes = PassSet::default()
-            .with_if(Pass::PrimaryMerge, moving)
+            .with_if(
+                Pass::PrimaryMerge,
+                moving && crate::light::has_primary(scene),
+            )
+            .with_if(
+                Pass::LightMerge,
+                moving
+                    && mode != Mode::Indirect
+                    && !crate::other_lights::movable(
+                        &crate::other_lights::views_of(scene, asset, settings.shadow_map_size).0,
+                        &scene.dynamic_swept_bounds(),
+                    )
+                    .is_empty(),
+            )
             .with_if(Pass::Cascades, cascades.is_some())
             .with_if(Pass::DynamicRsm, rsm)
             .with_if(Pass::Occlusion, rsm)

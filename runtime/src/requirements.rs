@@ -150,6 +150,20 @@ impl Requirements {
         if plan.has(Pass::PrimaryMerge) {
             r.gpu_bytes += 8 * sq(shadow);
         }
+        if plan.has(Pass::LightMerge) {
+            // Moving objects in the other lights' views they can enter: a
+            // pass (metric and depth) and an atlas tile per view.
+            let (views, size) =
+                crate::other_lights::views_of(scene, asset, settings.shadow_map_size);
+            let n = crate::other_lights::movable(&views, &scene.dynamic_swept_bounds()).len();
+            let (c, rw) = atlas_grid(n as u32);
+            r.need(
+                Limit::Texture2d,
+                "the moving objects' maps of the other lights",
+                u64::from(c.max(rw)) * u64::from(size),
+            );
+            r.gpu_bytes += 8 * n as u64 * sq(size) + 4 * u64::from(c) * u64::from(rw) * sq(size);
+        }
         if let Some(c) = plan.cascades() {
             r.need(Limit::Texture2d, "the shadow cascades", u64::from(c.size));
             // Metric and ordering depth per texel, a static map per cascade

@@ -221,6 +221,7 @@ impl ShadePass {
                 storage_entry(21),
                 storage_entry(22),
                 tex_entry(23),
+                tex_entry(24),
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -310,9 +311,9 @@ impl ShadePass {
             None => (&self.fallback_cascades, &[][..], &[][..]),
         };
         let cmap = |v: &[&'a wgpu::TextureView], k: usize| map(v.get(k).copied());
-        let (ol, ov, om) = match i.other_lights {
-            Some(o) => (&o.lights, &o.views, Some(&o.maps)),
-            None => (&self.fallback_other[0], &self.fallback_other[1], None),
+        let (ol, ov, om, omm) = match i.other_lights {
+            Some(o) => (&o.lights, &o.views, Some(&o.maps), o.moving_maps()),
+            None => (&self.fallback_other[0], &self.fallback_other[1], None, None),
         };
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shade gi"),
@@ -343,6 +344,7 @@ impl ShadePass {
                 (21, ol.as_entire_binding()),
                 (22, ov.as_entire_binding()),
                 (23, map(om)),
+                (24, map(omm)),
             ]),
         })
     }

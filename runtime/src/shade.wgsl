@@ -41,7 +41,8 @@ struct OtherLight {       // GpuOtherLight in other_lights.rs
 
 struct OtherView {        // GpuOtherView in other_lights.rs
     view: LightView,
-    tile: vec4<i32>,      // xy the map's origin in light_maps; z 1 stored, 0 none
+    tile: vec4<i32>,      // xy the static map's origin in light_maps (−1: none);
+                          // zw the moving objects' map's in light_moving (−1: none)
 }
 
 const NONE: u32 = 0xffffffffu;
@@ -75,6 +76,7 @@ const VPL_MAX_SLOPE: f32 = 10.0;
 @group(1) @binding(21) var<storage, read> other_lights: array<OtherLight>;
 @group(1) @binding(22) var<storage, read> other_views: array<OtherView>;
 @group(1) @binding(23) var light_maps: texture_2d<f32>;
+@group(1) @binding(24) var light_moving: texture_2d<f32>;
 
 // Near field (gibake_bake::near_field): a VPL, or a node of its tree, whose
 // receiver is nearer than NEAR_FIELD_RATIO × its disk radius √(A/π) is
@@ -104,13 +106,14 @@ fn primary_visibility(p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
             return cascade_visibility(c, p, ng, wi);
         }
     }
-    return lv_visibility(light_view, primary_static, primary_dynamic, has(FLAG_DYN_PRIMARY), vec2<i32>(0), p, ng, wi);
+    return lv_visibility(light_view, primary_static, primary_dynamic, has(FLAG_DYN_PRIMARY), vec4<i32>(0), p, ng, wi);
 }
 
-// Static-map visibility of light k after the first: its one view, or for
-// a point light the cube face of the receiver's direction (the face of the
-// largest absolute component, +X, −X, +Y, −Y, +Z, −Z as baked). A view
-// with no stored map holds no surface: nothing shadows there.
+// Visibility of light k after the first: its one view, or for a point
+// light the cube face of the receiver's direction (the face of the largest
+// absolute component, +X, −X, +Y, −Y, +Z, −Z as baked); the static map,
+// merged (z-min) with the moving objects' map when they touch the view
+// this frame. A view with neither holds no surface: nothing shadows there.
 fn other_visibility(k: u32, p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
     let l = other_lights[k];
     var face = 0u;
@@ -126,10 +129,15 @@ fn other_visibility(k: u32, p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
         }
     }
     let v = other_views[l.views.x + face];
-    if (v.tile.z == 0) {
-        return 1.0;
+    let stored = v.tile.x >= 0;
+    let moving = v.tile.z >= 0;
+    if (stored) {
+        return lv_visibility(v.view, light_maps, light_moving, moving, v.tile, p, ng, wi);
     }
-    return lv_visibility(v.view, light_maps, light_maps, false, v.tile.xy, p, ng, wi);
+    if (moving) {
+        return lv_visibility(v.view, light_moving, light_moving, false, v.tile.zwzw, p, ng, wi);
+    }
+    return 1.0;
 }
 
 // Direct light of one light with the shading normal's cosine, as engines

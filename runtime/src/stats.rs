@@ -76,6 +76,9 @@ pub struct FrameStats {
     pub dynamic_vpl_slots: u32,
     /// VPL maps into which moving objects were rasterized this frame.
     pub affected_maps: u32,
+    /// Views of the lights after the first into which moving objects were
+    /// rasterized this frame (the light merge's passes).
+    pub light_views_merged: u32,
     /// Draw calls recorded by the per-frame update (merge passes).
     pub update_draw_calls: u32,
     /// Draw calls in total.
@@ -232,6 +235,23 @@ impl Timer {
             query_set: set,
             beginning_of_pass_write_index: Some(i),
             end_of_pass_write_index: Some(i + 1),
+        })
+    }
+
+    /// Timestamp writes of one of several render passes that together
+    /// make `pass` this frame (no view): the first writes its beginning,
+    /// the last its end.
+    pub(crate) fn render_span(
+        &self,
+        pass: Pass,
+        first: bool,
+        last: bool,
+    ) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
+        let (set, i) = self.query(pass, None)?;
+        (first || last).then_some(wgpu::RenderPassTimestampWrites {
+            query_set: set,
+            beginning_of_pass_write_index: first.then_some(i),
+            end_of_pass_write_index: last.then_some(i + 1),
         })
     }
 

@@ -99,6 +99,7 @@ impl World {
             &scene_gpu,
             asset,
             settings.shadow_map_size,
+            plan.has(crate::Pass::LightMerge),
         )?;
         let moving = MovingPasses::new(
             device,
@@ -181,6 +182,17 @@ impl World {
         if !transforms.is_empty() {
             self.scene_gpu.set_dynamic_transforms(queue, transforms);
         }
+        if let Some(o) = self.other_lights.as_mut() {
+            let boxes: Vec<gibake_scene::Aabb> = self
+                .moving_draws
+                .iter()
+                .map(|d| match d.object.and_then(|k| transforms.get(k)) {
+                    Some(m) => d.bounds.transformed(*m),
+                    None => d.bounds,
+                })
+                .collect();
+            o.prepare(queue, &boxes);
+        }
         let grown = self.moving.prepare(
             device,
             queue,
@@ -210,6 +222,22 @@ impl World {
         }
         self.moving
             .record(encoder, &self.scene_gpu, &self.moving_draws, timer);
+        if let Some(o) = &self.other_lights {
+            o.record(encoder, &self.scene_gpu, &self.moving_draws, timer);
+        }
+    }
+
+    /// Views of the lights after the first that moving objects touch this
+    /// frame (each gets a light-merge pass).
+    pub(crate) fn light_views_touched(&self) -> u32 {
+        self.other_lights.as_ref().map_or(0, OtherLights::touched)
+    }
+
+    /// Draw calls of this frame's light merge.
+    pub(crate) fn light_merge_draw_calls(&self) -> u32 {
+        self.other_lights
+            .as_ref()
+            .map_or(0, |o| o.draw_calls(self.moving_draws.len() as u32))
     }
 
     /// Draw calls of this frame's cascade passes.

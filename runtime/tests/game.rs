@@ -160,8 +160,8 @@ fn the_lights_are_visible_to_a_game() {
     assert_eq!(l.vpls, Some(f.asset.vpls.len() as u32));
     assert!(l.shaded);
     assert!(
-        l.moving_objects,
-        "the first light's maps take moving objects"
+        l.dynamic_bounce,
+        "the first light's bounce off moving objects"
     );
     // Without an asset (direct mode) nothing is baked from it.
     let r = renderer(&f.scene, None, &settings(Mode::Direct));

@@ -6,19 +6,27 @@ Written from docs/asset-format.md only (not from the Rust sources of
 another language. It
 
 - decodes `manifest.bin` (header, bincode 2 standard-config payload decoded by
-  hand, BLAKE3 trailer) and checks its values,
+  hand, BLAKE3 trailer; format 4.x: the lights, the shadow-map views of the
+  lights after the first, or of every light when the first is a point light,
+  and their map size) and checks its values (the views' order, tiles and
+  light indices, the lights' VPL counts, no RSM with a point light first),
 - checks every listed file's size and BLAKE3 hash,
 - reads `vpls.bin` and `vpl_nodes.bin` and checks their records (ranges, the
   map layers, the near-field tree's sums),
 - reads the EXR maps (header: single part, scan lines, ZIP, dimensions,
-  channels; pixels: no NaN, atlas tiles, RSM `vpl` indices),
-- checks the RSM against the VPLs (texel counts, flux shares adding up to
-  each VPL, each position at its texel nearest to the flux-weighted centroid),
-- recomputes map lookups: the light view (VPL positions land on the primary
-  shadow map's surface) and each stored hemisphere map (surface points
-  reconstructed from the primary shadow map are not nearer to the VPL than
-  its map says, and the map's hits are not in front of the light's nearest
-  surface),
+  channels; pixels: no NaN, atlas tiles, RSM `vpl` indices), `light_maps.exr`
+  included,
+- checks the RSM against the first light's VPLs (texel counts, flux shares
+  adding up to each VPL, each position at its texel nearest to the
+  flux-weighted centroid),
+- recomputes map lookups: the light view (the first light's VPL positions
+  land on the primary shadow map's surface; not with a point light first,
+  whose light_view is an unused face) and each stored hemisphere map
+  (surface points reconstructed from the primary shadow map are not nearer
+  to the VPL than its map says, and the map's hits are not in front of the
+  light's nearest surface), and the viewed lights' maps (each such light's
+  VPLs land on the surface of one of its views' maps; a point light's faces
+  look along +X, −X, +Y, −Y, +Z, −Z),
 
 and prints a summary. Exit status 0: the asset is valid; 1: a check failed
 (the message names the file); 2: usage or a missing Python package.
@@ -48,10 +56,18 @@ except ImportError as e:  # pragma: no cover - environment problem
     sys.exit(2)
 
 MAGIC = b"GIBAKE\x00\x01"
-READER_MAJOR = 3
-READER_MINOR = 1
+READER_MAJOR = 4
+READER_MINOR = 0
 MAX_PAYLOAD = 16 * 1024 * 1024
+MAX_MAP_SIZE = 16384
+# Most texels of one map file (an atlas).
+MAX_TEXELS = 2**31
 NO_MAP = 0xFFFFFFFF
+# LightRecord.kind.
+LIGHT_KINDS = {0: "directional", 1: "spot", 2: "point"}
+LIGHT_POINT = 2
+# A point light's views: its cube faces, in this order.
+POINT_FACES = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
 # Fixed-point 1.0 of an RSM texel's flux share (`share` in rsm.exr).
 SHARE_ONE = 1 << 24
 RECORD = 48
@@ -145,6 +161,22 @@ class Decoder:
         return tag == 1
 
 
+def read_light_view(d: Decoder, what: str) -> dict:
+    """A LightViewRecord (`light_view`, and each view's `view`)."""
+    lv = {}
+    lv["directional"] = d.boolean(f"{what}.directional")
+    lv["view_proj"] = d.f32s(16, f"{what}.view_proj")
+    lv["origin"] = d.f32s(3, f"{what}.origin")
+    lv["direction"] = d.f32s(3, f"{what}.direction")
+    lv["texel_scale"] = d.f32(f"{what}.texel_scale")
+    lv["texel_area"] = d.f32(f"{what}.texel_area")
+    return lv
+
+
+def kind_name(light: dict) -> str:
+    return LIGHT_KINDS.get(light["kind"], "unknown")
+
+
 def read_manifest(asset: str) -> dict:
     path = os.path.join(asset, "manifest.bin")
     if not os.path.isfile(path):
@@ -159,9 +191,14 @@ def read_manifest(asset: str) -> dict:
         raise AssetError(f"manifest.bin: bad magic {data[:8].hex(' ')}")
     major, minor = struct.unpack("<HH", data[8:12])
     if major != READER_MAJOR:
+        hint = (
+            "re-bake the scene with a gibake that writes it"
+            if major < READER_MAJOR
+            else "a newer reader is needed"
+        )
         raise AssetError(
             f"manifest.bin: asset format {major}.{minor} is not supported by this reader "
-            f"(reads {READER_MAJOR}.x)"
+            f"(reads {READER_MAJOR}.x, up to {READER_MAJOR}.{READER_MINOR}); {hint}"
         )
     if len(data) < 20:
         raise AssetError("manifest.bin: truncated before the payload length")
@@ -196,14 +233,7 @@ def read_manifest(asset: str) -> dict:
     )
     m["settings"] = s
     m["static_scene_hash"] = d.take(32, "static_scene_hash")
-    lv = {}
-    lv["directional"] = d.boolean("light_view.directional")
-    lv["view_proj"] = d.f32s(16, "light_view.view_proj")
-    lv["origin"] = d.f32s(3, "light_view.origin")
-    lv["direction"] = d.f32s(3, "light_view.direction")
-    lv["texel_scale"] = d.f32("light_view.texel_scale")
-    lv["texel_area"] = d.f32("light_view.texel_area")
-    m["light_view"] = lv
+    m["light_view"] = read_light_view(d, "light_view")
     m["vpl_count"] = d.u32("vpl_count")
     m["map_count"] = d.u32("map_count")
     m["has_dynamic"] = d.boolean("has_dynamic")
@@ -215,26 +245,35 @@ def read_manifest(asset: str) -> dict:
         digest = d.take(32, f"files[{i}].blake3")
         files.append((name, size, digest))
     m["files"] = files
-    # 3.1: the baked lights (absent from a 3.0 payload).
+    # The baked lights (lights[0] is the one of light_view).
     lights = []
-    if minor >= 1:
-        for i in range(d.u64("lights length")):
-            lights.append(
-                {
-                    "name": d.string(f"lights[{i}].name"),
-                    "kind": {0: "directional", 1: "spot", 2: "point"}.get(
-                        d.take(1, f"lights[{i}].kind")[0], "unknown"
-                    ),
-                    "color": d.f32s(3, f"lights[{i}].color"),
-                    "position": d.f32s(3, f"lights[{i}].position"),
-                    "direction": d.f32s(3, f"lights[{i}].direction"),
-                    "inner_cone": d.f32(f"lights[{i}].inner_cone"),
-                    "outer_cone": d.f32(f"lights[{i}].outer_cone"),
-                    "range": d.f32(f"lights[{i}].range"),
-                    "vpls": d.u32(f"lights[{i}].vpls"),
-                }
-            )
+    for i in range(d.u64("lights length")):
+        lights.append(
+            {
+                "name": d.string(f"lights[{i}].name"),
+                "kind": d.take(1, f"lights[{i}].kind")[0],
+                "color": d.f32s(3, f"lights[{i}].color"),
+                "position": d.f32s(3, f"lights[{i}].position"),
+                "direction": d.f32s(3, f"lights[{i}].direction"),
+                "inner_cone": d.f32(f"lights[{i}].inner_cone"),
+                "outer_cone": d.f32(f"lights[{i}].outer_cone"),
+                "range": d.f32(f"lights[{i}].range"),
+                "vpls": d.u32(f"lights[{i}].vpls"),
+            }
+        )
     m["lights"] = lights
+    # The shadow-map views of lights[1..] and their maps' resolution.
+    views = []
+    for i in range(d.u64("views length")):
+        views.append(
+            {
+                "light": d.u32(f"views[{i}].light"),
+                "view": read_light_view(d, f"views[{i}].view"),
+                "tile": d.u32(f"views[{i}].tile"),
+            }
+        )
+    m["views"] = views
+    m["light_map_size"] = d.u32("light_map_size")
     extra = length - d.pos
     if extra and minor <= READER_MINOR:
         raise AssetError(
@@ -245,21 +284,125 @@ def read_manifest(asset: str) -> dict:
     return m
 
 
-def check_manifest_values(m: dict) -> list[str]:
-    s, lv = m["settings"], m["light_view"]
-    for k in ("rsm_size", "vpl_map_size", "shadow_map_size"):
-        if not 1 <= s[k] <= 16384:
-            raise AssetError(f"manifest.bin: settings.{k} = {s[k]} outside 1..=16384")
-    if not math.isfinite(s["threshold"]):
-        raise AssetError("manifest.bin: settings.threshold is not finite")
-    floats = (
+def view_floats(lv: dict) -> list[float]:
+    return (
         lv["view_proj"]
         + lv["origin"]
         + lv["direction"]
         + [lv["texel_scale"], lv["texel_area"]]
     )
-    if not all(math.isfinite(x) for x in floats):
+
+
+def stored_light_maps(m: dict) -> int:
+    """How many views store a map in light_maps.exr."""
+    return sum(1 for v in m["views"] if v["tile"] != NO_MAP)
+
+
+def first_viewed_light(m: dict) -> int:
+    """The first light with views: 0 when lights[0] is a point light (it has
+    no primary map: its six faces are views), else 1 (lights[0] is the
+    spot or directional light of light_view)."""
+    lights = m["lights"]
+    return 0 if lights and lights[0]["kind"] == LIGHT_POINT else 1
+
+
+def viewed_lights(m: dict) -> str:
+    """The lights that have views, in words."""
+    if first_viewed_light(m) == 0:
+        return "every light (lights[0] is a point light)"
+    return "the lights after the first"
+
+
+def check_views(m: dict) -> None:
+    """The lights' views: every light from the first viewed one on (lights[1..],
+    or every light when lights[0] is a point light) has its views (a point
+    light six, any other one) in light order, each naming its light; the
+    stored maps are tiles 0, 1, 2, … in view order. A point light first has
+    no primary map, so no RSM: has_dynamic must be false."""
+    lights, views = m["lights"], m["views"]
+    first = first_viewed_light(m)
+    if first == 0 and m["has_dynamic"]:
+        raise AssetError(
+            f"manifest.bin: lights[0] ('{lights[0]['name']}') is a point light (no primary "
+            "map, so no primary RSM) but has_dynamic is true (rsm.exr stored); a point light "
+            "first requires has_dynamic false"
+        )
+    k = next_tile = 0
+    for i, light in enumerate(lights[first:], start=first):
+        want = 6 if light["kind"] == LIGHT_POINT else 1
+        for face in range(want):
+            if k >= len(views):
+                raise AssetError(
+                    f"manifest.bin: views ends at {k}: lights[{i}] ('{light['name']}', "
+                    f"{kind_name(light)}) needs {want} views"
+                )
+            v = views[k]
+            if v["light"] != i:
+                raise AssetError(
+                    f"manifest.bin: views[{k}] is of light {v['light']} but lights[{i}]'s "
+                    f"view {face} belongs there"
+                )
+            if not all(math.isfinite(x) for x in view_floats(v["view"])):
+                raise AssetError(f"manifest.bin: views[{k}] holds a non-finite value")
+            if v["tile"] != NO_MAP:
+                if v["tile"] != next_tile:
+                    raise AssetError(
+                        f"manifest.bin: views[{k}] stores tile {v['tile']} but the next tile "
+                        f"is {next_tile} (tiles are numbered in view order)"
+                    )
+                next_tile += 1
+            k += 1
+    if k != len(views):
+        raise AssetError(
+            f"manifest.bin: {len(views)} views but the lights that have views "
+            f"({viewed_lights(m)}) have {k}"
+        )
+    size = m["light_map_size"]
+    if views and not 1 <= size <= MAX_MAP_SIZE:
+        raise AssetError(
+            f"manifest.bin: light_map_size = {size} outside 1..={MAX_MAP_SIZE} "
+            f"({len(views)} views)"
+        )
+    if not views and size != 0:
+        raise AssetError(f"manifest.bin: light_map_size is {size} but there are no views")
+    if next_tile > 0:
+        cols, rows = atlas_grid(next_tile)
+        texels = cols * rows * size**2
+        if texels > MAX_TEXELS:
+            raise AssetError(
+                f"manifest.bin: light-map atlas of {texels} texels exceeds 2^31"
+            )
+
+
+def check_manifest_values(m: dict) -> list[str]:
+    s, lv = m["settings"], m["light_view"]
+    for k in ("rsm_size", "vpl_map_size", "shadow_map_size"):
+        if not 1 <= s[k] <= MAX_MAP_SIZE:
+            raise AssetError(
+                f"manifest.bin: settings.{k} = {s[k]} outside 1..={MAX_MAP_SIZE}"
+            )
+    if not math.isfinite(s["threshold"]):
+        raise AssetError("manifest.bin: settings.threshold is not finite")
+    if not all(math.isfinite(x) for x in view_floats(lv)):
         raise AssetError("manifest.bin: light_view holds a non-finite value")
+    for i, light in enumerate(m["lights"]):
+        floats = (
+            light["color"]
+            + light["position"]
+            + light["direction"]
+            + [light["inner_cone"], light["outer_cone"], light["range"]]
+        )
+        if (
+            light["kind"] not in LIGHT_KINDS
+            or not all(math.isfinite(x) for x in floats)
+            or light["range"] < 0
+            or any(c < 0 for c in light["color"])
+        ):
+            raise AssetError(
+                f"manifest.bin: lights[{i}] ('{light['name']}') is not a valid light (kind "
+                f"{light['kind']}; values finite, colour and range non-negative required)"
+            )
+    check_views(m)
     if m["map_count"] > m["vpl_count"]:
         raise AssetError(
             f"manifest.bin: map_count {m['map_count']} > vpl_count {m['vpl_count']}"
@@ -267,13 +410,25 @@ def check_manifest_values(m: dict) -> list[str]:
     if m["map_count"] > 0:
         cols, rows = atlas_grid(m["map_count"])
         texels = cols * rows * s["vpl_map_size"] ** 2
-        if texels > 2**31:
+        if texels > MAX_TEXELS:
             raise AssetError(f"manifest.bin: atlas of {texels} texels exceeds 2^31")
     required = ["vpls.bin", "vpl_nodes.bin", "primary_depth.exr"]
     if m["map_count"] > 0:
         required.append("vpl_maps.exr")
     if m["has_dynamic"]:
         required.append("rsm.exr")
+    if stored_light_maps(m) > 0:
+        required.append("light_maps.exr")
+    # The format's own names: listed exactly when required (whatever the minor).
+    own = [
+        "manifest.bin",
+        "vpls.bin",
+        "vpl_nodes.bin",
+        "primary_depth.exr",
+        "vpl_maps.exr",
+        "rsm.exr",
+        "light_maps.exr",
+    ]
     names = [f[0] for f in m["files"]]
     for name in names:
         if "/" in name or "\\" in name or name in ("", ".", ".."):
@@ -285,6 +440,13 @@ def check_manifest_values(m: dict) -> list[str]:
             )
     if len(set(names)) != len(names):
         raise AssetError(f"manifest.bin: duplicate names in the file list {names}")
+    for name in names:
+        if name in own and name not in required:
+            raise AssetError(
+                f"manifest.bin: file list holds {name}, which the counts say is not stored "
+                f"(map_count {m['map_count']}, has_dynamic {m['has_dynamic']}, "
+                f"stored light maps {stored_light_maps(m)})"
+            )
     unknown = [n for n in names if n not in required]
     if unknown and m["minor"] <= READER_MINOR:
         raise AssetError(f"manifest.bin: unexpected files in the file list: {unknown}")
@@ -300,6 +462,25 @@ def check_manifest_values(m: dict) -> list[str]:
             f"expected 48 · 84 · {m['vpl_count']}"
         )
     return names
+
+
+def light_vpl_ranges(m: dict) -> list[tuple[int, int]]:
+    """Each light's VPLs in vpls.bin, [start, end): the lights' `vpls` counts,
+    consecutive in light order (the first light's VPLs first). Without light
+    records, every VPL is the primary light's."""
+    if not m["lights"]:
+        return [(0, m["vpl_count"])]
+    total = sum(light["vpls"] for light in m["lights"])
+    if total != m["vpl_count"]:
+        raise AssetError(
+            f"manifest.bin: the lights' VPL counts add up to {total} but vpl_count is "
+            f"{m['vpl_count']}"
+        )
+    out, start = [], 0
+    for light in m["lights"]:
+        out.append((start, start + light["vpls"]))
+        start += light["vpls"]
+    return out
 
 
 def check_files(asset: str, m: dict) -> dict[str, bytes]:
@@ -632,10 +813,13 @@ def neighbourhood(img: np.ndarray, xy: np.ndarray, op) -> np.ndarray:
 
 
 def check_light_view(m: dict, vpls: np.ndarray, primary: np.ndarray) -> str:
-    """VPLs sit on lit surfaces: the primary shadow map sees them."""
+    """VPLs sit on lit surfaces: the primary shadow map sees them (`vpls`:
+    the first light's, a spot or directional light: with a point light
+    first, light_view is an unused face and its VPLs lie on its views' maps,
+    checked by check_light_maps)."""
     lv, size = m["light_view"], primary.shape[0]
     if len(vpls) == 0:
-        return "no VPLs"
+        return "no VPLs of the first light"
     p = vpls["position"].astype(np.float64)
     tc, w = lv_texel_coords(lv, p, size)
     inside = (w > 0) & (tc >= 0).all(axis=1) & (tc < size).all(axis=1)
@@ -657,7 +841,7 @@ def check_light_view(m: dict, vpls: np.ndarray, primary: np.ndarray) -> str:
             f"primary_depth.exr: VPL {i} at light-view metric {metric[i]:.4f} but the shadow "
             f"map holds {lo[i]:.4f}..{hi[i]:.4f} around texel {xy[i].tolist()}"
         )
-    return f"{len(vpls)} VPL positions on the primary shadow map's surface"
+    return f"{len(vpls)} VPL positions of the first light on the primary shadow map's surface"
 
 
 def check_rsm_vpls(m: dict, vpls: np.ndarray, rsm: dict) -> str:
@@ -666,11 +850,21 @@ def check_rsm_vpls(m: dict, vpls: np.ndarray, rsm: dict) -> str:
     shares add up to the whole VPL (2^24, up to each share's rounding), a
     texel of no VPL has none, and the VPL's position is the world point of
     the one of its texels nearest to their flux-weighted centroid (the shares
-    are the weights: each is the texel's flux over the VPL's)."""
+    are the weights: each is the texel's flux over the VPL's). The RSM is
+    the first light's (a spot or directional light: a point light first
+    stores no RSM): `vpls` are its VPLs (the first `lights[0].vpls`
+    records), and no texel names another light's."""
     lv = m["light_view"]
     size = rsm["Z"].shape[0]
     idx = rsm["vpl"].ravel()
     share = rsm["share"].ravel().astype(np.int64)
+    other = (idx != NO_MAP) & (idx >= len(vpls))
+    if other.any():
+        t = int(np.argmax(other))
+        raise AssetError(
+            f"rsm.exr: texel {t} names VPL {int(idx[t])}, not one of the first light's "
+            f"{len(vpls)}"
+        )
     counts = np.bincount(idx[idx != NO_MAP], minlength=len(vpls))
     if not np.array_equal(counts, vpls["texels"].astype(np.int64)):
         i = int(np.argmax(counts != vpls["texels"]))
@@ -719,6 +913,149 @@ def check_rsm_vpls(m: dict, vpls: np.ndarray, rsm: dict) -> str:
         f"{len(vpls)} VPLs: texel counts, flux shares and positions match their "
         "RSM texels"
     )
+
+
+def check_light_maps(
+    m: dict,
+    vpls: np.ndarray,
+    ranges: list[tuple[int, int]],
+    atlas: np.ndarray | None,
+) -> list[str]:
+    """The lights that have views (those after the first, or every light
+    when lights[0] is a point light): each view matches its light (a point
+    light's faces look along +X, −X, +Y, −Y, +Z, −Z from its position; a
+    spot's view from its position along its direction, perspective; a
+    directional light's orthographic along its direction), the atlas holds
+    the stored maps (unused tiles +inf, each stored map a surface), and each
+    such light's VPLs lie on the surface of the map of one of its views."""
+    views, size, lights = m["views"], m["light_map_size"], m["lights"]
+    if lights and (lights[0]["kind"] == 0) != m["light_view"]["directional"]:
+        raise AssetError(
+            f"manifest.bin: light_view is {'' if m['light_view']['directional'] else 'not '}"
+            f"directional but lights[0] is a {kind_name(lights[0])} light"
+        )
+    first = first_viewed_light(m)
+    who = viewed_lights(m)
+    if not views:
+        return ["no lights with views (one light, not a point light): no views, no light_maps.exr"]
+    # Each view against its light.
+    face = 0
+    for k, v in enumerate(views):
+        light = lights[v["light"]]
+        lv = v["view"]
+        face = face + 1 if k > 0 and views[k - 1]["light"] == v["light"] else 0
+        if light["kind"] == LIGHT_POINT:
+            want_dir = np.array(POINT_FACES[face], dtype=np.float64)
+        else:
+            d = np.array(light["direction"], dtype=np.float64)
+            want_dir = d / max(np.linalg.norm(d), 1e-30)
+        pos = np.array(light["position"], dtype=np.float64)
+        ok = lv["directional"] == (light["kind"] == 0) and np.allclose(
+            lv["direction"], want_dir, atol=1e-4, rtol=0
+        )
+        if not lv["directional"]:
+            ok = ok and np.allclose(
+                lv["origin"], pos, atol=1e-4 * (1 + np.abs(pos).max()), rtol=0
+            )
+        if not ok:
+            raise AssetError(
+                f"manifest.bin: views[{k}] (light {v['light']} '{light['name']}', "
+                f"{kind_name(light)}, view {face}) looks from {lv['origin']} along "
+                f"{lv['direction']} (directional {lv['directional']}); expected along "
+                f"{want_dir.tolist()}"
+                + ("" if light["kind"] == 0 else f" from {pos.tolist()}")
+            )
+    stored = stored_light_maps(m)
+    tiles: dict[int, np.ndarray] = {}
+    if stored:
+        cols, rows = atlas_grid(stored)
+        for k in range(cols * rows):
+            col, row = k % cols, k // cols
+            tile = atlas[row * size : (row + 1) * size, col * size : (col + 1) * size]
+            if k >= stored and not np.isposinf(tile).all():
+                raise AssetError(f"light_maps.exr: unused tile {k} is not all +inf")
+            tiles[k] = tile
+    for k, v in enumerate(views):
+        if v["tile"] != NO_MAP and not np.isfinite(tiles[v["tile"]]).any():
+            raise AssetError(
+                f"light_maps.exr: views[{k}]'s map (tile {v['tile']}) holds no surface; "
+                "its tile must be NO_MAP"
+            )
+    lines = [
+        f"{len(views)} views of {len(lights) - first} lights "
+        f"{'after the first' if first else '(every light: lights[0] is a point light)'}: "
+        f"{stored} maps "
+        f"of {size}² stored"
+        + (f" ({atlas.shape[1]}×{atlas.shape[0]} atlas)" if atlas is not None else "")
+    ]
+    # Each viewed light's VPLs on its maps' surfaces (lights[0]'s too when
+    # it is a point light: it has no primary map): the view that holds a
+    # VPL most centrally (a point light's face of the VPL's direction).
+    checked = 0
+    for i in range(first, len(lights)):
+        lo_i, hi_i = ranges[i]
+        if hi_i == lo_i:
+            continue
+        p = vpls["position"][lo_i:hi_i].astype(np.float64)
+        mine = [k for k, v in enumerate(views) if v["light"] == i]
+        best = np.full(len(p), np.inf)
+        which = np.full(len(p), -1)
+        for k in mine:
+            lv = views[k]["view"]
+            vp = view_proj_matrix(lv)
+            c = np.concatenate([p, np.ones((len(p), 1))], axis=1) @ vp.T
+            with np.errstate(divide="ignore", invalid="ignore"):
+                spread = np.abs(c[:, :2] / c[:, 3:4]).max(axis=1)
+            better = (c[:, 3] > 0) & (spread < best)
+            best[better] = spread[better]
+            which[better] = k
+        outside = best > 1 + 1e-4
+        if outside.any():
+            j = int(np.argmax(outside))
+            raise AssetError(
+                f"vpls.bin: VPL {lo_i + j} (light {i} '{lights[i]['name']}') is outside "
+                "every view of its light"
+            )
+        for k in mine:
+            sel = which == k
+            if not sel.any():
+                continue
+            lv = views[k]["view"]
+            tc, _ = lv_texel_coords(lv, p[sel], size)
+            xy = np.clip(np.floor(tc).astype(np.int64), 0, max(size - 1, 0))
+            metric = lv_metric(lv, p[sel])
+            if views[k]["tile"] == NO_MAP:
+                # No map stored: no surface in the view, yet a VPL is in it.
+                lo = hi = np.full(len(metric), np.inf)
+            else:
+                tile = tiles[views[k]["tile"]]
+                lo = neighbourhood(tile, xy, np.minimum).astype(np.float64)
+                hi = neighbourhood(tile, xy, np.maximum).astype(np.float64)
+            foot = lv["texel_scale"] * (
+                1.0 if lv["directional"] else np.maximum(metric, 1e-6)
+            )
+            tol = 4 * foot + 1e-4 * np.abs(metric)
+            with np.errstate(invalid="ignore"):
+                ok = (metric >= lo - tol) & (metric <= hi + tol)
+            if not ok.all():
+                j = int(np.argmax(~ok))
+                t = views[k]["tile"]
+                held = (
+                    "stores no map (NO_MAP: no surface in the view)"
+                    if t == NO_MAP
+                    else f"map (tile {t}) holds {lo[j]:.4f}..{hi[j]:.4f} around texel "
+                    f"{xy[j].tolist()}"
+                )
+                raise AssetError(
+                    f"light_maps.exr: VPL {lo_i + int(np.flatnonzero(sel)[j])} (light {i} "
+                    f"'{lights[i]['name']}') is in views[{k}] at light-view metric "
+                    f"{metric[j]:.4f}, but that view {held}"
+                )
+            checked += int(sel.sum())
+    lines.append(
+        f"{checked} VPLs of {who} on their views' map surfaces"
+    )
+    return lines
 
 
 def check_hemi_maps(
@@ -846,6 +1183,7 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
     vpls = np.frombuffer(contents["vpls.bin"], dtype=VPL_DTYPE)
     nodes = np.frombuffer(contents["vpl_nodes.bin"], dtype=VPL_DTYPE)
     check_vpls(vpls, m)
+    ranges = light_vpl_ranges(m)
     check_nodes(nodes, vpls)
     ss = s["shadow_map_size"]
     primary = read_exr(asset, "primary_depth.exr", ss, ss, {"Z": "f32"})["Z"]
@@ -854,7 +1192,26 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
         cols, rows = atlas_grid(m["map_count"])
         ms = s["vpl_map_size"]
         atlas = read_exr(asset, "vpl_maps.exr", cols * ms, rows * ms, {"Z": "f32"})["Z"]
-    rsm_note = "no rsm.exr (no moving objects)"
+    light_atlas = None
+    stored = stored_light_maps(m)
+    if stored > 0:
+        cols, rows = atlas_grid(stored)
+        ls = m["light_map_size"]
+        light_atlas = read_exr(
+            asset, "light_maps.exr", cols * ls, rows * ls, {"Z": "f32"}
+        )["Z"]
+    # The first light's VPLs. With a spot or directional light first they lie
+    # on the primary map (and its RSM's texels name them); a point light
+    # first has no primary map: its VPLs are checked on its views' maps
+    # (check_light_maps) and light_view / primary_depth.exr hold one unused
+    # face.
+    first = vpls[ranges[0][0] : ranges[0][1]]
+    point_first = first_viewed_light(m) == 0
+    rsm_note = (
+        "no rsm.exr (lights[0] is a point light: no primary RSM)"
+        if point_first
+        else "no rsm.exr (no moving objects)"
+    )
     if m["has_dynamic"]:
         rs = s["rsm_size"]
         rsm = read_exr(
@@ -876,13 +1233,20 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
             )
         rsm_note = (
             f"rsm.exr {rs}²: {int(np.isfinite(rsm['Z']).sum())} surface texels; "
-            + check_rsm_vpls(m, vpls, rsm)
+            + check_rsm_vpls(m, first, rsm)
         )
     if show_vpl is not None and not 0 <= show_vpl < len(vpls):
         raise AssetError(f"--vpl {show_vpl}: the asset has {len(vpls)} VPLs")
     if show_vpl is not None and vpls["map"][show_vpl] == NO_MAP:
         raise AssetError(f"--vpl {show_vpl}: that VPL stores no map")
-    lv_note = check_light_view(m, vpls, primary)
+    if point_first:
+        lv_note = (
+            "lights[0] is a point light: light_view and primary_depth.exr hold one unused "
+            "face; its VPLs are checked on its views' maps"
+        )
+    else:
+        lv_note = check_light_view(m, first, primary)
+    others = check_light_maps(m, vpls, ranges, light_atlas)
     hemi = check_hemi_maps(m, vpls, atlas, primary, show_vpl)
     p = m["provenance"]
     out = [
@@ -896,14 +1260,22 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
             f"{s['shadow_map_size']}², threshold {s['threshold']}, vpl budget {s['vpl_budget']}"
         ),
         (
-            f"  light: {'directional' if m['light_view']['directional'] else 'spot'}; "
+            "  light: "
+            + (
+                "point (no primary map)"
+                if point_first
+                else ("directional" if m["light_view"]["directional"] else "spot")
+            )
+            + "; "
             f"{m['vpl_count']} VPLs, {m['map_count']} maps, dynamic {m['has_dynamic']}"
         ),
         (
             "  baked lights: "
             + (
-                ", ".join(f"'{l['name']}' ({l['kind']}, {l['vpls']} VPLs)" for l in m["lights"])
-                or "none recorded (a 3.0 asset)"
+                ", ".join(
+                    f"'{l['name']}' ({kind_name(l)}, {l['vpls']} VPLs)" for l in m["lights"]
+                )
+                or "none recorded"
             )
         ),
         f"  files (manifest order): {', '.join(names)}; all sizes and BLAKE3 hashes match",
@@ -911,6 +1283,7 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
         f"  {rsm_note}",
         f"  light view: {lv_note}",
     ]
+    out += [f"  {line}" for line in others]
     out += [f"  {line}" for line in hemi]
     return out
 

@@ -208,22 +208,24 @@ fn light_atlas_dims(m: &Manifest) -> (u64, u64) {
     (cols as u64 * s, rows as u64 * s)
 }
 
-/// The lights' and views' consistency: the first light is a spot or
-/// directional light (the one of `light_view`); each later light has its
+/// The lights' and views' consistency: each light after the first (every
+/// light when the first is a point light: it has no primary map) has its
 /// views in order (a point light six, any other one), and the stored maps
 /// are tiles `0, 1, …` in view order.
 fn check_views(m: &Manifest) -> Result<(), String> {
-    if let Some(first) = m.lights.first()
-        && first.kind == LIGHT_POINT
-    {
-        return Err(format!(
-            "lights[0] ('{}') is a point light; the first light must be a spot or directional light (the one of light_view)",
-            first.name
-        ));
+    let first = match m.lights.first() {
+        Some(l) if l.kind == LIGHT_POINT => 0,
+        _ => 1,
+    };
+    if first == 0 && m.has_dynamic {
+        return Err(
+            "lights[0] is a point light (no primary map) but has_dynamic says its RSM is stored"
+                .into(),
+        );
     }
     let mut next_tile = 0u32;
     let mut k = 0usize;
-    for (light, l) in m.lights.iter().enumerate().skip(1) {
+    for (light, l) in m.lights.iter().enumerate().skip(first) {
         let want = if l.kind == LIGHT_POINT { 6 } else { 1 };
         for face in 0..want {
             let Some(v) = m.views.get(k) else {
@@ -263,11 +265,11 @@ fn check_views(m: &Manifest) -> Result<(), String> {
     }
     if k != m.views.len() {
         return Err(format!(
-            "{} views but the lights after the first have {k}",
+            "{} views but the lights that have views have {k}",
             m.views.len()
         ));
     }
-    if next_tile > 0 && (m.light_map_size == 0 || m.light_map_size > MAX_MAP_SIZE) {
+    if !m.views.is_empty() && (m.light_map_size == 0 || m.light_map_size > MAX_MAP_SIZE) {
         return Err(format!(
             "light_map_size = {} is not in 1..={MAX_MAP_SIZE}",
             m.light_map_size
@@ -871,14 +873,17 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
         let share = next()?.into_u32();
         let vpl = next()?.into_u32();
         no_nan(&metric, &path, "channel Z")?;
-        if let Some(i) = vpl
-            .iter()
-            .position(|&v| v != u32::MAX && v >= manifest.vpl_count)
-        {
+        // The RSM is the first light's: its texels name its VPLs, the
+        // first `lights[0].vpls` records.
+        let own = manifest
+            .lights
+            .first()
+            .map_or(manifest.vpl_count, |l| l.vpls);
+        if let Some(i) = vpl.iter().position(|&v| v != u32::MAX && v >= own) {
             return Err(AssetError::invalid(
                 &path,
                 format!(
-                    "channel vpl refers to VPL {} at texel {i} but there are {}",
+                    "channel vpl refers to VPL {} at texel {i} but the first light has {own} (of {})",
                     vpl[i], manifest.vpl_count
                 ),
             ));
@@ -987,8 +992,15 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
         if r.metric.iter().any(|x| x.is_nan()) {
             return bad("rsm holds NaN".into());
         }
-        if let Some(v) = r.vpl.iter().find(|&&v| v != u32::MAX && v >= vpl_count) {
-            return bad(format!("rsm refers to VPL {v} but there are {vpl_count}"));
+        // The first light's RSM names its VPLs only (the first records).
+        let own = m
+            .lights
+            .first()
+            .map_or(vpl_count, |l| l.vpls.min(vpl_count));
+        if let Some(v) = r.vpl.iter().find(|&&v| v != u32::MAX && v >= own) {
+            return bad(format!(
+                "rsm refers to VPL {v} but the first light has {own} (of {vpl_count})"
+            ));
         }
         if let Some(i) = share_problem(&r.share, &r.vpl) {
             return bad(format!(

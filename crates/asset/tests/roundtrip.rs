@@ -17,6 +17,7 @@ fn round_trip_static_and_dynamic() {
         assert_eq!(loaded.manifest.map_count, 7);
         assert_eq!(loaded.manifest.has_dynamic, dynamic);
         let mut expect = vec![
+            "light_maps.exr",
             "manifest.bin",
             "primary_depth.exr",
             "vpl_maps.exr",
@@ -55,7 +56,8 @@ fn counts_are_filled_in_from_the_data() {
             "vpl_nodes.bin",
             "primary_depth.exr",
             "vpl_maps.exr",
-            "rsm.exr"
+            "rsm.exr",
+            "light_maps.exr"
         ]
     );
     for f in &m.files {
@@ -73,6 +75,11 @@ fn nothing_stored_that_is_not_needed() {
     for v in &mut asset.vpls {
         v.map = NO_MAP;
     }
+    // No view holds a surface: no light map either.
+    for v in &mut asset.manifest.views {
+        v.tile = NO_MAP;
+    }
+    asset.light_maps = MapAtlas::empty(asset.manifest.light_map_size);
     let dir = written(tmp.path(), &asset);
     assert_eq!(
         file_names(&dir),
@@ -86,6 +93,8 @@ fn nothing_stored_that_is_not_needed() {
     let loaded = load(&dir).unwrap();
     assert_eq!(loaded.manifest.map_count, 0);
     assert!(loaded.vpl_maps.is_empty() && loaded.rsm.is_none());
+    assert!(loaded.light_maps.is_empty());
+    assert_eq!(loaded.manifest.views.len(), 6, "the views are kept");
 }
 
 #[test]
@@ -94,6 +103,9 @@ fn empty_vpl_set_round_trips() {
     let mut asset = sample_asset(false);
     asset.vpls.clear();
     asset.vpl_nodes.clear();
+    for l in &mut asset.manifest.lights {
+        l.vpls = 0;
+    }
     asset.vpl_maps = MapAtlas::empty(asset.manifest.settings.vpl_map_size);
     let dir = written(tmp.path(), &asset);
     let loaded = load(&dir).unwrap();
@@ -279,9 +291,11 @@ fn manifest_bin_has_the_documented_layout() {
     assert_eq!(p[6] as usize, "corner.gltf".len());
     assert_eq!(&p[7..18], b"corner.gltf");
     // ... then the file list, whose last entry ends with its 32-byte hash,
-    // then (3.1) the lights: a varint count, each light's name, kind (u8),
-    // nine f32 of colour, position and direction, three of cones and range,
-    // and its VPL count (a varint) — the payload ends with the last light's.
+    // then the lights: a varint count, each light's name, kind (u8), nine
+    // f32 of colour, position and direction, three of cones and range, and
+    // its VPL count (a varint); then the views: a varint count, each one's
+    // light (varint), view (a bool and 24 f32) and tile (varint: one byte
+    // below 251, five for NO_MAP); then light_map_size (varint).
     let m = load_manifest(&dir).unwrap();
     let hash = &m.files.last().unwrap().blake3;
     let end_of_files = p
@@ -296,11 +310,23 @@ fn manifest_bin_has_the_documented_layout() {
         .iter()
         .map(|l| 1 + l.name.len() + 1 + 12 * 4 + 1)
         .sum();
-    assert_eq!(end_of_files + 1 + light_bytes, len);
+    let end_of_lights = end_of_files + 1 + light_bytes;
     let last = m.lights.last().expect("the sample has lights");
-    assert_eq!(&p[len - 5..len - 1], &last.range.to_le_bytes());
-    assert_eq!(u32::from(p[len - 1]), last.vpls);
+    assert_eq!(
+        &p[end_of_lights - 5..end_of_lights - 1],
+        &last.range.to_le_bytes()
+    );
+    assert_eq!(u32::from(p[end_of_lights - 1]), last.vpls);
     assert_eq!(m.lights, asset.manifest.lights);
+    assert_eq!(usize::from(p[end_of_lights]), m.views.len());
+    let view_bytes: usize = m
+        .views
+        .iter()
+        .map(|v| 1 + 1 + 24 * 4 + if v.tile == NO_MAP { 5 } else { 1 })
+        .sum();
+    assert_eq!(end_of_lights + 1 + view_bytes + 1, len);
+    assert_eq!(u32::from(p[len - 1]), m.light_map_size);
+    assert_eq!(m.views, asset.manifest.views);
 }
 
 /// `manifest.bin` with its payload replaced by `payload` and minor `minor`
@@ -315,28 +341,37 @@ fn rewrap(bytes: &[u8], payload: &[u8], minor: u16) -> Vec<u8> {
     out
 }
 
-/// A 3.0 asset (no lights after the file list) still loads, with no
-/// lights; a 3.1 manifest whose lights are cut short is refused.
+/// A 3.x asset is refused, saying to re-bake; a 4.0 manifest whose views
+/// are cut short is refused; a newer minor's appended bytes are ignored.
 #[test]
-fn a_3_0_manifest_loads_without_lights() {
+fn older_majors_are_refused_and_cut_manifests_too() {
     let tmp = tempfile::tempdir().unwrap();
     let asset = sample_asset(false);
     let dir = written(tmp.path(), &asset);
     let path = dir.join("manifest.bin");
     let bytes = std::fs::read(&path).unwrap();
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    let p = &bytes[20..20 + len];
-    let m = load_manifest(&dir).unwrap();
-    let hash = &m.files.last().unwrap().blake3;
-    let end_of_files = p.windows(32).position(|w| w == hash).unwrap() + 32;
+    let p = bytes[20..20 + len].to_vec();
 
-    std::fs::write(&path, rewrap(&bytes, &p[..end_of_files], 0)).unwrap();
-    let old = load_manifest(&dir).expect("a 3.0 manifest loads");
-    assert!(old.lights.is_empty());
-    assert_eq!(old.files, m.files);
-    load(&dir).expect("a 3.0 asset loads");
+    let mut old = rewrap(&bytes, &p, 1);
+    old[8..10].copy_from_slice(&3u16.to_le_bytes());
+    let h = blake3::hash(&old[..old.len() - 32]);
+    let n = old.len();
+    old[n - 32..].copy_from_slice(h.as_bytes());
+    std::fs::write(&path, &old).unwrap();
+    let e = load_manifest(&dir).expect_err("a 3.1 manifest");
+    assert!(
+        e.to_string().contains("3.1") && e.to_string().contains("re-bake"),
+        "{e}"
+    );
 
     std::fs::write(&path, rewrap(&bytes, &p[..len - 3], FORMAT_MINOR)).unwrap();
-    let e = load_manifest(&dir).expect_err("lights cut short");
-    assert!(e.to_string().contains("lights"), "{e}");
+    let e = load_manifest(&dir).expect_err("views cut short");
+    assert!(e.to_string().contains("damaged manifest payload"), "{e}");
+
+    let mut more = p.clone();
+    more.extend_from_slice(&[7, 7, 7]);
+    std::fs::write(&path, rewrap(&bytes, &more, FORMAT_MINOR + 1)).unwrap();
+    let m = load_manifest(&dir).expect("a newer minor's additions are ignored");
+    assert_eq!(m.views, asset.manifest.views);
 }

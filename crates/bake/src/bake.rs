@@ -321,13 +321,16 @@ struct Front {
     threshold: f32,
     /// Per texel of `rsm`, its VPL (an index into `vpls`) or `NO_VPL`.
     texel_vpl: Vec<u32>,
-    rsm: crate::rsm::Rsm,
+    /// The primary light's RSM (`None`: a point light first, no primary
+    /// map).
+    rsm: Option<crate::rsm::Rsm>,
 }
 
 /// The front part of a bake of several lights ([`crate::lights`]): one
 /// budget over every view of every light; the first light's VPLs come
 /// first, so its RSM's texels index `vpls` directly. `view` is the first
-/// light's (a spot or directional light's, [`LightView::for_scene`]).
+/// light's ([`LightView::for_scene`]); a point light first has no primary
+/// RSM.
 fn every_light_front(
     scene: &Scene,
     reach: &Reach<'_, '_>,
@@ -355,11 +358,16 @@ fn every_light_front(
     let made = vpls.len() + every.dropped_vpls;
     let threshold = every.clusters.threshold;
     let dropped = every.dropped_vpls;
+    let point_first = matches!(scene.light().kind, gibake_scene::LightKind::Point);
     let (rsm, texel_vpl) = match first {
+        _ if point_first => (None, Vec::new()),
         Some(k) => {
             let mut maps = every.maps;
             let mut clusters = every.clusters.maps;
-            (maps.swap_remove(k).rsm, clusters.swap_remove(k).texel_vpl)
+            (
+                Some(maps.swap_remove(k).rsm),
+                clusters.swap_remove(k).texel_vpl,
+            )
         }
         None => {
             let rsm = render_rsm(
@@ -369,7 +377,7 @@ fn every_light_front(
                 Some(reach),
             );
             let n = rsm.flux.len();
-            (rsm, vec![NO_VPL; n])
+            (Some(rsm), vec![NO_VPL; n])
         }
     };
     Front {
@@ -408,14 +416,6 @@ fn bake_with(
             }
         }
     }
-    if let Some(first) = scene.lights.first()
-        && matches!(first.kind, gibake_scene::LightKind::Point)
-    {
-        return Err(BakeError::InvalidSetting(format!(
-            "the first light ('{}') is a point light; the bake needs a spot or directional light first (its maps take moving objects): add one, or a sun with --sun",
-            first.name
-        )));
-    }
     let mut stages = Vec::new();
     let mut clock = Instant::now();
     let mut lap = |name: &'static str, stages: &mut Vec<StageTime>| {
@@ -436,7 +436,21 @@ fn bake_with(
     // The light view covers the moving objects' swept bounds too, so the
     // runtime can merge them into the same maps.
     let view = LightView::for_scene(scene, opts.shadow_map_size);
-    let warnings = light_view_warnings(scene, &view, opts);
+    // (A point light first has no primary map: its six faces are views of
+    // the light-map pass; this one face is stored and unused.)
+    let point_first = light_maps::first_viewed_light(scene) == 0;
+    let warnings = if point_first {
+        if scene.dynamic_objects.is_empty() {
+            Vec::new()
+        } else {
+            vec![format!(
+                "the first light ('{}') is a point light, which has no primary map: moving objects cast shadows in every light but bounce no light per frame (put a spot or directional light first, e.g. with --light, to get their bounce)",
+                scene.light().name
+            )]
+        }
+    } else {
+        light_view_warnings(scene, &view, opts)
+    };
     for w in &warnings {
         tracing::warn!("{}: {w}", scene.source.display());
     }
@@ -459,19 +473,19 @@ fn bake_with(
 
     // The other lights' shadow maps (format 4.0), by the same pass.
     let mut warnings = warnings;
-    let (views, light_maps, light_map_size) = if scene.lights.len() > 1 {
-        let n = light_maps::view_count(scene);
+    let n = light_maps::view_count(scene);
+    let (views, light_maps, light_map_size) = if n > 0 {
         let (size, capped) = light_maps::light_map_size(opts.shadow_map_size, n, max_tex);
         if capped {
             let w = format!(
-                "{n} shadow-map views of {} lights after the first: their maps are {size}² to stay within {} texels",
-                scene.lights.len() - 1,
+                "{n} shadow-map views of {} lights: their maps are {size}² to stay within {} texels",
+                scene.lights.len() - light_maps::first_viewed_light(scene),
                 light_maps::MAX_LIGHT_MAP_TEXELS
             );
             tracing::warn!("{}: {w}", scene.source.display());
             warnings.push(w);
         }
-        progress.begin("other lights' shadow maps", n as u64);
+        progress.begin("lights' shadow maps", n as u64);
         let lm = LightMaps::render(&ctx.device, &ctx.queue, scene, &scene_gpu, size, &|| {
             progress.advance(1)
         })?;
@@ -491,7 +505,9 @@ fn bake_with(
         rays: &rays,
         moving: scene.dynamic_swept_bounds(),
     };
-    let front = if scene.lights.len() > 1 {
+    // Several lights, or a point light (its six faces): one budget over
+    // every view.
+    let front = if scene.lights.len() > 1 || light_maps::first_viewed_light(scene) == 0 {
         progress.begin("RSMs and clustering of every light", 0);
         let f = every_light_front(scene, &reach, &view, opts);
         progress.end();
@@ -526,7 +542,7 @@ fn bake_with(
             dropped,
             threshold: clusters.threshold,
             texel_vpl: clusters.texel_vpl,
-            rsm,
+            rsm: Some(rsm),
         }
     };
     if front.made == 0 {
@@ -574,9 +590,11 @@ fn bake_with(
     progress.end();
     lap("vpl maps", &mut stages);
 
-    let has_dynamic = !scene.dynamic_objects.is_empty();
+    // A point light first has no primary map: no RSM for the per-frame
+    // bounce off moving objects.
+    let has_dynamic = !scene.dynamic_objects.is_empty() && rsm.is_some();
     // Each texel's share of its VPL's flux, for partial occlusion.
-    let rsm_data = has_dynamic.then(|| {
+    let rsm_data = rsm.filter(|_| has_dynamic).map(|rsm| {
         let flux: Vec<[f32; 3]> = rsm.flux.iter().map(|f| f.to_array()).collect();
         let texel_vpl = texel_vpl
             .iter()

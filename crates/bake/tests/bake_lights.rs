@@ -3,7 +3,7 @@
 //! every light is deterministic, records each light's VPLs and views (a
 //! point light's six cube faces), stores only the maps that hold a surface,
 //! round-trips through the files and merges from shards byte for byte;
-//! a point light first is refused with a clear message.
+//! a point light first is baked with its six faces.
 //!
 //! Runs on the GPU (lavapipe in CI); without an adapter it fails with a
 //! message saying what to install.
@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use gibake_asset::{Asset, LIGHT_POINT, NO_MAP};
 use gibake_bake::cluster::ClusterTarget;
-use gibake_bake::{BakeError, BakeOptions, NoProgress, Shard, bake, bake_shard};
+use gibake_bake::{BakeOptions, NoProgress, Shard, bake, bake_shard};
 use gibake_gpu::GpuContext;
 use gibake_scene::{LightKind, LoadOptions, Scene};
 
@@ -135,22 +135,31 @@ fn shards_of_a_bake_of_every_light_merge_into_the_same_asset() {
     }
 }
 
+/// A point light first has no primary map: its six faces are views like
+/// the other lights', it has VPLs of its own, and without a primary RSM
+/// moving objects bounce no light per frame (has_dynamic false, said in a
+/// warning).
 #[test]
-fn a_point_light_first_is_refused() {
+fn a_point_light_first_is_baked_with_its_six_faces() {
     let ctx = gpu();
     let mut scene = lamps();
-    let p = scene
-        .lights
-        .iter()
-        .position(|l| l.kind == LightKind::Point)
-        .expect("a point lamp");
-    scene.lights.swap(0, p);
-    let name = scene.lights[0].name.clone();
-    match bake(&ctx, &scene, &options(), &NoProgress, "test") {
-        Err(BakeError::InvalidSetting(m)) => {
-            assert!(m.contains(&name) && m.contains("point light"), "{m}")
-        }
-        Err(e) => panic!("another error: {e}"),
-        Ok(_) => panic!("a point light first was baked"),
-    }
+    scene.lights.retain(|l| l.kind == LightKind::Point);
+    assert_eq!(scene.lights.len(), 2);
+    assert!(!scene.dynamic_objects.is_empty());
+    let out = bake(&ctx, &scene, &options(), &NoProgress, "test").expect("bake");
+    let m = &out.asset.manifest;
+    assert_eq!(m.views.len(), 12);
+    assert!(m.views[..6].iter().all(|v| v.light == 0));
+    assert!(m.views[6..].iter().all(|v| v.light == 1));
+    assert!(m.lights[0].vpls > 0 && m.lights[1].vpls > 0);
+    assert!(!m.has_dynamic && out.asset.rsm.is_none());
+    assert!(
+        out.warnings.iter().any(|w| w.contains("point light")),
+        "{:?}",
+        out.warnings
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("points.gibake");
+    gibake_asset::write(&out.asset, &dir).expect("write");
+    gibake_asset::load(&dir).expect("load");
 }

@@ -93,7 +93,7 @@ mod tests {
 fn main() {
     let p = vec3<f32>(1.0, 2.0, 3.0);
     let inc = light_incident(pl, p);
-    out[0] = lv_visibility(lv, map, map, true, vec2<i32>(0), p, vec3<f32>(0.0, 1.0, 0.0), inc.wi) + inc.irradiance.x;
+    out[0] = lv_visibility(lv, map, map, true, vec4<i32>(0), p, vec3<f32>(0.0, 1.0, 0.0), inc.wi) + inc.irradiance.x;
     out[1] = oct_decode(oct_encode(normalize(p))).x;
     out[2] = hemi_texel_coords(normalize(p), hemi_decode(vec2<f32>(0.1, 0.2)), 128.0).x;
     out[3] = vpl_origin(p, normalize(p), 2.0).x;

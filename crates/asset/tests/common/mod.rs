@@ -31,6 +31,8 @@ pub const VPL_MAP: u32 = 8;
 pub const RSM: u32 = 8;
 pub const VPLS: usize = 10;
 pub const LIGHT_MAP: u32 = 4;
+/// The sample's first light's VPLs (the first records).
+pub const FIRST_LIGHT_VPLS: usize = 6;
 
 /// A small asset: 10 VPLs, 7 of them with a hemisphere map (5x5 grid would be
 /// 3 cols x 3 rows), maps with some +inf texels; an RSM when `dynamic`.
@@ -127,7 +129,8 @@ pub fn sample_asset(dynamic: bool) -> Asset {
                 if rng.f32() < 0.2 {
                     u32::MAX
                 } else {
-                    rng.below(VPLS) as u32
+                    // The first light's VPLs (the RSM is its).
+                    rng.below(FIRST_LIGHT_VPLS) as u32
                 }
             })
             .collect();
@@ -172,7 +175,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
                     inner_cone: 0.49,
                     outer_cone: 0.7,
                     range: 0.0,
-                    vpls: 6,
+                    vpls: FIRST_LIGHT_VPLS as u32,
                 },
                 gibake_asset::LightRecord {
                     name: "Lamp".into(),

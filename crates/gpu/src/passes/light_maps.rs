@@ -1,6 +1,7 @@
 //! The static shadow maps of the lights after the first (the primary
-//! light's map is [`super::shadow::ShadowPass`]'s own): every view of every
-//! such light ([`LightView::of_light`]: a point light's six cube faces, a
+//! light's map is [`super::shadow::ShadowPass`]'s own; a point light first
+//! has none and is one of these, [`first_viewed_light`]): every view of
+//! every such light ([`LightView::of_light`]: a point light's six cube faces, a
 //! spot's or sun's one) rendered by the shadow pass at one resolution
 //! ([`light_map_size`]) into one `R32Float` atlas, view `k` at tile `k` of
 //! [`gibake_asset::atlas_grid`]. The bake reads it back and stores the
@@ -18,12 +19,24 @@ use crate::{GpuError, LightView, util};
 /// of f32), so that 64 point lights (384 faces) still fit in memory.
 pub const MAX_LIGHT_MAP_TEXELS: u64 = 1 << 26;
 
-/// How many views the lights after the first have.
+/// The first light whose maps are views of this pass: the lights after
+/// the first (whose map is the primary shadow map, with moving objects
+/// merged and a dynamic RSM), or every light when the first is a point
+/// light (six faces: it has no primary map of its own).
+pub fn first_viewed_light(scene: &Scene) -> usize {
+    match scene.lights.first().map(|l| &l.kind) {
+        Some(LightKind::Point) => 0,
+        _ => 1,
+    }
+}
+
+/// How many views the lights of this pass have
+/// ([`first_viewed_light`] on).
 pub fn view_count(scene: &Scene) -> usize {
     scene
         .lights
         .iter()
-        .skip(1)
+        .skip(first_viewed_light(scene))
         .map(|l| match l.kind {
             LightKind::Point => 6,
             _ => 1,
@@ -84,7 +97,7 @@ impl LightMaps {
             .lights
             .iter()
             .enumerate()
-            .skip(1)
+            .skip(first_viewed_light(scene))
             .flat_map(|(k, l)| {
                 LightView::of_light(scene, l, size)
                     .into_iter()

@@ -42,10 +42,11 @@ const SHADOW_DEPTH_BIAS: f32 = 1.0;
 // Fraction of the light that reaches p (geometric normal ng facing the
 // light), by 2×2 bilinear percentage-closer filtering of a metric map: of
 // `map`, or with `merge`, of min(map, moving) (the z-min merge of a static
-// and a moving objects' map without copying). The map's texels start at
-// `origin` of the textures (a tile of an atlas; 0 for a whole texture).
+// and a moving objects' map without copying). The maps' texels start at
+// `origin.xy` of `map` and `origin.zw` of `moving` (tiles of atlases; 0
+// for whole textures).
 // Points outside the map are unshadowed.
-fn lv_visibility(v: LightView, map: texture_2d<f32>, moving: texture_2d<f32>, merge: bool, origin: vec2<i32>, p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
+fn lv_visibility(v: LightView, map: texture_2d<f32>, moving: texture_2d<f32>, merge: bool, origin: vec4<i32>, p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
     let w = lv_footprint(v, p);
     let cos_t = clamp(dot(ng, wi), 0.0, 1.0);
     let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
@@ -65,9 +66,9 @@ fn lv_visibility(v: LightView, map: texture_2d<f32>, moving: texture_2d<f32>, me
     let offs = array<vec2<i32>, 4>(vec2<i32>(0, 0), vec2<i32>(1, 0), vec2<i32>(0, 1), vec2<i32>(1, 1));
     for (var k = 0; k < 4; k++) {
         let c = clamp(i0 + offs[k], vec2<i32>(0), vec2<i32>(size - 1));
-        var s = textureLoad(map, origin + c, 0).r;
+        var s = textureLoad(map, origin.xy + c, 0).r;
         if (merge) {
-            s = min(s, textureLoad(moving, c, 0).r);
+            s = min(s, textureLoad(moving, origin.zw + c, 0).r);
         }
         lit[k] = select(0.0, 1.0, d <= s + bias);
     }
