@@ -40,6 +40,8 @@ pub(super) struct FrameSummary {
     pub(super) wall_ms: f64,
     pub(super) passes: Vec<(String, f64)>,
     pub(super) affected_maps: f64,
+    /// Views of the lights after the first merged (moving objects in them).
+    pub(super) light_views: f64,
     pub(super) update_draw_calls: f64,
     pub(super) draw_calls: f64,
     pub(super) static_vpls: u32,
@@ -59,6 +61,7 @@ impl FrameSummary {
             "wall_ms": self.wall_ms,
             "passes_ms": self.passes.iter().map(|(n, ms)| json!({"pass": n, "ms": ms})).collect::<Vec<_>>(),
             "affected_maps": self.affected_maps,
+            "light_views_merged": self.light_views,
             "update_draw_calls": self.update_draw_calls,
             "draw_calls": self.draw_calls,
             "static_vpls": self.static_vpls,
@@ -89,6 +92,7 @@ pub(super) fn summarize(frames: &[(FrameStats, f64)]) -> FrameSummary {
             .map(|n| (n.name().to_string(), col(&|s| pass_ms(s, *n))))
             .collect(),
         affected_maps: col(&|s| f64::from(s.affected_maps)),
+        light_views: col(&|s| f64::from(s.light_views_merged)),
         update_draw_calls: col(&|s| f64::from(s.update_draw_calls)),
         draw_calls: col(&|s| f64::from(s.draw_calls)),
         static_vpls: first.static_vpls,

@@ -1,7 +1,10 @@
 //! `gibake bench scaling`: how the per-frame cost grows, with growth
 //! exponents fitted by least squares in log-log space
 //! (`gibake_eval::fit::power_fit`): static triangles 1…64× (corner_bunny's
-//! static detail multiplier), moving objects 1…64, static VPLs 64…4096.
+//! static detail multiplier), moving objects 1…64, static VPLs 64…4096,
+//! lights 1…64 (corner_bunny's spot plus point lamps with a range, in a
+//! grid under the ceiling: the update against the lamps' views the balls
+//! touch, the shading against every light).
 //! The update (every pass the moving objects cause) and the shade (shade
 //! pass + interleave filter) are timed separately, GPU timestamps where the
 //! adapter has them; each sweep's points are measured side by side.
@@ -31,6 +34,36 @@ fn with_moving(base: &Scene, n: usize) -> Scene {
     s
 }
 
+/// corner_bunny with `n` lights: its spot, then `n − 1` point lamps in a
+/// grid 0.3 below the ceiling of its static bounds, each lighting a range
+/// of a quarter of the room's width (glTF `range`): a ball touches the
+/// views of the lamps it passes, not all of them.
+fn with_lights(base: &Scene, n: usize) -> Scene {
+    let mut s = base.clone();
+    let b = s.static_bounds();
+    let size = b.max - b.min;
+    let lamps = n.saturating_sub(1);
+    let side = (lamps as f64).sqrt().ceil().max(1.0) as usize;
+    let range = 0.25 * size.x.max(size.z);
+    for k in 0..lamps {
+        let (i, j) = (k % side, k / side);
+        let f = |a: usize| (a as f32 + 0.5) / side as f32;
+        s.lights.push(gibake_scene::Light {
+            name: format!("lamp {k}"),
+            kind: gibake_scene::LightKind::Point,
+            color: gibake_runtime::glam::Vec3::splat(2.0 * range * range),
+            position: gibake_runtime::glam::Vec3::new(
+                b.min.x + f(i) * size.x,
+                b.max.y - 0.3 * size.y.min(size.x),
+                b.min.z + f(j) * size.z,
+            ),
+            direction: gibake_runtime::glam::Vec3::NEG_Y,
+            range: Some(range),
+        });
+    }
+    s
+}
+
 /// One sweep: its name, the x axis, and the scenes/bakes at each point.
 struct Sweep {
     key: &'static str,
@@ -38,7 +71,7 @@ struct Sweep {
     x_desc: &'static str,
 }
 
-const SWEEPS: [Sweep; 3] = [
+const SWEEPS: [Sweep; 4] = [
     Sweep {
         key: "static_triangles",
         title: "static triangles (corner_bunny heavy 1…64×)",
@@ -54,9 +87,14 @@ const SWEEPS: [Sweep; 3] = [
         title: "static VPLs (64…4096)",
         x_desc: "static VPLs (log)",
     },
+    Sweep {
+        key: "lights",
+        title: "lights (1…64: a spot and point lamps with a range)",
+        x_desc: "lights (log)",
+    },
 ];
 
-/// Runs the three sweeps.
+/// Runs the four sweeps.
 pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
     b.section("Scaling: growth exponents");
     let quick = b.quick;
@@ -77,6 +115,11 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
         vec![64, 256]
     } else {
         vec![64, 128, 256, 512, 1024, 2048, 4096]
+    };
+    let lights: Vec<usize> = if quick {
+        vec![1, 4]
+    } else {
+        vec![1, 2, 4, 8, 16, 32, 64]
     };
     let cb = load_embedded(CORNER_BUNNY, "corner_bunny")?;
     let settings = RenderSettings {
@@ -126,6 +169,11 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
                     points.push((with_moving(&cb, n), vpls));
                 }
             }
+            "lights" => {
+                for &n in &lights {
+                    points.push((with_lights(&cb, n), vpls));
+                }
+            }
             _ => {
                 for &v in &budgets {
                     points.push((cb.clone(), v));
@@ -156,6 +204,7 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
             .map(|((scene, _), asset)| match sw.key {
                 "static_triangles" => scene.triangle_counts().0 as f64,
                 "moving_objects" => scene.dynamic_objects.len() as f64,
+                "lights" => scene.lights.len() as f64,
                 _ => asset.manifest.vpl_count as f64,
             })
             .collect();
@@ -182,7 +231,9 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
                 "static tris",
                 "moving objects",
                 "static VPLs",
+                "lights",
                 "affected maps",
+                "light views merged",
                 "update (ms)",
                 "shade+filter (ms)",
                 "frame (ms)",
@@ -197,7 +248,9 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
                 st.to_string(),
                 scene.dynamic_objects.len().to_string(),
                 asset.manifest.vpl_count.to_string(),
+                scene.lights.len().to_string(),
                 format!("{:.0}", m.affected_maps),
+                format!("{:.0}", m.light_views),
                 sig(m.update_ms),
                 sig(m.shade_ms),
                 sig(m.frame_ms),
@@ -219,6 +272,22 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
         );
         eprintln!("{line}");
         t.notes.push(line);
+        if sw.key == "lights" {
+            // The update against the views the balls touch (the light
+            // merge's passes), where some are touched.
+            let pts: Vec<(f64, f64)> = measured
+                .iter()
+                .filter(|m| m.light_views > 0.0)
+                .map(|m| (m.light_views, m.update_ms))
+                .collect();
+            let fv = power_fit(&pts);
+            let line = format!(
+                "Update against the lamps' views the moving objects touch (x = views merged): **{}**; shading loops over every light at every pixel (no light culling yet), so shade+filter grows with all lights.",
+                show(&fv)
+            );
+            eprintln!("{line}");
+            t.notes.push(line);
+        }
         if sw.key == "moving_objects" {
             t.notes.push(
                 "corner_bunny has 13 balls: points beyond 13 add copies of them on the same paths \
