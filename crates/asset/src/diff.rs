@@ -728,6 +728,30 @@ fn compare_maps(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> Vec<MapD
         out.push(r);
     }
 
+    // The other lights' shadow maps, view by view (a view that stores no
+    // map counts as all-infinite), when both have the same views.
+    let (va, vb) = (&a.manifest.views, &b.manifest.views);
+    let (la, lb) = (a.manifest.light_map_size, b.manifest.light_map_size);
+    if va.len() != vb.len() || (!va.is_empty() && la != lb) {
+        out.push(not_comparable(
+            "light_maps",
+            format!("{} views of {la}² vs {} of {lb}²", va.len(), vb.len()),
+        ));
+    } else if !va.is_empty() {
+        let inf = vec![f32::INFINITY; la as usize * la as usize];
+        let map = |x: &Asset, tile: u32| {
+            (tile != crate::NO_MAP)
+                .then(|| x.light_maps.map(tile))
+                .flatten()
+                .unwrap_or_else(|| inf.clone())
+        };
+        let mut total = Acc::default();
+        for (x, y) in va.iter().zip(vb) {
+            total.merge(&compare_slices(&map(a, x.tile), &map(b, y.tile), tol));
+        }
+        out.push(total.report("light_maps", tol));
+    }
+
     match (&a.rsm, &b.rsm) {
         (None, None) => {}
         (Some(_), None) => out.push(not_comparable("rsm", "stored in A only".into())),

@@ -17,7 +17,14 @@ fn identical_assets_are_equal() {
         let names: Vec<&str> = r.maps.iter().map(|m| m.name.as_str()).collect();
         assert_eq!(
             names,
-            ["primary_depth", "vpl_maps", "rsm.D", "rsm.share", "rsm.vpl"]
+            [
+                "primary_depth",
+                "vpl_maps",
+                "light_maps",
+                "rsm.D",
+                "rsm.share",
+                "rsm.vpl"
+            ]
         );
         assert!(r.maps.iter().all(|m| m.over == 0 && m.max_abs == 0.0));
     }
@@ -222,6 +229,29 @@ fn a_missing_map_counts_as_all_infinite() {
     }
     let r = diff(&a, &b, &Tolerance::same_machine());
     assert!(r.equal(), "{r}");
+}
+
+/// The other lights' shadow maps are compared view by view; a view that
+/// stores no map counts as all-infinite; other views are not comparable.
+#[test]
+fn light_maps_are_compared_view_by_view() {
+    let a = sample_asset(false);
+    let mut b = a.clone();
+    let mut texels = b.light_maps.texels().to_vec();
+    let k = texels.iter().position(|t| t.is_finite()).unwrap();
+    texels[k] += 1.0;
+    b.light_maps = MapAtlas::from_texels(LIGHT_MAP, 4, texels).unwrap();
+    let r = diff(&a, &b, &Tolerance::same_machine());
+    let l = r.maps.iter().find(|m| m.name == "light_maps").unwrap();
+    assert_eq!(l.over, 1, "{r}");
+    assert!(!r.equal());
+    let mut c = a.clone();
+    c.manifest.views.pop();
+    let r = diff(&a, &c, &Tolerance::same_machine());
+    assert!(
+        r.differences.iter().any(|d| d.contains("light_maps")),
+        "{r}"
+    );
 }
 
 #[test]

@@ -6,7 +6,7 @@
 //! against full, FLIP).
 //!
 //! ```text
-//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--look-at EX,EY,EZ,TX,TY,TZ] [--out DIR]
+//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--look-at EX,EY,EZ,TX,TY,TZ] [--out DIR]
 //! ```
 //!
 //! `SCENE`: a glTF file (loaded with every light, `--all-lights`), or
@@ -41,6 +41,7 @@ fn main() {
             "--vpls" => s.vpls = num(),
             "--blur" => s.blur = num(),
             "--rsm" => s.rsm_size = num(),
+            "--ssaa" => s.ssaa = num(),
             "--look-at" => {
                 let v: Vec<f32> = it
                     .next()
