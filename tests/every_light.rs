@@ -4,8 +4,9 @@
 //! scene, on the seeded random multi-light generator's first seeds (nothing
 //! chosen: seeds 0–3) and on two real levels other people made with their
 //! own lights (data/lights/: a Blenvy demo level, a sun, a spot and three
-//! points; a game's store, 97 spots). The runtime does not shade several
-//! lights yet; this judges what the bake gives it.
+//! points; a game's store, 97 spots). This judges what the bake gives the
+//! runtime, without a frame's other errors; the frame itself is
+//! `tests/every_light_frame.rs`.
 
 use gibake_eval::lights::{Budget, JudgeSettings, judge};
 use gibake_scene::{CameraChoice, LoadOptions, Scene};

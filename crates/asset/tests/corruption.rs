@@ -278,6 +278,15 @@ fn hostile_counts_are_refused_without_huge_allocations() {
             Box::new(|m| m.settings.shadow_map_size = 1 << 20),
         ),
         ("rsm_size", Box::new(|m| m.settings.rsm_size = u32::MAX)),
+        ("light_map_size", Box::new(|m| m.light_map_size = u32::MAX)),
+        (
+            "views",
+            Box::new(|m| {
+                let v = m.views[0].clone();
+                m.views.extend(std::iter::repeat_n(v, 100_000));
+            }),
+        ),
+        ("tile", Box::new(|m| m.views[0].tile = 1_000_000)),
         ("threshold", Box::new(|m| m.settings.threshold = f32::NAN)),
         (
             "light_view",

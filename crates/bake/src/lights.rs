@@ -13,10 +13,10 @@
 //! none either — one VPL would carry less than a quarter of what every
 //! other carries; and VPLs whose hemisphere sees nothing are dropped as in
 //! the one-light bake. `lights_twin --keep-negligible` measures what
-//! leaving them out changes in the image. Until the asset format
-//! and the runtime take several lights, this is what the CPU evaluation
-//! (`gibake-eval`'s `lights_twin` example) judges against the reference;
-//! the one-light bake ([`crate::bake()`]) is unchanged.
+//! leaving them out changes in the image. The bake of several lights
+//! ([`crate::bake()`]) takes its VPLs from here; the CPU evaluation
+//! (`gibake-eval`'s `lights_twin` example) judges them against the
+//! reference without a frame's other errors.
 
 use gibake_asset::VplRecord;
 use gibake_gpu::LightView;

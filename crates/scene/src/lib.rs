@@ -3,10 +3,12 @@
 //! Turns a `.gltf` / `.glb` file into a flat [`Scene`] following the
 //! conventions of `docs/method.md` (and the design brief):
 //!
-//! - **Primary light**: the one `KHR_lights_punctual` light of type `spot` or
-//!   `directional`. `color × intensity` is radiant intensity in W/sr (spot) or
-//!   irradiance in W/m² (directional), linear RGB. Point lights, or several
-//!   candidate lights, are an error unless [`LoadOptions::light`] names one.
+//! - **Primary lights**: by default the one `KHR_lights_punctual` light of
+//!   type `spot` or `directional` (several candidates are an error unless
+//!   [`LoadOptions::lights`] names one); with [`LoadOptions::all_lights`]
+//!   every light, point lights included, the first spot or directional
+//!   light first. `color × intensity` is radiant intensity in W/sr (spot,
+//!   point) or irradiance in W/m² (directional), linear RGB.
 //! - **Dynamic objects**: a node is dynamic if it or an ancestor has
 //!   `extras: {"dynamic": true}`, or if an animation channel targets it or an
 //!   ancestor. Everything else is static and is flattened to world space.
@@ -335,8 +337,8 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// The first primary light: the one the bake and the runtime use while
-    /// they take one light.
+    /// The first primary light: the one whose maps are the primary ones (a
+    /// spot or directional light first, [`crate::LoadOptions::all_lights`]).
     pub fn light(&self) -> &Light {
         &self.lights[0]
     }
