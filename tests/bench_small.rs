@@ -81,7 +81,7 @@ fn quick_bench_outputs_are_complete_and_consistent() {
     // Every plot named in run.json is a PNG in the output directory.
     let run = read_json(d, "run.json");
     let plots = run["plots"].as_array().unwrap();
-    assert_eq!(plots.len(), 2 * 2 + 3, "{plots:?}"); // 2 per quality scene + 3 sweeps
+    assert_eq!(plots.len(), 2 * 2 + 4, "{plots:?}"); // 2 per quality scene + 4 sweeps
     for p in plots {
         let f = p["file"].as_str().unwrap();
         let bytes = std::fs::read(d.join(f)).unwrap();
@@ -132,10 +132,18 @@ fn quick_bench_outputs_are_complete_and_consistent() {
         check_front(name, &gpu, "indirect_rel_mse", "pareto_indirect");
     }
 
-    // Scaling: three sweeps, finite exponents for update and shade.
+    // Scaling: four sweeps, finite exponents for update and shade; the
+    // lights sweep's lamps get merged views where the balls pass.
     let sc = read_json(d, "scaling.json");
     let sweeps = sc["sweeps"].as_array().unwrap();
-    assert_eq!(sweeps.len(), 3);
+    assert_eq!(sweeps.len(), 4);
+    let lights = sweeps.iter().find(|s| s["sweep"] == "lights").unwrap();
+    let last = lights["points"].as_array().unwrap().last().unwrap();
+    assert!(last["x"].as_f64().unwrap() > 1.0, "{last}");
+    assert!(
+        last["stats"]["light_views_merged"].as_f64().unwrap() > 0.0,
+        "{last}"
+    );
     for s in sweeps {
         for part in ["update", "shade", "frame"] {
             assert!(

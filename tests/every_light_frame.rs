@@ -162,6 +162,18 @@ fn the_lights_and_their_merges_are_what_the_scene_needs() {
         height: 32,
         ..Default::default()
     };
+    // What the other lights need of a device is known before: two more
+    // storage buffers and two more textures in shading than one light.
+    let req = gibake_runtime::Requirements::of(&scene, Some(&asset), &rs).unwrap();
+    assert!(req.limits.max_storage_buffers_per_shader_stage >= 6);
+    assert!(req.limits.max_sampled_textures_per_shader_stage >= 17);
+    let e = req
+        .check(&gibake_runtime::wgpu::Limits::downlevel_defaults())
+        .expect_err("downlevel devices bind 4 storage buffers and 16 textures");
+    assert!(
+        e.to_string().contains("other lights") || e.to_string().contains("merge"),
+        "{e}"
+    );
     let mut r = Renderer::new(&ctx.device, &ctx.queue, &scene, Some(&asset), &rs).unwrap();
     let lights = r.lights();
     assert_eq!(lights.len(), 3);

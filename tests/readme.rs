@@ -1,7 +1,7 @@
 //! The README's command examples run as written (issue 20): every line of
 //! the code blocks of "Everyday use" is run with bash, in order, in a
 //! directory holding the files the examples assume (`scene.glb`, `a.gibake`
-//! and `b.gibake`, `levels/*.glb`, `level.glb`), with the `gibake` under test
+//! and `b.gibake`, `levels/*.glb`, `level.glb`, `lamps.glb`), with the `gibake` under test
 //! first on `PATH`. Each must succeed (`diff` may also say "different",
 //! exit 1). The benchmarks and `submit.sh` are the only lines not run, each
 //! for a reason below, and the test fails if any other line is left out.
@@ -82,6 +82,7 @@ fn every_readme_example_runs_as_written() {
     let scene = common::data("occluded.glb");
     std::fs::copy(&scene, dir.join("scene.glb")).unwrap();
     std::fs::copy(&scene, dir.join("level.glb")).unwrap();
+    std::fs::copy(common::data("lamps.glb"), dir.join("lamps.glb")).unwrap();
     std::fs::create_dir(dir.join("levels")).unwrap();
     std::fs::copy(&scene, dir.join("levels/hall.glb")).unwrap();
     std::fs::copy(common::data("sun.glb"), dir.join("levels/yard.glb")).unwrap();

@@ -539,7 +539,7 @@ impl Renderer {
                 encoder,
                 (&self.shade, &w.gbuffer, &w.scene_gpu),
                 &w.moving_draws,
-                &w.gi.group,
+                &w.gi,
                 &self.timer,
                 k as u32,
             );

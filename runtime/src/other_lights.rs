@@ -330,25 +330,13 @@ impl OtherLights {
             let (_, _, pass) = &m.passes[i];
             let ts = timer.render_span(crate::Pass::LightMerge, j == 0, j + 1 == touched.len());
             pass.encode(encoder, scene_gpu, &[draws], ts);
-            let size = pass.view.size;
-            let i = i as u32;
-            encoder.copy_texture_to_texture(
-                pass.metric.as_image_copy(),
-                wgpu::TexelCopyTextureInfo {
-                    texture: &m.atlas,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d {
-                        x: (i % m.cols) * size,
-                        y: (i / m.cols) * size,
-                        z: 0,
-                    },
-                    aspect: wgpu::TextureAspect::All,
-                },
-                wgpu::Extent3d {
-                    width: size,
-                    height: size,
-                    depth_or_array_layers: 1,
-                },
+            light_maps::copy_to_tile(
+                encoder,
+                &pass.metric,
+                &m.atlas,
+                i as u32,
+                m.cols,
+                pass.view.size,
             );
         }
     }

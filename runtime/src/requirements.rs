@@ -12,9 +12,16 @@ use gibake_scene::Scene;
 use crate::plan::{FramePlan, Pass};
 use crate::{RenderSettings, RuntimeError, interleave};
 
-/// Storage buffers one shader stage binds: shading's six (VPLs and their
-/// trees, occlusion, tiles, dynamic VPLs, the other lights and their views).
-const SHADE_STORAGE_BUFFERS: u32 = 6;
+/// Storage buffers one shader stage binds: shading's four (VPLs and their
+/// trees, occlusion, tiles, dynamic VPLs) ...
+const SHADE_STORAGE_BUFFERS: u32 = 4;
+/// ... and two more in a scene with other lights (the lights, their views).
+const OTHER_LIGHT_STORAGE_BUFFERS: u32 = 2;
+/// Sampled textures shading binds in a scene with other lights: the
+/// G-buffer (3), the VPL maps and merge atlas (2), the primary maps (2),
+/// the cascades (8) and the other lights' static and moving maps (2); 15
+/// with one light, as `downlevel_defaults` allow (16).
+const OTHER_LIGHT_SAMPLED_TEXTURES: u32 = 17;
 /// The VPL-map merge's rasterizer binds five (draws, vertices, indices,
 /// jobs, instances) in its vertex and fragment stages.
 const MERGE_STORAGE_BUFFERS: u32 = 5;
@@ -48,6 +55,7 @@ enum Limit {
     Texture2d,
     StorageBinding,
     StorageBuffersPerStage,
+    SampledTexturesPerStage,
 }
 
 impl Limit {
@@ -56,6 +64,7 @@ impl Limit {
             Limit::Texture2d => u64::from(l.max_texture_dimension_2d),
             Limit::StorageBinding => l.max_storage_buffer_binding_size,
             Limit::StorageBuffersPerStage => u64::from(l.max_storage_buffers_per_shader_stage),
+            Limit::SampledTexturesPerStage => u64::from(l.max_sampled_textures_per_shader_stage),
         }
     }
 }
@@ -122,6 +131,18 @@ impl Requirements {
             "shading",
             u64::from(SHADE_STORAGE_BUFFERS),
         );
+        if gibake_gpu::passes::light_maps::view_count(scene) > 0 {
+            r.need(
+                Limit::StorageBuffersPerStage,
+                "shading the other lights",
+                u64::from(SHADE_STORAGE_BUFFERS + OTHER_LIGHT_STORAGE_BUFFERS),
+            );
+            r.need(
+                Limit::SampledTexturesPerStage,
+                "shading the other lights",
+                u64::from(OTHER_LIGHT_SAMPLED_TEXTURES),
+            );
+        }
         let shadow = match asset {
             Some(a) => a.primary_depth.size,
             None => settings.shadow_map_size,
@@ -269,6 +290,11 @@ impl Requirements {
                 l.max_storage_buffers_per_shader_stage =
                     l.max_storage_buffers_per_shader_stage.max(v);
             }
+            Limit::SampledTexturesPerStage => {
+                let v = u32::try_from(value).unwrap_or(u32::MAX);
+                l.max_sampled_textures_per_shader_stage =
+                    l.max_sampled_textures_per_shader_stage.max(v);
+            }
         }
         match self.reasons.iter_mut().find(|(k, _, _)| *k == limit) {
             Some(r) if r.2 >= value => {}
@@ -288,6 +314,7 @@ impl Requirements {
                     Limit::Texture2d => "texels along a 2D texture side",
                     Limit::StorageBinding => "bytes in one storage binding",
                     Limit::StorageBuffersPerStage => "storage buffers in one shader stage",
+                    Limit::SampledTexturesPerStage => "sampled textures in one shader stage",
                 };
                 return Err(RuntimeError::DeviceLimit {
                     what: format!("{what} ({unit})"),

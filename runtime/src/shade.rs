@@ -13,13 +13,21 @@ use gibake_gpu::shaders;
 use crate::plan::ShadeFlag;
 
 /// The pass's WGSL: the flags (generated from [`ShadeFlag`]), the VPL and
-/// dynamic VPL slot layouts it reads, then its own.
-fn shade_wgsl() -> String {
+/// dynamic VPL slot layouts it reads, the other lights
+/// (`other_lights.wgsl`, or for a scene with one light
+/// `other_lights_none.wgsl`: no binding, so that shading binds what
+/// `downlevel_defaults` allow), then its own.
+fn shade_wgsl(other_lights: bool) -> String {
     [
         ShadeFlag::wgsl().as_str(),
         gibake_gpu::vpl::VPL_WGSL,
         include_str!("dyn_vpl.wgsl"),
         include_str!("cascades.wgsl"),
+        if other_lights {
+            include_str!("other_lights.wgsl")
+        } else {
+            include_str!("other_lights_none.wgsl")
+        },
         include_str!("shade.wgsl"),
     ]
     .join("\n")
@@ -68,10 +76,21 @@ pub(crate) struct GpuGiParams {
     pub _pad: u32,
 }
 
-/// The shading pass: pipeline, bind group layouts, and what is bound where
+/// A shading pipeline and its group-1 layout: the one-light variant, or the
+/// one that binds the other lights' storage arrays.
+struct Variant {
+    pipeline: wgpu::ComputePipeline,
+    gi_layout: wgpu::BindGroupLayout,
+}
+
+/// The shading pass: pipelines, bind group layouts, and what is bound where
 /// a feature is absent (its fallbacks).
 pub(crate) struct ShadePass {
-    pipeline: wgpu::ComputePipeline,
+    /// A scene with one light: four storage buffers.
+    one: Variant,
+    /// A scene with other lights (six storage buffers), made when first
+    /// needed.
+    many: std::sync::OnceLock<Variant>,
     /// Bound for absent storage inputs.
     fallback_buf: wgpu::Buffer,
     /// Bound when there are no dynamic VPLs (one empty slot).
@@ -80,12 +99,8 @@ pub(crate) struct ShadePass {
     fallback_map: wgpu::TextureView,
     /// Bound without cascades (a zero count).
     fallback_cascades: wgpu::Buffer,
-    /// Bound without lights after the first (one zero record each).
-    fallback_other: [wgpu::Buffer; 2],
     /// Layout of group 0 (a view: G-buffer, params, output).
     view_layout: wgpu::BindGroupLayout,
-    /// Layout of group 1 (light and GI data).
-    gi_layout: wgpu::BindGroupLayout,
 }
 
 const COMPUTE: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
@@ -172,10 +187,61 @@ fn entries<'a, const N: usize>(
     r.map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
 }
 
+impl Variant {
+    /// The pipeline and group-1 layout with (`many`) or without the other
+    /// lights' storage arrays (bindings 21 and 22).
+    fn new(device: &wgpu::Device, view_layout: &wgpu::BindGroupLayout, many: bool) -> Variant {
+        let module = shaders::module(device, "shade.wgsl", &shade_wgsl(many));
+        let mut gi_entries = vec![
+            storage_entry(0),
+            storage_entry(1),
+            storage_entry(2),
+            tex_entry(3),
+            tex_entry(4),
+            storage_entry(5),
+            tex_entry(7),
+            tex_entry(8),
+            uniform_entry(9),
+            uniform_entry(10),
+            uniform_entry(11),
+            uniform_entry(12),
+        ];
+        gi_entries.extend((13..=20).map(tex_entry));
+        if many {
+            gi_entries.extend([
+                storage_entry(21),
+                storage_entry(22),
+                tex_entry(23),
+                tex_entry(24),
+            ]);
+        }
+        let gi_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shade gi"),
+            entries: &gi_entries,
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("shade"),
+            bind_group_layouts: &[Some(view_layout), Some(&gi_layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("shade"),
+            layout: Some(&pl),
+            module: &module,
+            entry_point: Some("cs_main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Variant {
+            pipeline,
+            gi_layout,
+        }
+    }
+}
+
 impl ShadePass {
     /// Creates the pass.
     pub(crate) fn new(device: &wgpu::Device) -> ShadePass {
-        let module = shaders::module(device, "shade.wgsl", &shade_wgsl());
         let view_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shade view"),
             entries: &[
@@ -195,48 +261,7 @@ impl ShadePass {
                 },
             ],
         });
-        let gi_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("shade gi"),
-            entries: &[
-                storage_entry(0),
-                storage_entry(1),
-                storage_entry(2),
-                tex_entry(3),
-                tex_entry(4),
-                storage_entry(5),
-                tex_entry(7),
-                tex_entry(8),
-                uniform_entry(9),
-                uniform_entry(10),
-                uniform_entry(11),
-                uniform_entry(12),
-                tex_entry(13),
-                tex_entry(14),
-                tex_entry(15),
-                tex_entry(16),
-                tex_entry(17),
-                tex_entry(18),
-                tex_entry(19),
-                tex_entry(20),
-                storage_entry(21),
-                storage_entry(22),
-                tex_entry(23),
-                tex_entry(24),
-            ],
-        });
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("shade"),
-            bind_group_layouts: &[Some(&view_layout), Some(&gi_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("shade"),
-            layout: Some(&pl),
-            module: &module,
-            entry_point: Some("cs_main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let one = Variant::new(device, &view_layout, false);
         let storage = |label, size| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -246,7 +271,8 @@ impl ShadePass {
             })
         };
         ShadePass {
-            pipeline,
+            one,
+            many: std::sync::OnceLock::new(),
             fallback_buf: storage("absent GI input", 64),
             fallback_dyn_vpls: storage("no dynamic VPLs", 48),
             fallback_map: gibake_gpu::util::texture_2d(
@@ -263,18 +289,17 @@ impl ShadePass {
                 "no cascades",
                 &<crate::cascades::GpuCascades as bytemuck::Zeroable>::zeroed(),
             ),
-            fallback_other: [
-                storage(
-                    "no other lights",
-                    std::mem::size_of::<crate::other_lights::GpuOtherLight>() as u64,
-                ),
-                storage(
-                    "no other lights' views",
-                    std::mem::size_of::<crate::other_lights::GpuOtherView>() as u64,
-                ),
-            ],
             view_layout,
-            gi_layout,
+        }
+    }
+
+    /// The variant for a scene with (`many`) or without other lights.
+    fn variant(&self, device: &wgpu::Device, many: bool) -> &Variant {
+        if many {
+            self.many
+                .get_or_init(|| Variant::new(device, &self.view_layout, true))
+        } else {
+            &self.one
         }
     }
 
@@ -311,60 +336,67 @@ impl ShadePass {
             None => (&self.fallback_cascades, &[][..], &[][..]),
         };
         let cmap = |v: &[&'a wgpu::TextureView], k: usize| map(v.get(k).copied());
-        let (ol, ov, om, omm) = match i.other_lights {
-            Some(o) => (&o.lights, &o.views, Some(&o.maps), o.moving_maps()),
-            None => (&self.fallback_other[0], &self.fallback_other[1], None, None),
-        };
+        let other = i.other_lights;
+        let mut entries = Vec::from(entries([
+            (0, buf(i.vpls)),
+            (1, buf(i.occlusion)),
+            (2, buf(i.vpl_tile)),
+            (3, map(i.static_maps)),
+            (4, map(i.atlas)),
+            (5, dyn_vpls.as_entire_binding()),
+            (7, map(Some(i.primary_static))),
+            // Without moving objects shading never reads it (no
+            // `FLAG_DYN_PRIMARY`): the static map stands in.
+            (8, map(Some(i.primary_dynamic.unwrap_or(i.primary_static)))),
+            (9, i.light.as_entire_binding()),
+            (10, i.light_view.as_entire_binding()),
+            (11, i.params.as_entire_binding()),
+            (12, cascades.as_entire_binding()),
+            (13, cmap(cs, 0)),
+            (14, cmap(cs, 1)),
+            (15, cmap(cs, 2)),
+            (16, cmap(cs, 3)),
+            (17, cmap(cm, 0)),
+            (18, cmap(cm, 1)),
+            (19, cmap(cm, 2)),
+            (20, cmap(cm, 3)),
+        ]));
+        // The other lights: only in the variant that has them.
+        if let Some(o) = other {
+            entries.extend(self::entries([
+                (21, o.lights.as_entire_binding()),
+                (22, o.views.as_entire_binding()),
+                (23, map(Some(&o.maps))),
+                (24, map(o.moving_maps())),
+            ]));
+        }
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shade gi"),
-            layout: &self.gi_layout,
-            entries: &entries([
-                (0, buf(i.vpls)),
-                (1, buf(i.occlusion)),
-                (2, buf(i.vpl_tile)),
-                (3, map(i.static_maps)),
-                (4, map(i.atlas)),
-                (5, dyn_vpls.as_entire_binding()),
-                (7, map(Some(i.primary_static))),
-                // Without moving objects shading never reads it (no
-                // `FLAG_DYN_PRIMARY`): the static map stands in.
-                (8, map(Some(i.primary_dynamic.unwrap_or(i.primary_static)))),
-                (9, i.light.as_entire_binding()),
-                (10, i.light_view.as_entire_binding()),
-                (11, i.params.as_entire_binding()),
-                (12, cascades.as_entire_binding()),
-                (13, cmap(cs, 0)),
-                (14, cmap(cs, 1)),
-                (15, cmap(cs, 2)),
-                (16, cmap(cs, 3)),
-                (17, cmap(cm, 0)),
-                (18, cmap(cm, 1)),
-                (19, cmap(cm, 2)),
-                (20, cmap(cm, 3)),
-                (21, ol.as_entire_binding()),
-                (22, ov.as_entire_binding()),
-                (23, map(om)),
-                (24, map(omm)),
-            ]),
+            layout: &self.variant(device, other.is_some()).gi_layout,
+            entries: &entries,
         })
     }
 
-    /// Records the pass.
+    /// Records the pass (with the variant `gi` was made for).
     pub(crate) fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         view: &wgpu::BindGroup,
-        gi: &wgpu::BindGroup,
+        gi: &ShadeGi,
         size: [u32; 2],
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
+        let pipeline = match (gi.many, self.many.get()) {
+            (true, Some(v)) => &v.pipeline,
+            _ => &self.one.pipeline,
+        };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("shade"),
             timestamp_writes: timestamps,
         });
-        pass.set_pipeline(&self.pipeline);
+        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, view, &[]);
-        pass.set_bind_group(1, gi, &[]);
+        pass.set_bind_group(1, &gi.group, &[]);
         pass.dispatch_workgroups(size[0].div_ceil(8), size[1].div_ceil(8), 1);
     }
 }
@@ -376,6 +408,8 @@ pub(crate) struct ShadeGi {
     params_buf: wgpu::Buffer,
     /// Bind group 1.
     pub group: wgpu::BindGroup,
+    /// Whether it binds the other lights (the pass's variant with them).
+    many: bool,
 }
 
 /// What group 1 is built from.
@@ -413,6 +447,7 @@ impl ShadeGi {
             params,
             params_buf,
             group,
+            many: s.other_lights.is_some(),
         }
     }
 
@@ -468,7 +503,11 @@ mod tests {
     fn runtime_shaders_validate() {
         use gibake_gpu::shaders::{compose, compose_mesh, validate};
         for (name, src) in [
-            ("shade.wgsl", compose(&super::shade_wgsl())),
+            ("shade.wgsl", compose(&super::shade_wgsl(false))),
+            (
+                "shade.wgsl (other lights)",
+                compose(&super::shade_wgsl(true)),
+            ),
             ("gbuffer.wgsl", compose_mesh(include_str!("gbuffer.wgsl"))),
             (
                 "dynamic_rsm.wgsl",

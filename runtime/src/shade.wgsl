@@ -1,5 +1,7 @@
 // shade.wgsl — deferred shading (needs common.wgsl, light.wgsl,
-// projection.wgsl, hemisphere.wgsl, cascades.wgsl). One invocation per pixel:
+// projection.wgsl, hemisphere.wgsl, cascades.wgsl, and other_lights.wgsl or,
+// for a scene with one light, other_lights_none.wgsl). One invocation per
+// pixel:
 //   direct light with the merged primary shadow map (static ∪ moving),
 //   and of every other light with its static shadow map,
 // + every static VPL with its merged hemisphere map, its flux scaled by the
@@ -34,17 +36,6 @@ struct GiParams {         // GpuGiParams in shade.rs
     _pad1: u32,
 }
 
-struct OtherLight {       // GpuOtherLight in other_lights.rs
-    light: PrimaryLight,
-    views: vec4<u32>,     // x first view in other_views, y view count (6: cube faces)
-}
-
-struct OtherView {        // GpuOtherView in other_lights.rs
-    view: LightView,
-    tile: vec4<i32>,      // xy the static map's origin in light_maps (−1: none);
-                          // zw the moving objects' map's in light_moving (−1: none)
-}
-
 const NONE: u32 = 0xffffffffu;
 const OCCL_ONE: f32 = 16777216.0;     // 2^24: fixed-point 1.0 of occlusion sums
 
@@ -73,10 +64,6 @@ const VPL_MAX_SLOPE: f32 = 10.0;
 @group(1) @binding(9) var<uniform> light: PrimaryLight;
 @group(1) @binding(10) var<uniform> light_view: LightView;
 @group(1) @binding(11) var<uniform> params: GiParams;
-@group(1) @binding(21) var<storage, read> other_lights: array<OtherLight>;
-@group(1) @binding(22) var<storage, read> other_views: array<OtherView>;
-@group(1) @binding(23) var light_maps: texture_2d<f32>;
-@group(1) @binding(24) var light_moving: texture_2d<f32>;
 
 // Near field (gibake_bake::near_field): a VPL, or a node of its tree, whose
 // receiver is nearer than NEAR_FIELD_RATIO × its disk radius √(A/π) is
@@ -109,37 +96,6 @@ fn primary_visibility(p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
     return lv_visibility(light_view, primary_static, primary_dynamic, has(FLAG_DYN_PRIMARY), vec4<i32>(0), p, ng, wi);
 }
 
-// Visibility of light k after the first: its one view, or for a point
-// light the cube face of the receiver's direction (the face of the largest
-// absolute component, +X, −X, +Y, −Y, +Z, −Z as baked); the static map,
-// merged (z-min) with the moving objects' map when they touch the view
-// this frame. A view with neither holds no surface: nothing shadows there.
-fn other_visibility(k: u32, p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
-    let l = other_lights[k];
-    var face = 0u;
-    if (l.views.y == 6u) {
-        let d = p - l.light.position.xyz;
-        let a = abs(d);
-        if (a.x >= a.y && a.x >= a.z) {
-            face = select(1u, 0u, d.x >= 0.0);
-        } else if (a.y >= a.z) {
-            face = select(3u, 2u, d.y >= 0.0);
-        } else {
-            face = select(5u, 4u, d.z >= 0.0);
-        }
-    }
-    let v = other_views[l.views.x + face];
-    let stored = v.tile.x >= 0;
-    let moving = v.tile.z >= 0;
-    if (stored) {
-        return lv_visibility(v.view, light_maps, light_moving, moving, v.tile, p, ng, wi);
-    }
-    if (moving) {
-        return lv_visibility(v.view, light_moving, light_moving, false, v.tile.zwzw, p, ng, wi);
-    }
-    return 1.0;
-}
-
 // Direct light of one light with the shading normal's cosine, as engines
 // shade: a light behind the geometric plane but in front of the shading
 // normal (a smooth low-poly terminator) lights the point if the shadow map
@@ -166,7 +122,7 @@ fn light_radiance(l: PrimaryLight, other: u32, p: vec3<f32>, ns: vec3<f32>, ng: 
 fn direct_radiance(p: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
     var r = light_radiance(light, NONE, p, ns, ng, albedo);
     for (var k = 0u; k < params.n_other_lights; k++) {
-        r += light_radiance(other_lights[k].light, k, p, ns, ng, albedo);
+        r += light_radiance(other_light(k), k, p, ns, ng, albedo);
     }
     return r;
 }

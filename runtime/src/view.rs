@@ -375,7 +375,7 @@ impl View {
         encoder: &mut wgpu::CommandEncoder,
         (shade, gbuffer_pass, scene_gpu): Passes<'_>,
         moving: &[Draw],
-        gi_group: &wgpu::BindGroup,
+        gi: &crate::shade::ShadeGi,
         timer: &Timer,
         k: u32,
     ) {
@@ -398,7 +398,7 @@ impl View {
         shade.encode(
             encoder,
             &self.group,
-            gi_group,
+            gi,
             self.params.size,
             timer.compute(Pass::Shade, k),
         );

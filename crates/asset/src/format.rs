@@ -838,27 +838,13 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
         data,
     };
 
-    let vpl_maps = if manifest.map_count > 0 {
-        let path = dir.join(FILE_VPL_MAPS);
-        let (w, h) = atlas_dims(&manifest);
-        let data = exrio::decode(
-            take(FILE_VPL_MAPS),
-            &path,
-            w as usize,
-            h as usize,
-            &[("Z", Kind::F32)],
-        )?;
-        let texels = data
-            .into_iter()
-            .next()
-            .map(Samples::into_f32)
-            .unwrap_or_default();
-        no_nan(&texels, &path, "channel Z")?;
-        MapAtlas::from_texels(s.vpl_map_size, manifest.map_count, texels)
-            .ok_or_else(|| AssetError::invalid(&path, "the atlas has the wrong number of texels"))?
-    } else {
-        MapAtlas::empty(s.vpl_map_size)
-    };
+    let vpl_maps = decode_atlas(
+        take(FILE_VPL_MAPS),
+        &dir.join(FILE_VPL_MAPS),
+        s.vpl_map_size,
+        manifest.map_count,
+        atlas_dims(&manifest),
+    )?;
 
     let rsm = if manifest.has_dynamic {
         let path = dir.join(FILE_RSM);
@@ -908,27 +894,13 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
     };
 
     let light_count = light_map_count(&manifest);
-    let light_maps = if light_count > 0 {
-        let path = dir.join(FILE_LIGHT_MAPS);
-        let (w, h) = light_atlas_dims(&manifest);
-        let data = exrio::decode(
-            take(FILE_LIGHT_MAPS),
-            &path,
-            w as usize,
-            h as usize,
-            &[("Z", Kind::F32)],
-        )?;
-        let texels = data
-            .into_iter()
-            .next()
-            .map(Samples::into_f32)
-            .unwrap_or_default();
-        no_nan(&texels, &path, "channel Z")?;
-        MapAtlas::from_texels(manifest.light_map_size, light_count, texels)
-            .ok_or_else(|| AssetError::invalid(&path, "the atlas has the wrong number of texels"))?
-    } else {
-        MapAtlas::empty(manifest.light_map_size)
-    };
+    let light_maps = decode_atlas(
+        take(FILE_LIGHT_MAPS),
+        &dir.join(FILE_LIGHT_MAPS),
+        manifest.light_map_size,
+        light_count,
+        light_atlas_dims(&manifest),
+    )?;
 
     Ok(Asset {
         manifest,
@@ -939,6 +911,30 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
         rsm,
         light_maps,
     })
+}
+
+/// A map atlas file (`vpl_maps.exr`, `light_maps.exr`): `count` maps of
+/// `tile²` in the `(w, h)` atlas, channel `Z`, no NaN; empty when `count`
+/// is 0 (the file is not stored).
+fn decode_atlas(
+    bytes: &[u8],
+    path: &Path,
+    tile: u32,
+    count: u32,
+    (w, h): (u64, u64),
+) -> Result<MapAtlas, AssetError> {
+    if count == 0 {
+        return Ok(MapAtlas::empty(tile));
+    }
+    let data = exrio::decode(bytes, path, w as usize, h as usize, &[("Z", Kind::F32)])?;
+    let texels = data
+        .into_iter()
+        .next()
+        .map(Samples::into_f32)
+        .unwrap_or_default();
+    no_nan(&texels, path, "channel Z")?;
+    MapAtlas::from_texels(tile, count, texels)
+        .ok_or_else(|| AssetError::invalid(path, "the atlas has the wrong number of texels"))
 }
 
 // ---------------------------------------------------------------- write

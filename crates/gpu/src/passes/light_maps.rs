@@ -134,25 +134,7 @@ impl LightMaps {
             };
             let mut enc = device.create_command_encoder(&Default::default());
             pass.encode(&mut enc, scene_gpu, &[&scene_gpu.static_draws], None);
-            let k = k as u32;
-            enc.copy_texture_to_texture(
-                pass.metric.as_image_copy(),
-                wgpu::TexelCopyTextureInfo {
-                    texture: &atlas,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d {
-                        x: (k % cols) * size,
-                        y: (k / cols) * size,
-                        z: 0,
-                    },
-                    aspect: wgpu::TextureAspect::All,
-                },
-                wgpu::Extent3d {
-                    width: size,
-                    height: size,
-                    depth_or_array_layers: 1,
-                },
-            );
+            copy_to_tile(&mut enc, &pass.metric, &atlas, k as u32, cols, size);
             queue.submit([enc.finish()]);
             progress();
         }
@@ -168,6 +150,36 @@ impl LightMaps {
     pub fn bytes(&self) -> u64 {
         4 * u64::from(self.atlas.width()) * u64::from(self.atlas.height())
     }
+}
+
+/// Records the copy of `map` (`size²`) into tile `k` of `atlas` (`cols`
+/// tiles per row): the one place a view's map enters an atlas.
+pub fn copy_to_tile(
+    encoder: &mut wgpu::CommandEncoder,
+    map: &wgpu::Texture,
+    atlas: &wgpu::Texture,
+    k: u32,
+    cols: u32,
+    size: u32,
+) {
+    encoder.copy_texture_to_texture(
+        map.as_image_copy(),
+        wgpu::TexelCopyTextureInfo {
+            texture: atlas,
+            mip_level: 0,
+            origin: wgpu::Origin3d {
+                x: (k % cols) * size,
+                y: (k / cols) * size,
+                z: 0,
+            },
+            aspect: wgpu::TextureAspect::All,
+        },
+        wgpu::Extent3d {
+            width: size,
+            height: size,
+            depth_or_array_layers: 1,
+        },
+    );
 }
 
 #[cfg(test)]
