@@ -626,6 +626,30 @@ fn a_bake_over_the_memory_budget_is_refused_up_front() {
     assert_eq!(names(dir.path()), ["s.gltf"]);
 }
 
+/// A bake of every light holds every view's RSM at once: the check counts
+/// them once the scene is read (the bundled room's spot and two point
+/// lamps: 13 RSMs), before any is made, and nothing is written.
+#[test]
+fn a_bake_of_every_light_over_the_memory_budget_is_refused() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("lamps.gibake");
+    let lamps = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/lamps.glb");
+    let r = run(&[
+        &"--max-memory",
+        &"150M",
+        &"bake",
+        &lamps,
+        &"--all-lights",
+        &"-o",
+        &out,
+    ]);
+    assert_bad(
+        &r,
+        &["lamps.glb", "13 RSM(s)", "--light NAME", "--max-memory"],
+    );
+    assert!(names(dir.path()).is_empty());
+}
+
 #[test]
 fn asset_maps_are_decoded_only_within_the_budget() {
     let dir = tempfile::tempdir().expect("tempdir");

@@ -474,6 +474,22 @@ fn bake_with(
     // The other lights' shadow maps (format 4.0), by the same pass.
     let mut warnings = warnings;
     let n = light_maps::view_count(scene);
+    // Several lights: every view's RSM is held at once; checked before any
+    // is made (the views are known from the scene alone).
+    let every = scene.lights.len() > 1 || light_maps::first_viewed_light(scene) == 0;
+    if every && let Some(limit) = progress.memory_limit() {
+        let rsm_views: usize = scene
+            .lights
+            .iter()
+            .map(|l| match l.kind {
+                gibake_scene::LightKind::Point => 6,
+                _ => 1,
+            })
+            .sum();
+        let (size, _) = light_maps::light_map_size(opts.shadow_map_size, n, max_tex);
+        let texels = n as u64 * u64::from(size) * u64::from(size);
+        crate::budget::check_lights(opts, rsm_views as u64, texels, limit)?;
+    }
     let (views, light_maps, light_map_size) = if n > 0 {
         let (size, capped) = light_maps::light_map_size(opts.shadow_map_size, n, max_tex);
         if capped {
@@ -507,7 +523,7 @@ fn bake_with(
     };
     // Several lights, or a point light (its six faces): one budget over
     // every view.
-    let front = if scene.lights.len() > 1 || light_maps::first_viewed_light(scene) == 0 {
+    let front = if every {
         progress.begin("RSMs and clustering of every light", 0);
         let f = every_light_front(scene, &reach, &view, opts);
         progress.end();

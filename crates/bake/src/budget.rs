@@ -5,15 +5,18 @@
 //!
 //! | part | bytes |
 //! |---|---|
-//! | RSM (metric, position, normal, flux, area) and the clustering pyramid | 64 × rsm² |
+//! | RSM (metric, position, normal, flux, area) and the clustering pyramid | 64 × rsm², per view of a bake of several lights |
 //! | hemisphere maps: the layers, the atlas copy and its EXR encoding | 12 × VPLs × map² |
 //! | primary shadow map: read-back, map and EXR encoding | 12 × shadow² |
+//! | the other lights' shadow maps: the same | 12 × views × light map² |
 //!
 //! With `--vpls N` the VPL count is N + 2% (the clustering's tolerance);
 //! with `--threshold` it is not known before clustering, so the maps are
 //! left out of the first estimate, and the bake checks again
 //! ([`check_with`]) once clustering has counted the VPLs, before any
-//! near-field tree or map exists (`BakeProgress::memory_limit`).
+//! near-field tree or map exists (`BakeProgress::memory_limit`). A bake of
+//! several lights holds every view's RSM at once: it checks
+//! ([`check_lights`]) once the scene's views are known, before any RSM.
 
 use crate::BakeOptions;
 use crate::cluster::ClusterTarget;
@@ -41,7 +44,7 @@ impl MemoryEstimate {
 /// A bake whose estimate is over the budget.
 #[derive(Debug, thiserror::Error)]
 #[error(
-    "the bake would need about {} MiB ({} VPL maps of {vpl_map_size}² = {} MiB, RSM {rsm_size}² = {} MiB, shadow map {shadow_map_size}² = {} MiB), over the memory limit of {} MiB; lower --vpls, --vpl-map-size, --rsm-size or --shadow-map-size, or raise the limit with --max-memory",
+    "the bake would need about {} MiB ({} VPL maps of {vpl_map_size}² = {} MiB, {rsm_views} RSM(s) of {rsm_size}² = {} MiB, shadow maps (primary {shadow_map_size}²) = {} MiB), over the memory limit of {} MiB; lower --vpls, --vpl-map-size, --rsm-size or --shadow-map-size, bake fewer lights (--light NAME), or raise the limit with --max-memory",
     mib(estimate.total()),
     vpls,
     mib(estimate.vpl_maps),
@@ -62,6 +65,8 @@ pub struct OverBudget {
     pub rsm_size: u32,
     /// `--shadow-map-size`.
     pub shadow_map_size: u32,
+    /// RSMs held at once (every view of every light; 1 with one light).
+    pub rsm_views: u64,
 }
 
 fn mib(b: u64) -> u64 {
@@ -99,6 +104,47 @@ pub fn check(opts: &BakeOptions, limit: u64) -> Result<MemoryEstimate, Box<OverB
             vpl_map_size: opts.vpl_map_size,
             rsm_size: opts.rsm_size,
             shadow_map_size: opts.shadow_map_size,
+            rsm_views: 1,
+        }));
+    }
+    Ok(estimate)
+}
+
+/// The estimate of a bake of several lights: `rsm_views` RSMs held at once
+/// (every view of every light) and `light_map_texels` of the other lights'
+/// shadow maps.
+pub fn estimate_lights(
+    opts: &BakeOptions,
+    rsm_views: u64,
+    light_map_texels: u64,
+) -> MemoryEstimate {
+    let e = estimate(opts);
+    MemoryEstimate {
+        rsm: e.rsm.saturating_mul(rsm_views.max(1)),
+        vpl_maps: e.vpl_maps,
+        shadow_map: e
+            .shadow_map
+            .saturating_add(light_map_texels.saturating_mul(12)),
+    }
+}
+
+/// Checks [`estimate_lights`] against `limit`, before any RSM is made.
+pub fn check_lights(
+    opts: &BakeOptions,
+    rsm_views: u64,
+    light_map_texels: u64,
+    limit: u64,
+) -> Result<MemoryEstimate, Box<OverBudget>> {
+    let estimate = estimate_lights(opts, rsm_views, light_map_texels);
+    if estimate.total() > limit {
+        return Err(Box::new(OverBudget {
+            estimate,
+            limit,
+            vpls: assumed_vpls(opts),
+            vpl_map_size: opts.vpl_map_size,
+            rsm_size: opts.rsm_size,
+            shadow_map_size: opts.shadow_map_size,
+            rsm_views,
         }));
     }
     Ok(estimate)
@@ -141,6 +187,7 @@ pub fn check_with(
             vpl_map_size: opts.vpl_map_size,
             rsm_size: opts.rsm_size,
             shadow_map_size: opts.shadow_map_size,
+            rsm_views: 1,
         }));
     }
     Ok(estimate)

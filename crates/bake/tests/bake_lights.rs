@@ -163,3 +163,56 @@ fn a_point_light_first_is_baked_with_its_six_faces() {
     gibake_asset::write(&out.asset, &dir).expect("write");
     gibake_asset::load(&dir).expect("load");
 }
+
+/// A progress that gives the bake a memory budget.
+struct Budget(u64);
+
+impl gibake_bake::BakeProgress for Budget {
+    fn begin(&self, _: &str, _: u64) {}
+    fn advance(&self, _: u64) {}
+    fn end(&self) {}
+    fn memory_limit(&self) -> Option<u64> {
+        Some(self.0)
+    }
+}
+
+/// Every view's RSM is held at once: 64 point lamps (384 faces) at the
+/// default RSM of 512² need about 6 GiB, and are refused before any RSM is
+/// made, with a message naming the views and what to lower; the same at
+/// 64² fit.
+#[test]
+fn many_lights_over_the_memory_budget_are_refused_before_any_rsm() {
+    let ctx = gpu();
+    let mut scene = lamps();
+    let spot = scene.lights[0].clone();
+    let lamp = scene.lights[1].clone();
+    scene.lights = std::iter::once(spot)
+        .chain((0..64).map(|k| gibake_scene::Light {
+            name: format!("lamp {k}"),
+            ..lamp.clone()
+        }))
+        .collect();
+    let opts = BakeOptions {
+        rsm_size: 512,
+        ..options()
+    };
+    let t = std::time::Instant::now();
+    match bake(&ctx, &scene, &opts, &Budget(2 << 30), "test") {
+        Err(gibake_bake::BakeError::OverBudget(e)) => {
+            let m = e.to_string();
+            assert!(m.contains("385 RSM(s)") && m.contains("--rsm-size"), "{m}");
+        }
+        Err(e) => panic!("another error: {e}"),
+        Ok(_) => panic!("6 GiB of RSMs were baked within 2 GiB"),
+    }
+    assert!(
+        t.elapsed().as_secs() < 20,
+        "refused only after {:?}",
+        t.elapsed()
+    );
+    let small = BakeOptions {
+        rsm_size: 16,
+        ..options()
+    };
+    assert!(gibake_bake::budget::check_lights(&small, 385, 384 * 128 * 128, 2 << 30).is_ok());
+}
