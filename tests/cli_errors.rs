@@ -981,3 +981,47 @@ fn diff_images_dir_with_damaged_asset_writes_nothing() {
         "--images directory created although the diff failed\n{r}"
     );
 }
+
+/// An asset baked with every light, rendered without `--all-lights` (the
+/// scene then has one light): one clear message naming both light sets and
+/// the flags, exit 2, nothing written.
+#[test]
+fn render_with_other_lights_than_the_bake_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let asset = dir.path().join("lamps.gibake");
+    let r = gibake!(
+        "bake",
+        common::data("lamps.glb"),
+        "--all-lights",
+        "--rsm-size",
+        "32",
+        "--vpl-map-size",
+        "8",
+        "--shadow-map-size",
+        "64",
+        "--vpls",
+        "8",
+        "-o",
+        &asset
+    );
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let out = tempfile::tempdir().unwrap();
+    let png = out.path().join("f.png");
+    let r = gibake!(
+        "render",
+        common::data("lamps.glb"),
+        "--bake",
+        &asset,
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "-o",
+        &png
+    );
+    assert_bad(
+        &r,
+        &["3 light(s)", "point_lamp", "loaded with 1", "--all-lights"],
+    );
+    assert_empty(out.path(), &r);
+}

@@ -296,6 +296,20 @@ fn stiff_light_sets_render_finite() {
         ("the 1e6 lamp alone", &bright_alone),
     ] {
         let asset = gibake_eval::bake(&ctx, scene, &s).unwrap_or_else(|e| panic!("{what}: {e}"));
+        if matches!(scene.light().kind, gibake_scene::LightKind::Point) {
+            // A point light first has no primary map: no light's bounce
+            // off moving objects is computed per frame, and the plan has
+            // no primary merge (its faces take the moving objects).
+            assert!(asset.rsm.is_none(), "{what}");
+            let rs = RenderSettings {
+                width: 8,
+                height: 8,
+                ..Default::default()
+            };
+            let r = Renderer::new(&ctx.device, &ctx.queue, scene, Some(&asset), &rs).unwrap();
+            assert!(r.lights().iter().all(|l| l.shaded && !l.dynamic_bounce));
+            assert!(!r.plan().has(Pass::PrimaryMerge) && r.plan().has(Pass::LightMerge));
+        }
         for mode in [Mode::Full, Mode::Direct] {
             let img = gibake_eval::render(&ctx, scene, &asset, mode, &s)
                 .unwrap_or_else(|e| panic!("{what}: {e}"));
