@@ -3,7 +3,8 @@
 //! their moving objects) and seeded random scenes — as mean indirect bias
 //! per channel and `full`'s against `rsm`'s indirect error (the figures of
 //! issue 8; `gibake-eval` computes them, `tests/indirect_accuracy.rs` runs a
-//! small version).
+//! small version) — and with every light: the bundled multi-light room and
+//! the seeded random multi-light scenes (issue 19).
 
 use serde_json::json;
 
@@ -26,6 +27,20 @@ pub(super) fn bench_accuracy(b: &mut Bench, seeds: u64) -> crate::Result<()> {
     for seed in 0..seeds {
         let (scene, name) = gibake_eval::random_scene(seed);
         scenes.push((name, scene));
+    }
+    // Every light: the bundled room and the random multi-light scenes.
+    let every = gibake_scene::LoadOptions {
+        all_lights: true,
+        ..Default::default()
+    };
+    let lamps = gibake_scenegen::lamps(&Default::default());
+    let scene = gibake_scene::load_from_slice(&lamps, std::path::Path::new("lamps.glb"), &every)?;
+    scenes.push(("lamps (every light)".into(), scene));
+    for seed in 0..seeds {
+        let (bytes, info) = gibake_scenegen::random_lights(seed, &Default::default());
+        let path = format!("random_lights_{seed}.glb");
+        let scene = gibake_scene::load_from_slice(&bytes, std::path::Path::new(&path), &every)?;
+        scenes.push((format!("random_lights {seed} ({info})"), scene));
     }
     let mut t = Table::new(
         format!(
