@@ -12,8 +12,10 @@
 //! `cargo run --release -p gibake-eval --example rsm_ceiling -- LEVEL… [--size N]`
 //! (`LEVEL`: a name in data/levels/levels.json, or `random_lights:SEED` or
 //! `random_lights:SEED:K` — a seeded multi-light scene, every view of every
-//! light (or of light `K` alone) as the every-light bake makes them)
-//! (default 32² receivers; ≈ 5 s a level on 2 cores at 32²).
+//! light (or of light `K` alone) as the every-light bake makes them — or a
+//! glTF file with its own lights and camera, `FILE.glb[:K]`)
+//! (default 32² receivers; ≈ 5 s a level on 2 cores at 32²). `--rsm N`: the
+//! RSM resolution (default 512, the bake's).
 use gibake_bake::rsm::render_rsm;
 use gibake_gpu::LightView;
 use gibake_raycast::RayScene;
@@ -40,10 +42,13 @@ struct Sums {
 fn main() {
     let mut names = Vec::new();
     let mut size = 32u32;
+    let mut rsm_size = 512u32;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         if a == "--size" {
             size = args.next().and_then(|s| s.parse().ok()).expect("--size N");
+        } else if a == "--rsm" {
+            rsm_size = args.next().and_then(|s| s.parse().ok()).expect("--rsm N");
         } else {
             names.push(a);
         }
@@ -51,7 +56,7 @@ fn main() {
     let list = gibake_eval::levels::bundled_list();
     let levels = gibake_eval::levels::read_specs(&list).unwrap();
     println!(
-        "per-texel point VPLs (every lit texel of the 512² RSM) against the reference, {size}² receivers"
+        "per-texel point VPLs (every lit texel of the {rsm_size}² RSM) against the reference, {size}² receivers"
     );
     println!(
         "{:>12} | {:>9} {:>9} {:>9} {:>11} | reference's bounce light from hits within 1 / 2 / 4 / 8 footprints",
@@ -76,6 +81,23 @@ fn main() {
                 scene.lights = vec![scene.lights[k].clone()];
             }
             scene
+        } else if name.contains(".gl") {
+            let (file, only) = match name.rsplit_once(':') {
+                Some((f, k)) if k.parse::<usize>().is_ok() => (f, k.parse::<usize>().ok()),
+                _ => (name.as_str(), None),
+            };
+            let mut scene = gibake_scene::load(
+                std::path::Path::new(file),
+                &gibake_scene::LoadOptions {
+                    all_lights: true,
+                    ..Default::default()
+                },
+            )
+            .expect("the file loads");
+            if let Some(k) = only {
+                scene.lights = vec![scene.lights[k].clone()];
+            }
+            scene
         } else {
             let l = levels
                 .iter()
@@ -93,7 +115,7 @@ fn main() {
                 LightView::of_light(&scene, light, 2048)
                     .into_iter()
                     .map(|v| {
-                        let v = v.resized(512);
+                        let v = v.resized(rsm_size);
                         (v, render_rsm(&rays, light, &v, None))
                     })
                     .collect::<Vec<_>>()
