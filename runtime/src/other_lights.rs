@@ -277,6 +277,11 @@ impl OtherLights {
         }))
     }
 
+    /// Whether moving objects are merged into some view (the light merge).
+    pub(crate) fn merges(&self) -> bool {
+        self.merge.is_some()
+    }
+
     /// The moving objects' maps (`None` without the light merge).
     pub(crate) fn moving_maps(&self) -> Option<&wgpu::TextureView> {
         self.merge.as_ref().map(|m| &m.atlas_view)

@@ -182,7 +182,7 @@ impl World {
         if !transforms.is_empty() {
             self.scene_gpu.set_dynamic_transforms(queue, transforms);
         }
-        if let Some(o) = self.other_lights.as_mut() {
+        if let Some(o) = self.other_lights.as_mut().filter(|o| o.merges()) {
             let boxes: Vec<gibake_scene::Aabb> = self
                 .moving_draws
                 .iter()

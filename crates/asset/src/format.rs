@@ -240,15 +240,7 @@ fn check_views(m: &Manifest) -> Result<(), String> {
                     v.light
                 ));
             }
-            let r = &v.view;
-            let finite = r
-                .view_proj
-                .iter()
-                .chain(&r.origin)
-                .chain(&r.direction)
-                .chain([&r.texel_scale, &r.texel_area])
-                .all(|x| x.is_finite());
-            if !finite {
+            if !v.view.is_finite() {
                 return Err(format!("views[{k}] holds a value that is not finite"));
             }
             if v.tile != NO_MAP {
@@ -318,15 +310,7 @@ fn validate_manifest(
             s.threshold
         ));
     }
-    let lv = &m.light_view;
-    let lv_finite = lv
-        .view_proj
-        .iter()
-        .chain(&lv.origin)
-        .chain(&lv.direction)
-        .chain([&lv.texel_scale, &lv.texel_area])
-        .all(|x| x.is_finite());
-    if !lv_finite {
+    if !m.light_view.is_finite() {
         return bad("light_view holds a value that is not finite".into());
     }
     for (i, l) in m.lights.iter().enumerate() {

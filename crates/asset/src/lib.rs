@@ -160,6 +160,18 @@ pub struct LightViewRecord {
     pub texel_area: f32,
 }
 
+impl LightViewRecord {
+    /// Whether every value is finite (what a valid manifest holds).
+    pub fn is_finite(&self) -> bool {
+        self.view_proj
+            .iter()
+            .chain(&self.origin)
+            .chain(&self.direction)
+            .chain([&self.texel_scale, &self.texel_area])
+            .all(|x| x.is_finite())
+    }
+}
+
 /// Where and with what the asset was baked.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Provenance {

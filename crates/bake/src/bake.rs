@@ -478,14 +478,8 @@ fn bake_with(
     // is made (the views are known from the scene alone).
     let every = scene.lights.len() > 1 || light_maps::first_viewed_light(scene) == 0;
     if every && let Some(limit) = progress.memory_limit() {
-        let rsm_views: usize = scene
-            .lights
-            .iter()
-            .map(|l| match l.kind {
-                gibake_scene::LightKind::Point => 6,
-                _ => 1,
-            })
-            .sum();
+        // The light-map views, and the primary's one when it has one.
+        let rsm_views = n + light_maps::first_viewed_light(scene);
         let (size, _) = light_maps::light_map_size(opts.shadow_map_size, n, max_tex);
         let texels = n as u64 * u64::from(size) * u64::from(size);
         crate::budget::check_lights(opts, rsm_views as u64, texels, limit)?;

@@ -73,6 +73,28 @@ fn mib(b: u64) -> u64 {
     b.div_ceil(1 << 20)
 }
 
+/// `estimate` if it is within `limit`, else the error naming its parts.
+fn within(
+    estimate: MemoryEstimate,
+    limit: u64,
+    opts: &BakeOptions,
+    vpls: u64,
+    rsm_views: u64,
+) -> Result<MemoryEstimate, Box<OverBudget>> {
+    if estimate.total() <= limit {
+        return Ok(estimate);
+    }
+    Err(Box::new(OverBudget {
+        estimate,
+        limit,
+        vpls,
+        vpl_map_size: opts.vpl_map_size,
+        rsm_size: opts.rsm_size,
+        shadow_map_size: opts.shadow_map_size,
+        rsm_views,
+    }))
+}
+
 /// The VPL count assumed by the estimate (0 when not known up front).
 pub fn assumed_vpls(opts: &BakeOptions) -> u64 {
     match opts.target {
@@ -96,18 +118,7 @@ pub fn estimate(opts: &BakeOptions) -> MemoryEstimate {
 /// Checks the estimate of `opts` against `limit` bytes.
 pub fn check(opts: &BakeOptions, limit: u64) -> Result<MemoryEstimate, Box<OverBudget>> {
     let estimate = estimate(opts);
-    if estimate.total() > limit {
-        return Err(Box::new(OverBudget {
-            estimate,
-            limit,
-            vpls: assumed_vpls(opts),
-            vpl_map_size: opts.vpl_map_size,
-            rsm_size: opts.rsm_size,
-            shadow_map_size: opts.shadow_map_size,
-            rsm_views: 1,
-        }));
-    }
-    Ok(estimate)
+    within(estimate, limit, opts, assumed_vpls(opts), 1)
 }
 
 /// The estimate of a bake of several lights: `rsm_views` RSMs held at once
@@ -136,18 +147,7 @@ pub fn check_lights(
     limit: u64,
 ) -> Result<MemoryEstimate, Box<OverBudget>> {
     let estimate = estimate_lights(opts, rsm_views, light_map_texels);
-    if estimate.total() > limit {
-        return Err(Box::new(OverBudget {
-            estimate,
-            limit,
-            vpls: assumed_vpls(opts),
-            vpl_map_size: opts.vpl_map_size,
-            rsm_size: opts.rsm_size,
-            shadow_map_size: opts.shadow_map_size,
-            rsm_views,
-        }));
-    }
-    Ok(estimate)
+    within(estimate, limit, opts, assumed_vpls(opts), rsm_views)
 }
 
 /// Bytes per VPL besides its map: the record (48) and its near-field tree
@@ -179,18 +179,7 @@ pub fn check_with(
     limit: u64,
 ) -> Result<MemoryEstimate, Box<OverBudget>> {
     let estimate = estimate_with(opts, vpls, mapped);
-    if estimate.total() > limit {
-        return Err(Box::new(OverBudget {
-            estimate,
-            limit,
-            vpls,
-            vpl_map_size: opts.vpl_map_size,
-            rsm_size: opts.rsm_size,
-            shadow_map_size: opts.shadow_map_size,
-            rsm_views: 1,
-        }));
-    }
-    Ok(estimate)
+    within(estimate, limit, opts, vpls, 1)
 }
 
 #[cfg(test)]
