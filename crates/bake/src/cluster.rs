@@ -217,6 +217,7 @@
 
 mod pyramid;
 
+use rayon::prelude::*;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
@@ -384,22 +385,9 @@ fn emit(rsm: &Rsm, pyramid: &Pyramid, split: impl Fn(Node) -> bool) -> Emitted {
         }
         let rect = pyramid.rect(node);
         let layers = leaf_layers(rsm, rect);
-        let leaf_counts = pyramid.counts(&pyramid.moments(rsm, node));
-        counted += u64::from(leaf_counts);
-        if layers.len() > 1 {
-            // Layers beyond the first that count against a budget as the
-            // leaf itself would (pyramid::counts).
-            let counting = layers
-                .iter()
-                .filter(|l| {
-                    let m = l
-                        .iter()
-                        .fold(Moments::default(), |m, &i| m.merge(Moments::texel(rsm, i)));
-                    pyramid.counts(&m)
-                })
-                .count() as u64;
-            extra += counting.saturating_sub(u64::from(leaf_counts));
-        }
+        let (c, e) = leaf_budget(rsm, pyramid, node, &layers);
+        counted += c;
+        extra += e;
         for layer in layers {
             let Some(vpl) = cluster_of(rsm, &layer) else {
                 continue;
@@ -413,6 +401,73 @@ fn emit(rsm: &Rsm, pyramid: &Pyramid, split: impl Fn(Node) -> bool) -> Emitted {
         }
     }
     (vpls, texel_vpl, rects, extra, counted)
+}
+
+/// What leaf `node` (its depth layers `layers`, [`leaf_layers`]) counts
+/// against a VPL budget: `(1 if the leaf counts ([`Pyramid::counts`]) else
+/// 0, how many more of its layers count than that)`.
+fn leaf_budget(rsm: &Rsm, pyramid: &Pyramid, node: Node, layers: &[Vec<usize>]) -> (u64, u64) {
+    let leaf_counts = pyramid.counts(&pyramid.moments(rsm, node));
+    let mut extra = 0;
+    if layers.len() > 1 {
+        // Layers beyond the first that count against a budget as the
+        // leaf itself would (pyramid::counts).
+        let counting = layers
+            .iter()
+            .filter(|l| {
+                let m = l
+                    .iter()
+                    .fold(Moments::default(), |m, &i| m.merge(Moments::texel(rsm, i)));
+                pyramid.counts(&m)
+            })
+            .count() as u64;
+        extra = counting.saturating_sub(u64::from(leaf_counts));
+    }
+    (u64::from(leaf_counts), extra)
+}
+
+/// How many VPLs the cut of `pyramid` at threshold `t` counts against a
+/// budget: [`emit`]'s `counted + extra` with the same splits, without
+/// making a VPL. `memo` holds each node's [`leaf_budget`] sum once
+/// computed (`u32::MAX`: not yet), indexed level by level, row-major within
+/// a level; it starts empty and is sized on first use. Each node's layers
+/// are sorted at most once over a whole bisection instead of once per
+/// probe.
+fn count_cut(rsm: &Rsm, pyramid: &Pyramid, t: f32, memo: &mut Vec<u32>) -> u64 {
+    let texel_level = pyramid.texel_level();
+    let offsets: Vec<usize> = (0..=texel_level)
+        .scan(0usize, |acc, l| {
+            let o = *acc;
+            *acc += (pyramid.cells(l) as usize).pow(2);
+            Some(o)
+        })
+        .collect();
+    if memo.is_empty() {
+        let total = offsets[texel_level as usize] + (pyramid.cells(texel_level) as usize).pow(2);
+        memo.resize(total, u32::MAX);
+    }
+    let mut count = 0u64;
+    let mut stack = vec![pyramid.root()];
+    while let Some(node) = stack.pop() {
+        if node.level < texel_level && pyramid.score(rsm, node).is_some_and(|s| s >= t) {
+            stack.extend(pyramid.children(node));
+            continue;
+        }
+        if node.level == texel_level {
+            // One texel: one layer at most, nothing to sort.
+            count += u64::from(pyramid.counts(&pyramid.moments(rsm, node)));
+            continue;
+        }
+        let slot =
+            offsets[node.level as usize] + (node.iy * pyramid.cells(node.level) + node.ix) as usize;
+        if memo[slot] == u32::MAX {
+            let layers = leaf_layers(rsm, pyramid.rect(node));
+            let (c, e) = leaf_budget(rsm, pyramid, node, &layers);
+            memo[slot] = u32::try_from(c + e).unwrap_or(u32::MAX - 1);
+        }
+        count += u64::from(memo[slot]);
+    }
+    count
 }
 
 /// VPLs, texel → VPL, each VPL's node rectangle, how many more VPLs than
@@ -841,7 +896,22 @@ pub fn cluster_joint(rsms: &[&Rsm], target: ClusterTarget) -> JointClustering {
             let n = u64::from(n);
             // Non-negative f32s order as their bit patterns: bisect the
             // bits between 0 (split all) and +∞ (split none).
-            let count_at = |bits: u32| cut(f32::from_bits(bits)).1;
+            // Probes count without making VPLs, each map's leaf counts
+            // memoised across probes (count_cut); maps in parallel.
+            let memos: Vec<std::sync::Mutex<Vec<u32>>> = live
+                .iter()
+                .map(|_| std::sync::Mutex::new(Vec::new()))
+                .collect();
+            let count_at = |bits: u32| -> u64 {
+                let t = f32::from_bits(bits);
+                live.par_iter()
+                    .zip(&memos)
+                    .map(|((i, p), memo)| {
+                        let mut memo = memo.lock().unwrap_or_else(|e| e.into_inner());
+                        count_cut(rsms[*i], p, t, &mut memo)
+                    })
+                    .sum()
+            };
             let (mut lo, mut hi) = (0u32, f32::INFINITY.to_bits());
             let mut c_lo = count_at(lo);
             let mut c_hi = c_lo;

@@ -158,6 +158,26 @@ fn joint_count_meets_the_budget_and_follows_the_light() {
         // The threshold reproduces the clustering.
         let again = cluster_joint(&refs, ClusterTarget::Threshold(joint.threshold));
         assert_eq!(again, joint);
+        // The bisection's counting probes agree with the cut itself: the
+        // threshold is one side of the step where the count crosses n
+        // (the next f32 on the other side), and the nearer of the two.
+        let count = |t: f32| cluster_joint(&refs, ClusterTarget::Threshold(t)).vpl_count();
+        let (t, n) = (joint.threshold, n as usize);
+        let c = count(t);
+        assert_eq!(c, total);
+        let (lo, hi) = if c <= n {
+            (count(f32::from_bits(t.to_bits() - 1)), c)
+        } else {
+            (c, count(f32::from_bits(t.to_bits() + 1)))
+        };
+        assert!(
+            lo > n && hi <= n,
+            "Count({n}): {lo} > {n} ≥ {hi} fails at t = {t}"
+        );
+        assert!(
+            c.abs_diff(n) <= lo.abs_diff(n).min(hi.abs_diff(n)),
+            "Count({n}): {c} is not the nearer of {lo} and {hi}"
+        );
     }
 }
 
