@@ -16,7 +16,8 @@
 //!        exact maps (B's lift: env LIFT, default the bake's 0.2)
 //! usage: vpl_diag SEED|BUNDLED|LEVEL... [--vpls N] [--size S]
 //! (LEVEL: a name in data/levels/levels.json; its camera and moving
-//! objects as `eval_levels` loads them). VPLs as the bake makes them:
+//! objects as `eval_levels` loads them; or `FILE.glb[:K]`, a glTF file's
+//! light K alone, default its first). VPLs as the bake makes them:
 //! reach-weighted clustering, VPLs that see nothing dropped.
 
 use gibake_bake::cluster::{ClusterTarget, cluster};
@@ -76,6 +77,23 @@ fn main() {
         let (scene, info) = if let Ok(seed) = s.parse::<u64>() {
             let (b, i) = gibake_scenegen::random(seed, &Default::default());
             (gibake_eval::load(&b, "x.glb"), i.to_string())
+        } else if s.contains(".gl") {
+            // A glTF file with its own lights: `FILE.glb[:K]`, light K
+            // alone (default the first).
+            let (file, k) = match s.rsplit_once(':') {
+                Some((f, k)) if k.parse::<usize>().is_ok() => (f, k.parse().unwrap_or(0)),
+                _ => (s.as_str(), 0),
+            };
+            let mut scene = gibake_scene::load(
+                std::path::Path::new(file),
+                &gibake_scene::LoadOptions {
+                    all_lights: true,
+                    ..Default::default()
+                },
+            )
+            .expect("the file loads");
+            scene.lights = vec![scene.lights[k].clone()];
+            (scene, s.clone())
         } else if let Some(l) = levels.iter().find(|l| l.name == s) {
             (l.load(list.parent().unwrap()).unwrap(), l.what.clone())
         } else {
