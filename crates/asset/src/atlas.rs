@@ -147,6 +147,26 @@ impl MapAtlas {
         Some(out)
     }
 
+    /// The first texel of a tile past the last map that is not +inf, as
+    /// `(tile, x, y, value)` in tile coordinates; `None` when every unused
+    /// tile is +inf, as the layout requires.
+    pub fn finite_unused_texel(&self) -> Option<(u32, u32, u32, f32)> {
+        let (cols, rows) = self.grid();
+        let s = self.tile as usize;
+        for k in self.count..cols.saturating_mul(rows) {
+            for y in 0..self.tile {
+                let start = self.index(k, 0, y);
+                if let Some(x) = self.texels[start..start + s]
+                    .iter()
+                    .position(|v| *v != f32::INFINITY)
+                {
+                    return Some((k, x as u32, y, self.texels[start + x]));
+                }
+            }
+        }
+        None
+    }
+
     /// Copies of every map, in order.
     pub fn maps(&self) -> impl Iterator<Item = Vec<f32>> + '_ {
         (0..self.count).filter_map(|k| self.map(k))

@@ -917,8 +917,25 @@ fn decode_atlas(
         .map(Samples::into_f32)
         .unwrap_or_default();
     no_nan(&texels, path, "channel Z")?;
-    MapAtlas::from_texels(tile, count, texels)
-        .ok_or_else(|| AssetError::invalid(path, "the atlas has the wrong number of texels"))
+    let atlas = MapAtlas::from_texels(tile, count, texels)
+        .ok_or_else(|| AssetError::invalid(path, "the atlas has the wrong number of texels"))?;
+    // A finite value past the last map is damage, or an atlas that holds
+    // more maps than the manifest counts (the Python reader refuses it too).
+    if let Some(m) = unused_tile_message(&atlas) {
+        return Err(AssetError::invalid(path, m));
+    }
+    Ok(atlas)
+}
+
+/// What is wrong with `atlas`'s unused tiles, if anything (they must be
+/// +inf: docs/asset-format.md).
+fn unused_tile_message(atlas: &MapAtlas) -> Option<String> {
+    atlas.finite_unused_texel().map(|(k, x, y, v)| {
+        format!(
+            "unused tile {k} (after the {} maps) holds {v} at its texel ({x}, {y}): unused tiles must be +inf",
+            atlas.count()
+        )
+    })
 }
 
 // ---------------------------------------------------------------- write
@@ -1007,6 +1024,11 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
     }
     if maps.texels().iter().any(|x| x.is_nan()) {
         return bad("vpl_maps holds NaN".into());
+    }
+    for (name, atlas) in [("vpl_maps", maps), ("light_maps", lm)] {
+        if let Some(e) = unused_tile_message(atlas) {
+            return bad(format!("{name}: {e}"));
+        }
     }
     for (i, r) in asset.vpls.iter().enumerate() {
         check_vpl(r, &Records::Vpls.name(i), map_count)
@@ -1256,6 +1278,18 @@ pub mod testing {
     /// own header (at most 2048² texels). For fuzzing.
     pub fn decode_exr_bytes(bytes: &[u8]) -> Result<(), AssetError> {
         exrio::decode_any(bytes, Path::new("map.exr"))
+    }
+
+    /// The bytes of a one-channel (`Z`, f32) EXR map of `width × height`
+    /// as [`write()`] encodes the atlases: to store hand-made damage
+    /// behind a valid checksum in tests.
+    pub fn z_exr_bytes(
+        width: usize,
+        height: usize,
+        texels: Vec<f32>,
+    ) -> Result<Vec<u8>, AssetError> {
+        exrio::encode(width, height, vec![("Z", Samples::F32(texels))])
+            .map_err(|e| AssetError::invalid(Path::new("map.exr"), e.to_string()))
     }
 
     /// The bytes of `manifest.bin` for `manifest` as [`write()`] would write them.

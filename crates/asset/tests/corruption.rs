@@ -469,3 +469,39 @@ fn two_vpls_sharing_a_map_tile_and_bad_nodes_are_named() {
     );
     assert!(!msg.contains("VplRecord") && !msg.contains('{'), "{msg}");
 }
+
+/// A finite value in an atlas tile past the last map (vpl_maps.exr holds 7
+/// maps in a 3 × 3 grid here) is refused at write and at load, naming the
+/// file and the tile.
+#[test]
+fn a_finite_value_in_an_unused_atlas_tile_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = fresh(tmp.path());
+    let asset = load(&dir).unwrap();
+    let (cols, rows) = asset.vpl_maps.grid();
+    let count = asset.vpl_maps.count();
+    assert!(cols * rows > count, "the sample leaves a tile unused");
+    // The last texel of the atlas lies in the last, unused tile.
+    let mut bad = asset.clone();
+    *bad.vpl_maps.texels_mut().last_mut().unwrap() = 1.5;
+    let out = tmp.path().join("bad.gibake");
+    let e = write(&bad, &out).unwrap_err().to_string();
+    assert!(e.contains("vpl_maps") && e.contains("unused tile"), "{e}");
+    assert!(!out.exists(), "nothing left behind");
+    // The same atlas on disk behind a valid checksum (written by hand).
+    let exr = dir.join("vpl_maps.exr");
+    let good = std::fs::read(&exr).unwrap();
+    let s = asset.vpl_maps.tile_size();
+    let (w, h) = (cols * s, rows * s);
+    let mut texels = asset.vpl_maps.texels().to_vec();
+    *texels.last_mut().unwrap() = 1.5;
+    let bytes = testing::z_exr_bytes(w as usize, h as usize, texels).unwrap();
+    replace_signed(&dir, "vpl_maps.exr", &bytes);
+    let msg = load(&dir).unwrap_err().to_string();
+    assert!(
+        msg.contains("vpl_maps.exr") && msg.contains(&format!("unused tile {}", cols * rows - 1)),
+        "{msg}"
+    );
+    replace_signed(&dir, "vpl_maps.exr", &good);
+    load(&dir).expect("the original loads again");
+}
