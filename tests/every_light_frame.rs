@@ -327,3 +327,82 @@ fn stiff_light_sets_render_finite() {
     let d = rel_mse(&images[2], &images[3]);
     assert!(d < 1e-4, "the 1e-6 lamp changed the image: rel MSE {d:.2e}");
 }
+
+/// Light culling (`RenderSettings::light_culling`, on by default) is exact:
+/// each 8×8 tile skips the lights whose range ends before all its
+/// surfaces, and the direct image is the same to the bit with it off — on
+/// the bundled room (one lamp with a range among the lights after the
+/// first) and on the room with 63 more lamps, each with a short range,
+/// whose light shows in the image. It is planned only where a light after
+/// the first has a range.
+#[test]
+fn light_culling_is_exact_and_planned_only_where_a_light_has_a_range() {
+    use gibake_runtime::ShadeFlag;
+    let ctx = common::gpu();
+    let base = lamps();
+    let b = base.static_bounds();
+    let size = b.max - b.min;
+    let mut many = base.clone();
+    for k in 0..63 {
+        let t = k as f32 / 63.0;
+        let f = |a: f32| 0.1 + 0.8 * a.fract();
+        many.lights.push(gibake_scene::Light {
+            name: format!("lamp {k}"),
+            kind: gibake_scene::LightKind::Point,
+            color: gibake_runtime::glam::Vec3::splat(2.0),
+            position: b.min + size * gibake_runtime::glam::Vec3::new(f(t), f(t * 7.0), f(t * 3.0)),
+            direction: gibake_runtime::glam::Vec3::NEG_Y,
+            range: Some(0.15 * size.max_element()),
+        });
+    }
+    let on = RenderSettings {
+        width: 48,
+        height: 48,
+        mode: Mode::Direct,
+        ..Default::default()
+    };
+    let off = RenderSettings {
+        light_culling: false,
+        ..on.clone()
+    };
+    let render = |scene: &Scene, s: &RenderSettings| {
+        gibake_eval::frame::render_image(&ctx.device, &ctx.queue, scene, None, s, 0.5, 1)
+            .expect("renders")
+    };
+    for (what, scene) in [("the room", &base), ("the room and 63 lamps", &many)] {
+        let r = Renderer::new(&ctx.device, &ctx.queue, scene, None, &on).unwrap();
+        assert_ne!(
+            r.plan().shade_flags() & ShadeFlag::CullLights as u32,
+            0,
+            "{what}"
+        );
+        let r = Renderer::new(&ctx.device, &ctx.queue, scene, None, &off).unwrap();
+        assert_eq!(
+            r.plan().shade_flags() & ShadeFlag::CullLights as u32,
+            0,
+            "{what}"
+        );
+        let (a, c) = (render(scene, &on), render(scene, &off));
+        assert!(a.all_finite() && a.mean().max_element() > 0.0, "{what}");
+        let same = a
+            .pixels
+            .iter()
+            .zip(&c.pixels)
+            .all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits));
+        assert!(
+            same,
+            "{what}: culling changed the image (rel MSE {:.2e})",
+            rel_mse(&a, &c)
+        );
+    }
+    // The 63 lamps' light is in the image (culling had lights to keep).
+    let d = rel_mse(&render(&many, &on), &render(&base, &on));
+    assert!(d > 1e-3, "the 63 lamps change nothing: rel MSE {d:.2e}");
+    // No light after the first with a range: nothing to cull, no flag.
+    let mut unranged = base.clone();
+    for l in &mut unranged.lights {
+        l.range = None;
+    }
+    let r = Renderer::new(&ctx.device, &ctx.queue, &unranged, None, &on).unwrap();
+    assert_eq!(r.plan().shade_flags() & ShadeFlag::CullLights as u32, 0);
+}

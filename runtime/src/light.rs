@@ -75,6 +75,17 @@ pub(crate) fn has_primary(scene: &Scene) -> bool {
     gibake_gpu::passes::light_maps::first_viewed_light(scene) == 1
 }
 
+/// Whether some light after the first (those `other_lights` shades) has a
+/// glTF `range`: only those can be culled per tile in shading
+/// ([`crate::ShadeFlag::CullLights`]).
+pub(crate) fn other_lights_have_range(scene: &Scene) -> bool {
+    scene
+        .lights
+        .iter()
+        .skip(gibake_gpu::passes::light_maps::first_viewed_light(scene))
+        .any(|l| l.range.is_some_and(|r| r.is_finite() && r > 0.0))
+}
+
 /// The primary light's GPU resources.
 pub(crate) struct PrimaryLight {
     /// The primary maps' light view.

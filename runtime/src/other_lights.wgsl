@@ -54,3 +54,96 @@ fn other_visibility(k: u32, p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
     }
     return 1.0;
 }
+
+// Light culling (FLAG_CULL_LIGHTS, planned where some light after the
+// first has a range): shading's 8×8 workgroup is a tile. Its invocations
+// take the box of the tile's surface points (ordered-bits atomics), then
+// test each light against it: a light whose range ends before the box —
+// its window saturate(1 − (d/range)⁴) is 0 at every pixel of the tile —
+// is left out of the tile's mask. Exact: a culled light adds exactly 0
+// there. Lights past CULL_WORDS · 32 are not culled (always shaded).
+const CULL_WORDS: u32 = 64u;
+// Relative margin on the range: a point this little beyond it is still
+// outside it after the f32 rounding of its distance.
+const CULL_RANGE_MARGIN: f32 = 1.0e-4;
+
+var<workgroup> cull_lo: array<atomic<u32>, 3>;
+var<workgroup> cull_hi: array<atomic<u32>, 3>;
+var<workgroup> cull_mask: array<atomic<u32>, CULL_WORDS>;
+
+// f32 → u32 with the same order (negatives flipped), and back.
+fn order_bits(f: f32) -> u32 {
+    let b = bitcast<u32>(f);
+    return select(b | 0x80000000u, ~b, (b & 0x80000000u) != 0u);
+}
+
+fn unorder_bits(u: u32) -> f32 {
+    return bitcast<f32>(select(~u, u & 0x7fffffffu, (u & 0x80000000u) != 0u));
+}
+
+// Whether light l can light a point of the box [lo, hi]: not a spot or
+// point light with a range, or the box comes within its range.
+fn may_reach(l: PrimaryLight, lo: vec3<f32>, hi: vec3<f32>) -> bool {
+    let range = l.spot.z;
+    if (l.position.w > 0.5 || range <= 0.0) {
+        return true;
+    }
+    let d = max(max(lo - l.position.xyz, l.position.xyz - hi), vec3<f32>(0.0));
+    let r = range * (1.0 + CULL_RANGE_MARGIN);
+    return dot(d, d) < r * r;
+}
+
+// The tile's mask of lights. Every invocation of the workgroup calls it
+// (it has barriers): `lid` its local index, `surface` whether its pixel
+// holds a surface at x.
+fn cull_other_lights(lid: u32, surface: bool, x: vec3<f32>) {
+    if (lid < 3u) {
+        atomicStore(&cull_lo[lid], 0xffffffffu);
+        atomicStore(&cull_hi[lid], 0u);
+    }
+    for (var w = lid; w < CULL_WORDS; w += 64u) {
+        atomicStore(&cull_mask[w], 0u);
+    }
+    workgroupBarrier();
+    if (surface) {
+        for (var a = 0u; a < 3u; a++) {
+            atomicMin(&cull_lo[a], order_bits(x[a]));
+            atomicMax(&cull_hi[a], order_bits(x[a]));
+        }
+    }
+    workgroupBarrier();
+    if (atomicLoad(&cull_lo[0]) != 0xffffffffu) {
+        let lo = vec3<f32>(unorder_bits(atomicLoad(&cull_lo[0])), unorder_bits(atomicLoad(&cull_lo[1])), unorder_bits(atomicLoad(&cull_lo[2])));
+        let hi = vec3<f32>(unorder_bits(atomicLoad(&cull_hi[0])), unorder_bits(atomicLoad(&cull_hi[1])), unorder_bits(atomicLoad(&cull_hi[2])));
+        let n = min(params.n_other_lights, CULL_WORDS * 32u);
+        for (var k = lid; k < n; k += 64u) {
+            if (may_reach(other_lights[k].light, lo, hi)) {
+                atomicOr(&cull_mask[k / 32u], 1u << (k % 32u));
+            }
+        }
+    }
+    workgroupBarrier();
+}
+
+// Direct light of every light after the first at p: with culling, the
+// tile's mask in light order (then the lights past the mask), else all.
+fn other_lights_radiance(p: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
+    var r = vec3<f32>(0.0);
+    let n = params.n_other_lights;
+    var first_unculled = 0u;
+    if (has(FLAG_CULL_LIGHTS)) {
+        first_unculled = min(n, CULL_WORDS * 32u);
+        for (var w = 0u; w * 32u < first_unculled; w++) {
+            var bits = atomicLoad(&cull_mask[w]);
+            while (bits != 0u) {
+                let k = w * 32u + firstTrailingBit(bits);
+                bits &= bits - 1u;
+                r += light_radiance(other_light(k), k, p, ns, ng, albedo);
+            }
+        }
+    }
+    for (var k = first_unculled; k < n; k++) {
+        r += light_radiance(other_light(k), k, p, ns, ng, albedo);
+    }
+    return r;
+}

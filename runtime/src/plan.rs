@@ -161,11 +161,14 @@ pub enum ShadeFlag {
     Tiles = 128,
     /// Direct light shadowed by cascades where they hold the point.
     Cascades = 256,
+    /// The lights after the first are culled per 8×8 tile by their range
+    /// (`other_lights.wgsl`).
+    CullLights = 512,
 }
 
 impl ShadeFlag {
     /// Every flag.
-    pub const ALL: [ShadeFlag; 9] = [
+    pub const ALL: [ShadeFlag; 10] = [
         ShadeFlag::Direct,
         ShadeFlag::StaticVpl,
         ShadeFlag::DynamicVpl,
@@ -175,6 +178,7 @@ impl ShadeFlag {
         ShadeFlag::Occlusion,
         ShadeFlag::Tiles,
         ShadeFlag::Cascades,
+        ShadeFlag::CullLights,
     ];
 
     /// The WGSL constant's name.
@@ -189,6 +193,7 @@ impl ShadeFlag {
             ShadeFlag::Occlusion => "FLAG_OCCLUSION",
             ShadeFlag::Tiles => "FLAG_TILES",
             ShadeFlag::Cascades => "FLAG_CASCADES",
+            ShadeFlag::CullLights => "FLAG_CULL_LIGHTS",
         }
     }
 
@@ -306,6 +311,12 @@ impl FramePlan {
             (passes.has(Pass::VplMaps), F::Tiles),
             (passes.has(Pass::DynamicVpls), F::DynamicVpl),
             (passes.has(Pass::Cascades), F::Cascades),
+            (
+                flags & F::Direct as u32 != 0
+                    && settings.light_culling
+                    && crate::light::other_lights_have_range(scene),
+                F::CullLights,
+            ),
         ] {
             if on {
                 flags |= flag as u32;
@@ -427,6 +438,10 @@ mod tests {
         assert!(w.contains("const FLAG_TILES: u32 = 128u;"));
         assert_eq!(w.lines().count(), ShadeFlag::ALL.len());
         let bits: u32 = ShadeFlag::ALL.iter().map(|f| *f as u32).sum();
-        assert_eq!(bits, 511, "one distinct bit per flag");
+        assert_eq!(
+            bits,
+            (1 << ShadeFlag::ALL.len()) - 1,
+            "one distinct bit per flag"
+        );
     }
 }

@@ -82,6 +82,12 @@ pub struct RenderSettings {
     /// Resolution of each cascade (0, the default: chosen from the level's
     /// extent against the camera's pixel, see `cascades.rs`).
     pub cascade_map_size: u32,
+    /// Light culling in shading (on by default): each 8×8 tile of pixels
+    /// skips the lights after the first whose glTF `range` ends before
+    /// every surface of the tile. Exact — a culled light adds exactly 0
+    /// there — and planned only where some such light has a range
+    /// ([`crate::FramePlan::shade_flags`]); off is for measuring it.
+    pub light_culling: bool,
 }
 
 impl Default for RenderSettings {
@@ -96,6 +102,7 @@ impl Default for RenderSettings {
             max_spawned: 16,
             cascades: Cascades::Auto,
             cascade_map_size: 0,
+            light_culling: true,
         }
     }
 }

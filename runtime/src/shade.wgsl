@@ -120,11 +120,7 @@ fn light_radiance(l: PrimaryLight, other: u32, p: vec3<f32>, ns: vec3<f32>, ng: 
 
 // Direct light of every light.
 fn direct_radiance(p: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
-    var r = light_radiance(light, NONE, p, ns, ng, albedo);
-    for (var k = 0u; k < params.n_other_lights; k++) {
-        r += light_radiance(other_light(k), k, p, ns, ng, albedo);
-    }
-    return r;
+    return light_radiance(light, NONE, p, ns, ng, albedo) + other_lights_radiance(p, ns, ng, albedo);
 }
 
 // Distance stored for VPL i in direction texel c (min of its static map and
@@ -290,15 +286,23 @@ fn static_vpl_irradiance(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ns: ve
 }
 
 @compute @workgroup_size(8, 8)
-fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if (any(gid.xy >= view.size)) {
+fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let inside = all(gid.xy < view.size);
+    let px = vec2<i32>(gid.xy);
+    var pos = vec4<f32>(0.0);
+    if (inside) {
+        pos = textureLoad(g_position, px, 0);
+    }
+    // Every invocation of the tile, before any returns (barriers).
+    if (has(FLAG_CULL_LIGHTS)) {
+        cull_other_lights(lid, inside && pos.w > 0.5, pos.xyz);
+    }
+    if (!inside) {
         return;
     }
-    let px = vec2<i32>(gid.xy);
     let n = max(view.interleave, 1u);
     let stride = n * n;
     let k = (gid.x % n) + n * (gid.y % n);
-    let pos = textureLoad(g_position, px, 0);
     var direct = vec3<f32>(0.0);
     var e = vec3<f32>(0.0);
     var albedo = vec3<f32>(0.0);
