@@ -144,6 +144,14 @@ fn quick_bench_outputs_are_complete_and_consistent() {
         last["stats"]["light_views_merged"].as_f64().unwrap() > 0.0,
         "{last}"
     );
+    // ... and each is measured with light culling off beside it (only
+    // this sweep).
+    assert!(
+        finite(&last["stats_no_light_culling"]["shade_ms"]),
+        "{last}"
+    );
+    let vpls = sweeps.iter().find(|s| s["sweep"] == "static_vpls").unwrap();
+    assert!(vpls["points"][0]["stats_no_light_culling"].is_null());
     for s in sweeps {
         for part in ["update", "shade", "frame"] {
             assert!(

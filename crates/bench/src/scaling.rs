@@ -180,13 +180,17 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
                 }
             }
         }
-        let pb = bar(points.len() as u64 * (2 + u64::from(frames)), sw.key);
+        // The lights sweep also measures each point with light culling off,
+        // side by side with it on.
+        let culling_off = sw.key == "lights";
+        let per_point = 2 + u64::from(frames) + u64::from(culling_off) * (1 + u64::from(frames));
+        let pb = bar(points.len() as u64 * per_point, sw.key);
         let mut assets = Vec::new();
         for (scene, v) in &points {
             assets.push(b.bake(scene, *v, map)?.0.asset);
             pb.inc(1);
         }
-        let configs: Vec<Config<'_>> = points
+        let mut configs: Vec<Config<'_>> = points
             .iter()
             .zip(&assets)
             .map(|((scene, _), asset)| Config {
@@ -196,7 +200,24 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
                 frames,
             })
             .collect();
-        let measured: Vec<FrameSummary> = measure_all(&b.ctx, &configs, &|| pb.inc(1))?;
+        if culling_off {
+            let off: Vec<Config<'_>> = points
+                .iter()
+                .zip(&assets)
+                .map(|((scene, _), asset)| Config {
+                    scene,
+                    asset: Some(asset),
+                    settings: RenderSettings {
+                        light_culling: false,
+                        ..settings.clone()
+                    },
+                    frames,
+                })
+                .collect();
+            configs.extend(off);
+        }
+        let mut measured: Vec<FrameSummary> = measure_all(&b.ctx, &configs, &|| pb.inc(1))?;
+        let unculled: Vec<FrameSummary> = measured.split_off(points.len());
         pb.finish_and_clear();
         let xs: Vec<f64> = points
             .iter()
@@ -219,6 +240,21 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
             f.map(|f| format!("{:.2} ({:.2})", f.exponent, f.r2))
                 .unwrap_or_else(|| "—".into())
         };
+        let mut head = vec![
+            "x",
+            "static tris",
+            "moving objects",
+            "static VPLs",
+            "lights",
+            "affected maps",
+            "light views merged",
+            "update (ms)",
+            "shade+filter (ms)",
+        ];
+        if culling_off {
+            head.push("shade+filter, no light culling (ms)");
+        }
+        head.push("frame (ms)");
         let mut t = Table::new(
             format!(
                 "Scaling with {} — corner_bunny, mode full, {size}², interleave 1, {map}² maps, median of {frames} frame(s) after a warm-up — times: {} — adapter: {}",
@@ -226,24 +262,13 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
                 measured.first().map(|m| m.timing.as_str()).unwrap_or(""),
                 b.adapter
             ),
-            &[
-                "x",
-                "static tris",
-                "moving objects",
-                "static VPLs",
-                "lights",
-                "affected maps",
-                "light views merged",
-                "update (ms)",
-                "shade+filter (ms)",
-                "frame (ms)",
-            ],
+            &head,
         );
         let mut rows = Vec::new();
         for (k, ((scene, _), asset)) in points.iter().zip(&assets).enumerate() {
             let m = &measured[k];
             let (st, _) = scene.triangle_counts();
-            t.row(vec![
+            let mut row = vec![
                 sig(xs[k]),
                 st.to_string(),
                 scene.dynamic_objects.len().to_string(),
@@ -253,14 +278,19 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
                 format!("{:.0}", m.light_views),
                 sig(m.update_ms),
                 sig(m.shade_ms),
-                sig(m.frame_ms),
-            ]);
+            ];
+            if culling_off {
+                row.push(unculled.get(k).map_or("—".into(), |u| sig(u.shade_ms)));
+            }
+            row.push(sig(m.frame_ms));
+            t.row(row);
             rows.push(json!({
                 "x": xs[k],
                 "static_triangles": st,
                 "moving_objects": scene.dynamic_objects.len(),
                 "static_vpls": asset.manifest.vpl_count,
                 "stats": m.json(),
+                "stats_no_light_culling": unculled.get(k).map(FrameSummary::json),
             }));
         }
         let line = format!(
@@ -281,9 +311,22 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
                 .map(|m| (m.light_views, m.update_ms))
                 .collect();
             let fv = power_fit(&pts);
+            let unculled_fit = power_fit(
+                &xs.iter()
+                    .zip(&unculled)
+                    .map(|(x, m)| (*x, m.shade_ms))
+                    .collect::<Vec<_>>(),
+            );
+            let ratio = measured
+                .last()
+                .zip(unculled.last())
+                .map_or(f64::NAN, |(m, u)| m.shade_ms / u.shade_ms);
             let line = format!(
-                "Update against the lamps' views the moving objects touch (x = views merged): **{}**; shading loops over every light at every pixel (no light culling yet), so shade+filter grows with all lights.",
-                show(&fv)
+                "Update against the lamps' views the moving objects touch (x = views merged): **{}**. Shade+filter with light culling (each 8×8 tile skips the lamps whose range ends before its surfaces) **{}**, without **{}**; at the most lights, culled / unculled = **{:.2}** (side by side).",
+                show(&fv),
+                show(&fs),
+                show(&unculled_fit),
+                ratio
             );
             eprintln!("{line}");
             t.notes.push(line);
