@@ -330,13 +330,14 @@ fn stiff_light_sets_render_finite() {
 
 /// Light culling (`RenderSettings::light_culling`, on by default) is exact:
 /// each 8×8 tile skips the lights whose range ends before all its
-/// surfaces, and the direct image is the same to the bit with it off — on
-/// the bundled room (one lamp with a range among the lights after the
-/// first) and on the room with 63 more lamps, each with a short range,
-/// whose light shows in the image. It is planned only where a light after
-/// the first has a range.
+/// surfaces or whose spot cone misses them, and the direct image is the
+/// same to the bit with it off — on the bundled room (one lamp with a
+/// range among the lights after the first), with 63 more lamps each with a
+/// short range, and with 63 narrow spots without one, whose light shows in
+/// the image. It is planned only where a light after the first has a
+/// range or a cone.
 #[test]
-fn light_culling_is_exact_and_planned_only_where_a_light_has_a_range() {
+fn light_culling_is_exact_and_planned_only_where_a_light_has_a_range_or_cone() {
     use gibake_runtime::ShadeFlag;
     let ctx = common::gpu();
     let base = lamps();
@@ -355,6 +356,16 @@ fn light_culling_is_exact_and_planned_only_where_a_light_has_a_range() {
             range: Some(0.15 * size.max_element()),
         });
     }
+    // The same lamps as spots without a range, their narrow cones down.
+    let mut spots = many.clone();
+    for l in spots.lights.iter_mut().skip(base.lights.len()) {
+        l.kind = gibake_scene::LightKind::Spot {
+            inner_cone: 0.2,
+            outer_cone: 0.35,
+        };
+        l.range = None;
+        l.color *= 8.0;
+    }
     let on = RenderSettings {
         width: 48,
         height: 48,
@@ -369,7 +380,11 @@ fn light_culling_is_exact_and_planned_only_where_a_light_has_a_range() {
         gibake_eval::frame::render_image(&ctx.device, &ctx.queue, scene, None, s, 0.5, 1)
             .expect("renders")
     };
-    for (what, scene) in [("the room", &base), ("the room and 63 lamps", &many)] {
+    for (what, scene) in [
+        ("the room", &base),
+        ("the room and 63 lamps", &many),
+        ("the room and 63 spots", &spots),
+    ] {
         let r = Renderer::new(&ctx.device, &ctx.queue, scene, None, &on).unwrap();
         assert_ne!(
             r.plan().shade_flags() & ShadeFlag::CullLights as u32,
@@ -395,10 +410,14 @@ fn light_culling_is_exact_and_planned_only_where_a_light_has_a_range() {
             rel_mse(&a, &c)
         );
     }
-    // The 63 lamps' light is in the image (culling had lights to keep).
-    let d = rel_mse(&render(&many, &on), &render(&base, &on));
-    assert!(d > 1e-3, "the 63 lamps change nothing: rel MSE {d:.2e}");
-    // No light after the first with a range: nothing to cull, no flag.
+    // The 63 lamps' and spots' light is in the image (culling had lights
+    // to keep).
+    for (what, scene) in [("lamps", &many), ("spots", &spots)] {
+        let d = rel_mse(&render(scene, &on), &render(&base, &on));
+        assert!(d > 1e-3, "the 63 {what} change nothing: rel MSE {d:.2e}");
+    }
+    // No light after the first with a range or a cone: nothing to cull,
+    // no flag.
     let mut unranged = base.clone();
     for l in &mut unranged.lights {
         l.range = None;

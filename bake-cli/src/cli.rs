@@ -441,6 +441,12 @@ pub struct RenderArgs {
     /// when the primary map's texel is coarse against the camera's pixel.
     #[arg(long, value_enum, default_value_t = CascadesArg::Auto)]
     pub cascades: CascadesArg,
+    /// Shade every light at every pixel: turns off the light culling that
+    /// skips, per 8×8 tile, the lights after the first whose range or spot
+    /// cone cannot reach it. The image is the same to the bit; this only
+    /// measures what culling saves (see `--stats`).
+    #[arg(long)]
+    pub no_light_culling: bool,
     /// Most dynamic VPLs (moving surfaces bouncing light) per frame, rounded
     /// up to a power of 4; 0 turns them off. Fewer, larger clusters lose
     /// light next to the moving objects (docs/method.md, "Near field").

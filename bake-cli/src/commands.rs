@@ -168,8 +168,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
             crate::cli::CascadesArg::Off => gibake_runtime::Cascades::Off,
         },
         cascade_map_size: 0,
-        // Exact (a culled light adds exactly 0): always on where it applies.
-        light_culling: true,
+        light_culling: !a.no_light_culling,
     };
     let t0 = Instant::now();
     // The scene's camera, checked before any GPU work.

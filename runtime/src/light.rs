@@ -76,14 +76,17 @@ pub(crate) fn has_primary(scene: &Scene) -> bool {
 }
 
 /// Whether some light after the first (those `other_lights` shades) has a
-/// glTF `range`: only those can be culled per tile in shading
+/// glTF `range` or is a spot: only those can be culled per tile in shading
 /// ([`crate::ShadeFlag::CullLights`]).
-pub(crate) fn other_lights_have_range(scene: &Scene) -> bool {
+pub(crate) fn other_lights_can_cull(scene: &Scene) -> bool {
     scene
         .lights
         .iter()
         .skip(gibake_gpu::passes::light_maps::first_viewed_light(scene))
-        .any(|l| l.range.is_some_and(|r| r.is_finite() && r > 0.0))
+        .any(|l| {
+            l.range.is_some_and(|r| r.is_finite() && r > 0.0)
+                || matches!(l.kind, gibake_scene::LightKind::Spot { .. })
+        })
 }
 
 /// The primary light's GPU resources.

@@ -56,16 +56,20 @@ fn other_visibility(k: u32, p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
 }
 
 // Light culling (FLAG_CULL_LIGHTS, planned where some light after the
-// first has a range): shading's 8×8 workgroup is a tile. Its invocations
-// take the box of the tile's surface points (ordered-bits atomics), then
-// test each light against it: a light whose range ends before the box —
-// its window saturate(1 − (d/range)⁴) is 0 at every pixel of the tile —
-// is left out of the tile's mask. Exact: a culled light adds exactly 0
-// there. Lights past CULL_WORDS · 32 are not culled (always shaded).
+// first has a range or is a spot): shading's 8×8 workgroup is a tile. Its
+// invocations take the box of the tile's surface points (ordered-bits
+// atomics), then test each light against it (may_reach): a light whose
+// range ends before the box — its window saturate(1 − (d/range)⁴) is 0 at
+// every pixel of the tile — or a spot whose cone misses it is left out of
+// the tile's mask. Exact: a culled light adds exactly 0 there. Lights past
+// CULL_WORDS · 32 are not culled (always shaded).
 const CULL_WORDS: u32 = 64u;
 // Relative margin on the range: a point this little beyond it is still
 // outside it after the f32 rounding of its distance.
 const CULL_RANGE_MARGIN: f32 = 1.0e-4;
+// Angular margin (radians) on a spot's cone, against the f32 rounding of
+// the receiver's direction.
+const CULL_CONE_MARGIN: f32 = 1.0e-3;
 
 var<workgroup> cull_lo: array<atomic<u32>, 3>;
 var<workgroup> cull_hi: array<atomic<u32>, 3>;
@@ -81,16 +85,37 @@ fn unorder_bits(u: u32) -> f32 {
     return bitcast<f32>(select(~u, u & 0x7fffffffu, (u & 0x80000000u) != 0u));
 }
 
-// Whether light l can light a point of the box [lo, hi]: not a spot or
-// point light with a range, or the box comes within its range.
+// Whether light l may light a point of the box [lo, hi]: false only where
+// its light is exactly 0 on the whole box — beyond its range (the box's
+// nearest point farther than it), or, for a spot, outside its outer cone
+// (the box's bounding sphere, seen from the light, wholly outside the cone
+// widened by CULL_CONE_MARGIN; a spot's falloff saturate(cd·scale +
+// offset)² is 0 wherever cd ≤ cos(outer) = −offset/scale).
 fn may_reach(l: PrimaryLight, lo: vec3<f32>, hi: vec3<f32>) -> bool {
-    let range = l.spot.z;
-    if (l.position.w > 0.5 || range <= 0.0) {
+    if (l.position.w > 0.5) {
         return true;
     }
-    let d = max(max(lo - l.position.xyz, l.position.xyz - hi), vec3<f32>(0.0));
-    let r = range * (1.0 + CULL_RANGE_MARGIN);
-    return dot(d, d) < r * r;
+    let range = l.spot.z;
+    if (range > 0.0) {
+        let d = max(max(lo - l.position.xyz, l.position.xyz - hi), vec3<f32>(0.0));
+        let r = range * (1.0 + CULL_RANGE_MARGIN);
+        if (dot(d, d) >= r * r) {
+            return false;
+        }
+    }
+    if (l.spot.x > 0.0) {
+        let outer = acos(clamp(-l.spot.y / l.spot.x, -1.0, 1.0));
+        let v = 0.5 * (lo + hi) - l.position.xyz;
+        let dist = length(v);
+        let radius = 0.5 * length(hi - lo);
+        if (dist > radius) {
+            let edge = outer + asin(radius / dist) + CULL_CONE_MARGIN;
+            if (edge < 3.14159 && dot(l.direction.xyz, v) < dist * cos(edge)) {
+                return false;
+            }
+        }
+    }
+    return true;
 }
 
 // The tile's mask of lights. Every invocation of the workgroup calls it

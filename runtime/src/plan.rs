@@ -162,7 +162,7 @@ pub enum ShadeFlag {
     /// Direct light shadowed by cascades where they hold the point.
     Cascades = 256,
     /// The lights after the first are culled per 8×8 tile by their range
-    /// (`other_lights.wgsl`).
+    /// and a spot's cone (`other_lights.wgsl`).
     CullLights = 512,
 }
 
@@ -314,7 +314,7 @@ impl FramePlan {
             (
                 flags & F::Direct as u32 != 0
                     && settings.light_culling
-                    && crate::light::other_lights_have_range(scene),
+                    && crate::light::other_lights_can_cull(scene),
                 F::CullLights,
             ),
         ] {

@@ -84,8 +84,9 @@ pub struct RenderSettings {
     pub cascade_map_size: u32,
     /// Light culling in shading (on by default): each 8×8 tile of pixels
     /// skips the lights after the first whose glTF `range` ends before
-    /// every surface of the tile. Exact — a culled light adds exactly 0
-    /// there — and planned only where some such light has a range
+    /// every surface of the tile, or whose spot cone misses them all.
+    /// Exact — a culled light adds exactly 0 there — and planned only
+    /// where some light after the first has a range or is a spot
     /// ([`crate::FramePlan::shade_flags`]); off is for measuring it.
     pub light_culling: bool,
 }
