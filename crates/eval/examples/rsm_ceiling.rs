@@ -89,22 +89,7 @@ fn main() {
                 scene.lights = vec![scene.lights[k].clone()];
             }
             scene
-        } else if name.contains(".gl") {
-            let (file, only) = match name.rsplit_once(':') {
-                Some((f, k)) if k.parse::<usize>().is_ok() => (f, k.parse::<usize>().ok()),
-                _ => (name.as_str(), None),
-            };
-            let mut scene = gibake_scene::load(
-                std::path::Path::new(file),
-                &gibake_scene::LoadOptions {
-                    all_lights: true,
-                    ..Default::default()
-                },
-            )
-            .expect("the file loads");
-            if let Some(k) = only {
-                scene.lights = vec![scene.lights[k].clone()];
-            }
+        } else if let Some(scene) = gibake_eval::load_gltf_lights(&name) {
             scene
         } else {
             let l = levels

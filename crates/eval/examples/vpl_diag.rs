@@ -78,21 +78,9 @@ fn main() {
             let (b, i) = gibake_scenegen::random(seed, &Default::default());
             (gibake_eval::load(&b, "x.glb"), i.to_string())
         } else if s.contains(".gl") {
-            // A glTF file with its own lights: `FILE.glb[:K]`, light K
-            // alone (default the first).
-            let (file, k) = match s.rsplit_once(':') {
-                Some((f, k)) if k.parse::<usize>().is_ok() => (f, k.parse().unwrap_or(0)),
-                _ => (s.as_str(), 0),
-            };
-            let mut scene = gibake_scene::load(
-                std::path::Path::new(file),
-                &gibake_scene::LoadOptions {
-                    all_lights: true,
-                    ..Default::default()
-                },
-            )
-            .expect("the file loads");
-            scene.lights = vec![scene.lights[k].clone()];
+            // A glTF file's first light (or light K: `FILE.glb:K`) alone.
+            let mut scene = gibake_eval::load_gltf_lights(&s).expect("a glTF file");
+            scene.lights.truncate(1);
             (scene, s.clone())
         } else if let Some(l) = levels.iter().find(|l| l.name == s) {
             (l.load(list.parent().unwrap()).unwrap(), l.what.clone())

@@ -161,6 +161,31 @@ pub fn load(bytes: &[u8], name: &str) -> Scene {
         .expect("generated scenes load")
 }
 
+/// A glTF file with every one of its lights, from a diagnostic's argument
+/// `FILE.glb[:K]`: with `:K`, its light `K` alone. `None` when `spec`
+/// names no glTF file (no `.gl` in it).
+pub fn load_gltf_lights(spec: &str) -> Option<Scene> {
+    if !spec.contains(".gl") {
+        return None;
+    }
+    let (file, only) = match spec.rsplit_once(':') {
+        Some((f, k)) if k.parse::<usize>().is_ok() => (f, k.parse::<usize>().ok()),
+        _ => (spec, None),
+    };
+    let mut scene = gibake_scene::load(
+        std::path::Path::new(file),
+        &gibake_scene::LoadOptions {
+            all_lights: true,
+            ..Default::default()
+        },
+    )
+    .expect("the file loads");
+    if let Some(k) = only {
+        scene.lights = vec![scene.lights[k].clone()];
+    }
+    Some(scene)
+}
+
 /// The random scene of `seed` and a name describing it.
 pub fn random_scene(seed: u64) -> (Scene, String) {
     let (bytes, info) = gibake_scenegen::random(seed, &Default::default());
