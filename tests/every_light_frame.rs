@@ -333,9 +333,10 @@ fn stiff_light_sets_render_finite() {
 /// surfaces or whose spot cone misses them, and the direct image is the
 /// same to the bit with it off — on the bundled room (one lamp with a
 /// range among the lights after the first), with 63 more lamps each with a
-/// short range, and with 63 narrow spots without one, whose light shows in
-/// the image. It is planned only where a light after the first has a
-/// range or a cone.
+/// short range, with 63 narrow spots without one, whose light shows in
+/// the image, and with 2100 spots (past the tile mask's 2048 lights the
+/// rest are shaded everywhere). It is planned only where a light after
+/// the first has a range or a cone.
 #[test]
 fn light_culling_is_exact_and_planned_only_where_a_light_has_a_range_or_cone() {
     use gibake_runtime::ShadeFlag;
@@ -366,6 +367,24 @@ fn light_culling_is_exact_and_planned_only_where_a_light_has_a_range_or_cone() {
         l.range = None;
         l.color *= 8.0;
     }
+    // More lights than the tile mask holds (2048): the ones past it are
+    // shaded everywhere, culled or not.
+    let mut crowd = base.clone();
+    for k in 0..2100 {
+        let t = k as f32 / 2100.0;
+        let f = |a: f32| 0.1 + 0.8 * a.fract();
+        crowd.lights.push(gibake_scene::Light {
+            name: format!("spot {k}"),
+            kind: gibake_scene::LightKind::Spot {
+                inner_cone: 0.05,
+                outer_cone: 0.1,
+            },
+            color: gibake_runtime::glam::Vec3::splat(20.0),
+            position: b.min + size * gibake_runtime::glam::Vec3::new(f(t * 13.0), 0.9, f(t * 29.0)),
+            direction: gibake_runtime::glam::Vec3::NEG_Y,
+            range: Some(0.5 * size.max_element()),
+        });
+    }
     let on = RenderSettings {
         width: 48,
         height: 48,
@@ -384,6 +403,7 @@ fn light_culling_is_exact_and_planned_only_where_a_light_has_a_range_or_cone() {
         ("the room", &base),
         ("the room and 63 lamps", &many),
         ("the room and 63 spots", &spots),
+        ("the room and 2100 spots", &crowd),
     ] {
         let r = Renderer::new(&ctx.device, &ctx.queue, scene, None, &on).unwrap();
         assert_ne!(
