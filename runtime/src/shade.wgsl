@@ -3,7 +3,9 @@
 // for a scene with one light, other_lights_none.wgsl). One invocation per
 // pixel:
 //   direct light with the merged primary shadow map (static ∪ moving),
-//   and of every other light with its static shadow map,
+//   and of every other light with its static shadow map (with
+//   FLAG_CULL_LIGHTS only the lights that may reach the pixel's 8×8 tile:
+//   other_lights.wgsl),
 // + every static VPL with its merged hemisphere map, its flux scaled by the
 //   lit fraction of its own RSM texels,
 // + every dynamic VPL, unshadowed.
