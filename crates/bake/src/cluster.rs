@@ -898,18 +898,12 @@ pub fn cluster_joint(rsms: &[&Rsm], target: ClusterTarget) -> JointClustering {
             // bits between 0 (split all) and +∞ (split none).
             // Probes count without making VPLs, each map's leaf counts
             // memoised across probes (count_cut); maps in parallel.
-            let memos: Vec<std::sync::Mutex<Vec<u32>>> = live
-                .iter()
-                .map(|_| std::sync::Mutex::new(Vec::new()))
-                .collect();
-            let count_at = |bits: u32| -> u64 {
+            let mut memos: Vec<Vec<u32>> = vec![Vec::new(); live.len()];
+            let mut count_at = |bits: u32| -> u64 {
                 let t = f32::from_bits(bits);
                 live.par_iter()
-                    .zip(&memos)
-                    .map(|((i, p), memo)| {
-                        let mut memo = memo.lock().unwrap_or_else(|e| e.into_inner());
-                        count_cut(rsms[*i], p, t, &mut memo)
-                    })
+                    .zip(memos.par_iter_mut())
+                    .map(|((i, p), memo)| count_cut(rsms[*i], p, t, memo))
                     .sum()
             };
             let (mut lo, mut hi) = (0u32, f32::INFINITY.to_bits());
