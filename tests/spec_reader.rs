@@ -271,41 +271,50 @@ fn reader_refuses_damaged_assets() {
 
     // Re-sealed manifests (payload edited, length and BLAKE3 trailer
     // recomputed): what the spec says a reader must refuse or accept.
-    // The bake writes the current minor (4.0: the views and light_map_size
-    // end the payload; a one-light asset has no views, so its last two
-    // bytes are the view count 0 and light_map_size 0).
+    // The bake writes the current minor (4.1: the views, light_map_size and
+    // the appended view_rsms end the payload; a one-light asset has no
+    // views, so its last three bytes are the view count 0,
+    // light_map_size 0 and the view_rsms count 0).
     assert_eq!(
         (gibake_asset::FORMAT_MAJOR, gibake_asset::FORMAT_MINOR),
-        (4, 0),
-        "the re-sealed cases below are written for format 4.0"
+        (4, 1),
+        "the re-sealed cases below are written for format 4.1"
     );
-    let reseal_cases: [(&str, &str, Option<&str>); 7] = [
+    let reseal_cases: [(&str, &str, Option<&str>); 9] = [
         // One byte after the last field, same minor: refused.
-        ("payload += b'\\x00'", "0", Some("after the last field")),
-        // The same from a newer minor (4.1): accepted and ignored.
-        ("payload += b'\\x00'", "1", None),
+        ("payload += b'\\x00'", "1", Some("after the last field")),
+        // The same from a newer minor (4.2): accepted and ignored.
+        ("payload += b'\\x00'", "2", None),
         // light_map_size cut off: refused.
         (
-            "payload = payload[:-1]",
-            "0",
+            "payload = payload[:-2]",
+            "1",
             Some("payload ends inside light_map_size"),
         ),
+        // The appended view_rsms cut off: refused in 4.1 ...
+        (
+            "payload = payload[:-1]",
+            "1",
+            Some("payload ends inside view_rsms length"),
+        ),
+        // ... and the same bytes are a whole 4.0 payload: accepted.
+        ("payload = payload[:-1]", "0", None),
         // The lights cut short: refused.
-        ("payload = payload[:-40]", "0", Some("payload ends inside")),
+        ("payload = payload[:-40]", "1", Some("payload ends inside")),
         // A varint marker bincode does not define (254), as the first length.
         (
             "payload = b'\\xfe' + payload[1:]",
-            "0",
+            "1",
             Some("invalid varint marker"),
         ),
         // light_map_size 5 without views: refused.
         (
-            "payload = payload[:-1] + b'\\x05'",
-            "0",
+            "payload = payload[:-2] + b'\\x05\\x00'",
+            "1",
             Some("light_map_size is 5 but there are no views"),
         ),
         // Control: re-sealed unchanged, accepted.
-        ("pass", "0", None),
+        ("pass", "1", None),
     ];
     for (k, (edit, minor, refusal)) in reseal_cases.iter().enumerate() {
         let copy = copy_asset(&asset, work.path(), &format!("reseal{k}.gibake"));

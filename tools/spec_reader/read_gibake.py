@@ -15,7 +15,8 @@ another language. It
   map layers, the near-field tree's sums),
 - reads the EXR maps (header: single part, scan lines, ZIP, dimensions,
   channels; pixels: no NaN, atlas tiles, RSM `vpl` indices), `light_maps.exr`
-  included,
+  included, and `view_rsms.exr` (4.1: the other lights' views' RSMs, each
+  naming only its own light's VPLs),
 - checks the RSM against the first light's VPLs (texel counts, flux shares
   adding up to each VPL, each position at its texel nearest to the
   flux-weighted centroid),
@@ -57,7 +58,7 @@ except ImportError as e:  # pragma: no cover - environment problem
 
 MAGIC = b"GIBAKE\x00\x01"
 READER_MAJOR = 4
-READER_MINOR = 0
+READER_MINOR = 1
 MAX_PAYLOAD = 16 * 1024 * 1024
 MAX_MAP_SIZE = 16384
 # Most texels of one map file (an atlas).
@@ -274,6 +275,18 @@ def read_manifest(asset: str) -> dict:
         )
     m["views"] = views
     m["light_map_size"] = d.u32("light_map_size")
+    # 4.1 appends view_rsms (Vec<u32>: the views whose RSM view_rsms.exr
+    # stores); a 4.0 payload ends before it (no view RSMs).
+    view_rsms = []
+    if minor >= 1:
+        n = d.u64("view_rsms length")
+        if n > len(views):
+            raise AssetError(
+                f"manifest.bin: view_rsms holds {n} entries but there are only "
+                f"{len(views)} views"
+            )
+        view_rsms = [d.u32(f"view_rsms[{k}]") for k in range(n)]
+    m["view_rsms"] = view_rsms
     extra = length - d.pos
     if extra and minor <= READER_MINOR:
         raise AssetError(
@@ -374,6 +387,29 @@ def check_views(m: dict) -> None:
             )
 
 
+def check_view_rsm_list(m: dict) -> None:
+    """view_rsms (4.1): indices into views, strictly ascending; their atlas
+    (rsm_size² tiles) at most 2^31 texels."""
+    views, rsms = m["views"], m["view_rsms"]
+    for k, v in enumerate(rsms):
+        if v >= len(views):
+            raise AssetError(
+                f"manifest.bin: view_rsms[{k}] = {v} is not a view ({len(views)} views)"
+            )
+        if k > 0 and v <= rsms[k - 1]:
+            raise AssetError(
+                f"manifest.bin: view_rsms[{k}] = {v} follows {rsms[k - 1]}: the entries "
+                "must be strictly ascending"
+            )
+    if rsms:
+        cols, rows = atlas_grid(len(rsms))
+        texels = cols * rows * m["settings"]["rsm_size"] ** 2
+        if texels > MAX_TEXELS:
+            raise AssetError(
+                f"manifest.bin: view-RSM atlas of {texels} texels exceeds 2^31"
+            )
+
+
 def check_manifest_values(m: dict) -> list[str]:
     s, lv = m["settings"], m["light_view"]
     for k in ("rsm_size", "vpl_map_size", "shadow_map_size"):
@@ -403,6 +439,7 @@ def check_manifest_values(m: dict) -> list[str]:
                 f"{light['kind']}; values finite, colour and range non-negative required)"
             )
     check_views(m)
+    check_view_rsm_list(m)
     if m["map_count"] > m["vpl_count"]:
         raise AssetError(
             f"manifest.bin: map_count {m['map_count']} > vpl_count {m['vpl_count']}"
@@ -419,6 +456,8 @@ def check_manifest_values(m: dict) -> list[str]:
         required.append("rsm.exr")
     if stored_light_maps(m) > 0:
         required.append("light_maps.exr")
+    if m["view_rsms"]:
+        required.append("view_rsms.exr")
     # The format's own names: listed exactly when required (whatever the minor).
     own = [
         "manifest.bin",
@@ -428,6 +467,7 @@ def check_manifest_values(m: dict) -> list[str]:
         "vpl_maps.exr",
         "rsm.exr",
         "light_maps.exr",
+        "view_rsms.exr",
     ]
     names = [f[0] for f in m["files"]]
     for name in names:
@@ -445,7 +485,7 @@ def check_manifest_values(m: dict) -> list[str]:
             raise AssetError(
                 f"manifest.bin: file list holds {name}, which the counts say is not stored "
                 f"(map_count {m['map_count']}, has_dynamic {m['has_dynamic']}, "
-                f"stored light maps {stored_light_maps(m)})"
+                f"stored light maps {stored_light_maps(m)}, view RSMs {len(m['view_rsms'])})"
             )
     unknown = [n for n in names if n not in required]
     if unknown and m["minor"] <= READER_MINOR:
@@ -915,6 +955,62 @@ def check_rsm_vpls(m: dict, vpls: np.ndarray, rsm: dict) -> str:
     )
 
 
+def check_view_rsms(asset: str, m: dict, ranges: list[tuple[int, int]]) -> str:
+    """view_rsms.exr (4.1): the atlas (layout of vpl_maps.exr) of the RSMs of
+    the views view_rsms lists, tile k the RSM of views[view_rsms[k]], each
+    rsm_size², channels Z (f32), share (u32), vpl (u32). Unused tiles hold
+    Z +inf, share 0, vpl 0xFFFFFFFF; in each tile no NaN, every vpl names a
+    VPL of the view's own light (its range of vpls.bin) or is 0xFFFFFFFF,
+    every share is at most 2^24, and 0 where vpl is 0xFFFFFFFF."""
+    rsms = m["view_rsms"]
+    if not rsms:
+        return "no view_rsms.exr (no view stores an RSM)"
+    rs = m["settings"]["rsm_size"]
+    cols, rows = atlas_grid(len(rsms))
+    ch = read_exr(
+        asset,
+        "view_rsms.exr",
+        cols * rs,
+        rows * rs,
+        {"Z": "f32", "share": "u32", "vpl": "u32"},
+    )
+    surface = 0
+    for k in range(cols * rows):
+        col, row = k % cols, k // cols
+        sl = (slice(row * rs, (row + 1) * rs), slice(col * rs, (col + 1) * rs))
+        z, share, idx = ch["Z"][sl], ch["share"][sl], ch["vpl"][sl]
+        if k >= len(rsms):
+            if not (np.isposinf(z).all() and (share == 0).all() and (idx == NO_MAP).all()):
+                raise AssetError(
+                    f"view_rsms.exr: unused tile {k} is not empty (Z +inf, share 0, "
+                    "vpl 0xFFFFFFFF everywhere)"
+                )
+            continue
+        view = rsms[k]
+        light = m["views"][view]["light"]
+        lo, hi = ranges[light]
+        who = f"tile {k} (views[{view}], light {light} '{m['lights'][light]['name']}')"
+        bad = (idx != NO_MAP) & ((idx < lo) | (idx >= hi))
+        if bad.any():
+            y, x = (int(c) for c in np.argwhere(bad)[0])
+            raise AssetError(
+                f"view_rsms.exr: {who} texel ({x}, {y}) names VPL {int(idx[y, x])}, not "
+                f"one of its light's VPLs {lo}..{hi}"
+            )
+        bad = (share > SHARE_ONE) | ((idx == NO_MAP) & (share != 0))
+        if bad.any():
+            y, x = (int(c) for c in np.argwhere(bad)[0])
+            raise AssetError(
+                f"view_rsms.exr: {who} texel ({x}, {y}) has share {int(share[y, x])} "
+                "(over 2^24, or outside every VPL)"
+            )
+        surface += int(np.isfinite(z).sum())
+    return (
+        f"view_rsms.exr: {len(rsms)} view RSMs of {rs}² (views {rsms}), "
+        f"{surface} surface texels, each naming only its light's VPLs"
+    )
+
+
 def check_light_maps(
     m: dict,
     vpls: np.ndarray,
@@ -1247,6 +1343,7 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
     else:
         lv_note = check_light_view(m, first, primary)
     others = check_light_maps(m, vpls, ranges, light_atlas)
+    others.append(check_view_rsms(asset, m, ranges))
     hemi = check_hemi_maps(m, vpls, atlas, primary, show_vpl)
     p = m["provenance"]
     out = [

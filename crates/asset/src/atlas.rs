@@ -24,6 +24,73 @@ pub fn atlas_grid(map_count: u32) -> (u32, u32) {
     (c as u32, n.div_ceil(c) as u32)
 }
 
+/// Index, in the texels of the atlas of `count` tiles of `tile²` (row-major,
+/// `cols · tile` wide), of texel `(x, y)` of tile `k`: the one layout of
+/// every atlas file (`vpl_maps.exr`, `light_maps.exr`, `view_rsms.exr`).
+pub(crate) fn atlas_index(tile: u32, count: u32, k: u32, x: u32, y: u32) -> usize {
+    let (cols, _) = atlas_grid(count);
+    let (s, w) = (tile as usize, cols as usize * tile as usize);
+    let (cx, cy) = ((k % cols) as usize, (k / cols) as usize);
+    (cy * s + y as usize) * w + cx * s + x as usize
+}
+
+/// The atlas texels of `tiles` (each `tile²` values, row-major), unused
+/// tiles `fill`; `None` when a tile does not hold `tile²` values or the
+/// atlas would not fit in memory's address range.
+pub(crate) fn pack_tiles<T: Copy>(tile: u32, tiles: &[&[T]], fill: T) -> Option<Vec<T>> {
+    let s = tile as usize;
+    if tiles.iter().any(|t| t.len() != s.saturating_mul(s)) {
+        return None;
+    }
+    let count = u32::try_from(tiles.len()).ok()?;
+    let (cols, rows) = atlas_grid(count);
+    let w = usize::try_from(u64::from(cols) * u64::from(tile)).ok()?;
+    let h = usize::try_from(u64::from(rows) * u64::from(tile)).ok()?;
+    let mut out = vec![fill; w.checked_mul(h)?];
+    for (k, t) in tiles.iter().enumerate() {
+        for y in 0..tile {
+            let start = atlas_index(tile, count, k as u32, 0, y);
+            let src = y as usize * s;
+            out[start..start + s].copy_from_slice(&t[src..src + s]);
+        }
+    }
+    Some(out)
+}
+
+/// A copy of tile `k` (`tile²` values, row-major) of the atlas `texels` of
+/// `count` tiles (`k < count`, `texels` of the grid's size).
+pub(crate) fn unpack_tile<T: Copy>(tile: u32, count: u32, texels: &[T], k: u32) -> Vec<T> {
+    let s = tile as usize;
+    let mut out = Vec::with_capacity(s * s);
+    for y in 0..tile {
+        let start = atlas_index(tile, count, k, 0, y);
+        out.extend_from_slice(&texels[start..start + s]);
+    }
+    out
+}
+
+/// The first texel of a tile past the last of `count` whose value is not
+/// `fill`, as `(tile, x, y)` in tile coordinates; `None` when every unused
+/// tile holds `fill` only, as the layout requires.
+pub(crate) fn unused_mismatch<T: PartialEq>(
+    tile: u32,
+    count: u32,
+    texels: &[T],
+    fill: &T,
+) -> Option<(u32, u32, u32)> {
+    let (cols, rows) = atlas_grid(count);
+    let s = tile as usize;
+    for k in count..cols.saturating_mul(rows) {
+        for y in 0..tile {
+            let start = atlas_index(tile, count, k, 0, y);
+            if let Some(x) = texels[start..start + s].iter().position(|v| v != fill) {
+                return Some((k, x as u32, y));
+            }
+        }
+    }
+    None
+}
+
 /// `count` square maps of `tile²` distances (+inf = no surface) in the atlas
 /// layout. The texels are `width() × height()`, row-major, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
@@ -127,10 +194,7 @@ impl MapAtlas {
 
     /// Index in [`MapAtlas::texels`] of texel `(x, y)` of map `k`.
     fn index(&self, k: u32, x: u32, y: u32) -> usize {
-        let (cols, _) = self.grid();
-        let (s, w) = (self.tile as usize, (cols * self.tile) as usize);
-        let (cx, cy) = ((k % cols) as usize, (k / cols) as usize);
-        (cy * s + y as usize) * w + cx * s + x as usize
+        atlas_index(self.tile, self.count, k, x, y)
     }
 
     /// A copy of map `k` (`tile²` values, row-major), `None` past the count.
@@ -151,20 +215,8 @@ impl MapAtlas {
     /// `(tile, x, y, value)` in tile coordinates; `None` when every unused
     /// tile is +inf, as the layout requires.
     pub fn finite_unused_texel(&self) -> Option<(u32, u32, u32, f32)> {
-        let (cols, rows) = self.grid();
-        let s = self.tile as usize;
-        for k in self.count..cols.saturating_mul(rows) {
-            for y in 0..self.tile {
-                let start = self.index(k, 0, y);
-                if let Some(x) = self.texels[start..start + s]
-                    .iter()
-                    .position(|v| *v != f32::INFINITY)
-                {
-                    return Some((k, x as u32, y, self.texels[start + x]));
-                }
-            }
-        }
-        None
+        unused_mismatch(self.tile, self.count, &self.texels, &f32::INFINITY)
+            .map(|(k, x, y)| (k, x, y, self.texels[self.index(k, x, y)]))
     }
 
     /// Copies of every map, in order.

@@ -149,8 +149,10 @@ pub struct VplDiff {
 /// Comparison of one map (or one RSM channel, or all hemisphere maps).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MapDiff {
-    /// `primary_depth`, `vpl_maps`, `rsm.D`, `rsm.share`, `rsm.vpl` (the
-    /// RSM's VPL-index channel is compared through the VPL matching).
+    /// `primary_depth`, `vpl_maps`, `light_maps`, `rsm.D`, `rsm.share`,
+    /// `rsm.vpl` (the RSM's VPL-index channel is compared through the VPL
+    /// matching), `view_rsms.Z`, `view_rsms.share`, `view_rsms.vpl` (every
+    /// view RSM, tile by tile; `view_rsms` when not comparable).
     pub name: String,
     /// Whether both exist with the same dimensions (else see `note`).
     pub comparable: bool,
@@ -616,7 +618,7 @@ impl Acc {
 /// differenced. A texel agrees when both are empty, or when its VPL in A is
 /// matched (by the VPL matching) to its VPL in B; the rest are counted
 /// "over" (no maximum or RMS difference: they would mean nothing).
-fn compare_index_maps(a: &[u32], b: &[u32], m: &Matching, tol: &Tolerance) -> MapDiff {
+fn compare_index_maps(name: &str, a: &[u32], b: &[u32], m: &Matching, tol: &Tolerance) -> MapDiff {
     let mut partner: HashMap<u32, u32> = HashMap::with_capacity(m.pairs.len());
     for &(i, j) in &m.pairs {
         partner.insert(i as u32, j as u32);
@@ -633,7 +635,7 @@ fn compare_index_maps(a: &[u32], b: &[u32], m: &Matching, tol: &Tolerance) -> Ma
             acc.over += 1;
         }
     }
-    let mut r = acc.report("rsm.vpl", tol);
+    let mut r = acc.report(name, tol);
     r.note = "VPL indices: compared through the VPL matching, not as numbers".into();
     r
 }
@@ -769,10 +771,85 @@ fn compare_maps(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> Vec<MapD
                 acc.add(share_fraction(x), share_fraction(y), tol);
             }
             out.push(acc.report("rsm.share", tol));
-            out.push(compare_index_maps(&ra.vpl, &rb.vpl, m, tol));
+            out.push(compare_index_maps("rsm.vpl", &ra.vpl, &rb.vpl, m, tol));
         }
     }
+    out.extend(compare_view_rsms(a, b, m, tol));
     out
+}
+
+/// The other lights' view RSMs (format 4.1), when both store the same
+/// views' at the same size: each channel over every tile (`view_rsms.Z`,
+/// `view_rsms.share`, `view_rsms.vpl`, as the RSM's), the note naming the
+/// views whose RSM differs. One side only, or different views: not
+/// comparable, saying which.
+fn compare_view_rsms(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> Vec<MapDiff> {
+    let (va, vb) = (&a.manifest.view_rsms, &b.manifest.view_rsms);
+    let name = "view_rsms";
+    match (va.is_empty(), vb.is_empty()) {
+        (true, true) => return Vec::new(),
+        (false, true) => {
+            return vec![not_comparable(
+                name,
+                format!("stored in A only (views {va:?})"),
+            )];
+        }
+        (true, false) => {
+            return vec![not_comparable(
+                name,
+                format!("stored in B only (views {vb:?})"),
+            )];
+        }
+        (false, false) => {}
+    }
+    if va != vb {
+        return vec![not_comparable(
+            name,
+            format!("A stores the RSMs of views {va:?}, B of views {vb:?}"),
+        )];
+    }
+    let same_size = a.view_rsms.len() == b.view_rsms.len()
+        && a.view_rsms
+            .iter()
+            .zip(&b.view_rsms)
+            .all(|(x, y)| x.size == y.size && x.metric.len() == y.metric.len());
+    if !same_size {
+        let size = |x: &Asset| x.view_rsms.first().map_or(0, |r| r.size);
+        return vec![not_comparable(
+            name,
+            format!("size {}² vs {}²", size(a), size(b)),
+        )];
+    }
+    let (mut metric, mut share) = (Acc::default(), Acc::default());
+    let (mut ia, mut ib) = (Vec::new(), Vec::new());
+    let mut differ = Vec::new();
+    for ((ra, rb), view) in a.view_rsms.iter().zip(&b.view_rsms).zip(va) {
+        let acc = compare_slices(&ra.metric, &rb.metric, tol);
+        let mut sh = Acc::default();
+        for (&x, &y) in ra.share.iter().zip(&rb.share) {
+            sh.add(share_fraction(x), share_fraction(y), tol);
+        }
+        if acc.over > 0 || acc.max_abs > 0.0 || sh.over > 0 || sh.max_abs > 0.0 || ra.vpl != rb.vpl
+        {
+            differ.push(*view);
+        }
+        metric.merge(&acc);
+        share.merge(&sh);
+        ia.extend_from_slice(&ra.vpl);
+        ib.extend_from_slice(&rb.vpl);
+    }
+    let note = if differ.is_empty() {
+        format!("{} views, identical", va.len())
+    } else {
+        format!("{} of {} views differ: {differ:?}", differ.len(), va.len())
+    };
+    let mut z = metric.report("view_rsms.Z", tol);
+    z.note = note;
+    let mut v = compare_index_maps("view_rsms.vpl", &ia, &ib, m, tol);
+    v.note = format!("{}; per texel, {}", v.note, z.note);
+    let mut sh = share.report("view_rsms.share", tol);
+    sh.note = z.note.clone();
+    vec![z, sh, v]
 }
 
 // ---------------------------------------------------------------- diff
@@ -975,8 +1052,14 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
     let maps = compare_maps(a, b, &matching, tol);
     for m in maps.iter().filter(|m| !m.within_tolerance) {
         if m.comparable {
+            // The view RSMs say which views differ.
+            let which = if m.name.starts_with("view_rsms") {
+                format!(" ({})", m.note)
+            } else {
+                String::new()
+            };
             differences.push(format!(
-                "map {}: {} of {} texels ({:.4}%) over tolerance (allowed {:.4}%), max abs diff {:.4e}",
+                "map {}: {} of {} texels ({:.4}%) over tolerance (allowed {:.4}%), max abs diff {:.4e}{which}",
                 m.name,
                 m.over,
                 m.texels,

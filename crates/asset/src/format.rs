@@ -6,7 +6,7 @@ use std::fs;
 use std::io::{Read, Write};
 use std::path::Path;
 
-use crate::atlas::{MapAtlas, atlas_grid};
+use crate::atlas::{MapAtlas, atlas_grid, pack_tiles, unpack_tile, unused_mismatch};
 use crate::exrio::{self, Kind, Samples};
 use crate::{
     Asset, AssetError, FORMAT_MAJOR, FORMAT_MINOR, FileEntry, LIGHT_POINT, MAGIC, Manifest, Map,
@@ -28,6 +28,9 @@ pub const FILE_RSM: &str = "rsm.exr";
 /// The shadow maps of the lights other than the first (only when a view
 /// stores one).
 pub const FILE_LIGHT_MAPS: &str = "light_maps.exr";
+/// The static RSMs of the views of [`Manifest::view_rsms`] (format 4.1;
+/// only when it is not empty).
+pub const FILE_VIEW_RSMS: &str = "view_rsms.exr";
 
 /// Size of one [`VplRecord`] in `vpls.bin`.
 pub const VPL_RECORD_BYTES: usize = 48;
@@ -60,12 +63,32 @@ fn hex16(h: &[u8; 32]) -> String {
 // ---------------------------------------------------------------- manifest
 
 fn encode_manifest(manifest: &Manifest, path: &Path) -> Result<Vec<u8>, AssetError> {
-    let payload = bincode::serde::encode_to_vec(manifest, bincode_config())
-        .map_err(|e| AssetError::invalid(path, format!("cannot encode the manifest: {e}")))?;
+    encode_manifest_as(manifest, FORMAT_MINOR, path)
+}
+
+/// The manifest as format `4.minor` writes it: the serde fields, then
+/// (minor ≥ 1) `view_rsms` as a bincode `Vec<u32>` in the same
+/// configuration (varint count, varint indices). Minor 0 (4.0) has no
+/// `view_rsms`: it must be empty.
+fn encode_manifest_as(manifest: &Manifest, minor: u16, path: &Path) -> Result<Vec<u8>, AssetError> {
+    let cannot = |e: bincode::error::EncodeError| {
+        AssetError::invalid(path, format!("cannot encode the manifest: {e}"))
+    };
+    let mut payload = bincode::serde::encode_to_vec(manifest, bincode_config()).map_err(cannot)?;
+    if minor >= 1 {
+        let appended =
+            bincode::encode_to_vec(&manifest.view_rsms, bincode_config()).map_err(cannot)?;
+        payload.extend_from_slice(&appended);
+    } else if !manifest.view_rsms.is_empty() {
+        return Err(AssetError::invalid(
+            path,
+            "cannot encode the manifest: format 4.0 has no view_rsms",
+        ));
+    }
     let mut out = Vec::with_capacity(HEADER_BYTES + payload.len() + TRAILER_BYTES);
     out.extend_from_slice(&MAGIC);
     out.extend_from_slice(&FORMAT_MAJOR.to_le_bytes());
-    out.extend_from_slice(&FORMAT_MINOR.to_le_bytes());
+    out.extend_from_slice(&minor.to_le_bytes());
     out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
     out.extend_from_slice(&payload);
     let hash = blake3::hash(&out);
@@ -110,9 +133,27 @@ fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetEr
     }
     let payload = &bytes[HEADER_BYTES..end];
     // A newer minor may append fields after the ones this reader knows.
-    let (manifest, used): (Manifest, usize) =
+    let (mut manifest, mut used): (Manifest, usize) =
         bincode::serde::decode_from_slice(payload, bincode_config())
             .map_err(|e| bad(format!("damaged manifest payload: {e}")))?;
+    if minor >= 1 {
+        // 4.1 appends `view_rsms` (a Vec<u32>) after the serde fields. Its
+        // count is read and bounded by the views first, so a hostile count
+        // allocates nothing.
+        let rest = &payload[used..];
+        let (count, _): (u64, usize) = bincode::decode_from_slice(rest, bincode_config())
+            .map_err(|e| bad(format!("damaged manifest payload: view_rsms: {e}")))?;
+        if count > manifest.views.len() as u64 {
+            return Err(bad(format!(
+                "damaged manifest payload: view_rsms holds {count} entries but there are only {} views",
+                manifest.views.len()
+            )));
+        }
+        let (view_rsms, n): (Vec<u32>, usize) = bincode::decode_from_slice(rest, bincode_config())
+            .map_err(|e| bad(format!("damaged manifest payload: view_rsms: {e}")))?;
+        manifest.view_rsms = view_rsms;
+        used += n;
+    }
     if used != payload.len() && !is_newer_minor(minor) {
         return Err(bad(format!(
             "{} unexpected bytes after the manifest payload",
@@ -187,7 +228,140 @@ fn required_files(m: &Manifest) -> Vec<&'static str> {
     if light_map_count(m) > 0 {
         v.push(FILE_LIGHT_MAPS);
     }
+    if !m.view_rsms.is_empty() {
+        v.push(FILE_VIEW_RSMS);
+    }
     v
+}
+
+/// The size of `view_rsms.exr`: the atlas of the view RSMs' tiles.
+fn view_rsm_atlas_dims(m: &Manifest) -> (u64, u64) {
+    let (cols, rows) = atlas_grid(m.view_rsms.len() as u32);
+    let s = m.settings.rsm_size as u64;
+    (cols as u64 * s, rows as u64 * s)
+}
+
+/// `view_rsms`' rules that the manifest alone decides: indices into
+/// `views`, strictly ascending, an atlas of at most 2³¹ texels.
+fn check_view_rsm_list(m: &Manifest) -> Result<(), String> {
+    let mut last: Option<u32> = None;
+    for (k, &v) in m.view_rsms.iter().enumerate() {
+        if v as usize >= m.views.len() {
+            return Err(format!(
+                "view_rsms[{k}] = {v} is not a view: there are {} views",
+                m.views.len()
+            ));
+        }
+        if let Some(p) = last.filter(|&p| v <= p) {
+            return Err(format!(
+                "view_rsms[{k}] = {v} follows {p}: the views of view_rsms must be strictly ascending"
+            ));
+        }
+        last = Some(v);
+    }
+    let (w, h) = view_rsm_atlas_dims(m);
+    if w * h > MAX_TEXELS || w > i32::MAX as u64 || h > i32::MAX as u64 {
+        return Err(format!(
+            "{} view RSMs of {}² make an absurdly large atlas ({w}x{h})",
+            m.view_rsms.len(),
+            m.settings.rsm_size
+        ));
+    }
+    Ok(())
+}
+
+/// The VPLs of light `light` (indices into the VPL records): the lights'
+/// VPLs are consecutive in light order; clamped to `vpl_count`.
+fn light_vpls(m: &Manifest, light: usize) -> std::ops::Range<u64> {
+    let start: u64 = m.lights.iter().take(light).map(|l| l.vpls as u64).sum();
+    let end = start + m.lights.get(light).map_or(0, |l| l.vpls as u64);
+    let cap = m.vpl_count as u64;
+    start.min(cap)..end.min(cap)
+}
+
+/// The values of one RSM (`rsm.exr`, a tile of `view_rsms.exr`): no NaN
+/// metric; each texel's VPL none (`u32::MAX`) or in `own` (the VPLs of
+/// the RSM's light, `whose` in messages); shares at most [`SHARE_ONE`],
+/// and 0 outside every VPL. The first bad texel, described.
+fn rsm_problem(
+    metric: &[f32],
+    share: &[u32],
+    vpl: &[u32],
+    size: u32,
+    own: std::ops::Range<u64>,
+    whose: &str,
+) -> Option<String> {
+    let at = |i: usize| {
+        let s = size.max(1) as usize;
+        format!("texel ({}, {})", i % s, i / s)
+    };
+    if let Some(i) = metric.iter().position(|x| x.is_nan()) {
+        return Some(format!("channel Z holds NaN at {}", at(i)));
+    }
+    if let Some(i) = vpl
+        .iter()
+        .position(|&v| v != u32::MAX && !own.contains(&(v as u64)))
+    {
+        return Some(format!(
+            "channel vpl refers to VPL {} at {} but {whose} owns VPLs {}..{}",
+            vpl[i],
+            at(i),
+            own.start,
+            own.end
+        ));
+    }
+    share_problem(share, vpl).map(|i| {
+        format!(
+            "channel share holds {} at {} (VPL {}): over {SHARE_ONE}, or not 0 outside every VPL",
+            share[i],
+            at(i),
+            vpl[i] as i64
+        )
+    })
+}
+
+/// The view RSMs against the manifest: one per `view_rsms` entry, each
+/// `rsm_size²` texels, with the values of [`rsm_problem`], each naming
+/// only VPLs of its view's light. `Err` names the tile, view and light.
+pub(crate) fn check_view_rsms(m: &Manifest, rsms: &[RsmData]) -> Result<(), String> {
+    if rsms.len() != m.view_rsms.len() {
+        return Err(format!(
+            "{} view RSMs but view_rsms lists {} views",
+            rsms.len(),
+            m.view_rsms.len()
+        ));
+    }
+    let rs = m.settings.rsm_size;
+    let n = rs as usize * rs as usize;
+    for (k, (r, &view)) in rsms.iter().zip(&m.view_rsms).enumerate() {
+        let Some(v) = m.views.get(view as usize) else {
+            return Err(format!("view_rsms[{k}] = {view} is not a view"));
+        };
+        let light = v.light as usize;
+        let name = m.lights.get(light).map_or("", |l| l.name.as_str());
+        let what = format!("tile {k} (the RSM of views[{view}], light {light} '{name}')");
+        if r.size != rs || r.metric.len() != n || r.share.len() != n || r.vpl.len() != n {
+            return Err(format!(
+                "{what} is {}² ({} / {} / {} values) but settings.rsm_size is {rs}",
+                r.size,
+                r.metric.len(),
+                r.share.len(),
+                r.vpl.len()
+            ));
+        }
+        let whose = format!("light {light}");
+        if let Some(e) = rsm_problem(
+            &r.metric,
+            &r.share,
+            &r.vpl,
+            rs,
+            light_vpls(m, light),
+            &whose,
+        ) {
+            return Err(format!("{what}: {e}"));
+        }
+    }
+    Ok(())
 }
 
 fn atlas_dims(m: &Manifest) -> (u64, u64) {
@@ -331,6 +505,9 @@ fn validate_manifest(
     if let Err(e) = check_views(m) {
         return bad(e);
     }
+    if let Err(e) = check_view_rsm_list(m) {
+        return bad(e);
+    }
     if m.map_count > m.vpl_count {
         return bad(format!(
             "map_count {} is larger than vpl_count {} (each stored map belongs to one VPL)",
@@ -359,16 +536,18 @@ fn validate_manifest(
             FILE_VPL_MAPS,
             FILE_RSM,
             FILE_LIGHT_MAPS,
+            FILE_VIEW_RSMS,
             FILE_MANIFEST,
         ];
         if known.contains(&f.name.as_str()) {
             if !required.contains(&f.name.as_str()) {
                 return bad(format!(
-                    "file `{}` is listed but the counts say it is not stored (map_count {}, has_dynamic {}, stored light maps {})",
+                    "file `{}` is listed but the counts say it is not stored (map_count {}, has_dynamic {}, stored light maps {}, view RSMs {})",
                     f.name,
                     m.map_count,
                     m.has_dynamic,
-                    light_map_count(m)
+                    light_map_count(m),
+                    m.view_rsms.len()
                 ));
             }
         } else if !is_newer_minor(minor) || !is_plain_name(&f.name) {
@@ -721,6 +900,9 @@ pub fn decoded_bytes(m: &Manifest) -> u64 {
     }
     let (lw, lh) = light_atlas_dims(m);
     samples = samples.saturating_add(lw.saturating_mul(lh));
+    // Z, share, vpl per atlas texel, then each tile copied out.
+    let (vw, vh) = view_rsm_atlas_dims(m);
+    samples = samples.saturating_add(vw.saturating_mul(vh).saturating_mul(6));
     samples.saturating_mul(4)
 }
 
@@ -784,6 +966,11 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
             let (w, h) = light_atlas_dims(&manifest);
             4 * w * h
         }),
+        // Z, share, vpl of the atlas: 12·rsm_size² per tile of the grid.
+        (FILE_VIEW_RSMS, {
+            let (w, h) = view_rsm_atlas_dims(&manifest);
+            12 * w * h
+        }),
     ] {
         let bytes = take(name);
         if !bytes.is_empty() {
@@ -832,40 +1019,13 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
 
     let rsm = if manifest.has_dynamic {
         let path = dir.join(FILE_RSM);
-        let n = s.rsm_size as usize;
-        let chans = [("Z", Kind::F32), ("share", Kind::U32), ("vpl", Kind::U32)];
-        let mut it = exrio::decode(take(FILE_RSM), &path, n, n, &chans)?.into_iter();
-        let mut next = || {
-            it.next()
-                .ok_or_else(|| AssetError::invalid(&path, "channel missing"))
-        };
-        let metric = next()?.into_f32();
-        let share = next()?.into_u32();
-        let vpl = next()?.into_u32();
-        no_nan(&metric, &path, "channel Z")?;
+        let n = s.rsm_size as u64;
+        let (metric, share, vpl) = decode_rsm_channels(take(FILE_RSM), &path, (n, n))?;
         // The RSM is the first light's: its texels name its VPLs, the
         // first `lights[0].vpls` records.
-        let own = manifest
-            .lights
-            .first()
-            .map_or(manifest.vpl_count, |l| l.vpls);
-        if let Some(i) = vpl.iter().position(|&v| v != u32::MAX && v >= own) {
-            return Err(AssetError::invalid(
-                &path,
-                format!(
-                    "channel vpl refers to VPL {} at texel {i} but the first light has {own} (of {})",
-                    vpl[i], manifest.vpl_count
-                ),
-            ));
-        }
-        if let Some(i) = share_problem(&share, &vpl) {
-            return Err(AssetError::invalid(
-                &path,
-                format!(
-                    "channel share holds {} at texel {i} (VPL {}): over {SHARE_ONE}, or not 0 outside every VPL",
-                    share[i], vpl[i] as i64
-                ),
-            ));
+        let own = 0..first_light_vpls(&manifest);
+        if let Some(e) = rsm_problem(&metric, &share, &vpl, s.rsm_size, own, "the first light") {
+            return Err(AssetError::invalid(&path, e));
         }
         Some(RsmData {
             size: s.rsm_size,
@@ -886,6 +1046,8 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
         light_atlas_dims(&manifest),
     )?;
 
+    let view_rsms = decode_view_rsms(take(FILE_VIEW_RSMS), &dir.join(FILE_VIEW_RSMS), &manifest)?;
+
     Ok(Asset {
         manifest,
         vpls,
@@ -894,6 +1056,110 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
         vpl_maps,
         rsm,
         light_maps,
+        view_rsms,
+    })
+}
+
+/// The first light's VPLs, `0..this` (every VPL when there are no light
+/// records): the ones its RSM (`rsm.exr`) may name.
+fn first_light_vpls(m: &Manifest) -> u64 {
+    m.lights
+        .first()
+        .map_or(m.vpl_count, |l| l.vpls.min(m.vpl_count)) as u64
+}
+
+/// An RSM's channels (`Z` f32, `share` u32, `vpl` u32), in that order: the
+/// channels of `rsm.exr` and of `view_rsms.exr`.
+const RSM_CHANNELS: [(&str, Kind); 3] =
+    [("Z", Kind::F32), ("share", Kind::U32), ("vpl", Kind::U32)];
+
+/// The EXR bytes of an RSM image of `w × h` ([`RSM_CHANNELS`]).
+fn encode_rsm_channels(
+    (w, h): (usize, usize),
+    metric: Vec<f32>,
+    share: Vec<u32>,
+    vpl: Vec<u32>,
+) -> Result<Vec<u8>, exr::error::Error> {
+    exrio::encode(
+        w,
+        h,
+        vec![
+            (RSM_CHANNELS[0].0, Samples::F32(metric)),
+            (RSM_CHANNELS[1].0, Samples::U32(share)),
+            (RSM_CHANNELS[2].0, Samples::U32(vpl)),
+        ],
+    )
+}
+
+/// An RSM's decoded channels: `(metric, share, vpl)`.
+type RsmChannels = (Vec<f32>, Vec<u32>, Vec<u32>);
+
+/// Decodes an RSM image of `w × h` ([`RSM_CHANNELS`]): `(metric, share, vpl)`.
+fn decode_rsm_channels(
+    bytes: &[u8],
+    path: &Path,
+    (w, h): (u64, u64),
+) -> Result<RsmChannels, AssetError> {
+    let mut it = exrio::decode(bytes, path, w as usize, h as usize, &RSM_CHANNELS)?.into_iter();
+    let mut next = || {
+        it.next()
+            .ok_or_else(|| AssetError::invalid(path, "channel missing"))
+    };
+    let metric = next()?.into_f32();
+    let share = next()?.into_u32();
+    let vpl = next()?.into_u32();
+    Ok((metric, share, vpl))
+}
+
+/// `view_rsms.exr`: the atlas (layout of `vpl_maps.exr`) of the view RSMs,
+/// tile k the RSM of `views[view_rsms[k]]`; unused tiles hold `Z` +inf,
+/// `share` 0 and `vpl` `u32::MAX` only. Every tile is checked
+/// ([`check_view_rsms`]). Empty when `view_rsms` is.
+fn decode_view_rsms(bytes: &[u8], path: &Path, m: &Manifest) -> Result<Vec<RsmData>, AssetError> {
+    let count = m.view_rsms.len() as u32;
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    let (metric, share, vpl) = decode_rsm_channels(bytes, path, view_rsm_atlas_dims(m))?;
+    let tile = m.settings.rsm_size;
+    if let Some(e) = unused_rsm_tile_message(tile, count, &metric, &share, &vpl) {
+        return Err(AssetError::invalid(path, e));
+    }
+    let rsms: Vec<RsmData> = (0..count)
+        .map(|k| RsmData {
+            size: tile,
+            metric: unpack_tile(tile, count, &metric, k),
+            share: unpack_tile(tile, count, &share, k),
+            vpl: unpack_tile(tile, count, &vpl, k),
+        })
+        .collect();
+    check_view_rsms(m, &rsms).map_err(|e| AssetError::invalid(path, e))?;
+    Ok(rsms)
+}
+
+/// What is wrong with the unused tiles of a view-RSM atlas of `count`
+/// tiles, if anything (`Z` +inf, `share` 0, `vpl` `u32::MAX`: no surface).
+fn unused_rsm_tile_message(
+    tile: u32,
+    count: u32,
+    metric: &[f32],
+    share: &[u32],
+    vpl: &[u32],
+) -> Option<String> {
+    let found = unused_mismatch(tile, count, metric, &f32::INFINITY)
+        .map(|t| ("Z", t))
+        .or_else(|| unused_mismatch(tile, count, share, &0).map(|t| ("share", t)))
+        .or_else(|| unused_mismatch(tile, count, vpl, &u32::MAX).map(|t| ("vpl", t)));
+    found.map(|(channel, (k, x, y))| {
+        let i = crate::atlas::atlas_index(tile, count, k, x, y);
+        let value = match channel {
+            "Z" => metric[i].to_string(),
+            "share" => share[i].to_string(),
+            _ => vpl[i].to_string(),
+        };
+        format!(
+            "unused tile {k} (after the {count} view RSMs) holds {channel} = {value} at its texel ({x}, {y}): unused tiles must be Z +inf, share 0, vpl 0xFFFFFFFF"
+        )
     })
 }
 
@@ -986,25 +1252,14 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
                 s.rsm_size
             ));
         }
-        if r.metric.iter().any(|x| x.is_nan()) {
-            return bad("rsm holds NaN".into());
-        }
         // The first light's RSM names its VPLs only (the first records).
-        let own = m
-            .lights
-            .first()
-            .map_or(vpl_count, |l| l.vpls.min(vpl_count));
-        if let Some(v) = r.vpl.iter().find(|&&v| v != u32::MAX && v >= own) {
-            return bad(format!(
-                "rsm refers to VPL {v} but the first light has {own} (of {vpl_count})"
-            ));
+        let own = 0..first_light_vpls(&m);
+        if let Some(e) = rsm_problem(&r.metric, &r.share, &r.vpl, r.size, own, "the first light") {
+            return bad(format!("rsm: {e}"));
         }
-        if let Some(i) = share_problem(&r.share, &r.vpl) {
-            return bad(format!(
-                "rsm share {} at texel {i} is over {SHARE_ONE} or outside every VPL",
-                r.share[i]
-            ));
-        }
+    }
+    if let Err(e) = check_view_rsm_list(&m).and_then(|()| check_view_rsms(&m, &asset.view_rsms)) {
+        return bad(format!("view_rsms: {e}"));
     }
     if asset.primary_depth.data.iter().any(|x| x.is_nan()) {
         return bad("primary_depth holds NaN".into());
@@ -1069,6 +1324,7 @@ fn owned_names(dir: &Path) -> Vec<String> {
         FILE_VPL_MAPS,
         FILE_RSM,
         FILE_LIGHT_MAPS,
+        FILE_VIEW_RSMS,
     ]
     .iter()
     .map(|s| s.to_string())
@@ -1218,19 +1474,27 @@ fn write_into(
                 let (w, h) = (m.width() as usize, m.height() as usize);
                 exrio::encode(w, h, vec![("Z", texels)]).map_err(exr_err)?
             }
+            FILE_VIEW_RSMS => {
+                let v = &asset.view_rsms;
+                let tile = s.rsm_size;
+                let pack = |fail: &str| {
+                    AssetError::invalid(&path, format!("cannot lay out the view RSMs: {fail}"))
+                };
+                let metric: Vec<&[f32]> = v.iter().map(|r| r.metric.as_slice()).collect();
+                let share: Vec<&[u32]> = v.iter().map(|r| r.share.as_slice()).collect();
+                let vpl: Vec<&[u32]> = v.iter().map(|r| r.vpl.as_slice()).collect();
+                let metric = pack_tiles(tile, &metric, f32::INFINITY).ok_or_else(|| pack("Z"))?;
+                let share = pack_tiles(tile, &share, 0).ok_or_else(|| pack("share"))?;
+                let vpl = pack_tiles(tile, &vpl, u32::MAX).ok_or_else(|| pack("vpl"))?;
+                let (w, h) = view_rsm_atlas_dims(manifest);
+                encode_rsm_channels((w as usize, h as usize), metric, share, vpl)
+                    .map_err(exr_err)?
+            }
             _ => {
                 let Some(r) = &asset.rsm else { continue };
                 let n = r.size as usize;
-                exrio::encode(
-                    n,
-                    n,
-                    vec![
-                        ("Z", Samples::F32(r.metric.clone())),
-                        ("share", Samples::U32(r.share.clone())),
-                        ("vpl", Samples::U32(r.vpl.clone())),
-                    ],
-                )
-                .map_err(exr_err)?
+                encode_rsm_channels((n, n), r.metric.clone(), r.share.clone(), r.vpl.clone())
+                    .map_err(exr_err)?
             }
         };
         write_file(&path, &bytes)?;
@@ -1295,5 +1559,33 @@ pub mod testing {
     /// The bytes of `manifest.bin` for `manifest` as [`write()`] would write them.
     pub fn manifest_bytes(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
         encode_manifest(manifest, Path::new(FILE_MANIFEST))
+    }
+
+    /// The bytes of `manifest.bin` for `manifest` as a format 4.0 writer
+    /// wrote them (minor 0, the payload ends after `light_map_size`; its
+    /// `view_rsms` must be empty): to check that 4.0 assets still load.
+    pub fn manifest_bytes_4_0(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
+        encode_manifest_as(manifest, 0, Path::new(FILE_MANIFEST))
+    }
+
+    /// Decodes `manifest.bin` bytes (magic, version, length, checksum,
+    /// payload) without checking the values: the manifest and the file's
+    /// minor version. To edit a manifest in tests.
+    pub fn decode_manifest_unchecked(bytes: &[u8]) -> Result<(Manifest, u16), AssetError> {
+        decode_manifest(bytes, Path::new(FILE_MANIFEST))
+    }
+
+    /// The bytes of an RSM image (`Z` f32, `share` u32, `vpl` u32) of
+    /// `width × height` as [`write()`] encodes `rsm.exr` and
+    /// `view_rsms.exr`: to store hand-made damage behind a valid checksum.
+    pub fn rsm_exr_bytes(
+        width: usize,
+        height: usize,
+        metric: Vec<f32>,
+        share: Vec<u32>,
+        vpl: Vec<u32>,
+    ) -> Result<Vec<u8>, AssetError> {
+        encode_rsm_channels((width, height), metric, share, vpl)
+            .map_err(|e| AssetError::invalid(Path::new("map.exr"), e.to_string()))
     }
 }

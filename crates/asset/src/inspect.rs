@@ -5,7 +5,7 @@ use std::fmt;
 
 use serde::Serialize;
 
-use crate::format::{FILE_MANIFEST, testing::manifest_bytes};
+use crate::format::{FILE_MANIFEST, FILE_VIEW_RSMS, testing::manifest_bytes};
 use crate::{Asset, BakeSettings, FORMAT_MAJOR, FORMAT_MINOR, NO_MAP, Provenance};
 
 /// Size of one file of the asset.
@@ -160,6 +160,15 @@ pub struct Inspection {
     pub vpl_maps: MapStats,
     /// The RSM metric (`None` without moving objects).
     pub rsm: Option<MapStats>,
+    /// How many views store a static RSM in `view_rsms.exr` (format 4.1:
+    /// the views of other lights moving objects can enter; 0 without).
+    pub view_rsms: usize,
+    /// Their resolution (`rsm_size`; 0 when none is stored).
+    pub view_rsm_size: u32,
+    /// The size of `view_rsms.exr` (0 when not stored).
+    pub view_rsms_bytes: u64,
+    /// The view RSMs' metric, over every tile (`None` when none is stored).
+    pub view_rsm_metric: Option<MapStats>,
 }
 
 /// Summarises `asset`: counts, file sizes (from its manifest, as written or
@@ -226,6 +235,25 @@ pub fn inspect(asset: &Asset) -> Inspection {
             .rsm
             .as_ref()
             .map(|r| MapStats::of(r.size, 1, &r.metric)),
+        view_rsms: m.view_rsms.len(),
+        view_rsm_size: if m.view_rsms.is_empty() {
+            0
+        } else {
+            s.rsm_size
+        },
+        view_rsms_bytes: m
+            .files
+            .iter()
+            .find(|f| f.name == FILE_VIEW_RSMS)
+            .map_or(0, |f| f.size),
+        view_rsm_metric: (!asset.view_rsms.is_empty()).then(|| {
+            let all: Vec<f32> = asset
+                .view_rsms
+                .iter()
+                .flat_map(|r| r.metric.iter().copied())
+                .collect();
+            MapStats::of(s.rsm_size, asset.view_rsms.len() as u32, &all)
+        }),
     }
 }
 
@@ -373,6 +401,23 @@ impl fmt::Display for Inspection {
         match &self.rsm {
             Some(r) => fmt_map(f, "RSM", r)?,
             None => writeln!(f, "  RSM            not stored (no moving objects)")?,
+        }
+        match &self.view_rsm_metric {
+            Some(r) => fmt_map(f, "view RSMs", r)?,
+            None if self.view_rsms > 0 => writeln!(
+                f,
+                "  view RSMs      {} x {}² (not loaded)",
+                self.view_rsms, self.view_rsm_size
+            )?,
+            None => writeln!(f, "  view RSMs      none stored")?,
+        }
+        if self.view_rsms > 0 {
+            writeln!(
+                f,
+                "  {} views store a static RSM for the bounce off moving objects in their light: view_rsms.exr, {}",
+                self.view_rsms,
+                human_bytes(self.view_rsms_bytes)
+            )?;
         }
         writeln!(f, "files:")?;
         for file in &self.files {

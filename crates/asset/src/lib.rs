@@ -37,9 +37,9 @@ pub use error::AssetError;
 pub use format::testing;
 pub use format::{
     DEFAULT_MAX_DECODED_BYTES, FILE_LIGHT_MAPS, FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM,
-    FILE_VPL_MAPS, FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE, VPL_RECORD_BYTES, check_output,
-    check_scene_hash, check_scene_hash_for, decoded_bytes, load, load_manifest, load_with_limit,
-    verify_files, write,
+    FILE_VIEW_RSMS, FILE_VPL_MAPS, FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE, VPL_RECORD_BYTES,
+    check_output, check_scene_hash, check_scene_hash_for, decoded_bytes, load, load_manifest,
+    load_with_limit, verify_files, write,
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
 pub use shard::{
@@ -53,8 +53,10 @@ pub const MAGIC: [u8; 8] = *b"GIBAKE\0\x01";
 /// Format major version: readers reject any other major (4: every light,
 /// [`Manifest::lights`] and [`Manifest::views`]; 3.x assets are re-baked).
 pub const FORMAT_MAJOR: u16 = 4;
-/// Format minor version: additive changes only.
-pub const FORMAT_MINOR: u16 = 0;
+/// Format minor version: additive changes only (4.1: [`Manifest::view_rsms`]
+/// appended to the manifest payload and `view_rsms.exr`; a 4.0 asset reads
+/// with no view RSMs).
+pub const FORMAT_MINOR: u16 = 1;
 
 /// One static VPL record. Stored as a little-endian array in `vpls.bin`
 /// (48 bytes each, fields in this order).
@@ -229,6 +231,15 @@ pub struct Manifest {
     /// Resolution of every stored map of [`Manifest::views`] in
     /// `light_maps.exr` (0 when there are no views).
     pub light_map_size: u32,
+    /// Format 4.1, appended after [`Manifest::light_map_size`] (a 4.0
+    /// manifest ends before it: empty): the views of [`Manifest::views`]
+    /// whose static RSM is stored in `view_rsms.exr` for the per-frame
+    /// bounce off moving objects in their light, as indices into `views`,
+    /// ascending; the k-th is tile k of the file. The views moving objects
+    /// can enter, of a scene with moving objects. Encoded by hand after the
+    /// serde fields (see `format.rs`), hence skipped here.
+    #[serde(skip)]
+    pub view_rsms: Vec<u32>,
 }
 
 /// One shadow-map view of a light other than the first (format 4.0).
@@ -376,6 +387,11 @@ pub struct Asset {
     /// `primary_depth`), one tile per view whose `tile` is not [`NO_MAP`],
     /// in the atlas layout of `light_maps.exr` ([`MapAtlas`]).
     pub light_maps: MapAtlas,
+    /// The static RSMs of [`Manifest::view_rsms`] (one per entry, in its
+    /// order, each `rsm_size²`, at the view resized to `rsm_size`; `vpl`
+    /// indexes [`Asset::vpls`], only VPLs of the view's own light). Empty
+    /// without moving objects.
+    pub view_rsms: Vec<RsmData>,
 }
 
 impl Asset {

@@ -21,7 +21,7 @@ use crate::{Asset, AssetError, Manifest, Map, MapAtlas, NO_MAP, RsmData, VplReco
 /// Magic bytes at the start of a part file.
 pub const PART_MAGIC: [u8; 8] = *b"GIBKPART";
 /// Part format version: parts are transient, so any other version is refused.
-pub const PART_VERSION: u16 = 3;
+pub const PART_VERSION: u16 = 4;
 /// Largest shard count accepted.
 pub const MAX_SHARDS: u32 = 4096;
 /// Largest accepted part file (16 GiB).
@@ -108,6 +108,9 @@ struct PartPayload {
     maps: Vec<Option<Vec<f32>>>,
     /// The other lights' shadow maps: tile size, count, atlas texels.
     light_maps: (u32, u32, Vec<f32>),
+    /// The manifest's `view_rsms` (skipped by its serde encoding) and the
+    /// view RSMs, one per entry (part version 4).
+    view_rsms: (Vec<u32>, Vec<RsmPayload>),
 }
 
 #[derive(Serialize, Deserialize)]
@@ -217,6 +220,11 @@ fn check_part(part: &ShardPart, path: &Path) -> Result<(), AssetError> {
             return bad(format!("RSM data is not rsm_size² = {n} texels"));
         }
     }
+    // The view RSMs: one per view_rsms entry, rsm_size² each, each naming
+    // only its light's VPLs (what the merge's write checks).
+    if let Err(e) = crate::format::check_view_rsms(&a.manifest, &a.view_rsms) {
+        return bad(format!("view RSMs: {e}"));
+    }
     let range = shard_range(a.vpls.len(), part.shard, part.shards);
     if part.maps.len() != range.len() {
         return bad(format!(
@@ -249,6 +257,24 @@ fn check_part(part: &ShardPart, path: &Path) -> Result<(), AssetError> {
     Ok(())
 }
 
+fn rsm_payload(r: &RsmData) -> RsmPayload {
+    RsmPayload {
+        size: r.size,
+        metric: r.metric.clone(),
+        share: r.share.clone(),
+        vpl: r.vpl.clone(),
+    }
+}
+
+fn rsm_data(r: RsmPayload) -> RsmData {
+    RsmData {
+        size: r.size,
+        metric: r.metric,
+        share: r.share,
+        vpl: r.vpl,
+    }
+}
+
 fn encode_part(part: &ShardPart, path: &Path) -> Result<Vec<u8>, AssetError> {
     let a = &part.front;
     let payload = PartPayload {
@@ -259,17 +285,16 @@ fn encode_part(part: &ShardPart, path: &Path) -> Result<Vec<u8>, AssetError> {
         vpl_nodes: a.vpl_nodes.clone(),
         primary_size: a.primary_depth.size,
         primary: a.primary_depth.data.clone(),
-        rsm: a.rsm.as_ref().map(|r| RsmPayload {
-            size: r.size,
-            metric: r.metric.clone(),
-            share: r.share.clone(),
-            vpl: r.vpl.clone(),
-        }),
+        rsm: a.rsm.as_ref().map(rsm_payload),
         maps: part.maps.clone(),
         light_maps: (
             a.light_maps.tile_size(),
             a.light_maps.count(),
             a.light_maps.texels().to_vec(),
+        ),
+        view_rsms: (
+            a.manifest.view_rsms.clone(),
+            a.view_rsms.iter().map(rsm_payload).collect(),
         ),
     };
     let body = bincode::serde::encode_to_vec(&payload, part_config())
@@ -321,6 +346,9 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
         return Err(bad("unexpected bytes after the part payload".into()));
     }
     let tile = p.manifest.settings.vpl_map_size;
+    let mut manifest = p.manifest;
+    let (view_rsm_list, view_rsms) = p.view_rsms;
+    manifest.view_rsms = view_rsm_list;
     let (lt, ln, lmaps) = p.light_maps;
     let light_maps = if ln == 0 {
         MapAtlas::empty(lt)
@@ -332,7 +360,7 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
         shard: p.shard,
         shards: p.shards,
         front: Asset {
-            manifest: p.manifest,
+            manifest,
             vpls: p.vpls,
             vpl_nodes: p.vpl_nodes,
             primary_depth: Map {
@@ -340,13 +368,9 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
                 data: p.primary,
             },
             vpl_maps: MapAtlas::empty(tile),
-            rsm: p.rsm.map(|r| RsmData {
-                size: r.size,
-                metric: r.metric,
-                share: r.share,
-                vpl: r.vpl,
-            }),
+            rsm: p.rsm.map(rsm_data),
             light_maps,
+            view_rsms: view_rsms.into_iter().map(rsm_data).collect(),
         },
         maps: p.maps,
     };
@@ -417,7 +441,7 @@ pub fn load_part(path: &Path) -> Result<ShardPart, AssetError> {
 }
 
 /// BLAKE3 of the front data (VPL records and near-field nodes, primary
-/// shadow map, RSM): equal on
+/// shadow map, the other lights' maps, RSM, view RSMs): equal on
 /// every shard of one bake.
 fn front_hash(a: &Asset) -> [u8; 32] {
     let mut h = blake3::Hasher::new();
@@ -431,6 +455,17 @@ fn front_hash(a: &Asset) -> [u8; 32] {
     if let Some(r) = &a.rsm {
         h.update(b"rsm");
         h.update(&r.size.to_le_bytes());
+        h.update(bytemuck::cast_slice(&r.metric));
+        h.update(bytemuck::cast_slice(&r.share));
+        h.update(bytemuck::cast_slice(&r.vpl));
+    }
+    h.update(b"view_rsms");
+    h.update(&(a.manifest.view_rsms.len() as u64).to_le_bytes());
+    h.update(bytemuck::cast_slice(&a.manifest.view_rsms));
+    h.update(&(a.view_rsms.len() as u64).to_le_bytes());
+    for r in &a.view_rsms {
+        h.update(&r.size.to_le_bytes());
+        h.update(&(r.metric.len() as u64).to_le_bytes());
         h.update(bytemuck::cast_slice(&r.metric));
         h.update(bytemuck::cast_slice(&r.share));
         h.update(bytemuck::cast_slice(&r.vpl));
@@ -550,7 +585,7 @@ impl Merger {
         }
         if hash != *first_hash {
             return Err(mismatch(
-                "its shared front data (VPLs, primary shadow map, RSM) differs: the shards did not compute the same bake".into(),
+                "its shared front data (VPLs, primary shadow map, RSM, view RSMs) differs: the shards did not compute the same bake".into(),
             ));
         }
         let slot = &mut self.slots[shard as usize];
@@ -650,6 +685,7 @@ mod tests {
             lights: Vec::new(),
             views: Vec::new(),
             light_map_size: 0,
+            view_rsms: Vec::new(),
         };
         let rec = VplRecord {
             position: [0.0; 3],
@@ -682,6 +718,7 @@ mod tests {
                 vpl_maps: MapAtlas::empty(2),
                 rsm: None,
                 light_maps: MapAtlas::empty(0),
+                view_rsms: Vec::new(),
             },
             maps: range.map(|i| (i != 1).then(|| vec![i as f32; 4])).collect(),
         }

@@ -359,7 +359,10 @@ fn bad_values_behind_valid_checksums_are_refused() {
     let mut asset = load(&dir).unwrap();
     asset.rsm.as_mut().unwrap().vpl[5] = VPLS as u32;
     let e = write(&asset, &tmp.path().join("x.gibake")).unwrap_err();
-    assert!(e.to_string().contains("rsm refers to VPL"), "{e}");
+    assert!(
+        e.to_string().contains("rsm: channel vpl refers to VPL 10"),
+        "{e}"
+    );
     assert!(!tmp.path().join("x.gibake").exists());
 }
 

@@ -295,7 +295,8 @@ fn manifest_bin_has_the_documented_layout() {
     // f32 of colour, position and direction, three of cones and range, and
     // its VPL count (a varint); then the views: a varint count, each one's
     // light (varint), view (a bool and 24 f32) and tile (varint: one byte
-    // below 251, five for NO_MAP); then light_map_size (varint).
+    // below 251, five for NO_MAP); then light_map_size (varint); then
+    // (4.1) the view_rsms vector.
     let m = load_manifest(&dir).unwrap();
     let hash = &m.files.last().unwrap().blake3;
     let end_of_files = p
@@ -324,8 +325,10 @@ fn manifest_bin_has_the_documented_layout() {
         .iter()
         .map(|v| 1 + 1 + 24 * 4 + if v.tile == NO_MAP { 5 } else { 1 })
         .sum();
-    assert_eq!(end_of_lights + 1 + view_bytes + 1, len);
-    assert_eq!(u32::from(p[len - 1]), m.light_map_size);
+    // Then (4.1) view_rsms: a varint count (0 here) and its varint indices.
+    assert_eq!(end_of_lights + 1 + view_bytes + 1 + 1, len);
+    assert_eq!(u32::from(p[len - 2]), m.light_map_size);
+    assert_eq!(p[len - 1], 0, "no view RSMs");
     assert_eq!(m.views, asset.manifest.views);
 }
 

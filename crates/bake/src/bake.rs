@@ -324,6 +324,109 @@ struct Front {
     /// The primary light's RSM (`None`: a point light first, no primary
     /// map).
     rsm: Option<crate::rsm::Rsm>,
+    /// The static RSMs of the other lights' views that moving objects can
+    /// enter (format 4.1): (view index, its RSM data), in view order;
+    /// empty without moving objects.
+    view_rsms: Vec<(u32, RsmData)>,
+}
+
+/// Whether `scene` takes the bake of every light ([`crate::lights`]):
+/// several lights, or a point light (its six faces).
+pub(crate) fn bakes_every_light(scene: &Scene) -> bool {
+    scene.lights.len() > 1 || light_maps::first_viewed_light(scene) == 0
+}
+
+/// The views (indices into the manifest's `views`: every view of
+/// `scene.lights[first_viewed_light..]`, in order) whose static RSM a bake
+/// of every light stores: those the moving objects' swept bounds can enter
+/// (`LightView::may_see`, the runtime's light-merge rule). Empty without
+/// moving objects. The bake and the up-to-date check use this one rule.
+pub(crate) fn moving_views(scene: &Scene, shadow_map_size: u32) -> Vec<u32> {
+    let swept = scene.dynamic_swept_bounds();
+    if scene.dynamic_objects.is_empty() || swept.is_empty() {
+        return Vec::new();
+    }
+    scene
+        .lights
+        .iter()
+        .skip(light_maps::first_viewed_light(scene))
+        .flat_map(|l| LightView::of_light(scene, l, shadow_map_size))
+        .enumerate()
+        .filter(|(_, v)| v.may_see(&swept))
+        .map(|(i, _)| i as u32)
+        .collect()
+}
+
+/// The static RSMs of [`moving_views`] as the asset stores them (each
+/// texel's VPL, an index into the asset's VPLs, and share of its flux),
+/// from `every`'s maps where the view kept one, else rendered with no
+/// texel of any VPL (a view whose static bounce was left out still
+/// bounces the light that falls on moving objects).
+fn moving_view_rsms(
+    scene: &Scene,
+    reach: &Reach<'_, '_>,
+    every: &crate::lights::EveryLight,
+    opts: &BakeOptions,
+) -> Vec<(u32, RsmData)> {
+    let wanted = moving_views(scene, opts.shadow_map_size);
+    if wanted.is_empty() {
+        return Vec::new();
+    }
+    // Each map's first VPL in the asset's list (maps in light order).
+    let mut base = Vec::with_capacity(every.maps.len());
+    let mut next = 0u32;
+    for c in &every.clusters.maps {
+        base.push(next);
+        next += c.vpls.len() as u32;
+    }
+    // (light, face, view) of every view, in the manifest's order.
+    let views: Vec<(usize, usize, LightView)> = scene
+        .lights
+        .iter()
+        .enumerate()
+        .skip(light_maps::first_viewed_light(scene))
+        .flat_map(|(k, l)| {
+            LightView::of_light(scene, l, opts.shadow_map_size)
+                .into_iter()
+                .enumerate()
+                .map(move |(face, v)| (k, face, v))
+        })
+        .collect();
+    wanted
+        .into_iter()
+        .map(|i| {
+            let (k, face, view) = views[i as usize];
+            let kept = every
+                .maps
+                .iter()
+                .position(|m| m.light == k && m.face == face);
+            let data = |rsm: &crate::rsm::Rsm, texel_vpl: Vec<u32>| {
+                let flux: Vec<[f32; 3]> = rsm.flux.iter().map(|f| f.to_array()).collect();
+                RsmData::from_flux(rsm.size, rsm.metric.clone(), &flux, texel_vpl, next as usize)
+            };
+            let rsm = match kept {
+                Some(j) => data(
+                    &every.maps[j].rsm,
+                    every.clusters.maps[j]
+                        .texel_vpl
+                        .iter()
+                        .map(|&v| if v == NO_VPL { u32::MAX } else { base[j] + v })
+                        .collect(),
+                ),
+                None => {
+                    let rsm = render_rsm(
+                        reach.rays,
+                        &scene.lights[k],
+                        &view.resized(opts.rsm_size),
+                        Some(reach),
+                    );
+                    let n = rsm.flux.len();
+                    data(&rsm, vec![u32::MAX; n])
+                }
+            };
+            (i, rsm)
+        })
+        .collect()
 }
 
 /// The front part of a bake of several lights ([`crate::lights`]): one
@@ -358,6 +461,7 @@ fn every_light_front(
     let made = vpls.len() + every.dropped_vpls;
     let threshold = every.clusters.threshold;
     let dropped = every.dropped_vpls;
+    let view_rsms = moving_view_rsms(scene, reach, &every, opts);
     let point_first = matches!(scene.light().kind, gibake_scene::LightKind::Point);
     let (rsm, texel_vpl) = match first {
         _ if point_first => (None, Vec::new()),
@@ -389,6 +493,7 @@ fn every_light_front(
         threshold,
         texel_vpl,
         rsm,
+        view_rsms,
     }
 }
 
@@ -439,15 +544,10 @@ fn bake_with(
     // (A point light first has no primary map: its six faces are views of
     // the light-map pass; this one face is stored and unused.)
     let point_first = light_maps::first_viewed_light(scene) == 0;
+    // (Its moving objects' bounce comes from the stored RSMs of the faces
+    // they can enter, as every other light's: `moving_view_rsms`.)
     let warnings = if point_first {
-        if scene.dynamic_objects.is_empty() {
-            Vec::new()
-        } else {
-            vec![format!(
-                "the first light ('{}') is a point light, which has no primary map: moving objects cast shadows in every light but bounce no light per frame (put a spot or directional light first, e.g. with --light, to get their bounce)",
-                scene.light().name
-            )]
-        }
+        Vec::new()
     } else {
         light_view_warnings(scene, &view, opts)
     };
@@ -476,7 +576,7 @@ fn bake_with(
     let n = light_maps::view_count(scene);
     // Several lights: every view's RSM is held at once; checked before any
     // is made (the views are known from the scene alone).
-    let every = scene.lights.len() > 1 || light_maps::first_viewed_light(scene) == 0;
+    let every = bakes_every_light(scene);
     if every && let Some(limit) = progress.memory_limit() {
         // The light-map views, and the primary's one when it has one.
         let rsm_views = n + light_maps::first_viewed_light(scene);
@@ -553,6 +653,7 @@ fn bake_with(
             threshold: clusters.threshold,
             texel_vpl: clusters.texel_vpl,
             rsm: Some(rsm),
+            view_rsms: Vec::new(),
         }
     };
     if front.made == 0 {
@@ -568,6 +669,7 @@ fn bake_with(
         threshold,
         texel_vpl,
         rsm,
+        view_rsms,
         ..
     } = front;
     if let Some(limit) = progress.memory_limit() {
@@ -604,14 +706,18 @@ fn bake_with(
     // bounce off moving objects.
     let has_dynamic = !scene.dynamic_objects.is_empty() && rsm.is_some();
     // Each texel's share of its VPL's flux, for partial occlusion.
-    let rsm_data = rsm.filter(|_| has_dynamic).map(|rsm| {
+    let rsm_data = |rsm: &crate::rsm::Rsm, texel_vpl: &[u32]| {
         let flux: Vec<[f32; 3]> = rsm.flux.iter().map(|f| f.to_array()).collect();
         let texel_vpl = texel_vpl
             .iter()
             .map(|&v| if v == NO_VPL { u32::MAX } else { v })
             .collect();
         RsmData::from_flux(rsm.size, rsm.metric.clone(), &flux, texel_vpl, vpls.len())
-    });
+    };
+    let (view_rsm_views, view_rsms): (Vec<u32>, Vec<RsmData>) = view_rsms.into_iter().unzip();
+    let rsm_data = rsm
+        .filter(|_| has_dynamic)
+        .map(|rsm| rsm_data(&rsm, &texel_vpl));
     let map_count = vpls.iter().filter(|v| v.map != NO_MAP).count() as u32;
     let manifest = Manifest {
         provenance: Provenance {
@@ -657,6 +763,7 @@ fn bake_with(
         },
         views,
         light_map_size,
+        view_rsms: view_rsm_views,
     };
     let asset = Asset {
         manifest,
@@ -669,6 +776,7 @@ fn bake_with(
         vpl_maps: maps,
         rsm: rsm_data,
         light_maps,
+        view_rsms,
     };
     Ok((
         BakeOutput {

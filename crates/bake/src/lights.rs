@@ -34,6 +34,9 @@ use crate::rsm::{Rsm, render_rsm};
 pub struct LightMap {
     /// Index into `scene.lights`.
     pub light: usize,
+    /// Which of the light's views ([`LightView::of_light`]'s order: a point
+    /// light's faces +X, −X, +Y, −Y, +Z, −Z).
+    pub face: usize,
     /// The view at the primary shadow map's resolution (the runtime's).
     pub view: LightView,
     /// The RSM, at the bake's RSM resolution.
@@ -118,11 +121,15 @@ pub fn every_light_with(
     let mut maps = Vec::new();
     let mut unlit_views = 0;
     for (k, light) in scene.lights.iter().enumerate() {
-        for view in LightView::of_light(scene, light, shadow_map_size) {
+        for (face, view) in LightView::of_light(scene, light, shadow_map_size)
+            .into_iter()
+            .enumerate()
+        {
             let rsm = render_rsm(reach.rays, light, &view.resized(rsm_size), Some(reach));
             if rsm.flux.iter().any(|f| f.max_element() > 0.0) {
                 maps.push(LightMap {
                     light: k,
+                    face,
                     view,
                     rsm,
                 });

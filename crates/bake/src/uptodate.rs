@@ -8,10 +8,12 @@
 //! its files are intact (sizes and BLAKE3 checksums as listed). Because the
 //! bake is deterministic, a re-bake would then write the same bytes.
 //!
-//! Two inputs the static-scene hash leaves out also shape the asset, so they
-//! are compared too: the primary light's view (fitted to the scene's bounds
-//! *including* the swept bounds of the moving objects) and whether the scene
-//! has moving objects at all (then the static RSM is stored).
+//! Three inputs the static-scene hash leaves out also shape the asset, so
+//! they are compared too: the primary light's view (fitted to the scene's
+//! bounds *including* the swept bounds of the moving objects), whether the
+//! scene has moving objects at all (then the static RSM is stored) and,
+//! with several lights, which other lights' views the moving objects can
+//! enter (their static RSMs are stored, format 4.1).
 
 use std::path::Path;
 
@@ -149,7 +151,9 @@ pub fn differences(
             p.adapter, p.backend, p.driver, adapter.name, adapter.backend
         ));
     }
-    let has_dynamic = !scene.dynamic_objects.is_empty();
+    // (A point light first has no primary map, so no primary RSM either.)
+    let has_dynamic = !scene.dynamic_objects.is_empty()
+        && gibake_gpu::passes::light_maps::first_viewed_light(scene) == 1;
     if has_dynamic != m.has_dynamic {
         r.push(format!(
             "moving objects {} (the static RSM is stored only with them)",
@@ -163,6 +167,20 @@ pub fn differences(
         let same = v.record() == m.light_view;
         if !same {
             r.push("the light's view changed (the moving objects' swept bounds changed)".into());
+        }
+        // And the other lights' views whose RSMs are stored only when the
+        // moving objects' swept bounds changed which ones they can enter.
+        let views = if crate::bake::bakes_every_light(scene) {
+            crate::bake::moving_views(scene, opts.shadow_map_size)
+        } else {
+            Vec::new()
+        };
+        if views != m.view_rsms {
+            r.push(format!(
+                "the other lights' views the moving objects can enter changed (their RSMs are stored: {} views now, {} in the asset)",
+                views.len(),
+                m.view_rsms.len()
+            ));
         }
     }
     r

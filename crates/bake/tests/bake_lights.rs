@@ -137,8 +137,10 @@ fn shards_of_a_bake_of_every_light_merge_into_the_same_asset() {
 
 /// A point light first has no primary map: its six faces are views like
 /// the other lights', it has VPLs of its own, and without a primary RSM
-/// moving objects bounce no light per frame (has_dynamic false, said in a
-/// warning).
+/// (has_dynamic false) the moving objects' bounce comes from the stored
+/// RSMs of the faces they can enter (format 4.1): each of those views,
+/// and only those, stores one, whose texels name only its own light's
+/// VPLs; they survive write and load.
 #[test]
 fn a_point_light_first_is_baked_with_its_six_faces() {
     let ctx = gpu();
@@ -153,15 +155,42 @@ fn a_point_light_first_is_baked_with_its_six_faces() {
     assert!(m.views[6..].iter().all(|v| v.light == 1));
     assert!(m.lights[0].vpls > 0 && m.lights[1].vpls > 0);
     assert!(!m.has_dynamic && out.asset.rsm.is_none());
+    assert!(out.warnings.is_empty(), "{:?}", out.warnings);
+    // The faces the balls' swept bounds can enter, and only those.
+    let swept = scene.dynamic_swept_bounds();
+    let enterable: Vec<u32> = (0..m.views.len() as u32)
+        .filter(|&v| {
+            gibake_gpu::LightView::from_record(&m.views[v as usize].view, m.light_map_size)
+                .may_see(&swept)
+        })
+        .collect();
     assert!(
-        out.warnings.iter().any(|w| w.contains("point light")),
-        "{:?}",
-        out.warnings
+        !enterable.is_empty() && enterable.len() < 12,
+        "{enterable:?}"
     );
+    assert_eq!(m.view_rsms, enterable);
+    assert_eq!(out.asset.view_rsms.len(), enterable.len());
+    let first_of = |l: usize| m.lights[..l].iter().map(|r| r.vpls).sum::<u32>();
+    let mut named = 0;
+    for (&v, r) in m.view_rsms.iter().zip(&out.asset.view_rsms) {
+        let l = m.views[v as usize].light as usize;
+        let own = first_of(l)..first_of(l) + m.lights[l].vpls;
+        assert_eq!(r.size, options().rsm_size);
+        for &t in &r.vpl {
+            assert!(
+                t == u32::MAX || own.contains(&t),
+                "view {v}: VPL {t} not in {own:?}"
+            );
+            named += usize::from(t != u32::MAX);
+        }
+    }
+    assert!(named > 0, "no stored texel belongs to a VPL");
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("points.gibake");
     gibake_asset::write(&out.asset, &dir).expect("write");
-    gibake_asset::load(&dir).expect("load");
+    let loaded = gibake_asset::load(&dir).expect("load");
+    assert_eq!(loaded.manifest.view_rsms, m.view_rsms);
+    assert_eq!(loaded.view_rsms, out.asset.view_rsms);
 }
 
 /// A progress that gives the bake a memory budget.

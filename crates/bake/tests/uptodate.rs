@@ -140,3 +140,64 @@ fn every_changed_input_is_named_and_nothing_else() {
         "moving objects removed",
     );
 }
+
+/// With several lights, which other lights' views the moving objects can
+/// enter is an input too (their static RSMs are stored, format 4.1): the
+/// same scene is up to date; moving objects whose paths now reach every
+/// face of the lamps are named.
+#[test]
+fn the_views_moving_objects_can_enter_are_compared() {
+    let ctx = GpuContext::new(&Default::default()).unwrap_or_else(|e| {
+        panic!("needs a GPU adapter ({e}); `apt-get install mesa-vulkan-drivers` gives lavapipe")
+    });
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/lamps.glb"));
+    let load = LoadOptions {
+        all_lights: true,
+        ..Default::default()
+    };
+    let scene = gibake_scene::load(path, &load).expect("data/lamps.glb loads");
+    assert!(scene.lights.len() > 1 && !scene.dynamic_objects.is_empty());
+    let opts = BakeOptions {
+        rsm_size: 64,
+        vpl_map_size: 16,
+        shadow_map_size: 256,
+        target: ClusterTarget::Count(64),
+    };
+    let asset = bake(&ctx, &scene, &opts, &NoProgress, "1.0.0")
+        .expect("bake")
+        .asset;
+    let m = &asset.manifest;
+    assert!(!m.view_rsms.is_empty() && m.view_rsms.len() < m.views.len());
+    let diff = |scene: &gibake_scene::Scene| differences(m, scene, &opts, &ctx.record, "1.0.0");
+    assert_eq!(diff(&scene), Vec::<String>::new());
+    // Balls 40 times larger: their swept bounds enter every face.
+    let mut big = scene.clone();
+    for o in &mut big.dynamic_objects {
+        o.local_bounds.min *= 40.0;
+        o.local_bounds.max *= 40.0;
+    }
+    let r = diff(&big);
+    assert!(
+        r.iter()
+            .any(|x| x.contains("views the moving objects can enter changed")),
+        "{r:?}"
+    );
+    // Point lamps only (no primary map, so no primary RSM although
+    // objects move): up to date, and removing the moving objects is named.
+    let mut points = scene.clone();
+    points
+        .lights
+        .retain(|l| l.kind == gibake_scene::LightKind::Point);
+    let asset = bake(&ctx, &points, &opts, &NoProgress, "1.0.0")
+        .expect("bake")
+        .asset;
+    let m = &asset.manifest;
+    let diff = |scene: &gibake_scene::Scene| differences(m, scene, &opts, &ctx.record, "1.0.0");
+    assert_eq!(diff(&points), Vec::<String>::new());
+    let r = diff(&static_only(&points));
+    assert!(
+        r.iter()
+            .any(|x| x.contains("views the moving objects can enter changed")),
+        "{r:?}"
+    );
+}

@@ -205,6 +205,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
                 })
                 .collect(),
             light_map_size: LIGHT_MAP,
+            view_rsms: Vec::new(),
         },
         vpls,
         vpl_nodes,
@@ -215,7 +216,50 @@ pub fn sample_asset(dynamic: bool) -> Asset {
         vpl_maps,
         rsm,
         light_maps,
+        view_rsms: Vec::new(),
     }
+}
+
+/// The views of [`sample_asset_with_view_rsms`] that store an RSM (the
+/// lamp's faces +X, +Z, −Z): three tiles in a 2 × 2 grid, one unused.
+pub const VIEW_RSMS: [u32; 3] = [1, 4, 5];
+
+/// [`sample_asset`]`(true)` with format 4.1's view RSMs: the RSMs of the
+/// views [`VIEW_RSMS`] (all the lamp's, light 1: its VPLs are records
+/// `FIRST_LIGHT_VPLS..VPLS`), `RSM²` each, with empty texels, texels of no
+/// VPL and shares from the flux.
+pub fn sample_asset_with_view_rsms() -> Asset {
+    let mut asset = sample_asset(true);
+    let mut rng = Rng::new(99);
+    let n = (RSM * RSM) as usize;
+    asset.manifest.view_rsms = VIEW_RSMS.to_vec();
+    asset.view_rsms = VIEW_RSMS
+        .iter()
+        .map(|_| {
+            let metric: Vec<f32> = (0..n)
+                .map(|_| {
+                    if rng.f32() < 0.2 {
+                        f32::INFINITY
+                    } else {
+                        0.5 + rng.f32() * 2.0
+                    }
+                })
+                .collect();
+            let flux: Vec<[f32; 3]> = (0..n).map(|_| [rng.f32(), rng.f32(), rng.f32()]).collect();
+            let vpl = metric
+                .iter()
+                .map(|m| {
+                    if m.is_infinite() || rng.f32() < 0.1 {
+                        u32::MAX
+                    } else {
+                        (FIRST_LIGHT_VPLS + rng.below(VPLS - FIRST_LIGHT_VPLS)) as u32
+                    }
+                })
+                .collect();
+            RsmData::from_flux(RSM, metric, &flux, vpl, VPLS)
+        })
+        .collect();
+    asset
 }
 
 /// `asset` as `load` returns it after `write`: counts filled in, `files` from disk.
@@ -248,14 +292,10 @@ pub fn file_names(dir: &Path) -> Vec<String> {
 /// Rewrites `manifest.bin` in `dir` with `f` applied to the manifest
 /// (re-encoded, valid checksum).
 pub fn edit_manifest(dir: &Path, f: impl FnOnce(&mut Manifest)) {
-    // Decoded directly (bincode 2, standard config) so that it works on
-    // manifests `load_manifest` would refuse.
+    // Decoded without checking its values, so that it works on manifests
+    // `load_manifest` would refuse.
     let bytes = std::fs::read(dir.join("manifest.bin")).unwrap();
-    let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    let (mut m, used): (Manifest, usize) =
-        bincode::serde::decode_from_slice(&bytes[20..20 + len], bincode::config::standard())
-            .expect("manifest payload");
-    assert_eq!(used, len);
+    let (mut m, _minor) = testing::decode_manifest_unchecked(&bytes).expect("manifest payload");
     f(&mut m);
     std::fs::write(
         dir.join("manifest.bin"),
