@@ -133,7 +133,8 @@ fn quick_bench_outputs_are_complete_and_consistent() {
     }
 
     // Scaling: four sweeps, finite exponents for update and shade; the
-    // lights sweep's lamps get merged views where the balls pass.
+    // lights sweep's lamps get merged views where the balls pass, and
+    // their bounce off the balls is computed in some of them.
     let sc = read_json(d, "scaling.json");
     let sweeps = sc["sweeps"].as_array().unwrap();
     assert_eq!(sweeps.len(), 4);
@@ -144,6 +145,8 @@ fn quick_bench_outputs_are_complete_and_consistent() {
         last["stats"]["light_views_merged"].as_f64().unwrap() > 0.0,
         "{last}"
     );
+    let bounced = last["stats"]["light_views_bounced"].as_f64().unwrap();
+    assert!(bounced > 0.0, "{last}");
     // ... and each is measured with light culling off beside it (only
     // this sweep).
     assert!(

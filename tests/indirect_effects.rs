@@ -1,7 +1,10 @@
 //! Moving objects change indirect light where they must (issue 4):
 //! - a ball outside the light's cone, between a lit floor and an unlit wall,
 //!   casts an indirect shadow on the wall (static VPLs, merged maps);
-//! - a red ball inside the cone tints the floor around it (dynamic VPLs).
+//! - a red ball inside the cone tints the floor around it (dynamic VPLs);
+//! - a red ball lit only by a second light, a point lamp, tints its
+//!   surroundings as the CPU reference does (that light's bounce off
+//!   moving objects, from the view RSMs of asset format 4.1).
 //!
 //! Pixels are classified by CPU ray casts from the same camera.
 
@@ -20,6 +23,11 @@ const SIZE: u32 = 96;
 /// Floor (y = 0) and back wall (z = −1); a spot lights the floor's front
 /// half only; one dynamic ball of radius 0.15 with albedo `ball_rgb`.
 fn scene(ball_rgb: [f32; 3]) -> Scene {
+    scene_with(ball_rgb, None)
+}
+
+/// [`scene`], with a point lamp at `lamp` (after the spot) when given.
+fn scene_with(ball_rgb: [f32; 3], lamp: Option<DVec3>) -> Scene {
     let mut b = Builder::new(1.0, "ball");
     let floor = geom::quad_facing(
         DVec3::new(-2.0, 0.0, -1.0),
@@ -57,6 +65,9 @@ fn scene(ball_rgb: [f32; 3]) -> Scene {
         20f64.to_radians(),
         25f64.to_radians(),
     );
+    if let Some(at) = lamp {
+        b.point("lamp", at, [1.0; 3], 3.0, None);
+    }
     b.perspective(
         "camera",
         DVec3::new(1.8, 1.2, 2.6),
@@ -69,7 +80,10 @@ fn scene(ball_rgb: [f32; 3]) -> Scene {
     gibake_scene::load_from_slice(
         &bytes,
         std::path::Path::new("wall_ball.glb"),
-        &LoadOptions::default(),
+        &LoadOptions {
+            all_lights: true,
+            ..Default::default()
+        },
     )
     .unwrap()
 }
@@ -309,4 +323,153 @@ fn a_scene_without_moving_objects_runs_no_dynamic_pass() {
     };
     let r = Renderer::new(&ctx.device, &ctx.queue, &full, Some(&asset), &s).unwrap();
     assert!(r.has_dynamic_resources());
+}
+
+/// The bounce off moving objects in a light after the first (asset format
+/// 4.1: the stored RSMs of the views moving objects can enter,
+/// `Pass::LightBounce`). At time 0 the red ball is outside the spot's cone
+/// and lit only by a point lamp: the floor and wall around it get its red
+/// bounce and lose the lamp's static bounce it hides. The indirect light
+/// there is compared with the CPU reference (path traced, the ball where
+/// the animation has it): with the view RSMs it is nearer the reference
+/// than without them (the same asset with its view RSMs removed, as a 4.0
+/// asset renders: no bounce off the ball in the lamp's light).
+#[test]
+fn a_ball_lit_by_a_second_light_bounces_its_light() {
+    let ctx = common::gpu();
+    let scene = scene_with([0.9, 0.05, 0.05], Some(DVec3::new(0.5, 0.8, -0.3)));
+    assert_eq!(scene.lights.len(), 2);
+    let asset = bake(&ctx, &scene);
+    assert!(
+        !asset.view_rsms.is_empty(),
+        "the lamp's faces the ball can enter store their RSM"
+    );
+    let mut without = asset.clone();
+    without.view_rsms.clear();
+    without.manifest.view_rsms.clear();
+    let s = gibake_eval::EvalSettings {
+        size: SIZE,
+        spp: 256,
+        ssaa: 2,
+        time: 0.0,
+        ..Default::default()
+    };
+    let render = |a: &Asset| {
+        let img = gibake_eval::render(&ctx, &scene, a, Mode::Indirect, &s).unwrap();
+        assert!(img.all_finite());
+        img
+    };
+    let (on, off) = (render(&asset), render(&without));
+    let reference = gibake_eval::reference_images(&scene, &s)
+        .unwrap()
+        .indirect();
+    let ball = Vec3::new(0.0, 0.5, -0.7);
+    let px = classify(&scene, ball);
+    // Floor and wall points near the ball (not the ball itself).
+    let near: Vec<bool> = px
+        .iter()
+        .map(|p| match p {
+            Some((n, q)) if !n.contains("ball") => {
+                let d = q.distance(ball);
+                d > 0.17 && d < 0.5
+            }
+            _ => false,
+        })
+        .collect();
+    let (a, b, r) = (
+        mean_where(&on, &near),
+        mean_where(&off, &near),
+        mean_where(&reference, &near),
+    );
+    eprintln!("near the ball, indirect: {a} with the view RSMs, {b} without, reference {r}");
+    // The floor, wall and lamp are grey: the red excess R − (G + B)/2 is
+    // the ball's bounce alone.
+    let excess = |x: Vec3| x.x - 0.5 * (x.y + x.z);
+    let (xa, xb, xr) = (excess(a), excess(b), excess(r));
+    eprintln!("red excess: {xa} with, {xb} without, reference {xr}");
+    assert!(xr > 0.02 * r.y, "the reference shows no red bounce: {r}");
+    // Without the view RSMs most of the ball's red bounce is missing ...
+    assert!(
+        xb < 0.6 * xr,
+        "red bounce without the view RSMs: {xb} vs {xr}"
+    );
+    // ... with them it is the reference's, to 25%.
+    assert!(
+        (xa - xr).abs() < 0.25 * xr,
+        "the red bounce in the lamp's light is {xa}, the reference's {xr}"
+    );
+    // The grey light (the lamp's static bounce the ball hides, less its
+    // occluded share) is no further from the reference than without.
+    assert!(
+        (a.y - r.y).abs() <= (b.y - r.y).abs() + 0.01 * r.y,
+        "green: {a} vs {b}, reference {r}"
+    );
+}
+
+/// The whole effect of a moving object on the indirect light in a light
+/// after the first — the lamp's static bounce it hides (occlusion of that
+/// light's static VPLs) and the light it bounces (dynamic VPLs) — against
+/// the reference's: a grey ball right under a point lamp, the image's
+/// mean indirect light with the ball less the same without it (static
+/// scene, baked and rendered alike), runtime against path tracer. The two
+/// parts are large and of opposite signs; their sum is the reference's to
+/// 20%.
+#[test]
+fn a_ball_under_a_second_light_changes_the_indirect_light_as_the_reference_does() {
+    let ctx = common::gpu();
+    let scene = scene_with([0.8, 0.8, 0.8], Some(DVec3::new(0.0, 0.9, -0.7)));
+    let still = gibake_bake::static_only(&scene);
+    let s = gibake_eval::EvalSettings {
+        size: 64,
+        spp: 256,
+        ssaa: 2,
+        time: 0.0,
+        ..Default::default()
+    };
+    let render = |scene: &Scene, asset: &Asset, dyn_vpls: u32| {
+        let s = gibake_eval::EvalSettings {
+            max_dynamic_vpls: dyn_vpls,
+            ..s.clone()
+        };
+        let img = gibake_eval::render(&ctx, scene, asset, Mode::Indirect, &s).unwrap();
+        assert!(img.all_finite());
+        img.mean()
+    };
+    let asset = bake(&ctx, &scene);
+    let mut without = asset.clone();
+    without.view_rsms.clear();
+    without.manifest.view_rsms.clear();
+    let none = render(&scene, &without, 64);
+    let occluded = render(&scene, &asset, 0);
+    let full = render(&scene, &asset, 64);
+    let base = render(&still, &bake(&ctx, &still), 64);
+    let reference = |scene: &Scene| {
+        gibake_eval::reference_images(scene, &s)
+            .unwrap()
+            .indirect()
+            .mean()
+    };
+    let truth = reference(&scene) - reference(&still);
+    let (effect, effect_without) = (full - base, none - base);
+    eprintln!(
+        "the ball's effect on the mean indirect light: {effect} (occlusion {}, bounce {}), without the view RSMs {effect_without}, reference {truth}",
+        occluded - none,
+        full - occluded
+    );
+    assert!(
+        truth.x < 0.0,
+        "the reference: the ball hides more than it bounces"
+    );
+    assert!(
+        occluded.x < none.x,
+        "no occlusion of the lamp's static VPLs"
+    );
+    assert!(
+        full.x > occluded.x,
+        "no bounce off the ball in the lamp's light"
+    );
+    assert!(
+        (effect.x - truth.x).abs() < 0.2 * truth.x.abs(),
+        "the ball's effect {effect} against the reference's {truth}"
+    );
 }

@@ -22,6 +22,8 @@ pub(crate) struct RsmGpu {
     pub texel_info: wgpu::Buffer,
     /// The light view at the RSM resolution.
     pub view: LightView,
+    /// Its light (index into the scene's lights).
+    pub light: usize,
 }
 
 /// The asset's GPU resources.
@@ -44,6 +46,9 @@ pub(crate) struct BakedGpu {
     pub view: LightView,
     /// Present only when the asset holds RSM data (scene with moving objects).
     pub rsm: Option<RsmGpu>,
+    /// The other lights' views with a stored static RSM (format 4.1), in
+    /// the manifest's order.
+    pub view_rsms: Vec<RsmGpu>,
     /// Bytes uploaded.
     pub bytes: u64,
 }
@@ -191,39 +196,25 @@ impl BakedGpu {
             usage: wgpu::BufferUsages::STORAGE,
         });
         let mut bytes = (atlas.len() * 4 + pd.data.len() * 4) as u64 + vpl_bytes;
-        let rsm = match &asset.rsm {
-            Some(r) => {
-                let metric =
-                    r32_texture(device, queue, "baked RSM metric", r.size, r.size, &r.metric)
-                        .create_view(&Default::default());
-                // (VPL, its share of the VPL's flux) per texel, as baked.
-                let n = vpls.len();
-                let info: Vec<[u32; 2]> = r
-                    .vpl
-                    .iter()
-                    .zip(&r.share)
-                    .map(|(&v, &share)| {
-                        if (v as usize) < n {
-                            [v, share]
-                        } else {
-                            [u32::MAX, 0]
-                        }
-                    })
-                    .collect();
-                let texel_info = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("RSM texel shares"),
-                    contents: bytemuck::cast_slice(&info),
-                    usage: wgpu::BufferUsages::STORAGE,
-                });
-                bytes += (r.metric.len() * 4 + info.len() * 8) as u64;
-                Some(RsmGpu {
-                    static_metric: metric,
-                    texel_info,
-                    view: light_view(asset, r.size),
-                })
-            }
-            None => None,
-        };
+        let rsm = asset.rsm.as_ref().map(|r| {
+            let g = rsm_gpu(device, queue, r, vpls.len(), light_view(asset, r.size), 0);
+            bytes += g.1;
+            g.0
+        });
+        let m = &asset.manifest;
+        let view_rsms = m
+            .view_rsms
+            .iter()
+            .zip(&asset.view_rsms)
+            .filter_map(|(&v, r)| {
+                let rec = m.views.get(v as usize)?;
+                let view =
+                    LightView::from_record(&rec.view, m.light_map_size.max(1)).resized(r.size);
+                let g = rsm_gpu(device, queue, r, vpls.len(), view, rec.light as usize);
+                bytes += g.1;
+                Some(g.0)
+            })
+            .collect();
         Ok(BakedGpu {
             vpls,
             vpl_buf,
@@ -233,9 +224,52 @@ impl BakedGpu {
             primary,
             view: light_view(asset, pd.size),
             rsm,
+            view_rsms,
             bytes,
         })
     }
+}
+
+/// A stored RSM on the GPU (its metric texture and texel shares) and the
+/// bytes uploaded.
+fn rsm_gpu(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    r: &gibake_asset::RsmData,
+    vpl_count: usize,
+    view: LightView,
+    light: usize,
+) -> (RsmGpu, u64) {
+    let metric = r32_texture(device, queue, "baked RSM metric", r.size, r.size, &r.metric)
+        .create_view(&Default::default());
+    // (VPL, its share of the VPL's flux) per texel, as baked.
+    let info: Vec<[u32; 2]> = r
+        .vpl
+        .iter()
+        .zip(&r.share)
+        .map(|(&v, &share)| {
+            if (v as usize) < vpl_count {
+                [v, share]
+            } else {
+                [u32::MAX, 0]
+            }
+        })
+        .collect();
+    let texel_info = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("RSM texel shares"),
+        contents: bytemuck::cast_slice(&info),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let bytes = (r.metric.len() * 4 + info.len() * 8) as u64;
+    (
+        RsmGpu {
+            static_metric: metric,
+            texel_info,
+            view,
+            light,
+        },
+        bytes,
+    )
 }
 
 /// A record of the asset's layout in the GPU's (the same values).

@@ -1,10 +1,15 @@
-//! Moving objects drawn from the primary light at the RSM resolution
+//! Moving objects drawn from a light at the RSM resolution
 //! (`dynamic_rsm.wgsl`), and the partial-occlusion pass that reads it
-//! (`occlusion.wgsl`). Only built when the scene has moving objects.
+//! (`occlusion.wgsl`). Only built when the scene has moving objects. One
+//! set of targets serves every light view the bounce is computed in (the
+//! primary light's, and each other view the moving objects touch): each
+//! view's RSM is drawn, read by its occlusion and dynamic VPLs, then the
+//! next view's is drawn over it.
 
 use gibake_gpu::mesh::{Draw, SceneGpu};
 use gibake_gpu::util::{
-    cleared_attachments, cleared_depth, draws_and_uniform_group, mesh_pipeline, texture_2d,
+    cleared_attachments, cleared_depth, draws_and_uniform_bind, draws_and_uniform_group,
+    mesh_pipeline, texture_2d,
 };
 use gibake_gpu::{LightView, shaders};
 use wgpu::util::DeviceExt;
@@ -23,24 +28,42 @@ pub(crate) const DYN_RSM_FORMATS: [wgpu::TextureFormat; 3] = [
     wgpu::TextureFormat::Rgba16Float,
 ];
 
+/// One light view the moving objects' RSM is drawn from: its uniform and
+/// the pass's group 0 with it.
+pub(crate) struct RsmView {
+    bind_group: wgpu::BindGroup,
+    /// The light view (RSM size) uniform.
+    pub(crate) view_buf: wgpu::Buffer,
+}
+
 /// The dynamic RSM pass and its targets.
 pub(crate) struct DynamicRsmPass {
     pipeline: wgpu::RenderPipeline,
-    bind_group: wgpu::BindGroup,
+    layout: wgpu::BindGroupLayout,
+    /// The view it was made for (the primary light's in a frame).
+    pub(crate) own: RsmView,
     /// Targets in [`DYN_RSM_FORMATS`] order (read back by tests).
     #[cfg_attr(not(test), expect(dead_code))]
     pub(crate) textures: Vec<wgpu::Texture>,
     /// Their views.
     pub(crate) views: Vec<wgpu::TextureView>,
     depth_view: wgpu::TextureView,
-    /// The light view (RSM size) uniform.
-    pub(crate) view_buf: wgpu::Buffer,
     /// Size.
     pub(crate) size: u32,
 }
 
+/// `view`'s uniform (a light view at the RSM size).
+fn view_uniform(device: &wgpu::Device, view: &LightView) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("rsm light view"),
+        contents: bytemuck::bytes_of(&view.to_gpu()),
+        usage: wgpu::BufferUsages::UNIFORM,
+    })
+}
+
 impl DynamicRsmPass {
-    /// Creates the pass for `view` (RSM resolution).
+    /// Creates the pass for `view` (RSM resolution; its targets are
+    /// `view.size`², which every other view bound must share).
     pub(crate) fn new(
         device: &wgpu::Device,
         scene_gpu: &SceneGpu,
@@ -48,11 +71,7 @@ impl DynamicRsmPass {
     ) -> DynamicRsmPass {
         let module =
             shaders::mesh_module(device, "dynamic_rsm.wgsl", include_str!("dynamic_rsm.wgsl"));
-        let view_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("rsm light view"),
-            contents: bytemuck::bytes_of(&view.to_gpu()),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
+        let view_buf = view_uniform(device, view);
         let (layout, bind_group) =
             draws_and_uniform_group(device, "dynamic rsm", &scene_gpu.draw_data, &view_buf);
         let targets: Vec<Option<wgpu::ColorTargetState>> =
@@ -87,20 +106,59 @@ impl DynamicRsmPass {
         );
         DynamicRsmPass {
             pipeline,
-            bind_group,
+            layout,
+            own: RsmView {
+                bind_group,
+                view_buf,
+            },
             textures,
             views,
             depth_view: depth.create_view(&Default::default()),
-            view_buf,
             size,
         }
     }
 
-    /// Records the pass (the moving objects' `draws`).
+    /// Another light `view` to draw the same targets from (`view.size` is
+    /// the pass's).
+    pub(crate) fn bind(
+        &self,
+        device: &wgpu::Device,
+        scene_gpu: &SceneGpu,
+        view: &LightView,
+    ) -> RsmView {
+        debug_assert_eq!(view.size, self.size);
+        let view_buf = view_uniform(device, view);
+        let bind_group = draws_and_uniform_bind(
+            device,
+            "dynamic rsm",
+            &self.layout,
+            &scene_gpu.draw_data,
+            &view_buf,
+        );
+        RsmView {
+            bind_group,
+            view_buf,
+        }
+    }
+
+    /// Records the pass (the moving objects' `draws`) from its own view.
+    #[cfg(test)]
     pub(crate) fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         scene_gpu: &SceneGpu,
+        draws: &[Draw],
+        ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) -> u32 {
+        self.encode_from(encoder, scene_gpu, &self.own, draws, ts)
+    }
+
+    /// Records the pass from `view` (made by [`DynamicRsmPass::bind`]).
+    pub(crate) fn encode_from(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        scene_gpu: &SceneGpu,
+        view: &RsmView,
         draws: &[Draw],
         ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) -> u32 {
@@ -123,15 +181,18 @@ impl DynamicRsmPass {
             multiview_mask: None,
         });
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_bind_group(0, &view.bind_group, &[]);
         scene_gpu.draw(&mut pass, draws, true);
         draws.len() as u32
     }
 }
 
-/// The partial-occlusion pass.
+/// The partial-occlusion pass: one occluded sum per static VPL, shared by
+/// every light view the bounce is computed in (a VPL belongs to one view,
+/// so each view adds only to its own VPLs' sums).
 pub(crate) struct OcclusionPass {
     pipeline: wgpu::ComputePipeline,
+    /// Group 0 of the view it was made for.
     bind_group: wgpu::BindGroup,
     /// Per static VPL occluded share (u32, fixed point 2^24).
     pub(crate) occluded: wgpu::Buffer,
@@ -139,7 +200,8 @@ pub(crate) struct OcclusionPass {
 }
 
 impl OcclusionPass {
-    /// Creates the pass. `texel_info` holds `(vpl, share)` per RSM texel.
+    /// Creates the pass for `rsm`'s own view. `texel_info` holds `(vpl,
+    /// share)` per RSM texel.
     pub(crate) fn new(
         device: &wgpu::Device,
         static_metric: &wgpu::TextureView,
@@ -164,54 +226,100 @@ impl OcclusionPass {
             compilation_options: Default::default(),
             cache: None,
         });
-        let layout = pipeline.get_bind_group_layout(0);
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("occlusion"),
-            layout: &layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(static_metric),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&rsm.views[0]),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: texel_info.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: occluded.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: rsm.view_buf.as_entire_binding(),
-                },
-            ],
-        });
         OcclusionPass {
+            bind_group: occlusion_group(
+                device,
+                &pipeline,
+                static_metric,
+                rsm,
+                &rsm.own,
+                texel_info,
+                &occluded,
+            ),
             pipeline,
-            bind_group,
             occluded,
             size: rsm.size,
         }
     }
 
-    /// Records: clear the sums, then one invocation per texel.
-    pub(crate) fn encode(
+    /// Group 0 for another view (its baked metric and texel shares, its
+    /// [`RsmView`]), adding to the same sums.
+    pub(crate) fn bind(
+        &self,
+        device: &wgpu::Device,
+        static_metric: &wgpu::TextureView,
+        rsm: &DynamicRsmPass,
+        view: &RsmView,
+        texel_info: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        occlusion_group(
+            device,
+            &self.pipeline,
+            static_metric,
+            rsm,
+            view,
+            texel_info,
+            &self.occluded,
+        )
+    }
+
+    /// Group 0 of the view it was made for.
+    pub(crate) fn own_group(&self) -> &wgpu::BindGroup {
+        &self.bind_group
+    }
+
+    /// Records one invocation per texel of the view of `group` (from
+    /// [`OcclusionPass::bind`] or [`OcclusionPass::own_group`]), adding to
+    /// the sums (the caller clears them once per frame).
+    pub(crate) fn encode_from(
         &self,
         encoder: &mut wgpu::CommandEncoder,
+        group: &wgpu::BindGroup,
         ts: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
-        encoder.clear_buffer(&self.occluded, 0, None);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("occlusion"),
             timestamp_writes: ts,
         });
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_bind_group(0, group, &[]);
         pass.dispatch_workgroups(self.size.div_ceil(8), self.size.div_ceil(8), 1);
     }
+}
+
+fn occlusion_group(
+    device: &wgpu::Device,
+    pipeline: &wgpu::ComputePipeline,
+    static_metric: &wgpu::TextureView,
+    rsm: &DynamicRsmPass,
+    view: &RsmView,
+    texel_info: &wgpu::Buffer,
+    occluded: &wgpu::Buffer,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("occlusion"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(static_metric),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(&rsm.views[0]),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: texel_info.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: occluded.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 4,
+                resource: view.view_buf.as_entire_binding(),
+            },
+        ],
+    })
 }

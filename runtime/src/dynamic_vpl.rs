@@ -39,13 +39,21 @@
 //!
 //! `max_depth = ceil(log4(max_vpls))` (at most `L`), so there are at most
 //! `4^max_depth ≥ max_vpls` VPLs among [`DynamicVplPass::slots`] slots.
+//!
+//! Several light views ([`DynamicVplPass::bind`]: the other lights' views
+//! moving objects touch) share the pipelines, the pyramid (scratch, each
+//! view's clustering done before the next view's RSM is drawn) and one
+//! slot buffer: each view writes the slot range of its position in the
+//! frame (`Params::base`, [`DynamicVplPass::set_position`]: the views
+//! recorded this frame take the first ranges, so shading reads only
+//! theirs); each view has its own light uniform and parameter blocks.
 //! Everything is `f32` with a fixed reduction order and no atomics: the
 //! output is bit-identical from run to run.
 
 use gibake_gpu::shaders;
 use wgpu::util::DeviceExt;
 
-use crate::dynamic_rsm::DynamicRsmPass;
+use crate::dynamic_rsm::{DynamicRsmPass, RsmView};
 
 /// The pass's WGSL: the slot layout and the in-front test it shares, then
 /// its own.
@@ -92,7 +100,8 @@ struct GpuParams {
     max_depth: u32,
     slots: u32,
     threshold: f32,
-    pad: [u32; 2],
+    base: u32,
+    pad: u32,
 }
 
 /// The slot-pyramid depth for `max_vpls` VPLs: `ceil(log4(max_vpls))`.
@@ -109,20 +118,25 @@ pub(crate) fn slot_count(max_depth: u32) -> u32 {
     (((1u64 << (2 * (max_depth + 1))) - 1) / 3) as u32
 }
 
+/// One light view's clustering: its group 0 (its RSM view, baked metric,
+/// light and parameter blocks).
+pub(crate) struct VplView {
+    bind_group: wgpu::BindGroup,
+    params: wgpu::Buffer,
+}
+
 /// The GPU clustering of the dynamic RSM into VPL slots.
 pub(crate) struct DynamicVplPass {
     reduce: wgpu::ComputePipeline,
     slots_pipeline: wgpu::ComputePipeline,
-    bind_group: wgpu::BindGroup,
-    _nodes: wgpu::Buffer,
-    _params: wgpu::Buffer,
-    /// [`DynamicVplPass::slots`] × [`GpuDynVpl`], in slot order (see the
-    /// module docs). `STORAGE | COPY_SRC`.
+    layout: wgpu::BindGroupLayout,
+    /// The view it was made for (slots `0..slots`).
+    own: VplView,
+    nodes: wgpu::Buffer,
+    /// `views` × [`DynamicVplPass::slots`] × [`GpuDynVpl`], each view's in
+    /// slot order (see the module docs). `STORAGE | COPY_SRC | COPY_DST`.
     pub(crate) vpls: wgpu::Buffer,
-    levels: u32,
-    #[cfg_attr(not(test), expect(dead_code))]
-    max_depth: u32,
-    slots: u32,
+    shape: Shape,
 }
 
 fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
@@ -170,7 +184,8 @@ impl DynamicVplPass {
     /// static RSM metric (`R32Float`, same size), `light_buf` the
     /// `GpuPrimaryLight` uniform, `threshold` the bake's effective threshold
     /// (`manifest.settings.threshold`), `max_vpls` the most VPLs wanted
-    /// (rounded up to a power of 4).
+    /// (rounded up to a power of 4), `views` how many views' slots the
+    /// output holds (this one's first; ≥ 1).
     pub(crate) fn new(
         device: &wgpu::Device,
         rsm: &DynamicRsmPass,
@@ -178,6 +193,7 @@ impl DynamicVplPass {
         light_buf: &wgpu::Buffer,
         threshold: f32,
         max_vpls: u32,
+        views: u32,
     ) -> DynamicVplPass {
         let size = rsm.size.max(1);
         let levels = size.next_power_of_two().trailing_zeros();
@@ -193,30 +209,13 @@ impl DynamicVplPass {
         });
         let vpls = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("dynamic VPLs"),
-            size: std::mem::size_of::<GpuDynVpl>() as u64 * u64::from(slots),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            size: std::mem::size_of::<GpuDynVpl>() as u64
+                * u64::from(slots)
+                * u64::from(views.max(1)),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
-        });
-        // Block d (< levels): cs_reduce writing level d; block `levels`: cs_slots.
-        let mut blocks = vec![0u8; (PARAMS_STRIDE * u64::from(levels + 1)) as usize];
-        for level in 0..=levels {
-            let p = GpuParams {
-                level,
-                levels,
-                size,
-                max_depth,
-                slots,
-                threshold,
-                pad: [0; 2],
-            };
-            let at = (PARAMS_STRIDE * u64::from(level)) as usize;
-            blocks[at..at + std::mem::size_of::<GpuParams>()]
-                .copy_from_slice(bytemuck::bytes_of(&p));
-        }
-        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("dynamic VPL params"),
-            contents: &blocks,
-            usage: wgpu::BufferUsages::UNIFORM,
         });
         let storage = wgpu::BufferBindingType::Storage { read_only: false };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -231,52 +230,6 @@ impl DynamicVplPass {
                 buffer_entry(6, storage, false),
                 buffer_entry(7, storage, false),
                 buffer_entry(8, wgpu::BufferBindingType::Uniform, true),
-            ],
-        });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("dynamic vpls"),
-            layout: &layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&rsm.views[0]),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&rsm.views[1]),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::TextureView(&rsm.views[2]),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: wgpu::BindingResource::TextureView(static_metric),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: rsm.view_buf.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: light_buf.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 6,
-                    resource: nodes.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 7,
-                    resource: vpls.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 8,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &params,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(std::mem::size_of::<GpuParams>() as u64),
-                    }),
-                },
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -295,35 +248,98 @@ impl DynamicVplPass {
                 cache: None,
             })
         };
-        DynamicVplPass {
-            reduce: pipeline("cs_reduce"),
-            slots_pipeline: pipeline("cs_slots"),
-            bind_group,
-            _nodes: nodes,
-            _params: params,
-            vpls,
+        let shape = Shape {
             levels,
             max_depth,
             slots,
+            size,
+            threshold,
+        };
+        let own = vpl_view(
+            device,
+            (&layout, &nodes, &vpls),
+            &shape,
+            (rsm, &rsm.own),
+            static_metric,
+            light_buf,
+            0,
+        );
+        DynamicVplPass {
+            reduce: pipeline("cs_reduce"),
+            slots_pipeline: pipeline("cs_slots"),
+            own,
+            layout,
+            nodes,
+            vpls,
+            shape,
         }
+    }
+
+    /// Group 0 for another light view: its [`RsmView`] and baked
+    /// `static_metric`, its light (`GpuPrimaryLight` uniform), writing the
+    /// slots of view `index` (`index · slots ..`; `index` below the `views`
+    /// the pass was made for).
+    pub(crate) fn bind(
+        &self,
+        device: &wgpu::Device,
+        rsm: &DynamicRsmPass,
+        view: &RsmView,
+        static_metric: &wgpu::TextureView,
+        light_buf: &wgpu::Buffer,
+        index: u32,
+    ) -> VplView {
+        vpl_view(
+            device,
+            (&self.layout, &self.nodes, &self.vpls),
+            &self.shape,
+            (rsm, view),
+            static_metric,
+            light_buf,
+            index,
+        )
     }
 
     /// Number of slots in [`DynamicVplPass::vpls`] (`(4^(max_depth+1) − 1)/3`).
     pub(crate) fn slots(&self) -> u32 {
-        self.slots
+        self.shape.slots
     }
 
     /// The deepest slot level (`ceil(log4(max_vpls))`, at most log2 of the
     /// RSM size rounded up to a power of two).
     #[cfg(test)]
     pub(crate) fn max_depth(&self) -> u32 {
-        self.max_depth
+        self.shape.max_depth
     }
 
-    /// Records the clustering (after the dynamic RSM pass of the same frame).
+    /// Group 0 of the view it was made for (slots `0..slots` until moved).
+    pub(crate) fn own_view(&self) -> &VplView {
+        &self.own
+    }
+
+    /// Has `view` write the slots of position `index` from the next
+    /// recorded frame on (`index · slots ..`; below the `views` the pass
+    /// was made for).
+    pub(crate) fn set_position(&self, queue: &wgpu::Queue, view: &VplView, index: u32) {
+        queue.write_buffer(&view.params, 0, &param_blocks(&self.shape, index));
+    }
+
+    /// Records the clustering of its own view (after the dynamic RSM pass
+    /// of the same frame).
+    #[cfg(test)]
     pub(crate) fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
+        ts: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        self.encode_from(encoder, &self.own, ts);
+    }
+
+    /// Records the clustering of the view of `view` (after its dynamic RSM
+    /// pass), into its slots.
+    pub(crate) fn encode_from(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        view: &VplView,
         ts: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -332,16 +348,109 @@ impl DynamicVplPass {
         });
         let offset = |block: u32| (PARAMS_STRIDE * u64::from(block)) as u32;
         pass.set_pipeline(&self.reduce);
-        for level in (0..self.levels).rev() {
-            pass.set_bind_group(0, &self.bind_group, &[offset(level)]);
+        for level in (0..self.shape.levels).rev() {
+            pass.set_bind_group(0, &view.bind_group, &[offset(level)]);
             let (x, y) = groups(1u32 << (2 * level));
             pass.dispatch_workgroups(x, y, 1);
         }
         pass.set_pipeline(&self.slots_pipeline);
-        pass.set_bind_group(0, &self.bind_group, &[offset(self.levels)]);
-        let (x, y) = groups(self.slots);
+        pass.set_bind_group(0, &view.bind_group, &[offset(self.shape.levels)]);
+        let (x, y) = groups(self.shape.slots);
         pass.dispatch_workgroups(x, y, 1);
     }
+}
+
+/// The pyramid's shape and the clustering's rule, the same for every view.
+struct Shape {
+    levels: u32,
+    max_depth: u32,
+    slots: u32,
+    size: u32,
+    threshold: f32,
+}
+
+fn texture_binding(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: wgpu::BindingResource::TextureView(view),
+    }
+}
+
+/// Group 0 of one view (see [`DynamicVplPass::bind`]); `shared` is the
+/// pass's layout, pyramid and slot buffer.
+fn vpl_view(
+    device: &wgpu::Device,
+    shared: (&wgpu::BindGroupLayout, &wgpu::Buffer, &wgpu::Buffer),
+    shape: &Shape,
+    (rsm, view): (&DynamicRsmPass, &RsmView),
+    static_metric: &wgpu::TextureView,
+    light_buf: &wgpu::Buffer,
+    index: u32,
+) -> VplView {
+    let (layout, nodes, vpls) = shared;
+    let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("dynamic VPL params"),
+        contents: &param_blocks(shape, index),
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+    });
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("dynamic vpls"),
+        layout,
+        entries: &[
+            texture_binding(0, &rsm.views[0]),
+            texture_binding(1, &rsm.views[1]),
+            texture_binding(2, &rsm.views[2]),
+            texture_binding(3, static_metric),
+            wgpu::BindGroupEntry {
+                binding: 4,
+                resource: view.view_buf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 5,
+                resource: light_buf.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 6,
+                resource: nodes.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 7,
+                resource: vpls.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 8,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &params,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(std::mem::size_of::<GpuParams>() as u64),
+                }),
+            },
+        ],
+    });
+    VplView { bind_group, params }
+}
+
+/// The parameter blocks of a view writing the slots of position `index`:
+/// block d (< levels) for cs_reduce writing level d, block `levels` for
+/// cs_slots.
+fn param_blocks(shape: &Shape, index: u32) -> Vec<u8> {
+    let levels = shape.levels;
+    let mut blocks = vec![0u8; (PARAMS_STRIDE * u64::from(levels + 1)) as usize];
+    for level in 0..=levels {
+        let p = GpuParams {
+            level,
+            levels,
+            size: shape.size,
+            max_depth: shape.max_depth,
+            slots: shape.slots,
+            threshold: shape.threshold,
+            base: index * shape.slots,
+            pad: 0,
+        };
+        let at = (PARAMS_STRIDE * u64::from(level)) as usize;
+        blocks[at..at + std::mem::size_of::<GpuParams>()].copy_from_slice(bytemuck::bytes_of(&p));
+    }
+    blocks
 }
 
 #[cfg(test)]

@@ -22,7 +22,7 @@ struct Params {
     max_depth: u32,   // deepest slot level (≤ L)
     slots: u32,       // (4^(max_depth + 1) − 1) / 3
     threshold: f32,
-    _pad0: u32,
+    base: u32,        // this view's first slot in `vpls` (views one after another)
     _pad1: u32,
 }
 
@@ -282,5 +282,5 @@ fn cs_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
             out.flux = vec4<f32>(finite_or_zero3(n.flux), coherence);
         }
     }
-    vpls[s] = out;
+    vpls[params.base + s] = out;
 }

@@ -484,6 +484,10 @@ impl Renderer {
         if light_views == 0 {
             passes.retain(|(p, _)| *p != Pass::LightMerge);
         }
+        let light_views_bounced = self.world.moving.light_views_bounced();
+        if light_views_bounced == 0 {
+            passes.retain(|(p, _)| *p != Pass::LightBounce);
+        }
         let update_draw_calls = self.world.moving.draw_calls()
             + self.world.cascade_draw_calls()
             + self.world.light_merge_draw_calls();
@@ -499,6 +503,7 @@ impl Renderer {
             dynamic_vpl_slots: self.world.moving.dynamic_vpl_slots(),
             affected_maps: affected,
             light_views_merged: light_views,
+            light_views_bounced,
             update_draw_calls,
             draw_calls: update_draw_calls + view_draws,
             views: views.len() as u32,

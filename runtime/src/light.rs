@@ -32,10 +32,13 @@ pub struct LightInfo {
     /// scene (each with its static shadow maps; moving a light is a
     /// re-bake).
     pub shaded: bool,
-    /// Whether its bounce off moving objects is computed per frame (the
-    /// dynamic RSM): the first light, when it is a spot or directional
-    /// light, so far. Moving objects cast shadows in every light (each
-    /// view they touch is merged).
+    /// Whether its bounce off moving objects is computed per frame (a
+    /// dynamic RSM, the occlusion of its static VPLs and dynamic VPLs): the
+    /// first light when it is a spot or directional light, and every light
+    /// with a view whose static RSM the asset stores (format 4.1: the views
+    /// moving objects can enter; [`crate::Pass::LightBounce`], only in the
+    /// views they touch each frame). Moving objects cast shadows in every
+    /// light (each view they touch is merged).
     pub dynamic_bounce: bool,
 }
 
@@ -62,7 +65,15 @@ impl LightInfo {
                         .map(|r| r.vpls)
                 }),
                 shaded: true,
-                dynamic_bounce: i == 0 && has_primary(scene),
+                dynamic_bounce: (i == 0 && has_primary(scene))
+                    || asset.is_some_and(|a| {
+                        let m = &a.manifest;
+                        m.view_rsms.iter().any(|&v| {
+                            m.views
+                                .get(v as usize)
+                                .is_some_and(|r| r.light as usize == i)
+                        })
+                    }),
             })
             .collect()
     }

@@ -8,6 +8,13 @@
 //!    where they are nearer the light than the static surface
 //!    - occlusion: scale the static VPLs' flux by their lit fraction,
 //!    - dynamic VPLs: clustered on the GPU with the bake's rule;
+//!
+//!    the same three for every other light's view whose static RSM the
+//!    asset stores (format 4.1: the views moving objects can enter), each
+//!    frame only in the views the moving objects' boxes touch
+//!    ([`Pass::LightBounce`]); one set of RSM targets, one occluded sum per
+//!    static VPL and one slot buffer serve them all (each view's dynamic
+//!    VPLs in its own slot range, zeroed when it is not touched);
 //! 3. VPL maps: only the VPLs whose hemisphere a moving object's bounds
 //!    enter get a merge-atlas tile in which the moving objects are
 //!    rasterized (`naive`: every map re-rendered from all geometry).
@@ -16,15 +23,17 @@
 //! view's shading reads its results ([`MovingPasses::gi`]). With no moving
 //! objects (and not `naive`) none of it exists: no pass, no texture.
 
-use gibake_gpu::LightView;
 use gibake_gpu::mesh::{Draw, SceneGpu};
 use gibake_gpu::passes::shadow::ShadowPass;
+use gibake_gpu::{GpuPrimaryLight, LightView};
+use gibake_scene::{Aabb, Light};
 use glam::Mat4;
+use wgpu::util::DeviceExt;
 
 use crate::RuntimeError;
-use crate::baked::BakedGpu;
-use crate::dynamic_rsm::{DynamicRsmPass, OcclusionPass};
-use crate::dynamic_vpl::DynamicVplPass;
+use crate::baked::{BakedGpu, RsmGpu};
+use crate::dynamic_rsm::{DynamicRsmPass, OcclusionPass, RsmView};
+use crate::dynamic_vpl::{DynamicVplPass, VplView};
 use crate::merge::VplMerge;
 use crate::plan::{FramePlan, Pass};
 use crate::stats::Timer;
@@ -41,6 +50,8 @@ pub(crate) struct UpdateInputs<'a> {
     pub primary_view: LightView,
     /// `GpuPrimaryLight` uniform.
     pub light_buf: &'a wgpu::Buffer,
+    /// The scene's lights (the other views' bounce uses theirs).
+    pub lights: &'a [Light],
     /// The bake's clustering threshold (for the dynamic VPLs).
     pub threshold: f32,
     /// Most dynamic VPLs per frame.
@@ -64,11 +75,32 @@ pub(crate) struct UpdateOutputs<'a> {
     pub dyn_vpls: Option<&'a wgpu::Buffer>,
 }
 
+/// One light view the bounce off moving objects is computed in: its
+/// bindings (`None`: the passes' own, made for it), its view, whether it is
+/// the primary light's (recorded every frame) and whether this frame's
+/// moving objects touch it.
+struct BounceView {
+    view: LightView,
+    rsm: Option<RsmView>,
+    occlusion: Option<wgpu::BindGroup>,
+    vpls: Option<VplView>,
+    /// Its light's `GpuPrimaryLight` uniform (bound in `vpls`).
+    _light_buf: Option<wgpu::Buffer>,
+    primary: bool,
+    touched: bool,
+    /// The position of its slot range (the views recorded this frame come
+    /// first, in order), as its parameters say.
+    position: u32,
+}
+
 /// The moving objects' passes of one renderer.
 pub(crate) struct MovingPasses {
     primary: Option<ShadowPass>,
     rsm: Option<(DynamicRsmPass, OcclusionPass)>,
     vpls: Option<DynamicVplPass>,
+    /// Every view the bounce is computed in, the primary light's first (the
+    /// order of the dynamic VPLs' slot ranges).
+    bounce: Vec<BounceView>,
     merge: Option<VplMerge>,
     /// Draw calls of this frame's VPL-map merge.
     merge_draws: u32,
@@ -87,27 +119,96 @@ impl MovingPasses {
         let primary = plan
             .has(Pass::PrimaryMerge)
             .then(|| ShadowPass::new(device, i.scene_gpu, i.primary_view));
-        let rsm_data = i.baked.and_then(|b| b.rsm.as_ref());
-        let rsm = match rsm_data {
-            Some(r) if plan.has(Pass::DynamicRsm) => {
-                let pass = DynamicRsmPass::new(device, i.scene_gpu, &r.view);
+        // The views of the bounce: the primary light's RSM (DynamicRsm,
+        // Occlusion, DynamicVpls), then the other lights' stored ones
+        // (LightBounce).
+        let mut sources: Vec<(&RsmGpu, bool)> = Vec::new();
+        if let Some(r) = i.baked.and_then(|b| b.rsm.as_ref())
+            && plan.has(Pass::DynamicRsm)
+        {
+            sources.push((r, true));
+        }
+        if plan.has(Pass::LightBounce) {
+            sources.extend(
+                i.baked
+                    .into_iter()
+                    .flat_map(|b| &b.view_rsms)
+                    .map(|r| (r, false)),
+            );
+        }
+        let with_vpls =
+            i.max_dynamic_vpls > 0 && (plan.has(Pass::DynamicVpls) || plan.has(Pass::LightBounce));
+        let (rsm, vpls, bounce) = match sources.first() {
+            Some(&(first, _)) => {
+                let pass = DynamicRsmPass::new(device, i.scene_gpu, &first.view);
                 let vpl_count = i.baked.map_or(0, |b| b.vpls.len() as u32);
-                let occ =
-                    OcclusionPass::new(device, &r.static_metric, &pass, &r.texel_info, vpl_count);
-                Some((pass, occ))
+                let occ = OcclusionPass::new(
+                    device,
+                    &first.static_metric,
+                    &pass,
+                    &first.texel_info,
+                    vpl_count,
+                );
+                let light_of = |r: &RsmGpu, primary: bool| -> Option<wgpu::Buffer> {
+                    (!primary).then(|| {
+                        let light = i.lights.get(r.light).unwrap_or(&i.lights[0]);
+                        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                            label: Some("bounce light"),
+                            contents: bytemuck::bytes_of(&GpuPrimaryLight::new(light)),
+                            usage: wgpu::BufferUsages::UNIFORM,
+                        })
+                    })
+                };
+                let first_light = light_of(first, sources[0].1);
+                let dyn_vpls = with_vpls.then(|| {
+                    DynamicVplPass::new(
+                        device,
+                        &pass,
+                        &first.static_metric,
+                        first_light.as_ref().unwrap_or(i.light_buf),
+                        i.threshold,
+                        i.max_dynamic_vpls,
+                        sources.len() as u32,
+                    )
+                });
+                let mut bounce = vec![BounceView {
+                    view: first.view,
+                    rsm: None,
+                    occlusion: None,
+                    vpls: None,
+                    _light_buf: first_light,
+                    primary: sources[0].1,
+                    touched: sources[0].1,
+                    position: 0,
+                }];
+                for (j, &(r, primary)) in sources.iter().enumerate().skip(1) {
+                    let view = pass.bind(device, i.scene_gpu, &r.view);
+                    let occlusion = occ.bind(device, &r.static_metric, &pass, &view, &r.texel_info);
+                    let light_buf = light_of(r, primary);
+                    let vpls = dyn_vpls.as_ref().map(|d| {
+                        d.bind(
+                            device,
+                            &pass,
+                            &view,
+                            &r.static_metric,
+                            light_buf.as_ref().unwrap_or(i.light_buf),
+                            j as u32,
+                        )
+                    });
+                    bounce.push(BounceView {
+                        view: r.view,
+                        rsm: Some(view),
+                        occlusion: Some(occlusion),
+                        vpls,
+                        _light_buf: light_buf,
+                        primary,
+                        touched: primary,
+                        position: j as u32,
+                    });
+                }
+                (Some((pass, occ)), dyn_vpls, bounce)
             }
-            _ => None,
-        };
-        let vpls = match (&rsm, rsm_data) {
-            (Some((pass, _)), Some(r)) if plan.has(Pass::DynamicVpls) => Some(DynamicVplPass::new(
-                device,
-                pass,
-                &r.static_metric,
-                i.light_buf,
-                i.threshold,
-                i.max_dynamic_vpls,
-            )),
-            _ => None,
+            None => (None, None, Vec::new()),
         };
         let merge = match i.baked {
             Some(b) if plan.has(Pass::VplMaps) => Some(VplMerge::new(
@@ -123,6 +224,7 @@ impl MovingPasses {
             primary,
             rsm,
             vpls,
+            bounce,
             merge,
             merge_draws: 0,
             moving_draws: i.scene_gpu.dynamic_draws.len() as u32,
@@ -135,9 +237,10 @@ impl MovingPasses {
     }
 
     /// Uploads this frame's merge tables for the moving objects' `draws`
-    /// shown, at `transforms` (their draw data is already on the GPU).
-    /// Returns whether the merge atlas was re-created (shading rebinds it);
-    /// on an error the last frame's tables stay.
+    /// shown, at `transforms` (their draw data is already on the GPU), and
+    /// picks the other lights' views their world `boxes` touch. Returns
+    /// whether the merge atlas was re-created (shading rebinds it); on an
+    /// error the last frame's tables stay.
     pub(crate) fn prepare(
         &mut self,
         device: &wgpu::Device,
@@ -145,8 +248,22 @@ impl MovingPasses {
         scene_gpu: &SceneGpu,
         draws: &[Draw],
         transforms: &[Mat4],
+        boxes: &[Aabb],
     ) -> Result<bool, RuntimeError> {
         self.moving_draws = draws.len() as u32;
+        for b in self.bounce.iter_mut().filter(|b| !b.primary) {
+            b.touched = boxes.iter().any(|x| b.view.may_see(x));
+        }
+        // The views recorded this frame take the first slot ranges, in
+        // order: shading reads only those (`dynamic_vpl_slots`).
+        for (next, b) in (0u32..).zip(self.bounce.iter_mut().filter(|b| b.touched)) {
+            if b.position != next
+                && let Some(d) = &self.vpls
+            {
+                d.set_position(queue, b.vpls.as_ref().unwrap_or(d.own_view()), next);
+            }
+            b.position = next;
+        }
         let grown = match self.merge.as_mut() {
             Some(m) => m.prepare(device, queue, scene_gpu, draws, transforms)?,
             None => false,
@@ -160,16 +277,27 @@ impl MovingPasses {
         self.merge.as_ref().map_or(0, VplMerge::affected)
     }
 
+    /// The other lights' views whose bounce this frame computes.
+    pub(crate) fn light_views_bounced(&self) -> u32 {
+        self.bounce
+            .iter()
+            .filter(|b| !b.primary && b.touched)
+            .count() as u32
+    }
+
     /// Draw calls [`MovingPasses::record`] records.
     pub(crate) fn draw_calls(&self) -> u32 {
         let primary = self.primary.as_ref().map_or(0, |_| self.moving_draws);
-        let rsm = self.rsm.as_ref().map_or(0, |_| self.moving_draws);
+        let rsm = self.bounce.iter().filter(|b| b.touched).count() as u32 * self.moving_draws;
         primary + rsm + self.merge_draws
     }
 
-    /// Dynamic VPL slots shading reads.
+    /// Dynamic VPL slots shading reads this frame: those of the views
+    /// whose bounce is computed (the primary light's, and the other views
+    /// the moving objects touch).
     pub(crate) fn dynamic_vpl_slots(&self) -> u32 {
-        self.vpls.as_ref().map_or(0, DynamicVplPass::slots)
+        let recorded = self.bounce.iter().filter(|b| b.touched).count() as u32;
+        self.vpls.as_ref().map_or(0, |d| d.slots() * recorded)
     }
 
     /// Tiles per merge-atlas row (1 without a merge).
@@ -202,15 +330,46 @@ impl MovingPasses {
             p.encode(encoder, scene_gpu, &[draws], ts);
         }
         if let Some((rsm, occlusion)) = &self.rsm {
-            rsm.encode(
-                encoder,
-                scene_gpu,
-                draws,
-                timer.render(Pass::DynamicRsm, None),
-            );
-            occlusion.encode(encoder, timer.compute(Pass::Occlusion, None));
-            if let Some(d) = &self.vpls {
-                d.encode(encoder, timer.compute(Pass::DynamicVpls, None));
+            encoder.clear_buffer(&occlusion.occluded, 0, None);
+            let others: Vec<usize> = (0..self.bounce.len())
+                .filter(|&j| !self.bounce[j].primary && self.bounce[j].touched)
+                .collect();
+            for (j, b) in self.bounce.iter().enumerate() {
+                if !b.touched {
+                    continue;
+                }
+                // The primary's passes are timed apart; the other views'
+                // together, from the first one's RSM to the last one's end.
+                let (first, last) = match others.iter().position(|&k| k == j) {
+                    Some(n) => (n == 0, n + 1 == others.len()),
+                    None => (false, false),
+                };
+                let has_vpls = self.vpls.is_some();
+                let rsm_ts = if b.primary {
+                    timer.render(Pass::DynamicRsm, None)
+                } else {
+                    timer.render_span(Pass::LightBounce, first, false)
+                };
+                let own = b.rsm.as_ref().unwrap_or(&rsm.own);
+                rsm.encode_from(encoder, scene_gpu, own, draws, rsm_ts);
+                let occ_ts = if b.primary {
+                    timer.compute(Pass::Occlusion, None)
+                } else {
+                    timer.compute_span(Pass::LightBounce, false, last && !has_vpls)
+                };
+                occlusion.encode_from(
+                    encoder,
+                    b.occlusion.as_ref().unwrap_or(occlusion.own_group()),
+                    occ_ts,
+                );
+                if let Some(d) = &self.vpls {
+                    let ts = if b.primary {
+                        timer.compute(Pass::DynamicVpls, None)
+                    } else {
+                        timer.compute_span(Pass::LightBounce, false, last)
+                    };
+                    d.encode_from(encoder, b.vpls.as_ref().unwrap_or(d.own_view()), ts);
+                }
             }
         }
         if let Some(m) = &self.merge {

@@ -39,6 +39,10 @@ pub enum Pass {
     Occlusion,
     /// The dynamic RSM clustered into dynamic VPLs on the GPU.
     DynamicVpls,
+    /// The bounce off moving objects in the other lights' views they touch
+    /// this frame, each view with a static RSM in the asset (format 4.1):
+    /// per view, its dynamic RSM, occlusion and dynamic VPLs.
+    LightBounce,
     /// Moving objects rasterized into the tiles of the VPL maps they reach
     /// (`naive`: every map re-rendered from all geometry).
     VplMaps,
@@ -55,13 +59,14 @@ pub enum Pass {
 
 impl Pass {
     /// Every pass, in recording order.
-    pub const ALL: [Pass; 11] = [
+    pub const ALL: [Pass; 12] = [
         Pass::PrimaryMerge,
         Pass::LightMerge,
         Pass::Cascades,
         Pass::DynamicRsm,
         Pass::Occlusion,
         Pass::DynamicVpls,
+        Pass::LightBounce,
         Pass::VplMaps,
         Pass::GBuffer,
         Pass::Shade,
@@ -78,6 +83,7 @@ impl Pass {
             Pass::DynamicRsm => "dynamic rsm",
             Pass::Occlusion => "occlusion",
             Pass::DynamicVpls => "dynamic vpls",
+            Pass::LightBounce => "light bounce",
             Pass::VplMaps => "vpl maps",
             Pass::GBuffer => "gbuffer",
             Pass::Shade => "shade",
@@ -248,6 +254,8 @@ impl FramePlan {
         let moving = !scene.dynamic_objects.is_empty();
         let indirect = asset.is_some() && mode != Mode::Direct;
         let rsm = moving && indirect && asset.is_some_and(|a| a.rsm.is_some());
+        // The other lights' bounce off moving objects (format 4.1 assets).
+        let light_bounce = moving && indirect && asset.is_some_and(|a| !a.view_rsms.is_empty());
         let vpl_maps = asset.is_some()
             && match mode {
                 Mode::Naive => true,
@@ -288,6 +296,7 @@ impl FramePlan {
             .with_if(Pass::DynamicRsm, rsm)
             .with_if(Pass::Occlusion, rsm)
             .with_if(Pass::DynamicVpls, rsm && settings.max_dynamic_vpls > 0)
+            .with_if(Pass::LightBounce, light_bounce)
             .with_if(Pass::VplMaps, vpl_maps)
             .with(Pass::GBuffer)
             .with(Pass::Shade)
@@ -305,11 +314,18 @@ impl FramePlan {
         for (on, flag) in [
             (mode == Mode::Naive, F::AtlasOnly),
             (passes.has(Pass::PrimaryMerge), F::DynPrimary),
-            (passes.has(Pass::Occlusion), F::Occlusion),
+            (
+                passes.has(Pass::Occlusion) || passes.has(Pass::LightBounce),
+                F::Occlusion,
+            ),
             // Without a merge atlas there is no tile buffer: every VPL uses
             // its baked map alone (a static scene, or rsm mode).
             (passes.has(Pass::VplMaps), F::Tiles),
-            (passes.has(Pass::DynamicVpls), F::DynamicVpl),
+            (
+                passes.has(Pass::DynamicVpls)
+                    || (passes.has(Pass::LightBounce) && settings.max_dynamic_vpls > 0),
+                F::DynamicVpl,
+            ),
             (passes.has(Pass::Cascades), F::Cascades),
             (
                 flags & F::Direct as u32 != 0

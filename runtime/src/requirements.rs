@@ -193,13 +193,13 @@ impl Requirements {
             r.gpu_bytes += maps * u64::from(c.count) * 8 * sq(c.size);
         }
         if let Some(a) = asset {
-            r.asset(a, &plan);
+            r.asset(a, &plan, settings.max_dynamic_vpls);
         }
         Ok(r)
     }
 
     /// The asset's share: its upload and what the planned update allocates.
-    fn asset(&mut self, a: &Asset, plan: &FramePlan) {
+    fn asset(&mut self, a: &Asset, plan: &FramePlan, max_dynamic_vpls: u32) {
         let m = &a.manifest;
         let s = m.settings.vpl_map_size;
         let (cols, rows) = atlas_grid(m.map_count.max(1));
@@ -229,23 +229,32 @@ impl Requirements {
             );
             upload += 4 * u64::from(w) * u64::from(h);
         }
-        if let Some(rsm) = &a.rsm {
+        // The stored RSMs: the primary light's, then the other lights'
+        // views' (format 4.1), all `rsm_size`².
+        let rsms: Vec<&gibake_asset::RsmData> = a.rsm.iter().chain(&a.view_rsms).collect();
+        for rsm in &rsms {
             self.need(Limit::Texture2d, "the baked RSM", u64::from(rsm.size));
             let texels = sq(rsm.size);
             self.need(Limit::StorageBinding, "the RSM texel shares", 8 * texels);
             upload += 12 * texels;
-            if plan.has(Pass::DynamicRsm) {
-                // Targets (16 + 8 + 8) and depth (4); occlusion sums.
-                self.gpu_bytes += 36 * texels + 4 * a.vpls.len() as u64;
-            }
-            if plan.has(Pass::DynamicVpls) {
+        }
+        // One set of dynamic RSM targets and one pyramid serve every view.
+        let bounce = plan.has(Pass::DynamicRsm) || plan.has(Pass::LightBounce);
+        if let Some(rsm) = rsms.first().filter(|_| bounce) {
+            let texels = sq(rsm.size);
+            // Targets (16 + 8 + 8) and depth (4); occlusion sums.
+            self.gpu_bytes += 36 * texels + 4 * a.vpls.len() as u64;
+            if max_dynamic_vpls > 0 {
                 let levels = rsm.size.max(1).next_power_of_two().trailing_zeros();
                 let nodes = match levels {
                     0 => 1,
                     l => u64::from(crate::dynamic_vpl::slot_count(l - 1)),
                 };
                 self.need(Limit::StorageBinding, "the dynamic VPL pyramid", 80 * nodes);
-                self.gpu_bytes += 80 * nodes;
+                // The pyramid, and 48 bytes per slot of every view.
+                let depth = crate::dynamic_vpl::depth_for(max_dynamic_vpls).min(levels);
+                let slots = u64::from(crate::dynamic_vpl::slot_count(depth)) * rsms.len() as u64;
+                self.gpu_bytes += 80 * nodes + 48 * slots;
             }
         }
         if plan.has(Pass::VplMaps) {

@@ -491,6 +491,16 @@ impl ShadeGi {
         self.group = Self::group(device, shade, s, &self.params_buf);
     }
 
+    /// Shades the first `n` dynamic VPL slots from the next frame on (the
+    /// views whose bounce the frame computes; written only when it
+    /// changes).
+    pub(crate) fn set_dynamic_slots(&mut self, queue: &wgpu::Queue, n: u32) {
+        if self.params.n_dynamic != n {
+            self.params.n_dynamic = n;
+            queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
+        }
+    }
+
     /// Static VPLs shaded.
     pub(crate) fn static_vpls(&self) -> u32 {
         self.params.n_static

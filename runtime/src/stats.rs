@@ -79,6 +79,10 @@ pub struct FrameStats {
     /// Views of the lights after the first into which moving objects were
     /// rasterized this frame (the light merge's passes).
     pub light_views_merged: u32,
+    /// The other lights' views whose bounce off moving objects was computed
+    /// this frame ([`Pass::LightBounce`]: the views with a stored RSM the
+    /// moving objects touch).
+    pub light_views_bounced: u32,
     /// Draw calls recorded by the per-frame update (merge passes).
     pub update_draw_calls: u32,
     /// Draw calls in total.
@@ -222,6 +226,22 @@ impl Timer {
         slot.started = Some(Instant::now());
         *slot.done.lock().unwrap_or_else(|e| e.into_inner()) = None;
         self.current = Some(k);
+    }
+
+    /// Timestamp writes of compute pass `pass` when it is one of several
+    /// passes timed as one span (see [`Timer::render_span`]).
+    pub(crate) fn compute_span(
+        &self,
+        pass: Pass,
+        first: bool,
+        last: bool,
+    ) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        let (set, i) = self.query(pass, None)?;
+        (first || last).then_some(wgpu::ComputePassTimestampWrites {
+            query_set: set,
+            beginning_of_pass_write_index: first.then_some(i),
+            end_of_pass_write_index: last.then_some(i + 1),
+        })
     }
 
     /// Timestamp writes of render pass `pass` (of `view`) this frame.

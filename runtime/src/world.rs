@@ -109,6 +109,7 @@ impl World {
                 baked: baked.as_ref(),
                 primary_view: light.view,
                 light_buf: &light.light_buf,
+                lights: &scene.lights,
                 threshold: asset.map_or(0.0, |a| a.manifest.settings.threshold),
                 max_dynamic_vpls: settings.max_dynamic_vpls,
                 scene_diagonal: scene.full_bounds().diagonal(),
@@ -182,15 +183,16 @@ impl World {
         if !transforms.is_empty() {
             self.scene_gpu.set_dynamic_transforms(queue, transforms);
         }
+        // The moving objects' world boxes: which light views they touch.
+        let boxes: Vec<gibake_scene::Aabb> = self
+            .moving_draws
+            .iter()
+            .map(|d| match d.object.and_then(|k| transforms.get(k)) {
+                Some(m) => d.bounds.transformed(*m),
+                None => d.bounds,
+            })
+            .collect();
         if let Some(o) = self.other_lights.as_mut().filter(|o| o.merges()) {
-            let boxes: Vec<gibake_scene::Aabb> = self
-                .moving_draws
-                .iter()
-                .map(|d| match d.object.and_then(|k| transforms.get(k)) {
-                    Some(m) => d.bounds.transformed(*m),
-                    None => d.bounds,
-                })
-                .collect();
             o.prepare(queue, &boxes);
         }
         let grown = self.moving.prepare(
@@ -199,7 +201,10 @@ impl World {
             &self.scene_gpu,
             &self.moving_draws,
             transforms,
+            &boxes,
         )?;
+        self.gi
+            .set_dynamic_slots(queue, self.moving.dynamic_vpl_slots());
         if grown {
             let sources = GiSources {
                 plan: &self.plan,

@@ -402,7 +402,13 @@ fn moving_view_rsms(
                 .position(|m| m.light == k && m.face == face);
             let data = |rsm: &crate::rsm::Rsm, texel_vpl: Vec<u32>| {
                 let flux: Vec<[f32; 3]> = rsm.flux.iter().map(|f| f.to_array()).collect();
-                RsmData::from_flux(rsm.size, rsm.metric.clone(), &flux, texel_vpl, next as usize)
+                RsmData::from_flux(
+                    rsm.size,
+                    rsm.metric.clone(),
+                    &flux,
+                    texel_vpl,
+                    next as usize,
+                )
             };
             let rsm = match kept {
                 Some(j) => data(

@@ -42,6 +42,9 @@ pub(super) struct FrameSummary {
     pub(super) affected_maps: f64,
     /// Views of the lights after the first merged (moving objects in them).
     pub(super) light_views: f64,
+    /// Views of the lights after the first whose bounce off moving objects
+    /// was computed (`Pass::LightBounce`).
+    pub(super) light_bounce_views: f64,
     pub(super) update_draw_calls: f64,
     pub(super) draw_calls: f64,
     pub(super) static_vpls: u32,
@@ -62,6 +65,7 @@ impl FrameSummary {
             "passes_ms": self.passes.iter().map(|(n, ms)| json!({"pass": n, "ms": ms})).collect::<Vec<_>>(),
             "affected_maps": self.affected_maps,
             "light_views_merged": self.light_views,
+            "light_views_bounced": self.light_bounce_views,
             "update_draw_calls": self.update_draw_calls,
             "draw_calls": self.draw_calls,
             "static_vpls": self.static_vpls,
@@ -93,6 +97,7 @@ pub(super) fn summarize(frames: &[(FrameStats, f64)]) -> FrameSummary {
             .collect(),
         affected_maps: col(&|s| f64::from(s.affected_maps)),
         light_views: col(&|s| f64::from(s.light_views_merged)),
+        light_bounce_views: col(&|s| f64::from(s.light_views_bounced)),
         update_draw_calls: col(&|s| f64::from(s.update_draw_calls)),
         draw_calls: col(&|s| f64::from(s.draw_calls)),
         static_vpls: first.static_vpls,

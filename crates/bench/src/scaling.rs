@@ -248,6 +248,7 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
             "lights",
             "affected maps",
             "light views merged",
+            "light views bounced",
             "update (ms)",
             "shade+filter (ms)",
         ];
@@ -276,6 +277,7 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
                 scene.lights.len().to_string(),
                 format!("{:.0}", m.affected_maps),
                 format!("{:.0}", m.light_views),
+                format!("{:.0}", m.light_bounce_views),
                 sig(m.update_ms),
                 sig(m.shade_ms),
             ];
@@ -304,7 +306,8 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
         t.notes.push(line);
         if sw.key == "lights" {
             // The update against the views the balls touch (the light
-            // merge's passes), where some are touched.
+            // merge's and the light bounce's passes), where some are
+            // touched.
             let pts: Vec<(f64, f64)> = measured
                 .iter()
                 .filter(|m| m.light_views > 0.0)
@@ -322,7 +325,7 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
                 .zip(unculled.last())
                 .map_or(f64::NAN, |(m, u)| m.shade_ms / u.shade_ms);
             let line = format!(
-                "Update against the lamps' views the moving objects touch (x = views merged): **{}**. Shade+filter with light culling (each 8×8 tile skips the lamps whose range ends before its surfaces) **{}**, without **{}**; at the most lights, culled / unculled = **{:.2}** (side by side).",
+                "Update (light merge and light bounce) against the lamps' views the moving objects touch (x = views merged): **{}**. Shade+filter with light culling (each 8×8 tile skips the lamps whose range ends before its surfaces) **{}**, without **{}**; at the most lights, culled / unculled = **{:.2}** (side by side).",
                 show(&fv),
                 show(&fs),
                 show(&unculled_fit),

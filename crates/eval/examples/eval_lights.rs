@@ -6,8 +6,12 @@
 //! against full, FLIP).
 //!
 //! ```text
-//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--look-at EX,EY,EZ,TX,TY,TZ] [--out DIR]
+//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--look-at EX,EY,EZ,TX,TY,TZ] [--no-light-bounce] [--out DIR]
 //! ```
+//!
+//! `--no-light-bounce` removes the other lights' view RSMs from the asset
+//! (format 4.1) before rendering: their bounce off moving objects is not
+//! computed, as with a 4.0 asset.
 //!
 //! `SCENE`: a glTF file (loaded with every light, `--all-lights`), or
 //! `random:SEED` / `random:A..B` (`gibake_scenegen::random_lights`). With
@@ -56,6 +60,7 @@ fn main() {
                     yfov_deg: 60.0,
                 };
             }
+            "--no-light-bounce" => s.light_bounce = false,
             "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
             _ => scenes.push(a.clone()),
         }

@@ -61,6 +61,10 @@ pub struct EvalSettings {
     pub max_dynamic_vpls: u32,
     /// Shadow cascades of the direct light (automatic by default).
     pub cascades: gibake_runtime::Cascades,
+    /// Whether the asset keeps the other lights' view RSMs (format 4.1:
+    /// their bounce off moving objects); false measures what they change
+    /// (the asset renders as a 4.0 asset did).
+    pub light_bounce: bool,
 }
 
 impl Default for EvalSettings {
@@ -76,6 +80,7 @@ impl Default for EvalSettings {
             ssaa: 2,
             max_dynamic_vpls: RenderSettings::default().max_dynamic_vpls,
             cascades: gibake_runtime::Cascades::Auto,
+            light_bounce: true,
         }
     }
 }
@@ -201,7 +206,12 @@ pub fn bake(ctx: &GpuContext, scene: &Scene, s: &EvalSettings) -> Result<Asset, 
         shadow_map_size: 2048,
         target: gibake_bake::cluster::ClusterTarget::Count(s.vpls),
     };
-    Ok(gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "eval")?.asset)
+    let mut asset = gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "eval")?.asset;
+    if !s.light_bounce {
+        asset.view_rsms.clear();
+        asset.manifest.view_rsms.clear();
+    }
+    Ok(asset)
 }
 
 /// Renders one mode.

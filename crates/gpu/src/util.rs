@@ -174,9 +174,23 @@ pub fn draws_and_uniform_group(
         label: Some(label),
         entries: &[storage_entry(0, stages, true), uniform_entry(1, stages)],
     });
-    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+    let group = draws_and_uniform_bind(device, label, &layout, draw_data, uniform);
+    (layout, group)
+}
+
+/// Another group 0 of a mesh pass made by [`draws_and_uniform_group`]
+/// (`layout` is its), with another `uniform`: one pipeline drawn from
+/// several views.
+pub fn draws_and_uniform_bind(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    draw_data: &wgpu::Buffer,
+    uniform: &wgpu::Buffer,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some(label),
-        layout: &layout,
+        layout,
         entries: &[
             wgpu::BindGroupEntry {
                 binding: 0,
@@ -187,6 +201,5 @@ pub fn draws_and_uniform_group(
                 resource: uniform.as_entire_binding(),
             },
         ],
-    });
-    (layout, group)
+    })
 }
