@@ -344,9 +344,7 @@ fn a_ball_lit_by_a_second_light_bounces_its_light() {
         !asset.view_rsms.is_empty(),
         "the lamp's faces the ball can enter store their RSM"
     );
-    let mut without = asset.clone();
-    without.view_rsms.clear();
-    without.manifest.view_rsms.clear();
+    let without = gibake_eval::without_view_rsms(asset.clone());
     let s = gibake_eval::EvalSettings {
         size: SIZE,
         spp: 256,
@@ -436,20 +434,12 @@ fn a_ball_under_a_second_light_changes_the_indirect_light_as_the_reference_does(
         img.mean()
     };
     let asset = bake(&ctx, &scene);
-    let mut without = asset.clone();
-    without.view_rsms.clear();
-    without.manifest.view_rsms.clear();
+    let without = gibake_eval::without_view_rsms(asset.clone());
     let none = render(&scene, &without, 64);
     let occluded = render(&scene, &asset, 0);
     let full = render(&scene, &asset, 64);
     let base = render(&still, &bake(&ctx, &still), 64);
-    let reference = |scene: &Scene| {
-        gibake_eval::reference_images(scene, &s)
-            .unwrap()
-            .indirect()
-            .mean()
-    };
-    let truth = reference(&scene) - reference(&still);
+    let truth = gibake_eval::reference_moving_effect(&scene, &s).unwrap();
     let (effect, effect_without) = (full - base, none - base);
     eprintln!(
         "the ball's effect on the mean indirect light: {effect} (occlusion {}, bounce {}), without the view RSMs {effect_without}, reference {truth}",

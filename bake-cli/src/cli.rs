@@ -452,6 +452,12 @@ pub struct RenderArgs {
     /// light next to the moving objects (docs/method.md, "Near field").
     #[arg(long, default_value_t = 256, value_name = "N")]
     pub max_dynamic_vpls: u32,
+    /// Most dynamic VPLs per view of the lights after the first that the
+    /// moving objects touch (their bounce off moving objects; rounded up to
+    /// a power of 4; 0: none). Shading reads 21 slots per touched view at
+    /// the default.
+    #[arg(long, default_value_t = 16, value_name = "N")]
+    pub max_dynamic_vpls_per_view: u32,
     /// Interleaved VPL sampling: each pixel of an N×N block shades a disjoint
     /// 1/N² of the VPLs and a geometry-aware filter reconstructs the sum
     /// (1: every pixel shades every VPL). `auto` (the default): 4 from 256²

@@ -160,6 +160,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         shadow_map_size: a.shadow_map_size,
         mode,
         max_dynamic_vpls: a.max_dynamic_vpls,
+        max_dynamic_vpls_per_view: a.max_dynamic_vpls_per_view,
         interleave: a.interleave,
         max_spawned: 0,
         cascades: match a.cascades {

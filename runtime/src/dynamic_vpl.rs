@@ -123,6 +123,10 @@ pub(crate) fn slot_count(max_depth: u32) -> u32 {
 pub(crate) struct VplView {
     bind_group: wgpu::BindGroup,
     params: wgpu::Buffer,
+    /// Its deepest slot level (`ceil(log4(its most VPLs))`, at most `L`).
+    max_depth: u32,
+    /// Its slots: `(4^(max_depth + 1) − 1) / 3`.
+    slots: u32,
 }
 
 /// The GPU clustering of the dynamic RSM into VPL slots.
@@ -130,11 +134,11 @@ pub(crate) struct DynamicVplPass {
     reduce: wgpu::ComputePipeline,
     slots_pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
-    /// The view it was made for (slots `0..slots`).
+    /// The view it was made for (slots `0..slots` until moved).
     own: VplView,
     nodes: wgpu::Buffer,
-    /// `views` × [`DynamicVplPass::slots`] × [`GpuDynVpl`], each view's in
-    /// slot order (see the module docs). `STORAGE | COPY_SRC | COPY_DST`.
+    /// Every view's slots ([`GpuDynVpl`]), each view's range in slot order
+    /// (see the module docs). `STORAGE | COPY_SRC | COPY_DST`.
     pub(crate) vpls: wgpu::Buffer,
     shape: Shape,
 }
@@ -184,8 +188,9 @@ impl DynamicVplPass {
     /// static RSM metric (`R32Float`, same size), `light_buf` the
     /// `GpuPrimaryLight` uniform, `threshold` the bake's effective threshold
     /// (`manifest.settings.threshold`), `max_vpls` the most VPLs wanted
-    /// (rounded up to a power of 4), `views` how many views' slots the
-    /// output holds (this one's first; ≥ 1).
+    /// (rounded up to a power of 4), `more_slots` the room the output has
+    /// past this view's slots for the views bound later
+    /// ([`DynamicVplPass::slots_for`] each).
     pub(crate) fn new(
         device: &wgpu::Device,
         rsm: &DynamicRsmPass,
@@ -193,7 +198,7 @@ impl DynamicVplPass {
         light_buf: &wgpu::Buffer,
         threshold: f32,
         max_vpls: u32,
-        views: u32,
+        more_slots: u32,
     ) -> DynamicVplPass {
         let size = rsm.size.max(1);
         let levels = size.next_power_of_two().trailing_zeros();
@@ -210,8 +215,7 @@ impl DynamicVplPass {
         let vpls = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("dynamic VPLs"),
             size: std::mem::size_of::<GpuDynVpl>() as u64
-                * u64::from(slots)
-                * u64::from(views.max(1)),
+                * (u64::from(slots) + u64::from(more_slots)),
             usage: wgpu::BufferUsages::STORAGE
                 | wgpu::BufferUsages::COPY_SRC
                 | wgpu::BufferUsages::COPY_DST,
@@ -250,19 +254,16 @@ impl DynamicVplPass {
         };
         let shape = Shape {
             levels,
-            max_depth,
-            slots,
             size,
             threshold,
         };
         let own = vpl_view(
             device,
             (&layout, &nodes, &vpls),
-            &shape,
+            (&shape, max_depth),
             (rsm, &rsm.own),
             static_metric,
             light_buf,
-            0,
         );
         DynamicVplPass {
             reduce: pipeline("cs_reduce"),
@@ -276,9 +277,9 @@ impl DynamicVplPass {
     }
 
     /// Group 0 for another light view: its [`RsmView`] and baked
-    /// `static_metric`, its light (`GpuPrimaryLight` uniform), writing the
-    /// slots of view `index` (`index · slots ..`; `index` below the `views`
-    /// the pass was made for).
+    /// `static_metric`, its light (`GpuPrimaryLight` uniform), at most
+    /// `max_vpls` VPLs (rounded up to a power of 4); its slots' place is
+    /// set by [`DynamicVplPass::set_position`] before it is recorded.
     pub(crate) fn bind(
         &self,
         device: &wgpu::Device,
@@ -286,29 +287,41 @@ impl DynamicVplPass {
         view: &RsmView,
         static_metric: &wgpu::TextureView,
         light_buf: &wgpu::Buffer,
-        index: u32,
+        max_vpls: u32,
     ) -> VplView {
         vpl_view(
             device,
             (&self.layout, &self.nodes, &self.vpls),
-            &self.shape,
+            (&self.shape, depth_for(max_vpls).min(self.shape.levels)),
             (rsm, view),
             static_metric,
             light_buf,
-            index,
         )
     }
 
+    /// The slots of a view of at most `max_vpls` VPLs on an RSM of
+    /// `rsm_size`².
+    pub(crate) fn slots_for(rsm_size: u32, max_vpls: u32) -> u32 {
+        let levels = rsm_size.max(1).next_power_of_two().trailing_zeros();
+        slot_count(depth_for(max_vpls).min(levels))
+    }
+
     /// Number of slots in [`DynamicVplPass::vpls`] (`(4^(max_depth+1) − 1)/3`).
+    #[cfg(test)]
     pub(crate) fn slots(&self) -> u32 {
-        self.shape.slots
+        self.own.slots
+    }
+
+    /// Slots of `view`.
+    pub(crate) fn slots_of(view: &VplView) -> u32 {
+        view.slots
     }
 
     /// The deepest slot level (`ceil(log4(max_vpls))`, at most log2 of the
     /// RSM size rounded up to a power of two).
     #[cfg(test)]
     pub(crate) fn max_depth(&self) -> u32 {
-        self.shape.max_depth
+        self.own.max_depth
     }
 
     /// Group 0 of the view it was made for (slots `0..slots` until moved).
@@ -316,11 +329,11 @@ impl DynamicVplPass {
         &self.own
     }
 
-    /// Has `view` write the slots of position `index` from the next
-    /// recorded frame on (`index · slots ..`; below the `views` the pass
-    /// was made for).
-    pub(crate) fn set_position(&self, queue: &wgpu::Queue, view: &VplView, index: u32) {
-        queue.write_buffer(&view.params, 0, &param_blocks(&self.shape, index));
+    /// Has `view` write its slots from slot `base` on, from the next
+    /// recorded frame (its range must lie in the output).
+    pub(crate) fn set_position(&self, queue: &wgpu::Queue, view: &VplView, base: u32) {
+        let blocks = param_blocks(&self.shape, (view.max_depth, view.slots), base);
+        queue.write_buffer(&view.params, 0, &blocks);
     }
 
     /// Records the clustering of its own view (after the dynamic RSM pass
@@ -355,7 +368,7 @@ impl DynamicVplPass {
         }
         pass.set_pipeline(&self.slots_pipeline);
         pass.set_bind_group(0, &view.bind_group, &[offset(self.shape.levels)]);
-        let (x, y) = groups(self.shape.slots);
+        let (x, y) = groups(view.slots);
         pass.dispatch_workgroups(x, y, 1);
     }
 }
@@ -363,8 +376,6 @@ impl DynamicVplPass {
 /// The pyramid's shape and the clustering's rule, the same for every view.
 struct Shape {
     levels: u32,
-    max_depth: u32,
-    slots: u32,
     size: u32,
     threshold: f32,
 }
@@ -381,16 +392,16 @@ fn texture_binding(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEnt
 fn vpl_view(
     device: &wgpu::Device,
     shared: (&wgpu::BindGroupLayout, &wgpu::Buffer, &wgpu::Buffer),
-    shape: &Shape,
+    (shape, max_depth): (&Shape, u32),
     (rsm, view): (&DynamicRsmPass, &RsmView),
     static_metric: &wgpu::TextureView,
     light_buf: &wgpu::Buffer,
-    index: u32,
 ) -> VplView {
+    let slots = slot_count(max_depth);
     let (layout, nodes, vpls) = shared;
     let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("dynamic VPL params"),
-        contents: &param_blocks(shape, index),
+        contents: &param_blocks(shape, (max_depth, slots), 0),
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
     });
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -427,13 +438,18 @@ fn vpl_view(
             },
         ],
     });
-    VplView { bind_group, params }
+    VplView {
+        bind_group,
+        params,
+        max_depth,
+        slots,
+    }
 }
 
-/// The parameter blocks of a view writing the slots of position `index`:
-/// block d (< levels) for cs_reduce writing level d, block `levels` for
-/// cs_slots.
-fn param_blocks(shape: &Shape, index: u32) -> Vec<u8> {
+/// The parameter blocks of a view of `(max_depth, slots)` writing its slots
+/// from `base` on: block d (< levels) for cs_reduce writing level d, block
+/// `levels` for cs_slots.
+fn param_blocks(shape: &Shape, (max_depth, slots): (u32, u32), base: u32) -> Vec<u8> {
     let levels = shape.levels;
     let mut blocks = vec![0u8; (PARAMS_STRIDE * u64::from(levels + 1)) as usize];
     for level in 0..=levels {
@@ -441,10 +457,10 @@ fn param_blocks(shape: &Shape, index: u32) -> Vec<u8> {
             level,
             levels,
             size: shape.size,
-            max_depth: shape.max_depth,
-            slots: shape.slots,
+            max_depth,
+            slots,
             threshold: shape.threshold,
-            base: index * shape.slots,
+            base,
             pad: 0,
         };
         let at = (PARAMS_STRIDE * u64::from(level)) as usize;

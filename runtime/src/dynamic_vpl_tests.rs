@@ -69,7 +69,7 @@ impl Frame {
             &self.light_buf,
             threshold,
             max_vpls,
-            1,
+            0,
         )
     }
 }
@@ -97,7 +97,7 @@ fn frame(ctx: &GpuContext, scene: &Scene, asset: &Asset, time: f32) -> Frame {
         &light_buf,
         threshold,
         MAX_VPLS,
-        1,
+        0,
     );
     let static_metric = asset.rsm.as_ref().expect("RSM data").metric.clone();
     let view = r.view;

@@ -54,8 +54,10 @@ pub(crate) struct UpdateInputs<'a> {
     pub lights: &'a [Light],
     /// The bake's clustering threshold (for the dynamic VPLs).
     pub threshold: f32,
-    /// Most dynamic VPLs per frame.
+    /// Most dynamic VPLs per frame (the primary light's).
     pub max_dynamic_vpls: u32,
+    /// Most dynamic VPLs per view of the other lights.
+    pub max_dynamic_vpls_per_view: u32,
     /// The scene's diagonal (scales the merge's depth).
     pub scene_diagonal: f32,
 }
@@ -88,9 +90,9 @@ struct BounceView {
     _light_buf: Option<wgpu::Buffer>,
     primary: bool,
     touched: bool,
-    /// The position of its slot range (the views recorded this frame come
+    /// The first slot of its range (the views recorded this frame come
     /// first, in order), as its parameters say.
-    position: u32,
+    base: u32,
 }
 
 /// The moving objects' passes of one renderer.
@@ -107,6 +109,9 @@ pub(crate) struct MovingPasses {
     /// Draw calls of the moving objects shown this frame (each of their
     /// passes draws them all).
     moving_draws: u32,
+    /// Dynamic VPL slots of the views recorded this frame (shading reads
+    /// those).
+    dynamic_slots: u32,
 }
 
 impl MovingPasses {
@@ -136,8 +141,15 @@ impl MovingPasses {
                     .map(|r| (r, false)),
             );
         }
-        let with_vpls =
-            i.max_dynamic_vpls > 0 && (plan.has(Pass::DynamicVpls) || plan.has(Pass::LightBounce));
+        // The first light's dynamic VPLs, then each other view's (fewer:
+        // `max_dynamic_vpls_per_view`); 0 turns them off.
+        let most = |primary: bool| {
+            if primary {
+                i.max_dynamic_vpls
+            } else {
+                i.max_dynamic_vpls_per_view.min(i.max_dynamic_vpls)
+            }
+        };
         let (rsm, vpls, bounce) = match sources.first() {
             Some(&(first, _)) => {
                 let pass = DynamicRsmPass::new(device, i.scene_gpu, &first.view);
@@ -160,15 +172,23 @@ impl MovingPasses {
                     })
                 };
                 let first_light = light_of(first, sources[0].1);
-                let dyn_vpls = with_vpls.then(|| {
+                let others_most = most(false);
+                let more_slots = if others_most > 0 {
+                    (sources.len() as u32 - 1) * DynamicVplPass::slots_for(pass.size, others_most)
+                } else {
+                    0
+                };
+                let dyn_vpls = (most(sources[0].1) > 0
+                    && (plan.has(Pass::DynamicVpls) || plan.has(Pass::LightBounce)))
+                .then(|| {
                     DynamicVplPass::new(
                         device,
                         &pass,
                         &first.static_metric,
                         first_light.as_ref().unwrap_or(i.light_buf),
                         i.threshold,
-                        i.max_dynamic_vpls,
-                        sources.len() as u32,
+                        most(sources[0].1),
+                        more_slots,
                     )
                 });
                 let mut bounce = vec![BounceView {
@@ -179,20 +199,20 @@ impl MovingPasses {
                     _light_buf: first_light,
                     primary: sources[0].1,
                     touched: sources[0].1,
-                    position: 0,
+                    base: 0,
                 }];
-                for (j, &(r, primary)) in sources.iter().enumerate().skip(1) {
+                for &(r, primary) in sources.iter().skip(1) {
                     let view = pass.bind(device, i.scene_gpu, &r.view);
                     let occlusion = occ.bind(device, &r.static_metric, &pass, &view, &r.texel_info);
                     let light_buf = light_of(r, primary);
-                    let vpls = dyn_vpls.as_ref().map(|d| {
+                    let vpls = dyn_vpls.as_ref().filter(|_| most(primary) > 0).map(|d| {
                         d.bind(
                             device,
                             &pass,
                             &view,
                             &r.static_metric,
                             light_buf.as_ref().unwrap_or(i.light_buf),
-                            j as u32,
+                            most(primary),
                         )
                     });
                     bounce.push(BounceView {
@@ -203,7 +223,8 @@ impl MovingPasses {
                         _light_buf: light_buf,
                         primary,
                         touched: primary,
-                        position: j as u32,
+                        // Set when it is first recorded.
+                        base: u32::MAX,
                     });
                 }
                 (Some((pass, occ)), dyn_vpls, bounce)
@@ -228,6 +249,7 @@ impl MovingPasses {
             merge,
             merge_draws: 0,
             moving_draws: i.scene_gpu.dynamic_draws.len() as u32,
+            dynamic_slots: 0,
         })
     }
 
@@ -256,14 +278,24 @@ impl MovingPasses {
         }
         // The views recorded this frame take the first slot ranges, in
         // order: shading reads only those (`dynamic_vpl_slots`).
-        for (next, b) in (0u32..).zip(self.bounce.iter_mut().filter(|b| b.touched)) {
-            if b.position != next
-                && let Some(d) = &self.vpls
-            {
-                d.set_position(queue, b.vpls.as_ref().unwrap_or(d.own_view()), next);
+        let mut next = 0;
+        if let Some(d) = &self.vpls {
+            for b in self.bounce.iter_mut().filter(|b| b.touched) {
+                let v = match &b.rsm {
+                    None => d.own_view(),
+                    Some(_) => match &b.vpls {
+                        Some(v) => v,
+                        None => continue,
+                    },
+                };
+                if b.base != next {
+                    d.set_position(queue, v, next);
+                    b.base = next;
+                }
+                next += DynamicVplPass::slots_of(v);
             }
-            b.position = next;
         }
+        self.dynamic_slots = next;
         let grown = match self.merge.as_mut() {
             Some(m) => m.prepare(device, queue, scene_gpu, draws, transforms)?,
             None => false,
@@ -296,8 +328,7 @@ impl MovingPasses {
     /// whose bounce is computed (the primary light's, and the other views
     /// the moving objects touch).
     pub(crate) fn dynamic_vpl_slots(&self) -> u32 {
-        let recorded = self.bounce.iter().filter(|b| b.touched).count() as u32;
-        self.vpls.as_ref().map_or(0, |d| d.slots() * recorded)
+        self.dynamic_slots
     }
 
     /// Tiles per merge-atlas row (1 without a merge).
@@ -344,7 +375,16 @@ impl MovingPasses {
                     Some(n) => (n == 0, n + 1 == others.len()),
                     None => (false, false),
                 };
-                let has_vpls = self.vpls.is_some();
+                // Its clustering: the pass's own view's, or its own binding
+                // (none when the other views have no dynamic VPLs).
+                let vpl_view = self.vpls.as_ref().and_then(|d| {
+                    let v = match &b.rsm {
+                        None => Some(d.own_view()),
+                        Some(_) => b.vpls.as_ref(),
+                    };
+                    v.map(|v| (d, v))
+                });
+                let has_vpls = vpl_view.is_some();
                 let rsm_ts = if b.primary {
                     timer.render(Pass::DynamicRsm, None)
                 } else {
@@ -362,13 +402,13 @@ impl MovingPasses {
                     b.occlusion.as_ref().unwrap_or(occlusion.own_group()),
                     occ_ts,
                 );
-                if let Some(d) = &self.vpls {
+                if let Some((d, v)) = &vpl_view {
                     let ts = if b.primary {
                         timer.compute(Pass::DynamicVpls, None)
                     } else {
                         timer.compute_span(Pass::LightBounce, false, last)
                     };
-                    d.encode_from(encoder, b.vpls.as_ref().unwrap_or(d.own_view()), ts);
+                    d.encode_from(encoder, v, ts);
                 }
             }
         }

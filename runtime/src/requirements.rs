@@ -193,13 +193,25 @@ impl Requirements {
             r.gpu_bytes += maps * u64::from(c.count) * 8 * sq(c.size);
         }
         if let Some(a) = asset {
-            r.asset(a, &plan, settings.max_dynamic_vpls);
+            r.asset(
+                a,
+                &plan,
+                (
+                    settings.max_dynamic_vpls,
+                    settings.max_dynamic_vpls_per_view,
+                ),
+            );
         }
         Ok(r)
     }
 
     /// The asset's share: its upload and what the planned update allocates.
-    fn asset(&mut self, a: &Asset, plan: &FramePlan, max_dynamic_vpls: u32) {
+    fn asset(
+        &mut self,
+        a: &Asset,
+        plan: &FramePlan,
+        (max_dynamic_vpls, max_dynamic_vpls_per_view): (u32, u32),
+    ) {
         let m = &a.manifest;
         let s = m.settings.vpl_map_size;
         let (cols, rows) = atlas_grid(m.map_count.max(1));
@@ -251,9 +263,12 @@ impl Requirements {
                     l => u64::from(crate::dynamic_vpl::slot_count(l - 1)),
                 };
                 self.need(Limit::StorageBinding, "the dynamic VPL pyramid", 80 * nodes);
-                // The pyramid, and 48 bytes per slot of every view.
-                let depth = crate::dynamic_vpl::depth_for(max_dynamic_vpls).min(levels);
-                let slots = u64::from(crate::dynamic_vpl::slot_count(depth)) * rsms.len() as u64;
+                // The pyramid, and 48 bytes per slot of every view (the
+                // other views' fewer).
+                let slots_for = crate::dynamic_vpl::DynamicVplPass::slots_for;
+                let slots = u64::from(slots_for(rsm.size, max_dynamic_vpls))
+                    + u64::from(slots_for(rsm.size, max_dynamic_vpls_per_view))
+                        * (rsms.len() as u64 - 1);
                 self.gpu_bytes += 80 * nodes + 48 * slots;
             }
         }

@@ -61,8 +61,16 @@ pub struct RenderSettings {
     pub shadow_map_size: u32,
     /// What to render.
     pub mode: Mode,
-    /// Most dynamic VPLs per frame (rounded up to a power of 4; 0: none).
+    /// Most dynamic VPLs per frame of the first light (rounded up to a
+    /// power of 4; 0: none, in every light).
     pub max_dynamic_vpls: u32,
+    /// Most dynamic VPLs per view of the lights after the first that the
+    /// moving objects touch in a frame (format 4.1's bounce off moving
+    /// objects in every light; rounded up to a power of 4): shading reads
+    /// `(4^(d+1) − 1)/3` slots per touched view, `d = ceil(log4 N)` (21 at
+    /// the default 16), so a frame whose moving objects touch many lamp
+    /// views stays affordable (measured in docs/results.md, "Every light").
+    pub max_dynamic_vpls_per_view: u32,
     /// Interleaved VPL sampling: 1 (every pixel sums every VPL), 2, 4 or 8
     /// (each pixel of an N×N block sums a disjoint 1/N² of the VPLs, and a
     /// geometry-aware filter over its neighbours reconstructs the sum), or
@@ -95,6 +103,7 @@ impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
             max_dynamic_vpls: 256,
+            max_dynamic_vpls_per_view: 16,
             width: 640,
             height: 480,
             shadow_map_size: 2048,

@@ -112,6 +112,7 @@ impl World {
                 lights: &scene.lights,
                 threshold: asset.map_or(0.0, |a| a.manifest.settings.threshold),
                 max_dynamic_vpls: settings.max_dynamic_vpls,
+                max_dynamic_vpls_per_view: settings.max_dynamic_vpls_per_view,
                 scene_diagonal: scene.full_bounds().diagonal(),
             },
         )?;

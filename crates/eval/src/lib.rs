@@ -206,12 +206,31 @@ pub fn bake(ctx: &GpuContext, scene: &Scene, s: &EvalSettings) -> Result<Asset, 
         shadow_map_size: 2048,
         target: gibake_bake::cluster::ClusterTarget::Count(s.vpls),
     };
-    let mut asset = gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "eval")?.asset;
-    if !s.light_bounce {
-        asset.view_rsms.clear();
-        asset.manifest.view_rsms.clear();
-    }
-    Ok(asset)
+    let asset = gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "eval")?.asset;
+    Ok(if s.light_bounce {
+        asset
+    } else {
+        without_view_rsms(asset)
+    })
+}
+
+/// `asset` without the other lights' view RSMs (format 4.1), as a 4.0
+/// bake renders: no bounce off moving objects in the lights after the
+/// first. What they change is measured against this.
+pub fn without_view_rsms(mut asset: Asset) -> Asset {
+    asset.view_rsms.clear();
+    asset.manifest.view_rsms.clear();
+    asset
+}
+
+/// What the moving objects change in the reference's mean indirect light:
+/// the reference of `scene` less that of its static part (per channel).
+pub fn reference_moving_effect(scene: &Scene, s: &EvalSettings) -> Result<Vec3, EvalError> {
+    let still = gibake_bake::static_only(scene);
+    let mean = |scene: &Scene| -> Result<Vec3, EvalError> {
+        Ok(reference_images(scene, s)?.indirect().mean())
+    };
+    Ok(mean(scene)? - mean(&still)?)
 }
 
 /// Renders one mode.
