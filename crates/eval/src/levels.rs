@@ -76,6 +76,26 @@ pub struct LevelBall {
     pub albedo: [f32; 3],
 }
 
+/// Adds `b` to `scene` as a moving object named `name` (a UV sphere of 24 ×
+/// 16 segments, as an engine would spawn a prop).
+pub fn add_ball(scene: &mut Scene, name: &str, b: &LevelBall) {
+    let g = gibake_scenegen::geom::uv_sphere(glam::DVec3::ZERO, f64::from(b.radius), 24, 16);
+    let mesh = gibake_scene::Mesh {
+        name: name.to_string(),
+        positions: g.pos.iter().map(|p| p.as_vec3()).collect(),
+        normals: g.nrm.iter().map(|n| n.as_vec3()).collect(),
+        uvs: None,
+        indices: g.idx.clone(),
+        material: 0,
+    };
+    let material = gibake_scene::Material::opaque(name.to_string(), Vec3::from(b.albedo), None);
+    scene.add_dynamic_object(
+        name,
+        vec![(mesh, material)],
+        glam::Mat4::from_translation(Vec3::from(b.center)),
+    );
+}
+
 /// One entry of `data/levels/levels.json`.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 pub struct LevelSpec {
@@ -195,23 +215,7 @@ impl LevelSpec {
     pub fn load(&self, dir: &Path) -> Result<Scene, LevelError> {
         let mut scene = gibake_scene::load(&self.path(dir), &self.load_options())?;
         for (i, b) in self.balls.iter().enumerate() {
-            let g =
-                gibake_scenegen::geom::uv_sphere(glam::DVec3::ZERO, f64::from(b.radius), 24, 16);
-            let mesh = gibake_scene::Mesh {
-                name: format!("ball {i}"),
-                positions: g.pos.iter().map(|p| p.as_vec3()).collect(),
-                normals: g.nrm.iter().map(|n| n.as_vec3()).collect(),
-                uvs: None,
-                indices: g.idx.clone(),
-                material: 0,
-            };
-            let material =
-                gibake_scene::Material::opaque(format!("ball {i}"), Vec3::from(b.albedo), None);
-            scene.add_dynamic_object(
-                &format!("ball {i}"),
-                vec![(mesh, material)],
-                glam::Mat4::from_translation(Vec3::from(b.center)),
-            );
+            add_ball(&mut scene, &format!("ball {i}"), b);
         }
         Ok(scene)
     }
@@ -403,7 +407,7 @@ pub fn write_indirect_panel(
 
 /// `reference | full | rsm | 4·|full − reference|` at the reference's exposure,
 /// at least 640 pixels wide.
-fn write_row(
+pub fn write_row(
     r: &Image,
     full: &Image,
     rsm: &Image,
@@ -412,7 +416,7 @@ fn write_row(
     let (w, h) = (r.width, r.height);
     // Small judged images are blown up (nearest texel: every pixel still the
     // measured one) so that the panel is at least 640 pixels wide.
-    let zoom = (640 / (4 * w).max(1)).max(1);
+    let zoom = 640u32.div_ceil((4 * w).max(1)).max(1);
     let mut out = Image::new(4 * w * zoom, h * zoom);
     let err = {
         let mut e = Image::new(w, h);

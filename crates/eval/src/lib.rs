@@ -17,8 +17,10 @@
 //! small size) and by `gibake bench accuracy` (more seeds, full size).
 //!
 //! Also the tools' helpers around the runtime that a game does not need:
-//! [`frame`] (render a scene's own frame, read an output back) and
-//! [`transport`] (the CPU twin of the shading's VPL transport).
+//! [`frame`] (render a scene's own frame, read an output back),
+//! [`transport`] (the CPU twin of the shading's VPL transport) and
+//! [`moving`] (what moving objects change in a level's indirect light,
+//! judged with correlated reference renders).
 
 pub mod bounce;
 pub mod fit;
@@ -26,6 +28,7 @@ pub mod flip;
 pub mod frame;
 pub mod levels;
 pub mod lights;
+pub mod moving;
 pub mod pareto;
 pub mod transport;
 
