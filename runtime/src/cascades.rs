@@ -404,7 +404,7 @@ impl CascadePasses {
                     end_of_pass_write_index: t.end_of_pass_write_index.filter(|_| i == last),
                 }
             });
-            pass.encode(encoder, scene_gpu, &[draws], t);
+            pass.encode(encoder, scene_gpu, draws.iter(), t);
         }
     }
 

@@ -61,6 +61,48 @@ fn view_uniform(device: &wgpu::Device, view: &LightView) -> wgpu::Buffer {
     })
 }
 
+/// The square of a view's map that its occlusion test and clustering cover
+/// this frame: `2^levels` texels from `origin` (texels past the map are
+/// empty). The moving objects' footprint in the view ([`Window::around`]),
+/// so that the per-texel passes, the quadtree and the dynamic VPL slots are
+/// spent on them and not on the whole map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Window {
+    /// First texel (x, y).
+    pub origin: [u32; 2],
+    /// log2 of the side.
+    pub levels: u32,
+}
+
+impl Window {
+    /// The whole `size²` map (rounded up to a power of two).
+    pub(crate) fn whole(size: u32) -> Window {
+        Window {
+            origin: [0, 0],
+            levels: size.max(1).next_power_of_two().trailing_zeros(),
+        }
+    }
+
+    /// The smallest power-of-two square from `rect`'s corner that holds
+    /// `rect` (`[x0, y0, x1, y1)`, texels of a `size²` map); the whole map
+    /// if that square would be as large.
+    pub(crate) fn around(rect: [u32; 4], size: u32) -> Window {
+        let whole = Window::whole(size);
+        let side = (rect[2].saturating_sub(rect[0]))
+            .max(rect[3].saturating_sub(rect[1]))
+            .max(1)
+            .next_power_of_two();
+        let levels = side.trailing_zeros();
+        if levels >= whole.levels {
+            return whole;
+        }
+        Window {
+            origin: [rect[0], rect[1]],
+            levels,
+        }
+    }
+}
+
 impl DynamicRsmPass {
     /// Creates the pass for `view` (RSM resolution; its targets are
     /// `view.size`², which every other view bound must share).
@@ -149,19 +191,20 @@ impl DynamicRsmPass {
         scene_gpu: &SceneGpu,
         draws: &[Draw],
         ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
-    ) -> u32 {
+    ) {
         self.encode_from(encoder, scene_gpu, &self.own, draws, ts)
     }
 
-    /// Records the pass from `view` (made by [`DynamicRsmPass::bind`]).
-    pub(crate) fn encode_from(
+    /// Records the pass from `view` (made by [`DynamicRsmPass::bind`]),
+    /// drawing `draws`.
+    pub(crate) fn encode_from<'d>(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         scene_gpu: &SceneGpu,
         view: &RsmView,
-        draws: &[Draw],
+        draws: impl IntoIterator<Item = &'d Draw>,
         ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
-    ) -> u32 {
+    ) {
         let clears = [
             wgpu::Color {
                 r: 0.0,
@@ -183,7 +226,6 @@ impl DynamicRsmPass {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &view.bind_group, &[]);
         scene_gpu.draw(&mut pass, draws, true);
-        draws.len() as u32
     }
 }
 
@@ -192,11 +234,18 @@ impl DynamicRsmPass {
 /// so each view adds only to its own VPLs' sums).
 pub(crate) struct OcclusionPass {
     pipeline: wgpu::ComputePipeline,
-    /// Group 0 of the view it was made for.
-    bind_group: wgpu::BindGroup,
+    /// The view it was made for.
+    own: OcclusionView,
     /// Per static VPL occluded share (u32, fixed point 2^24).
     pub(crate) occluded: wgpu::Buffer,
     size: u32,
+}
+
+/// One light view's occlusion test: its group 0 and the window it tests
+/// this frame (`window` in `occlusion.wgsl`).
+pub(crate) struct OcclusionView {
+    group: wgpu::BindGroup,
+    window_buf: wgpu::Buffer,
 }
 
 impl OcclusionPass {
@@ -227,7 +276,7 @@ impl OcclusionPass {
             cache: None,
         });
         OcclusionPass {
-            bind_group: occlusion_group(
+            own: occlusion_view(
                 device,
                 &pipeline,
                 static_metric,
@@ -242,7 +291,7 @@ impl OcclusionPass {
         }
     }
 
-    /// Group 0 for another view (its baked metric and texel shares, its
+    /// Another view's test (its baked metric and texel shares, its
     /// [`RsmView`]), adding to the same sums.
     pub(crate) fn bind(
         &self,
@@ -251,8 +300,8 @@ impl OcclusionPass {
         rsm: &DynamicRsmPass,
         view: &RsmView,
         texel_info: &wgpu::Buffer,
-    ) -> wgpu::BindGroup {
-        occlusion_group(
+    ) -> OcclusionView {
+        occlusion_view(
             device,
             &self.pipeline,
             static_metric,
@@ -263,18 +312,26 @@ impl OcclusionPass {
         )
     }
 
-    /// Group 0 of the view it was made for.
-    pub(crate) fn own_group(&self) -> &wgpu::BindGroup {
-        &self.bind_group
+    /// The test of the view it was made for.
+    pub(crate) fn own_view(&self) -> &OcclusionView {
+        &self.own
     }
 
-    /// Records one invocation per texel of the view of `group` (from
-    /// [`OcclusionPass::bind`] or [`OcclusionPass::own_group`]), adding to
-    /// the sums (the caller clears them once per frame).
+    /// Has `view` test the texels of `window` from the next recorded frame
+    /// (record it with the same window).
+    pub(crate) fn set_window(&self, queue: &wgpu::Queue, view: &OcclusionView, window: Window) {
+        let w = [window.origin[0], window.origin[1], 1u32 << window.levels, 0];
+        queue.write_buffer(&view.window_buf, 0, bytemuck::cast_slice(&w));
+    }
+
+    /// Records one invocation per texel of `window` (as set with
+    /// [`OcclusionPass::set_window`]) of the view of `view`, adding to the
+    /// sums (the caller clears them once per frame).
     pub(crate) fn encode_from(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        group: &wgpu::BindGroup,
+        view: &OcclusionView,
+        window: Window,
         ts: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -282,12 +339,13 @@ impl OcclusionPass {
             timestamp_writes: ts,
         });
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, group, &[]);
-        pass.dispatch_workgroups(self.size.div_ceil(8), self.size.div_ceil(8), 1);
+        pass.set_bind_group(0, &view.group, &[]);
+        let side = (1u32 << window.levels).min(self.size.max(1));
+        pass.dispatch_workgroups(side.div_ceil(8), side.div_ceil(8), 1);
     }
 }
 
-fn occlusion_group(
+fn occlusion_view(
     device: &wgpu::Device,
     pipeline: &wgpu::ComputePipeline,
     static_metric: &wgpu::TextureView,
@@ -295,8 +353,14 @@ fn occlusion_group(
     view: &RsmView,
     texel_info: &wgpu::Buffer,
     occluded: &wgpu::Buffer,
-) -> wgpu::BindGroup {
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
+) -> OcclusionView {
+    let whole = Window::whole(rsm.size);
+    let window_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("occlusion window"),
+        contents: bytemuck::cast_slice(&[0u32, 0, 1u32 << whole.levels, 0]),
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+    });
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("occlusion"),
         layout: &pipeline.get_bind_group_layout(0),
         entries: &[
@@ -320,6 +384,11 @@ fn occlusion_group(
                 binding: 4,
                 resource: view.view_buf.as_entire_binding(),
             },
+            wgpu::BindGroupEntry {
+                binding: 5,
+                resource: window_buf.as_entire_binding(),
+            },
         ],
-    })
+    });
+    OcclusionView { group, window_buf }
 }

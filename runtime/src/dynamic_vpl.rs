@@ -44,7 +44,7 @@
 //! moving objects touch) share the pipelines, the pyramid (scratch, each
 //! view's clustering done before the next view's RSM is drawn) and one
 //! slot buffer: each view writes the slot range of its position in the
-//! frame (`Params::base`, [`DynamicVplPass::set_position`]: the views
+//! frame (`Params::base`, [`DynamicVplPass::set_frame`]: the views
 //! recorded this frame take the first ranges, so shading reads only
 //! theirs); each view has its own light uniform and parameter blocks.
 //! Everything is `f32` with a fixed reduction order and no atomics: the
@@ -53,7 +53,7 @@
 use gibake_gpu::shaders;
 use wgpu::util::DeviceExt;
 
-use crate::dynamic_rsm::{DynamicRsmPass, RsmView};
+use crate::dynamic_rsm::{DynamicRsmPass, RsmView, Window};
 
 /// The pass's WGSL: the slot layout and the in-front test it shares, then
 /// its own.
@@ -76,8 +76,8 @@ pub(crate) struct GpuDynVpl {
     /// whole slot is zero).
     pub normal: [f32; 4],
     /// rgb flux, w = its lobe coherence `|Σ w·n| / Σ w` over its texels
-    /// (shading draws it with the far-field lobe of `shade.wgsl`
-    /// `vpl_lobe_irradiance`; 0 in an empty slot).
+    /// (shading draws it with the whole-sphere lobe of `shade.wgsl`
+    /// `dyn_vpl_irradiance`; 0 in an empty slot).
     pub flux: [f32; 4],
 }
 
@@ -102,6 +102,8 @@ struct GpuParams {
     threshold: f32,
     base: u32,
     pad: u32,
+    origin: [u32; 2],
+    pad2: [u32; 2],
 }
 
 /// The slot-pyramid depth for `max_vpls` VPLs: `ceil(log4(max_vpls))`.
@@ -279,7 +281,7 @@ impl DynamicVplPass {
     /// Group 0 for another light view: its [`RsmView`] and baked
     /// `static_metric`, its light (`GpuPrimaryLight` uniform), at most
     /// `max_vpls` VPLs (rounded up to a power of 4); its slots' place is
-    /// set by [`DynamicVplPass::set_position`] before it is recorded.
+    /// set by [`DynamicVplPass::set_frame`] before it is recorded.
     pub(crate) fn bind(
         &self,
         device: &wgpu::Device,
@@ -329,10 +331,11 @@ impl DynamicVplPass {
         &self.own
     }
 
-    /// Has `view` write its slots from slot `base` on, from the next
-    /// recorded frame (its range must lie in the output).
-    pub(crate) fn set_position(&self, queue: &wgpu::Queue, view: &VplView, base: u32) {
-        let blocks = param_blocks(&self.shape, (view.max_depth, view.slots), base);
+    /// Has `view` write its slots from slot `base` on and cluster the
+    /// texels of `window`, from the next recorded frame (its range must lie
+    /// in the output; record it with the same window).
+    pub(crate) fn set_frame(&self, queue: &wgpu::Queue, view: &VplView, base: u32, window: Window) {
+        let blocks = param_blocks(&self.shape, (view.max_depth, view.slots), base, window);
         queue.write_buffer(&view.params, 0, &blocks);
     }
 
@@ -344,15 +347,17 @@ impl DynamicVplPass {
         encoder: &mut wgpu::CommandEncoder,
         ts: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
-        self.encode_from(encoder, &self.own, ts);
+        self.encode_from(encoder, &self.own, Window::whole(self.shape.size), ts);
     }
 
     /// Records the clustering of the view of `view` (after its dynamic RSM
-    /// pass), into its slots.
+    /// pass), into its slots, over `window` (the one its parameters were
+    /// last set with, [`DynamicVplPass::set_frame`]).
     pub(crate) fn encode_from(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         view: &VplView,
+        window: Window,
         ts: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -361,7 +366,7 @@ impl DynamicVplPass {
         });
         let offset = |block: u32| (PARAMS_STRIDE * u64::from(block)) as u32;
         pass.set_pipeline(&self.reduce);
-        for level in (0..self.shape.levels).rev() {
+        for level in (0..window.levels.min(self.shape.levels)).rev() {
             pass.set_bind_group(0, &view.bind_group, &[offset(level)]);
             let (x, y) = groups(1u32 << (2 * level));
             pass.dispatch_workgroups(x, y, 1);
@@ -401,7 +406,7 @@ fn vpl_view(
     let (layout, nodes, vpls) = shared;
     let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("dynamic VPL params"),
-        contents: &param_blocks(shape, (max_depth, slots), 0),
+        contents: &param_blocks(shape, (max_depth, slots), 0, Window::whole(shape.size)),
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
     });
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -447,21 +452,30 @@ fn vpl_view(
 }
 
 /// The parameter blocks of a view of `(max_depth, slots)` writing its slots
-/// from `base` on: block d (< levels) for cs_reduce writing level d, block
-/// `levels` for cs_slots.
-fn param_blocks(shape: &Shape, (max_depth, slots): (u32, u32), base: u32) -> Vec<u8> {
-    let levels = shape.levels;
-    let mut blocks = vec![0u8; (PARAMS_STRIDE * u64::from(levels + 1)) as usize];
-    for level in 0..=levels {
+/// from `base` on, clustering `window`: block d (< the window's levels) for
+/// cs_reduce writing level d, block `shape.levels` for cs_slots (its depth
+/// this frame at most the window's levels; the view's slots past it are
+/// written empty).
+fn param_blocks(
+    shape: &Shape,
+    (max_depth, slots): (u32, u32),
+    base: u32,
+    window: Window,
+) -> Vec<u8> {
+    let levels = window.levels.min(shape.levels);
+    let mut blocks = vec![0u8; (PARAMS_STRIDE * u64::from(shape.levels + 1)) as usize];
+    for level in (0..levels).chain(std::iter::once(shape.levels)) {
         let p = GpuParams {
             level,
             levels,
             size: shape.size,
-            max_depth,
+            max_depth: max_depth.min(levels),
             slots,
             threshold: shape.threshold,
             base,
             pad: 0,
+            origin: window.origin,
+            pad2: [0; 2],
         };
         let at = (PARAMS_STRIDE * u64::from(level)) as usize;
         blocks[at..at + std::mem::size_of::<GpuParams>()].copy_from_slice(bytemuck::bytes_of(&p));
@@ -498,6 +512,6 @@ mod tests {
         assert_eq!(slot_count(1), 5);
         assert_eq!(slot_count(3), 85);
         assert_eq!(std::mem::size_of::<GpuDynVpl>(), 48);
-        assert_eq!(std::mem::size_of::<GpuParams>(), 32);
+        assert_eq!(std::mem::size_of::<GpuParams>(), 48);
     }
 }

@@ -4,8 +4,10 @@
 // CPU twin: gibake_bake::cluster::cluster_cut (see crates/bake/src/cluster.rs
 // for the rule, the moments and the slot order).
 //
-// The quadtree of a P × P map (P = 2^L ≥ the RSM size; texels past the RSM
-// are empty) is stored level by level in `nodes`, level d (0 = root) at
+// The quadtree of a P × P window of the map (P = 2^L, from texel
+// params.origin: the moving objects' footprint this frame, or the whole map
+// rounded up to a power of two; texels past the RSM are empty) is stored
+// level by level in `nodes`, level d (0 = root) at
 // offset (4^d − 1)/3, in Morton order within the level, for d < L; level L
 // (single texels) is computed from the RSM where it is read.
 //   cs_reduce: node i of level params.level from its four children 4i..4i+3
@@ -24,6 +26,9 @@ struct Params {
     threshold: f32,
     base: u32,        // this view's first slot in `vpls` (views one after another)
     _pad1: u32,
+    origin: vec2<u32>, // the window's first texel: the quadtree is the 2^levels
+                       // square from here (the moving objects' footprint)
+    _pad2: vec2<u32>,
 }
 
 // Moments of a node over its lit texels (see cluster.rs, "Per-node
@@ -71,10 +76,13 @@ fn empty_node() -> Node {
     return n;
 }
 
-// The node of texel (x, y), with the bake's RSM radiometry
-// (gibake_bake::rsm::render_rsm): flux = albedo · color · att · measure,
-// area = measure · d² / cos (spot) or measure / cos (directional).
-fn texel_node(x: u32, y: u32) -> Node {
+// The node of texel (x, y) of the window (the map's texel origin + (x, y)),
+// with the bake's RSM radiometry (gibake_bake::rsm::render_rsm): flux =
+// albedo · color · att · measure, area = measure · d² / cos (spot) or
+// measure / cos (directional).
+fn texel_node(wx: u32, wy: u32) -> Node {
+    let x = wx + params.origin.x;
+    let y = wy + params.origin.y;
     if (x >= params.size || y >= params.size) {
         return empty_node();
     }
@@ -233,6 +241,12 @@ fn cs_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     if (s >= params.slots) {
         return;
     }
+    // Past this frame's depth (a window smaller than the view's deepest
+    // slots): an empty slot.
+    if (s >= level_offset(params.max_depth + 1u)) {
+        vpls[params.base + s] = DynVpl(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+        return;
+    }
     var d = 0u;
     while (d < params.max_depth && level_offset(d + 1u) <= s) {
         d++;
@@ -258,7 +272,7 @@ fn cs_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         // very bright lights (w ~ 1e20), and normalize() would give zero.
         var normal = n.wn / n.w;
         // Its far-field lobe's coherence |Σw·n| / Σw (shade.wgsl
-        // vpl_lobe_irradiance): a dynamic VPL is always drawn as one disk.
+        // dyn_vpl_irradiance): a dynamic VPL is always drawn as one disk.
         var coherence = 1.0;
         if (dot(normal, normal) > 0.0) {
             coherence = clamp(length(normal), 0.0, 1.0);

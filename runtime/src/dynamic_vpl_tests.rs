@@ -4,7 +4,7 @@
 //! tests of the crate's own passes).
 
 use gibake_asset::Asset;
-use gibake_bake::cluster::{Cluster, ClusterTarget, cluster_cut};
+use gibake_bake::cluster::{Cluster, ClusterTarget, cluster_cut, cluster_cut_window};
 use gibake_bake::rsm::{MIN_AREA_COSINE, Rsm};
 use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::{GpuContext, GpuPrimaryLight, LightView, readback};
@@ -12,9 +12,9 @@ use gibake_scene::{LightKind, LoadOptions, Scene};
 use glam::{Mat4, Vec2, Vec3};
 use wgpu::util::DeviceExt;
 
-use super::{DynamicVplPass, GpuDynVpl};
+use super::{DynamicVplPass, GpuDynVpl, slot_count};
 use crate::baked::BakedGpu;
-use crate::dynamic_rsm::DynamicRsmPass;
+use crate::dynamic_rsm::{DynamicRsmPass, Window};
 use crate::plan::Pass;
 use crate::stats::{FrameStats, Timer};
 
@@ -395,5 +395,71 @@ fn dynamic_vpls_are_empty_without_moving_surfaces_in_view() {
                 .iter()
                 .all(|m| m.is_infinite())
         );
+    }
+}
+
+/// Clustered over the moving objects' footprint (the window of their boxes
+/// in the light view, as the runtime picks it each frame), the GPU's cut is
+/// the CPU twin's over the same window; the window holds all the moving
+/// flux, is smaller than the map, and reaches deeper with the same slots.
+#[test]
+fn dynamic_vpls_over_the_moving_objects_window_match_the_cpu_cut() {
+    let ctx = gpu();
+    let scene = scene();
+    let asset = bake(&ctx, &scene);
+    let diagonal = scene.full_bounds().diagonal();
+    for time in [0.0f32, 0.9, 2.6] {
+        let f = frame(&ctx, &scene, &asset, time);
+        let rect = (0..scene.dynamic_objects.len())
+            .filter_map(|i| f.view.texel_rect(&scene.dynamic_bounds(i, time)))
+            .reduce(|a, c| {
+                [
+                    a[0].min(c[0]),
+                    a[1].min(c[1]),
+                    a[2].max(c[2]),
+                    a[3].max(c[3]),
+                ]
+            })
+            .expect("the view sees the balls");
+        let window = Window::around(rect, f.view.size);
+        let whole = Window::whole(f.view.size);
+        assert!(
+            window.levels < whole.levels,
+            "t = {time}: {rect:?} gives {window:?}"
+        );
+        run(&ctx, &f, None);
+        let rsm = cpu_rsm(&ctx, &scene, &f);
+        for (max_vpls, t) in [(MAX_VPLS, f.threshold), (16, f.threshold), (1000, 1e-5)] {
+            let pass = f.pass(&ctx, t, max_vpls);
+            pass.set_frame(&ctx.queue, pass.own_view(), 0, window);
+            let mut enc = ctx.device.create_command_encoder(&Default::default());
+            f.rsm
+                .encode(&mut enc, &f.scene_gpu, &f.scene_gpu.dynamic_draws, None);
+            pass.encode_from(&mut enc, pass.own_view(), window, None);
+            ctx.queue.submit([enc.finish()]);
+            let bytes = readback::read_buffer(&ctx, &pass.vpls).expect("read the slots");
+            let slots: Vec<GpuDynVpl> = bytemuck::pod_collect_to_vec(&bytes);
+            assert_all_finite(&slots);
+            let depth = pass.max_depth().min(window.levels);
+            let cpu = cluster_cut_window(&rsm, t, depth, window.origin, window.levels);
+            let used = slots.iter().filter(|v| v.normal[3] > 0.5).count();
+            let full = cluster_cut(&rsm, t, pass.max_depth()).len();
+            eprintln!(
+                "t = {time}: window {window:?} of {}², max depth {depth}: {used} VPLs (whole map: {full})",
+                f.view.size
+            );
+            // Slots past this frame's depth are empty.
+            let in_depth = slot_count(depth) as usize;
+            assert!(slots[in_depth..].iter().all(|v| *v == GpuDynVpl::default()));
+            compare(&slots[..in_depth], &cpu, diagonal);
+            let total: Vec3 = (0..rsm.flux.len())
+                .filter(|&i| rsm.metric[i].is_finite())
+                .map(|i| rsm.flux[i])
+                .sum();
+            let got: Vec3 = slots.iter().map(|v| Vec3::from_slice(&v.flux[..3])).sum();
+            for ch in 0..3 {
+                assert!(rel_close(got[ch], total[ch], 1e-3), "{got} vs {total}");
+            }
+        }
     }
 }

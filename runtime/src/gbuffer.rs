@@ -139,7 +139,7 @@ impl GBufferPass {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &camera.bind_group, &[]);
         for d in draws {
-            scene_gpu.draw(&mut pass, d, true);
+            scene_gpu.draw(&mut pass, d.iter(), true);
         }
     }
 }

@@ -130,7 +130,7 @@ impl PrimaryLight {
                 let view = LightView::for_scene(scene, shadow_map_size);
                 let pass = ShadowPass::new(device, scene_gpu, view);
                 let mut enc = device.create_command_encoder(&Default::default());
-                pass.encode(&mut enc, scene_gpu, &[&scene_gpu.static_draws], None);
+                pass.encode(&mut enc, scene_gpu, &scene_gpu.static_draws, None);
                 queue.submit([enc.finish()]);
                 (view, pass.metric_view.clone(), Some(pass))
             }

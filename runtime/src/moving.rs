@@ -32,7 +32,7 @@ use wgpu::util::DeviceExt;
 
 use crate::RuntimeError;
 use crate::baked::{BakedGpu, RsmGpu};
-use crate::dynamic_rsm::{DynamicRsmPass, OcclusionPass, RsmView};
+use crate::dynamic_rsm::{DynamicRsmPass, OcclusionPass, OcclusionView, RsmView, Window};
 use crate::dynamic_vpl::{DynamicVplPass, VplView};
 use crate::merge::VplMerge;
 use crate::plan::{FramePlan, Pass};
@@ -79,12 +79,12 @@ pub(crate) struct UpdateOutputs<'a> {
 
 /// One light view the bounce off moving objects is computed in: its
 /// bindings (`None`: the passes' own, made for it), its view, whether it is
-/// the primary light's (recorded every frame) and whether this frame's
-/// moving objects touch it.
+/// the primary light's (recorded every frame), whether this frame's moving
+/// objects touch it, and the window of its map they cover.
 struct BounceView {
     view: LightView,
     rsm: Option<RsmView>,
-    occlusion: Option<wgpu::BindGroup>,
+    occlusion: Option<OcclusionView>,
     vpls: Option<VplView>,
     /// Its light's `GpuPrimaryLight` uniform (bound in `vpls`).
     _light_buf: Option<wgpu::Buffer>,
@@ -93,6 +93,12 @@ struct BounceView {
     /// The first slot of its range (the views recorded this frame come
     /// first, in order), as its parameters say.
     base: u32,
+    /// The square of its map the moving objects' boxes cover this frame
+    /// (occlusion and clustering run there only), as its parameters say.
+    window: Window,
+    /// The moving draws whose box it can see this frame (only those are
+    /// drawn into its RSM: the others' triangles would all be clipped).
+    seen: Vec<u32>,
 }
 
 /// The moving objects' passes of one renderer.
@@ -200,6 +206,8 @@ impl MovingPasses {
                     primary: sources[0].1,
                     touched: sources[0].1,
                     base: 0,
+                    window: Window::whole(pass.size),
+                    seen: Vec::new(),
                 }];
                 for &(r, primary) in sources.iter().skip(1) {
                     let view = pass.bind(device, i.scene_gpu, &r.view);
@@ -225,6 +233,8 @@ impl MovingPasses {
                         touched: primary,
                         // Set when it is first recorded.
                         base: u32::MAX,
+                        window: Window::whole(pass.size),
+                        seen: Vec::new(),
                     });
                 }
                 (Some((pass, occ)), dyn_vpls, bounce)
@@ -273,14 +283,58 @@ impl MovingPasses {
         boxes: &[Aabb],
     ) -> Result<bool, RuntimeError> {
         self.moving_draws = draws.len() as u32;
-        for b in self.bounce.iter_mut().filter(|b| !b.primary) {
-            b.touched = boxes.iter().any(|x| b.view.may_see(x));
+        // Each view's window: the texels the boxes it sees can cover (none
+        // seen: one texel, for the primary view that is recorded anyway).
+        let mut windows = Vec::with_capacity(self.bounce.len());
+        for b in &mut self.bounce {
+            b.seen.clear();
+            let mut rect: Option<[u32; 4]> = None;
+            for (k, x) in boxes.iter().enumerate() {
+                if let Some(c) = b.view.texel_rect(x) {
+                    b.seen.push(k as u32);
+                    rect = Some(match rect {
+                        None => c,
+                        Some(a) => [
+                            a[0].min(c[0]),
+                            a[1].min(c[1]),
+                            a[2].max(c[2]),
+                            a[3].max(c[3]),
+                        ],
+                    });
+                }
+            }
+            if !b.primary {
+                b.touched = rect.is_some();
+            }
+            windows.push(rect.map_or(
+                Window {
+                    origin: [0, 0],
+                    levels: 0,
+                },
+                |r| Window::around(r, b.view.size),
+            ));
+        }
+        if let Some((_, occlusion)) = &self.rsm {
+            for (b, &w) in self.bounce.iter().zip(&windows) {
+                if b.touched && b.window != w {
+                    occlusion.set_window(
+                        queue,
+                        b.occlusion.as_ref().unwrap_or(occlusion.own_view()),
+                        w,
+                    );
+                }
+            }
         }
         // The views recorded this frame take the first slot ranges, in
         // order: shading reads only those (`dynamic_vpl_slots`).
         let mut next = 0;
         if let Some(d) = &self.vpls {
-            for b in self.bounce.iter_mut().filter(|b| b.touched) {
+            for (b, &w) in self
+                .bounce
+                .iter_mut()
+                .zip(&windows)
+                .filter(|(b, _)| b.touched)
+            {
                 let v = match &b.rsm {
                     None => d.own_view(),
                     Some(_) => match &b.vpls {
@@ -288,11 +342,16 @@ impl MovingPasses {
                         None => continue,
                     },
                 };
-                if b.base != next {
-                    d.set_position(queue, v, next);
+                if b.base != next || b.window != w {
+                    d.set_frame(queue, v, next, w);
                     b.base = next;
                 }
                 next += DynamicVplPass::slots_of(v);
+            }
+        }
+        for (b, w) in self.bounce.iter_mut().zip(windows) {
+            if b.touched {
+                b.window = w;
             }
         }
         self.dynamic_slots = next;
@@ -320,7 +379,12 @@ impl MovingPasses {
     /// Draw calls [`MovingPasses::record`] records.
     pub(crate) fn draw_calls(&self) -> u32 {
         let primary = self.primary.as_ref().map_or(0, |_| self.moving_draws);
-        let rsm = self.bounce.iter().filter(|b| b.touched).count() as u32 * self.moving_draws;
+        let rsm: u32 = self
+            .bounce
+            .iter()
+            .filter(|b| b.touched)
+            .map(|b| b.seen.len() as u32)
+            .sum();
         primary + rsm + self.merge_draws
     }
 
@@ -358,7 +422,7 @@ impl MovingPasses {
     ) {
         if let Some(p) = &self.primary {
             let ts = timer.render(Pass::PrimaryMerge, None);
-            p.encode(encoder, scene_gpu, &[draws], ts);
+            p.encode(encoder, scene_gpu, draws, ts);
         }
         if let Some((rsm, occlusion)) = &self.rsm {
             encoder.clear_buffer(&occlusion.occluded, 0, None);
@@ -391,7 +455,8 @@ impl MovingPasses {
                     timer.render_span(Pass::LightBounce, first, false)
                 };
                 let own = b.rsm.as_ref().unwrap_or(&rsm.own);
-                rsm.encode_from(encoder, scene_gpu, own, draws, rsm_ts);
+                let seen = b.seen.iter().filter_map(|&k| draws.get(k as usize));
+                rsm.encode_from(encoder, scene_gpu, own, seen, rsm_ts);
                 let occ_ts = if b.primary {
                     timer.compute(Pass::Occlusion, None)
                 } else {
@@ -399,7 +464,8 @@ impl MovingPasses {
                 };
                 occlusion.encode_from(
                     encoder,
-                    b.occlusion.as_ref().unwrap_or(occlusion.own_group()),
+                    b.occlusion.as_ref().unwrap_or(occlusion.own_view()),
+                    b.window,
                     occ_ts,
                 );
                 if let Some((d, v)) = &vpl_view {
@@ -408,7 +474,7 @@ impl MovingPasses {
                     } else {
                         timer.compute_span(Pass::LightBounce, false, last)
                     };
-                    d.encode_from(encoder, v, ts);
+                    d.encode_from(encoder, v, b.window, ts);
                 }
             }
         }

@@ -1,5 +1,6 @@
 // occlusion.wgsl — partial occlusion of static VPLs (needs common.wgsl,
-// projection.wgsl, moving.wgsl). One invocation per RSM texel: if a moving object is now
+// projection.wgsl, moving.wgsl). One invocation per RSM texel of the moving
+// objects' window: if a moving object is now
 // nearer the light than the texel's static surface, the texel's share of its
 // VPL's flux (fixed point, 2^24 = the whole VPL) is added to that VPL's
 // occluded sum with an integer atomic: order-independent, so deterministic.
@@ -9,19 +10,26 @@
 @group(0) @binding(2) var<storage, read> texel_info: array<vec2<u32>>;   // (vpl, share)
 @group(0) @binding(3) var<storage, read_write> occluded: array<atomic<u32>>;
 @group(0) @binding(4) var<uniform> view: LightView;
+// The window this frame tests (xy: its first texel, z: its side): the
+// moving objects' footprint; no texel outside it has a moving surface.
+@group(0) @binding(5) var<uniform> window: vec4<u32>;
 
 const NONE: u32 = 0xffffffffu;
 @compute @workgroup_size(8, 8)
 fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let size = u32(view.params.x);
-    if (gid.x >= size || gid.y >= size) {
+    if (gid.x >= window.z || gid.y >= window.z) {
         return;
     }
-    let info = texel_info[gid.y * size + gid.x];
+    let t = gid.xy + window.xy;
+    if (t.x >= size || t.y >= size) {
+        return;
+    }
+    let info = texel_info[t.y * size + t.x];
     if (info.x == NONE) {
         return;
     }
-    if (moving_in_front(vec2<i32>(gid.xy))) {
+    if (moving_in_front(vec2<i32>(t))) {
         atomicAdd(&occluded[info.x], info.y);
     }
 }

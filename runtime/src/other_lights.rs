@@ -116,6 +116,10 @@ struct Merge {
     cols: u32,
     /// Which movable views this frame's moving objects touch.
     touched: Vec<bool>,
+    /// Per movable view, the moving draws whose box it can see this frame
+    /// (only those are drawn into it: the others' triangles would all be
+    /// clipped).
+    seen: Vec<Vec<u32>>,
 }
 
 /// The GPU resources of the lights after the first.
@@ -295,7 +299,10 @@ impl OtherLights {
         };
         let mut n = 0;
         for (i, (k, view, pass)) in m.passes.iter().enumerate() {
-            let touched = boxes.iter().any(|b| view.may_see(b));
+            let seen = &mut m.seen[i];
+            seen.clear();
+            seen.extend((0..boxes.len() as u32).filter(|&d| view.may_see(&boxes[d as usize])));
+            let touched = !seen.is_empty();
             m.touched[i] = touched;
             let size = pass.view.size;
             let t = &mut self.gpu_views[*k].tile;
@@ -334,7 +341,8 @@ impl OtherLights {
         for (j, &i) in touched.iter().enumerate() {
             let (_, _, pass) = &m.passes[i];
             let ts = timer.render_span(crate::Pass::LightMerge, j == 0, j + 1 == touched.len());
-            pass.encode(encoder, scene_gpu, &[draws], ts);
+            let seen = m.seen[i].iter().filter_map(|&d| draws.get(d as usize));
+            pass.encode(encoder, scene_gpu, seen, ts);
             light_maps::copy_to_tile(
                 encoder,
                 &pass.metric,
@@ -346,9 +354,15 @@ impl OtherLights {
         }
     }
 
-    /// Draw calls of this frame's light merge.
-    pub(crate) fn draw_calls(&self, moving_draws: u32) -> u32 {
-        self.touched() * moving_draws
+    /// Draw calls of this frame's light merge (each touched view draws the
+    /// moving draws it can see).
+    pub(crate) fn draw_calls(&self) -> u32 {
+        self.merge.as_ref().map_or(0, |m| {
+            (0..m.passes.len())
+                .filter(|&i| m.touched[i])
+                .map(|i| m.seen[i].len() as u32)
+                .sum()
+        })
     }
 }
 
@@ -402,6 +416,7 @@ impl Merge {
             atlas,
             cols,
             touched: vec![false; movable.len()],
+            seen: vec![Vec::new(); movable.len()],
         }))
     }
 

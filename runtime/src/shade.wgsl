@@ -8,7 +8,7 @@
 //   other_lights.wgsl),
 // + every static VPL with its merged hemisphere map, its flux scaled by the
 //   lit fraction of its own RSM texels,
-// + every dynamic VPL, unshadowed.
+// + every dynamic VPL, unshadowed, its lobe over the whole sphere.
 // VPL transport has no singularity: a VPL is a small disk of its texels'
 // area A, E = Φ/π · cosθ_v cosθ_r / sqrt(d⁴ + (A/π)²): at contact this is
 // the disk's exitance Φ/A, beyond the disk's radius R it is the point
@@ -206,13 +206,32 @@ fn vpl_irradiance(origin: vec3<f32>, nv: vec3<f32>, a: f32, phi: vec3<f32>, x: v
     return vpl_lobe_irradiance(origin, nv, 1.0, a, phi, x, ns, ng);
 }
 
-// A VPL seen from afar: the disk of vpl_irradiance with the far-field lobe
-// c·cosθ_v/π + (1 − c)/2π per unit flux in place of its cosine lobe, c its
-// texels' flux-weighted normal coherence (gibake_asset::lobe_coherence):
-// texels facing every way (a tree's crown) send light sideways too, as
-// one lobe with their mean normal would not; the first moment is kept.
-// CPU twin: gibake_eval::transport::lobe_irradiance.
+// A static VPL seen from afar: the disk of vpl_irradiance with the
+// far-field lobe c·cosθ_v/π + (1 − c)/2π per unit flux over its normal's
+// hemisphere in place of its cosine lobe, c its texels' flux-weighted
+// normal coherence (gibake_asset::lobe_coherence): texels facing every
+// way (a tree's crown) send light sideways too, as one lobe with their
+// mean normal would not. Its hemisphere map covers no more than that
+// hemisphere. CPU twin: gibake_eval::transport::lobe_irradiance.
 fn vpl_lobe_irradiance(p: vec3<f32>, nv: vec3<f32>, coherence: f32, a: f32, phi: vec3<f32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
+    return disk_irradiance(p, nv, coherence, false, a, phi, x, ns, ng);
+}
+
+// A moving object's VPL (dynamic_vpl.wgsl; unshadowed, no hemisphere
+// map): its lobe's incoherent part spread over the whole sphere,
+// c·max(cosθ_v, 0)/π + (1 − c)/4π per unit flux. This keeps its texels'
+// odd part c·cosθ_v/2π exactly (Σw·max(0, n·ω) − Σw·max(0, −n·ω) =
+// Σw·n·ω) with an isotropic even part: a ball's lit cap, one VPL with its
+// mean normal toward the light, sends light behind that normal too, onto
+// the ground on the ball's far side, as the cap's rim does (docs/method.md,
+// "Dynamic VPLs").
+fn dyn_vpl_irradiance(p: vec3<f32>, nv: vec3<f32>, coherence: f32, a: f32, phi: vec3<f32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
+    return disk_irradiance(p, nv, coherence, true, a, phi, x, ns, ng);
+}
+
+// The disk's transport with the lobe of coherence c: over the normal's
+// hemisphere (whole_sphere false) or the whole sphere (true).
+fn disk_irradiance(p: vec3<f32>, nv: vec3<f32>, coherence: f32, whole_sphere: bool, a: f32, phi: vec3<f32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
     let dv = x - p;
     let d2 = dot(dv, dv);
     if (d2 <= 0.0) {
@@ -221,11 +240,19 @@ fn vpl_lobe_irradiance(p: vec3<f32>, nv: vec3<f32>, coherence: f32, a: f32, phi:
     let dir = dv * inverseSqrt(d2);
     let cos_v = dot(nv, dir);
     let cos_r = dot(ns, -dir);
-    if (cos_v <= 0.0 || cos_r <= 0.0 || dot(ng, -dir) <= 0.0) {
+    if (cos_r <= 0.0 || dot(ng, -dir) <= 0.0) {
         return vec3<f32>(0.0);
     }
     let c = clamp(coherence, 0.0, 1.0);
-    let lobe = c * cos_v + (1.0 - c) * 0.5;
+    var lobe: f32;
+    if (whole_sphere) {
+        lobe = c * max(cos_v, 0.0) + (1.0 - c) * 0.25;
+    } else {
+        if (cos_v <= 0.0) {
+            return vec3<f32>(0.0);
+        }
+        lobe = c * cos_v + (1.0 - c) * 0.5;
+    }
     // sqrt(d⁴ + (A/π)²): equals the disk's irradiance at contact (Φ/A),
     // and 1/d² within (A/π)²/(2d⁴) beyond the disk's radius.
     let r2 = a * INV_PI;
@@ -339,7 +366,7 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocat
             for (var i = k; i < params.n_dynamic; i += stride) {
                 let v = dyn_vpls[i];
                 if (v.normal.w > 0.5) {
-                    e += vpl_lobe_irradiance(v.position.xyz, v.normal.xyz, v.flux.w, v.position.w, v.flux.rgb, x, ns, ng);
+                    e += dyn_vpl_irradiance(v.position.xyz, v.normal.xyz, v.flux.w, v.position.w, v.flux.rgb, x, ns, ng);
                 }
             }
         }

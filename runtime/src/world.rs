@@ -241,9 +241,7 @@ impl World {
 
     /// Draw calls of this frame's light merge.
     pub(crate) fn light_merge_draw_calls(&self) -> u32 {
-        self.other_lights
-            .as_ref()
-            .map_or(0, |o| o.draw_calls(self.moving_draws.len() as u32))
+        self.other_lights.as_ref().map_or(0, |o| o.draw_calls())
     }
 
     /// Draw calls of this frame's cascade passes.

@@ -566,7 +566,7 @@ fn bake_with(
     let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &static_scene, 0.0);
     let pass = ShadowPass::new(&ctx.device, &scene_gpu, view);
     let mut enc = ctx.device.create_command_encoder(&Default::default());
-    pass.encode(&mut enc, &scene_gpu, &[&scene_gpu.static_draws], None);
+    pass.encode(&mut enc, &scene_gpu, &scene_gpu.static_draws, None);
     ctx.queue.submit([enc.finish()]);
     let mut primary = readback::read_texture_f32(ctx, &pass.metric, 0, 1)?;
     for v in &mut primary {

@@ -981,6 +981,54 @@ fn slot(node: Node) -> u64 {
 /// Only power-of-two sizes are supported: any other size (or 0) gives an
 /// empty result.
 pub fn cluster_cut(rsm: &Rsm, threshold: f32, max_depth: u32) -> Vec<Cluster> {
+    cut(rsm, threshold, max_depth, rsm.size)
+}
+
+/// [`cluster_cut`] over the `2^levels`-texel square of `rsm` from texel
+/// `origin` (texels past the map are empty), the depth spread still
+/// measured against the whole map's width: the CPU twin of the runtime's
+/// clustering of the moving objects' footprint in a light view. Slots are
+/// numbered within the window.
+pub fn cluster_cut_window(
+    rsm: &Rsm,
+    threshold: f32,
+    max_depth: u32,
+    origin: [u32; 2],
+    levels: u32,
+) -> Vec<Cluster> {
+    let side = 1u32 << levels.min(15);
+    let n = (side as usize) * (side as usize);
+    let mut w = Rsm {
+        size: side,
+        view: rsm.view,
+        metric: vec![f32::INFINITY; n],
+        position: vec![Vec3::ZERO; n],
+        normal: vec![Vec3::ZERO; n],
+        flux: vec![Vec3::ZERO; n],
+        area: vec![0.0; n],
+        reach: vec![1.0; n],
+    };
+    for y in 0..side {
+        for x in 0..side {
+            let (mx, my) = (origin[0] + x, origin[1] + y);
+            if mx >= rsm.size || my >= rsm.size {
+                continue;
+            }
+            let (i, j) = ((y * side + x) as usize, (my * rsm.size + mx) as usize);
+            w.metric[i] = rsm.metric[j];
+            w.position[i] = rsm.position[j];
+            w.normal[i] = rsm.normal[j];
+            w.flux[i] = rsm.flux[j];
+            w.area[i] = rsm.area[j];
+            w.reach[i] = rsm.reach[j];
+        }
+    }
+    cut(&w, threshold, max_depth, rsm.size)
+}
+
+/// [`cluster_cut`] with the depth spread measured against a view
+/// `score_width` texels wide.
+fn cut(rsm: &Rsm, threshold: f32, max_depth: u32, score_width: u32) -> Vec<Cluster> {
     if !rsm.size.is_power_of_two() {
         return Vec::new();
     }
@@ -993,7 +1041,8 @@ pub fn cluster_cut(rsm: &Rsm, threshold: f32, max_depth: u32) -> Vec<Cluster> {
             && rsm.area.len() == texels,
         "RSM arrays must hold size² texels"
     );
-    let pyramid = Pyramid::new(rsm);
+    let mut pyramid = Pyramid::new(rsm);
+    pyramid.set_score_width(score_width);
     let limit = max_depth.min(pyramid.texel_level());
     let mut out: Vec<(u64, Cluster)> = Vec::new();
     let mut stack = vec![pyramid.root()];

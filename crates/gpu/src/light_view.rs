@@ -328,6 +328,42 @@ impl LightView {
         !outside.iter().any(|plane| clip.iter().all(plane))
     }
 
+    /// The texels `[x0, x1) × [y0, y1)` of the map that `bounds` can cover
+    /// (every texel whose centre the box's projection may hold, plus one
+    /// texel of margin), or `None` when the view cannot see the box
+    /// ([`LightView::may_see`]). A box reaching behind a spot's or point
+    /// face's eye plane gives the whole map (its projection is unbounded).
+    pub fn texel_rect(&self, bounds: &Aabb) -> Option<[u32; 4]> {
+        if !self.may_see(bounds) {
+            return None;
+        }
+        let n = self.size as f32;
+        let whole = Some([0, 0, self.size, self.size]);
+        let (mut lo, mut hi) = (
+            glam::Vec2::splat(f32::INFINITY),
+            glam::Vec2::splat(f32::NEG_INFINITY),
+        );
+        for i in 0..8 {
+            let c = self.view_proj * corner(bounds, i).extend(1.0);
+            // On or behind the eye plane (or not finite): unbounded.
+            let in_front = c.w > 1e-6 * c.truncate().length().max(f32::MIN_POSITIVE);
+            if !in_front || !c.is_finite() {
+                return whole;
+            }
+            let ndc = c.truncate() / c.w;
+            let t = glam::Vec2::new(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * n;
+            lo = lo.min(t);
+            hi = hi.max(t);
+        }
+        if !(lo.is_finite() && hi.is_finite()) {
+            return whole;
+        }
+        let clamp = |v: f32| v.clamp(0.0, n) as u32;
+        let (x0, y0) = (clamp(lo.x.floor() - 1.0), clamp(lo.y.floor() - 1.0));
+        let (x1, y1) = (clamp(hi.x.ceil() + 1.0), clamp(hi.y.ceil() + 1.0));
+        (x1 > x0 && y1 > y0).then_some([x0, y0, x1, y1])
+    }
+
     /// World size of one map texel at `p`.
     pub fn footprint(&self, p: Vec3) -> f32 {
         if self.directional {
@@ -459,6 +495,65 @@ impl GpuPrimaryLight {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A box's texel rectangle holds the texel of every point of the box
+    /// (sampled), is much smaller than the map for a small box, is the
+    /// whole map for a box around a spot's eye, and is `None` for a box
+    /// the view cannot see.
+    #[test]
+    fn texel_rect_holds_the_box() {
+        let spot = Light {
+            name: "spot".into(),
+            kind: LightKind::Spot {
+                inner_cone: 0.3,
+                outer_cone: 0.6,
+            },
+            color: Vec3::ONE,
+            position: Vec3::new(0.0, 5.0, 0.0),
+            direction: Vec3::NEG_Y,
+            range: None,
+        };
+        let scene = Aabb {
+            min: Vec3::new(-10.0, 0.0, -10.0),
+            max: Vec3::new(10.0, 1.0, 10.0),
+        };
+        let sun = LightView::directional(
+            Vec3::new(0.3, -1.0, 0.2).normalize(),
+            scene.min,
+            scene.max,
+            256,
+        );
+        for view in [LightView::new(&spot, &scene, 256), sun] {
+            let ball = Aabb {
+                min: Vec3::new(0.5, 0.0, -0.7),
+                max: Vec3::new(1.1, 0.6, -0.1),
+            };
+            let [x0, y0, x1, y1] = view.texel_rect(&ball).expect("the view sees the ball");
+            assert!(
+                (x1 - x0) * (y1 - y0) < 256 * 256 / 16,
+                "{:?}",
+                [x0, y0, x1, y1]
+            );
+            for i in 0..1000 {
+                let f = |k: u32| ((i * k) % 97) as f32 / 96.0;
+                let p = ball.min + (ball.max - ball.min) * Vec3::new(f(13), f(29), f(61));
+                let t = view.texel_coords(p).expect("in front");
+                let (x, y) = (t.x.floor() as u32, t.y.floor() as u32);
+                assert!(x0 <= x && x < x1 && y0 <= y && y < y1, "{p} at ({x}, {y})");
+            }
+            let far = Aabb {
+                min: Vec3::splat(1e3),
+                max: Vec3::splat(1e3 + 1.0),
+            };
+            assert_eq!(view.texel_rect(&far), None);
+        }
+        let view = LightView::new(&spot, &scene, 256);
+        let around_eye = Aabb {
+            min: Vec3::new(-1.0, 4.0, -1.0),
+            max: Vec3::new(1.0, 6.0, 1.0),
+        };
+        assert_eq!(view.texel_rect(&around_eye), Some([0, 0, 256, 256]));
+    }
 
     /// A point light's six faces cover every direction exactly once: the
     /// texel coordinates of a point seen from the light fall inside exactly

@@ -481,7 +481,12 @@ impl SceneGpu {
 
     /// Records the draws (static, dynamic or both) into a render pass whose
     /// pipeline uses group 1 for the material (if `materials`).
-    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, draws: &[Draw], materials: bool) {
+    pub fn draw<'d>(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        draws: impl IntoIterator<Item = &'d Draw>,
+        materials: bool,
+    ) {
         pass.set_vertex_buffer(0, self.vertices.slice(..));
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
         for d in draws {

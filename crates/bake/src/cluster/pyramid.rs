@@ -185,6 +185,9 @@ pub(crate) struct Pyramid {
     /// Whether scores weigh the reaching flux (else the flux: nothing in
     /// the map reaches a surface).
     by_reach: bool,
+    /// The view's width in texels that the depth spread is measured in
+    /// (`size`, or the whole map's for a window of it).
+    score_width: u32,
 }
 
 impl Pyramid {
@@ -223,6 +226,7 @@ impl Pyramid {
             moments: Vec::new(),
             total_flux: 0.0,
             by_reach: true,
+            score_width: size,
         };
         let texel_level = pyramid.texel_level();
         let mut moments: Vec<Vec<Moments>> = vec![Vec::new(); texel_level as usize];
@@ -277,11 +281,17 @@ impl Pyramid {
         self.by_reach = by_reach;
     }
 
-    /// The split score of `node` ([`Moments::score`] with this map's size
+    /// Measures the depth spread against a view `width` texels wide: the
+    /// whole map's when this pyramid is over a window of it.
+    pub fn set_score_width(&mut self, width: u32) {
+        self.score_width = width;
+    }
+
+    /// The split score of `node` ([`Moments::score`] with this map's width
     /// and total flux).
     pub fn score(&self, rsm: &Rsm, node: Node) -> Option<f32> {
         self.moments(rsm, node)
-            .score(self.size, self.total_flux, self.by_reach)
+            .score(self.score_width, self.total_flux, self.by_reach)
     }
 
     /// Whether a leaf with these moments counts against a VPL budget: it has

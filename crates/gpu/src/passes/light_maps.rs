@@ -133,7 +133,7 @@ impl LightMaps {
                 None => pass.insert(ShadowPass::new(device, scene_gpu, *view)),
             };
             let mut enc = device.create_command_encoder(&Default::default());
-            pass.encode(&mut enc, scene_gpu, &[&scene_gpu.static_draws], None);
+            pass.encode(&mut enc, scene_gpu, &scene_gpu.static_draws, None);
             copy_to_tile(&mut enc, &pass.metric, &atlas, k as u32, cols, size);
             queue.submit([enc.finish()]);
             progress();

@@ -91,11 +91,11 @@ impl ShadowPass {
     }
 
     /// Records the pass: clears to "infinitely far" and draws `draws`.
-    pub fn encode(
+    pub fn encode<'d>(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         scene_gpu: &SceneGpu,
-        draws: &[&[Draw]],
+        draws: impl IntoIterator<Item = &'d Draw>,
         ts: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         let far = wgpu::Color {
@@ -114,8 +114,6 @@ impl ShadowPass {
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
-        for d in draws {
-            scene_gpu.draw(&mut pass, d, true);
-        }
+        scene_gpu.draw(&mut pass, draws, true);
     }
 }
