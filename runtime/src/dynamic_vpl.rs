@@ -339,17 +339,6 @@ impl DynamicVplPass {
         queue.write_buffer(&view.params, 0, &blocks);
     }
 
-    /// Records the clustering of its own view (after the dynamic RSM pass
-    /// of the same frame).
-    #[cfg(test)]
-    pub(crate) fn encode(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        ts: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
-        self.encode_from(encoder, &self.own, Window::whole(self.shape.size), ts);
-    }
-
     /// Records the clustering of the view of `view` (after its dynamic RSM
     /// pass), into its slots, over `window` (the one its parameters were
     /// last set with, [`DynamicVplPass::set_frame`]).

@@ -113,21 +113,27 @@ fn frame(ctx: &GpuContext, scene: &Scene, asset: &Asset, time: f32) -> Frame {
     }
 }
 
-/// Runs the dynamic RSM and the clustering `pass`; returns the slots.
+/// Runs the dynamic RSM and the clustering `pass` over `window` (the whole
+/// map when `None`); returns the slots.
 fn run_pass(
     ctx: &GpuContext,
     f: &Frame,
     pass: &DynamicVplPass,
+    window: Option<Window>,
     mut timer: Option<&mut Timer>,
 ) -> Vec<GpuDynVpl> {
+    let window = window.unwrap_or(Window::whole(f.view.size));
+    pass.set_frame(&ctx.queue, pass.own_view(), 0, window);
     let mut enc = ctx.device.create_command_encoder(&Default::default());
     f.rsm
         .encode(&mut enc, &f.scene_gpu, &f.scene_gpu.dynamic_draws, None);
     if let Some(t) = timer.as_deref_mut() {
         t.begin(FrameStats::default(), vec![(Pass::DynamicVpls, None)]);
     }
-    pass.encode(
+    pass.encode_from(
         &mut enc,
+        pass.own_view(),
+        window,
         timer
             .as_deref()
             .and_then(|t| t.compute(Pass::DynamicVpls, None)),
@@ -142,7 +148,7 @@ fn run_pass(
 }
 
 fn run(ctx: &GpuContext, f: &Frame, timer: Option<&mut Timer>) -> Vec<GpuDynVpl> {
-    run_pass(ctx, f, &f.pass, timer)
+    run_pass(ctx, f, &f.pass, None, timer)
 }
 
 fn f16_to_f32(h: u16) -> f32 {
@@ -183,16 +189,7 @@ fn cpu_rsm(ctx: &GpuContext, scene: &Scene, f: &Frame) -> Rsm {
     let directional = matches!(light.kind, LightKind::Directional);
     let view = f.view;
     let n = (size * size) as usize;
-    let mut rsm = Rsm {
-        size,
-        view,
-        metric: vec![f32::INFINITY; n],
-        position: vec![Vec3::ZERO; n],
-        normal: vec![Vec3::ZERO; n],
-        flux: vec![Vec3::ZERO; n],
-        area: vec![0.0; n],
-        reach: vec![1.0; n],
-    };
+    let mut rsm = Rsm::empty(size, view);
     for i in 0..n {
         let dm = pos[4 * i + 3];
         let sm = f.static_metric[i];
@@ -354,7 +351,7 @@ fn dynamic_vpls_match_the_cpu_cut_at_every_depth() {
         for max_vpls in [1u32, 16, 1000, 16384] {
             for t in [0.0f32, 1e-5, 1e-3, f.threshold, 0.1, 0.5, f32::INFINITY] {
                 let pass = f.pass(&ctx, t, max_vpls);
-                let slots = run_pass(&ctx, &f, &pass, None);
+                let slots = run_pass(&ctx, &f, &pass, None, None);
                 assert_all_finite(&slots);
                 let cpu = cluster_cut(&rsm, t, pass.max_depth());
                 eprintln!(
@@ -431,14 +428,7 @@ fn dynamic_vpls_over_the_moving_objects_window_match_the_cpu_cut() {
         let rsm = cpu_rsm(&ctx, &scene, &f);
         for (max_vpls, t) in [(MAX_VPLS, f.threshold), (16, f.threshold), (1000, 1e-5)] {
             let pass = f.pass(&ctx, t, max_vpls);
-            pass.set_frame(&ctx.queue, pass.own_view(), 0, window);
-            let mut enc = ctx.device.create_command_encoder(&Default::default());
-            f.rsm
-                .encode(&mut enc, &f.scene_gpu, &f.scene_gpu.dynamic_draws, None);
-            pass.encode_from(&mut enc, pass.own_view(), window, None);
-            ctx.queue.submit([enc.finish()]);
-            let bytes = readback::read_buffer(&ctx, &pass.vpls).expect("read the slots");
-            let slots: Vec<GpuDynVpl> = bytemuck::pod_collect_to_vec(&bytes);
+            let slots = run_pass(&ctx, &f, &pass, Some(window), None);
             assert_all_finite(&slots);
             let depth = pass.max_depth().min(window.levels);
             let cpu = cluster_cut_window(&rsm, t, depth, window.origin, window.levels);

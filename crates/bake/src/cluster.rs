@@ -997,17 +997,7 @@ pub fn cluster_cut_window(
     levels: u32,
 ) -> Vec<Cluster> {
     let side = 1u32 << levels.min(15);
-    let n = (side as usize) * (side as usize);
-    let mut w = Rsm {
-        size: side,
-        view: rsm.view,
-        metric: vec![f32::INFINITY; n],
-        position: vec![Vec3::ZERO; n],
-        normal: vec![Vec3::ZERO; n],
-        flux: vec![Vec3::ZERO; n],
-        area: vec![0.0; n],
-        reach: vec![1.0; n],
-    };
+    let mut w = Rsm::empty(side, rsm.view);
     for y in 0..side {
         for x in 0..side {
             let (mx, my) = (origin[0] + x, origin[1] + y);

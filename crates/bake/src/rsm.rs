@@ -36,6 +36,21 @@ pub struct Rsm {
 }
 
 impl Rsm {
+    /// A `size²` map of `view` where no texel sees a surface (reach 1).
+    pub fn empty(size: u32, view: LightView) -> Rsm {
+        let n = (size as usize) * (size as usize);
+        Rsm {
+            size,
+            view,
+            metric: vec![f32::INFINITY; n],
+            position: vec![Vec3::ZERO; n],
+            normal: vec![Vec3::ZERO; n],
+            flux: vec![Vec3::ZERO; n],
+            area: vec![0.0; n],
+            reach: vec![1.0; n],
+        }
+    }
+
     /// Whether texel `i` sees a surface.
     pub fn is_valid(&self, i: usize) -> bool {
         self.metric[i].is_finite()

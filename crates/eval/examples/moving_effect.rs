@@ -13,7 +13,11 @@
 //! `--balls-under-lamps R` adds one ball of radius `R` resting on whatever
 //! is below each point and spot light (a ray cast straight down), albedos
 //! red, green, grey in turn: moving props where a level's lamps light them,
-//! placed by a rule, not by hand.
+//! placed by a rule, not by hand. `--out FILE.png` writes reference |
+//! runtime | without view RSMs | 4·|runtime − reference| of the changes
+//! (at the reference's exposure) and the three changes as linear EXRs
+//! beside it (`FILE.reference.exr`, `FILE.runtime.exr`,
+//! `FILE.without.exr`).
 
 use gibake_eval::levels::{LevelBall, add_ball};
 

@@ -283,8 +283,11 @@ impl ReferenceImages {
     }
 }
 
-/// Renders the reference images of `scene` (see [`ReferenceImages`]).
-pub fn reference_images(scene: &Scene, s: &EvalSettings) -> Result<ReferenceImages, EvalError> {
+/// The reference renders [`ReferenceImages`] is made of: the two halves of
+/// the one-bounce samples (seeds 0 and 1) and the direct-only image (seed
+/// 2, a quarter of the samples, at least 16). The same seeds for every
+/// scene: renders of two scenes are correlated (`moving`).
+pub fn reference_renders(scene: &Scene, s: &EvalSettings) -> Result<[Image; 3], EvalError> {
     let r = |depth, spp, seed| {
         gibake_reference::render(
             scene,
@@ -300,9 +303,16 @@ pub fn reference_images(scene: &Scene, s: &EvalSettings) -> Result<ReferenceImag
         )
     };
     let half = (s.spp / 2).max(1);
-    let a = r(gibake_reference::Depth::OneBounce, half, 0)?;
-    let b = r(gibake_reference::Depth::OneBounce, half, 1)?;
-    let direct = r(gibake_reference::Depth::Direct, (s.spp / 4).max(16), 2)?;
+    Ok([
+        r(gibake_reference::Depth::OneBounce, half, 0)?,
+        r(gibake_reference::Depth::OneBounce, half, 1)?,
+        r(gibake_reference::Depth::Direct, (s.spp / 4).max(16), 2)?,
+    ])
+}
+
+/// Renders the reference images of `scene` (see [`ReferenceImages`]).
+pub fn reference_images(scene: &Scene, s: &EvalSettings) -> Result<ReferenceImages, EvalError> {
+    let [a, b, direct] = reference_renders(scene, s)?;
     let mut full = Image::new(s.size, s.size);
     let mut var = Vec3::ZERO;
     for (k, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {

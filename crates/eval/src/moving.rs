@@ -24,7 +24,7 @@
 use gibake_asset::Asset;
 use gibake_gpu::GpuContext;
 use gibake_image::Image;
-use gibake_reference::{Depth, RayScene, View};
+use gibake_reference::{RayScene, View};
 use gibake_runtime::Mode;
 use gibake_scene::{LightKind, Scene};
 use glam::{DVec3, Vec3};
@@ -142,28 +142,10 @@ fn masked_mean(img: &Image, mask: &[bool]) -> Vec3 {
 }
 
 /// The reference's indirect images of `scene`: one per half of the
-/// samples (seeds 0 and 1), each less the direct-only image (seed 2).
+/// samples, each less the direct-only image ([`crate::reference_renders`]).
 fn reference_halves(scene: &Scene, s: &EvalSettings) -> Result<[Image; 2], EvalError> {
-    let r = |depth, spp, seed| {
-        gibake_reference::render(
-            scene,
-            &gibake_reference::Settings {
-                width: s.size,
-                height: s.size,
-                spp,
-                time: s.time,
-                depth,
-                seed,
-            },
-            &|_| {},
-        )
-    };
-    let half = (s.spp / 2).max(1);
-    let direct = r(Depth::Direct, (s.spp / 4).max(16), 2)?;
-    Ok([
-        r(Depth::OneBounce, half, 0)?.sub(&direct),
-        r(Depth::OneBounce, half, 1)?.sub(&direct),
-    ])
+    let [a, b, direct] = crate::reference_renders(scene, s)?;
+    Ok([a.sub(&direct), b.sub(&direct)])
 }
 
 /// Measures what `scene`'s moving objects change in the mean indirect light
