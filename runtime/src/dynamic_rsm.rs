@@ -392,3 +392,41 @@ fn occlusion_view(
     });
     OcclusionView { group, window_buf }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Window;
+
+    /// A window holds its rectangle, is a power of two, and is the whole
+    /// map (from texel 0) once it would be as large; a rectangle at the
+    /// map's edge keeps its corner (texels past the map are empty).
+    #[test]
+    fn window_holds_its_rectangle() {
+        for (rect, size) in [
+            ([10, 20, 13, 24], 512),
+            ([0, 0, 1, 1], 512),
+            ([500, 505, 512, 512], 512),
+            ([3, 3, 200, 40], 512),
+            ([0, 0, 300, 10], 512),
+            ([5, 5, 90, 90], 100),
+        ] {
+            let w = Window::around(rect, size);
+            let side = 1u32 << w.levels;
+            assert!(
+                w.origin[0] <= rect[0]
+                    && w.origin[1] <= rect[1]
+                    && w.origin[0] + side >= rect[2]
+                    && w.origin[1] + side >= rect[3],
+                "{rect:?} in a {size}² map: {w:?}"
+            );
+            if side >= size {
+                assert_eq!(w, Window::whole(size), "{rect:?}");
+            } else {
+                assert!(side < 2 * (rect[2] - rect[0]).max(rect[3] - rect[1]).max(1));
+            }
+        }
+        assert_eq!(Window::whole(512).levels, 9);
+        assert_eq!(Window::whole(100).levels, 7);
+        assert_eq!(Window::around([500, 505, 512, 512], 512).origin, [500, 505]);
+    }
+}
