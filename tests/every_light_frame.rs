@@ -484,9 +484,10 @@ fn light_culling_is_exact_and_planned_only_where_a_light_has_a_range_or_cone() {
 /// against the reference, on a generated scene nobody chose (random seed
 /// 0: a spot and a point lamp with a range in a hall, five moving
 /// objects): the mean indirect light with them less the static scene's
-/// (baked and rendered alike), runtime against path tracer. With the
+/// (rendered with the same asset), runtime against path tracer. With the
 /// other lights' view RSMs (format 4.1: the lamp's occlusion and bounce
-/// off the moving objects) it is the reference's to 30% per channel;
+/// off the moving objects) it is the reference's to 30% per channel
+/// (measured: +0.0040/+0.0019/+0.0025 against +0.0037/+0.0018/+0.0024);
 /// without them (a 4.0 asset: the spot's only) it is not even of the
 /// reference's sign.
 #[test]
@@ -511,7 +512,10 @@ fn moving_objects_change_every_lights_indirect_light_as_the_reference_does() {
     let asset = gibake_eval::bake(&ctx, &scene, &s).unwrap();
     assert!(!asset.view_rsms.is_empty(), "{name}");
     let without = gibake_eval::without_view_rsms(asset.clone());
-    let base = mean(&still, &gibake_eval::bake(&ctx, &still, &s).unwrap());
+    // The static part rendered with the same asset (a bake of the static
+    // part alone fits the light views without the moving objects' bounds:
+    // its other VPLs would count as their effect).
+    let base = mean(&still, &asset);
     let (effect, effect_without) = (mean(&scene, &asset) - base, mean(&scene, &without) - base);
     let truth = gibake_eval::reference_moving_effect(&scene, &s).unwrap();
     eprintln!(
