@@ -30,17 +30,7 @@ fn build_rsm(
         let p = inv * Vec4::new(ndc_x, ndc_y, z, 1.0);
         (p.truncate() / p.w).as_dvec3()
     };
-    let n = (size * size) as usize;
-    let mut rsm = Rsm {
-        size,
-        view,
-        metric: vec![f32::INFINITY; n],
-        position: vec![Vec3::ZERO; n],
-        normal: vec![Vec3::ZERO; n],
-        flux: vec![Vec3::ZERO; n],
-        area: vec![0.0; n],
-        reach: vec![1.0; n],
-    };
+    let mut rsm = Rsm::empty(size, view);
     for y in 0..size {
         for x in 0..size {
             let u = (x as f32 + 0.5) / size as f32;

@@ -6,8 +6,11 @@
 //! against full, FLIP).
 //!
 //! ```text
-//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--look-at EX,EY,EZ,TX,TY,TZ] [--no-light-bounce] [--out DIR]
+//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--look-at EX,EY,EZ,TX,TY,TZ] [--no-light-bounce] [--balls-under-lamps R] [--out DIR]
 //! ```
+//!
+//! `--balls-under-lamps R` adds a moving ball of radius `R` under each
+//! point and spot light (`gibake_eval::moving::balls_under_lamps`).
 //!
 //! `--no-light-bounce` removes the other lights' view RSMs from the asset
 //! (format 4.1) before rendering: their bounce off moving objects is not
@@ -32,6 +35,7 @@ fn main() {
     let mut scenes = Vec::new();
     let mut out = None;
     let mut camera = gibake_scene::CameraChoice::First;
+    let mut balls = None;
     while let Some(a) = it.next() {
         let mut num = || {
             it.next()
@@ -61,6 +65,14 @@ fn main() {
                 };
             }
             "--no-light-bounce" => s.light_bounce = false,
+            "--balls-under-lamps" => {
+                balls = Some(
+                    it.next()
+                        .expect("--balls-under-lamps R")
+                        .parse::<f32>()
+                        .expect("a radius"),
+                )
+            }
             "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
             _ => scenes.push(a.clone()),
         }
@@ -98,7 +110,15 @@ fn main() {
             loaded.push((a.clone(), scene));
         }
     }
-    for (name, scene) in loaded {
+    for (name, mut scene) in loaded {
+        if let Some(r) = balls {
+            for (i, b) in gibake_eval::moving::balls_under_lamps(&scene, r, s.time)
+                .iter()
+                .enumerate()
+            {
+                gibake_eval::levels::add_ball(&mut scene, &format!("ball {i}"), b);
+            }
+        }
         let kinds: Vec<String> = scene
             .lights
             .iter()
