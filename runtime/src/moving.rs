@@ -283,9 +283,12 @@ impl MovingPasses {
         boxes: &[Aabb],
     ) -> Result<bool, RuntimeError> {
         self.moving_draws = draws.len() as u32;
-        // Each view's window: the texels the boxes it sees can cover (none
-        // seen: one texel, for the primary view that is recorded anyway).
-        let mut windows = Vec::with_capacity(self.bounce.len());
+        // Per view: the boxes it can see, the window they cover (none seen:
+        // one texel, for the primary view that is recorded anyway), and,
+        // for the views recorded this frame, the next slot range in order
+        // (shading reads only those, `dynamic_vpl_slots`). Parameters are
+        // written only where the window or the range moved.
+        let mut next = 0;
         for b in &mut self.bounce {
             b.seen.clear();
             let mut rect: Option<[u32; 4]> = None;
@@ -306,53 +309,36 @@ impl MovingPasses {
             if !b.primary {
                 b.touched = rect.is_some();
             }
-            windows.push(rect.map_or(
+            if !b.touched {
+                continue;
+            }
+            let window = rect.map_or(
                 Window {
                     origin: [0, 0],
                     levels: 0,
                 },
                 |r| Window::around(r, b.view.size),
-            ));
-        }
-        if let Some((_, occlusion)) = &self.rsm {
-            for (b, &w) in self.bounce.iter().zip(&windows) {
-                if b.touched && b.window != w {
-                    occlusion.set_window(
-                        queue,
-                        b.occlusion.as_ref().unwrap_or(occlusion.own_view()),
-                        w,
-                    );
-                }
-            }
-        }
-        // The views recorded this frame take the first slot ranges, in
-        // order: shading reads only those (`dynamic_vpl_slots`).
-        let mut next = 0;
-        if let Some(d) = &self.vpls {
-            for (b, &w) in self
-                .bounce
-                .iter_mut()
-                .zip(&windows)
-                .filter(|(b, _)| b.touched)
+            );
+            if let Some((_, occlusion)) = &self.rsm
+                && b.window != window
             {
+                let v = b.occlusion.as_ref().unwrap_or(occlusion.own_view());
+                occlusion.set_window(queue, v, window);
+            }
+            if let Some(d) = &self.vpls {
                 let v = match &b.rsm {
-                    None => d.own_view(),
-                    Some(_) => match &b.vpls {
-                        Some(v) => v,
-                        None => continue,
-                    },
+                    None => Some(d.own_view()),
+                    Some(_) => b.vpls.as_ref(),
                 };
-                if b.base != next || b.window != w {
-                    d.set_frame(queue, v, next, w);
-                    b.base = next;
+                if let Some(v) = v {
+                    if b.base != next || b.window != window {
+                        d.set_frame(queue, v, next, window);
+                        b.base = next;
+                    }
+                    next += DynamicVplPass::slots_of(v);
                 }
-                next += DynamicVplPass::slots_of(v);
             }
-        }
-        for (b, w) in self.bounce.iter_mut().zip(windows) {
-            if b.touched {
-                b.window = w;
-            }
+            b.window = window;
         }
         self.dynamic_slots = next;
         let grown = match self.merge.as_mut() {
