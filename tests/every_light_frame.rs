@@ -542,11 +542,12 @@ fn moving_objects_change_every_lights_indirect_light_as_the_reference_does() {
 /// with the reference's noise cancelled by rendering the scene and its
 /// static part with the same seeds. The balls' bounce is most of what they
 /// change here (+44% of the level's red indirect light on those pixels).
-/// The runtime gives 0.88/0.89/0.86 of the reference's change; without
-/// the view RSMs 0.75/0.55/0.59; with session 5's dynamic VPLs (their lobe
-/// within the mean normal's hemisphere, clustered over the whole map, not
-/// the balls' window) 0.65/0.64/0.56: a ball's lit cap sent no light to
-/// the ground on its far side.
+/// The runtime gives 0.96/0.93/0.90 of the reference's change (0.88/0.89/
+/// 0.86 with one window around all the balls per view); without the view
+/// RSMs 0.83/0.59/0.63; with session 5's dynamic VPLs (their lobe within
+/// the mean normal's hemisphere, clustered over the whole map, not the
+/// balls' window) 0.65/0.64/0.56: a ball's lit cap sent no light to the
+/// ground on its far side.
 #[test]
 fn balls_under_a_real_levels_lamps_change_its_indirect_light_as_the_reference_does() {
     let ctx = common::gpu();

@@ -103,6 +103,114 @@ impl Window {
     }
 }
 
+/// Most windows a view's clustering is split into ([`Windows`]).
+pub(crate) const MAX_WINDOWS: usize = 4;
+
+/// Where a view's dynamic VPLs are clustered this frame: one window, or —
+/// when the moving objects in the view stand far apart — up to
+/// [`MAX_WINDOWS`] disjoint windows, one per group of nearby objects, each
+/// with a quarter of the view's slots ([`Windows::around`]).
+///
+/// One window over objects far apart is large, so its fixed slot pyramid
+/// ends in coarse cells: a ball at each end of a sunlit level was one VPL
+/// each. Four windows of depth `d − 1` fill the slot range of one of depth
+/// `d` (`4 · (4^d − 1)/3 + 1 = (4^(d+1) − 1)/3`), so shading reads the same
+/// slots; they are used only where each window's cells come out finer than
+/// the one window's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Windows {
+    list: [Window; MAX_WINDOWS],
+    count: u32,
+    /// The one window around every rectangle (the occlusion test's).
+    pub union: Window,
+}
+
+impl Windows {
+    /// One window.
+    pub(crate) fn one(w: Window) -> Windows {
+        Windows {
+            list: [w; MAX_WINDOWS],
+            count: 1,
+            union: w,
+        }
+    }
+
+    /// The windows, in the order their slot ranges follow each other.
+    pub(crate) fn as_slice(&self) -> &[Window] {
+        &self.list[..self.count as usize]
+    }
+
+    /// The windows of the moving objects' texel rectangles `rects` (each
+    /// `[x0, y0, x1, y1)` of a `size²` map; at least one): rectangles whose
+    /// windows ([`Window::around`]) overlap are grouped, then the two
+    /// groups whose joint window is smallest, until at most
+    /// [`MAX_WINDOWS`] disjoint windows are left. They are kept when each
+    /// is at most a quarter of the side of the one window around all the
+    /// rectangles (so that at one depth less their cells are finer);
+    /// otherwise that one window. Deterministic in the order of `rects`.
+    pub(crate) fn around(rects: &[[u32; 4]], size: u32) -> Windows {
+        let join = |a: [u32; 4], b: [u32; 4]| {
+            [
+                a[0].min(b[0]),
+                a[1].min(b[1]),
+                a[2].max(b[2]),
+                a[3].max(b[3]),
+            ]
+        };
+        let Some(all) = rects.iter().copied().reduce(join) else {
+            return Windows::one(Window {
+                origin: [0, 0],
+                levels: 0,
+            });
+        };
+        let union = Window::around(all, size);
+        let overlap = |a: Window, b: Window| {
+            let (sa, sb) = (1u64 << a.levels, 1u64 << b.levels);
+            let (ax, ay) = (u64::from(a.origin[0]), u64::from(a.origin[1]));
+            let (bx, by) = (u64::from(b.origin[0]), u64::from(b.origin[1]));
+            ax < bx + sb && bx < ax + sa && ay < by + sb && by < ay + sa
+        };
+        // Bounded: every pass merges two groups (at most `rects` passes).
+        let mut groups: Vec<[u32; 4]> = rects.to_vec();
+        loop {
+            let w: Vec<Window> = groups.iter().map(|&g| Window::around(g, size)).collect();
+            let n = groups.len();
+            let pair = (0..n)
+                .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
+                .find(|&(i, j)| overlap(w[i], w[j]))
+                .or_else(|| {
+                    (n > MAX_WINDOWS)
+                        .then(|| {
+                            (0..n)
+                                .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
+                                .min_by_key(|&(i, j)| {
+                                    Window::around(join(groups[i], groups[j]), size).levels
+                                })
+                        })
+                        .flatten()
+                });
+            let Some((i, j)) = pair else { break };
+            groups[i] = join(groups[i], groups[j]);
+            groups.remove(j);
+        }
+        let finer = groups
+            .iter()
+            .all(|&g| Window::around(g, size).levels + 1 < union.levels);
+        if groups.len() < 2 || !finer {
+            return Windows::one(union);
+        }
+        let mut list = [union; MAX_WINDOWS];
+        for (slot, &g) in list.iter_mut().zip(&groups) {
+            *slot = Window::around(g, size);
+        }
+        Windows {
+            list,
+            count: groups.len() as u32,
+            union,
+        }
+    }
+}
+
 impl DynamicRsmPass {
     /// Creates the pass for `view` (RSM resolution; its targets are
     /// `view.size`², which every other view bound must share).
@@ -395,7 +503,64 @@ fn occlusion_view(
 
 #[cfg(test)]
 mod tests {
-    use super::Window;
+    use super::{MAX_WINDOWS, Window, Windows};
+
+    /// Objects far apart get a window each, disjoint, each holding its
+    /// rectangles and a quarter of the one window's side at most; objects
+    /// close together, or too many groups, merge; one rectangle is one
+    /// window.
+    #[test]
+    fn windows_split_objects_far_apart() {
+        let size = 512;
+        let holds = |w: Window, r: [u32; 4]| {
+            let side = 1u32 << w.levels;
+            w.origin[0] <= r[0]
+                && w.origin[1] <= r[1]
+                && w.origin[0] + side >= r[2]
+                && w.origin[1] + side >= r[3]
+        };
+        // One ball at each end of the map: two small windows.
+        let far = [[10, 10, 22, 22], [480, 400, 492, 412]];
+        let w = Windows::around(&far, size);
+        assert_eq!(w.as_slice().len(), 2, "{w:?}");
+        assert_eq!(w.union, Window::around([10, 10, 492, 412], size));
+        for (win, r) in w.as_slice().iter().zip(&far) {
+            assert!(holds(*win, *r) && win.levels + 1 < w.union.levels, "{w:?}");
+        }
+        // Two balls side by side: one window.
+        let near = [[10, 10, 22, 22], [24, 10, 36, 22]];
+        assert_eq!(Windows::around(&near, size).as_slice().len(), 1);
+        assert_eq!(
+            Windows::around(&near[..1], size).as_slice(),
+            &[Window::around(near[0], size)]
+        );
+        // Nine balls on a grid: at most four disjoint windows holding all.
+        let grid: Vec<[u32; 4]> = (0..9)
+            .map(|k| {
+                let (x, y) = (20 + 200 * (k % 3), 20 + 200 * (k / 3));
+                [x, y, x + 8, y + 8]
+            })
+            .collect();
+        let w = Windows::around(&grid, size);
+        let list = w.as_slice();
+        assert!((1..=MAX_WINDOWS).contains(&list.len()), "{w:?}");
+        for r in &grid {
+            assert!(list.iter().any(|win| holds(*win, *r)), "{r:?} in {w:?}");
+        }
+        for i in 0..list.len() {
+            for j in i + 1..list.len() {
+                let (a, b) = (list[i], list[j]);
+                let (sa, sb) = (1u32 << a.levels, 1u32 << b.levels);
+                let apart = a.origin[0] + sa <= b.origin[0]
+                    || b.origin[0] + sb <= a.origin[0]
+                    || a.origin[1] + sa <= b.origin[1]
+                    || b.origin[1] + sb <= a.origin[1];
+                assert!(apart, "{a:?} and {b:?} overlap");
+            }
+        }
+        // Deterministic.
+        assert_eq!(Windows::around(&grid, size), w);
+    }
 
     /// A window holds its rectangle, is a power of two, and is the whole
     /// map (from texel 0) once it would be as large; a rectangle at the

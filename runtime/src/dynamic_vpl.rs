@@ -53,7 +53,7 @@
 use gibake_gpu::shaders;
 use wgpu::util::DeviceExt;
 
-use crate::dynamic_rsm::{DynamicRsmPass, RsmView, Window};
+use crate::dynamic_rsm::{DynamicRsmPass, MAX_WINDOWS, RsmView, Window, Windows};
 
 /// The pass's WGSL: the slot layout and the in-front test it shares, then
 /// its own.
@@ -332,38 +332,84 @@ impl DynamicVplPass {
     }
 
     /// Has `view` write its slots from slot `base` on and cluster the
-    /// texels of `window`, from the next recorded frame (its range must lie
-    /// in the output; record it with the same window).
-    pub(crate) fn set_frame(&self, queue: &wgpu::Queue, view: &VplView, base: u32, window: Window) {
-        let blocks = param_blocks(&self.shape, (view.max_depth, view.slots), base, window);
+    /// texels of `windows`, from the next recorded frame (its range must lie
+    /// in the output; record it with the same windows). Several windows
+    /// share the view's range: each has a quarter of it (one depth less),
+    /// in order, the last one the remainder (written empty past its depth);
+    /// a view of one slot clusters the windows' union.
+    pub(crate) fn set_frame(
+        &self,
+        queue: &wgpu::Queue,
+        view: &VplView,
+        base: u32,
+        windows: &Windows,
+    ) {
+        let blocks = param_blocks(
+            &self.shape,
+            (view.max_depth, view.slots),
+            base,
+            Self::windows_of(view, windows),
+        );
         queue.write_buffer(&view.params, 0, &blocks);
     }
 
+    /// The windows `view` clusters for `windows`.
+    fn windows_of<'w>(view: &VplView, windows: &'w Windows) -> &'w [Window] {
+        if view.max_depth == 0 {
+            std::slice::from_ref(&windows.union)
+        } else {
+            windows.as_slice()
+        }
+    }
+
     /// Records the clustering of the view of `view` (after its dynamic RSM
-    /// pass), into its slots, over `window` (the one its parameters were
+    /// pass), into its slots, over `windows` (those its parameters were
     /// last set with, [`DynamicVplPass::set_frame`]).
     pub(crate) fn encode_from(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         view: &VplView,
-        window: Window,
+        windows: &Windows,
         ts: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("dynamic vpls"),
             timestamp_writes: ts,
         });
-        let offset = |block: u32| (PARAMS_STRIDE * u64::from(block)) as u32;
-        pass.set_pipeline(&self.reduce);
-        for level in (0..window.levels.min(self.shape.levels)).rev() {
-            pass.set_bind_group(0, &view.bind_group, &[offset(level)]);
-            let (x, y) = groups(1u32 << (2 * level));
+        let per_window = self.shape.levels + 1;
+        let list = Self::windows_of(view, windows);
+        for (k, window) in list.iter().enumerate() {
+            // The pyramid is scratch: each window's reduction and slots
+            // finish before the next window's reduction (dispatch order).
+            let first = k as u32 * per_window;
+            let offset = |block: u32| (PARAMS_STRIDE * u64::from(first + block)) as u32;
+            pass.set_pipeline(&self.reduce);
+            for level in (0..window.levels.min(self.shape.levels)).rev() {
+                pass.set_bind_group(0, &view.bind_group, &[offset(level)]);
+                let (x, y) = groups(1u32 << (2 * level));
+                pass.dispatch_workgroups(x, y, 1);
+            }
+            pass.set_pipeline(&self.slots_pipeline);
+            pass.set_bind_group(0, &view.bind_group, &[offset(self.shape.levels)]);
+            let (_, slots) = window_slots((view.max_depth, view.slots), list.len(), k);
+            let (x, y) = groups(slots);
             pass.dispatch_workgroups(x, y, 1);
         }
-        pass.set_pipeline(&self.slots_pipeline);
-        pass.set_bind_group(0, &view.bind_group, &[offset(self.shape.levels)]);
-        let (x, y) = groups(view.slots);
-        pass.dispatch_workgroups(x, y, 1);
+    }
+}
+
+/// Window `k` of `n` of a view of `(max_depth, slots)`: its deepest slot
+/// level and its slot count (one window: the view's; several: one depth
+/// less each, the last one taking what is left of the range).
+fn window_slots((max_depth, slots): (u32, u32), n: usize, k: usize) -> (u32, u32) {
+    if n <= 1 || max_depth == 0 {
+        return (max_depth, slots);
+    }
+    let each = slot_count(max_depth - 1);
+    if k + 1 == n {
+        (max_depth - 1, slots - each * (n as u32 - 1))
+    } else {
+        (max_depth - 1, each)
     }
 }
 
@@ -395,7 +441,7 @@ fn vpl_view(
     let (layout, nodes, vpls) = shared;
     let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("dynamic VPL params"),
-        contents: &param_blocks(shape, (max_depth, slots), 0, Window::whole(shape.size)),
+        contents: &param_blocks(shape, (max_depth, slots), 0, &[Window::whole(shape.size)]),
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
     });
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -441,33 +487,36 @@ fn vpl_view(
 }
 
 /// The parameter blocks of a view of `(max_depth, slots)` writing its slots
-/// from `base` on, clustering `window`: block d (< the window's levels) for
-/// cs_reduce writing level d, block `shape.levels` for cs_slots (its depth
-/// this frame at most the window's levels; the view's slots past it are
-/// written empty).
-fn param_blocks(
-    shape: &Shape,
-    (max_depth, slots): (u32, u32),
-    base: u32,
-    window: Window,
-) -> Vec<u8> {
-    let levels = window.levels.min(shape.levels);
-    let mut blocks = vec![0u8; (PARAMS_STRIDE * u64::from(shape.levels + 1)) as usize];
-    for level in (0..levels).chain(std::iter::once(shape.levels)) {
-        let p = GpuParams {
-            level,
-            levels,
-            size: shape.size,
-            max_depth: max_depth.min(levels),
-            slots,
-            threshold: shape.threshold,
-            base,
-            pad: 0,
-            origin: window.origin,
-            pad2: [0; 2],
-        };
-        let at = (PARAMS_STRIDE * u64::from(level)) as usize;
-        blocks[at..at + std::mem::size_of::<GpuParams>()].copy_from_slice(bytemuck::bytes_of(&p));
+/// from `base` on, clustering `windows` ([`window_slots`] each, one after
+/// another): for window `k`, block `k·(L + 1) + d` (`d` < the window's
+/// levels) for cs_reduce writing level d, block `k·(L + 1) + L` for
+/// cs_slots (its depth this frame at most the window's levels; its slots
+/// past it are written empty), `L = shape.levels`.
+fn param_blocks(shape: &Shape, view: (u32, u32), base: u32, windows: &[Window]) -> Vec<u8> {
+    let per_window = u64::from(shape.levels + 1);
+    let mut blocks = vec![0u8; (PARAMS_STRIDE * per_window) as usize * MAX_WINDOWS];
+    let mut first_slot = base;
+    for (k, window) in windows.iter().enumerate().take(MAX_WINDOWS) {
+        let (max_depth, slots) = window_slots(view, windows.len(), k);
+        let levels = window.levels.min(shape.levels);
+        for level in (0..levels).chain(std::iter::once(shape.levels)) {
+            let p = GpuParams {
+                level,
+                levels,
+                size: shape.size,
+                max_depth: max_depth.min(levels),
+                slots,
+                threshold: shape.threshold,
+                base: first_slot,
+                pad: 0,
+                origin: window.origin,
+                pad2: [0; 2],
+            };
+            let at = (PARAMS_STRIDE * (k as u64 * per_window + u64::from(level))) as usize;
+            blocks[at..at + std::mem::size_of::<GpuParams>()]
+                .copy_from_slice(bytemuck::bytes_of(&p));
+        }
+        first_slot += slots;
     }
     blocks
 }

@@ -14,7 +14,7 @@ use wgpu::util::DeviceExt;
 
 use super::{DynamicVplPass, GpuDynVpl, slot_count};
 use crate::baked::BakedGpu;
-use crate::dynamic_rsm::{DynamicRsmPass, Window};
+use crate::dynamic_rsm::{DynamicRsmPass, Window, Windows};
 use crate::plan::Pass;
 use crate::stats::{FrameStats, Timer};
 
@@ -113,17 +113,17 @@ fn frame(ctx: &GpuContext, scene: &Scene, asset: &Asset, time: f32) -> Frame {
     }
 }
 
-/// Runs the dynamic RSM and the clustering `pass` over `window` (the whole
+/// Runs the dynamic RSM and the clustering `pass` over `windows` (the whole
 /// map when `None`); returns the slots.
 fn run_pass(
     ctx: &GpuContext,
     f: &Frame,
     pass: &DynamicVplPass,
-    window: Option<Window>,
+    windows: Option<Windows>,
     mut timer: Option<&mut Timer>,
 ) -> Vec<GpuDynVpl> {
-    let window = window.unwrap_or(Window::whole(f.view.size));
-    pass.set_frame(&ctx.queue, pass.own_view(), 0, window);
+    let windows = windows.unwrap_or(Windows::one(Window::whole(f.view.size)));
+    pass.set_frame(&ctx.queue, pass.own_view(), 0, &windows);
     let mut enc = ctx.device.create_command_encoder(&Default::default());
     f.rsm
         .encode(&mut enc, &f.scene_gpu, &f.scene_gpu.dynamic_draws, None);
@@ -133,7 +133,7 @@ fn run_pass(
     pass.encode_from(
         &mut enc,
         pass.own_view(),
-        window,
+        &windows,
         timer
             .as_deref()
             .and_then(|t| t.compute(Pass::DynamicVpls, None)),
@@ -428,7 +428,7 @@ fn dynamic_vpls_over_the_moving_objects_window_match_the_cpu_cut() {
         let rsm = cpu_rsm(&ctx, &scene, &f);
         for (max_vpls, t) in [(MAX_VPLS, f.threshold), (16, f.threshold), (1000, 1e-5)] {
             let pass = f.pass(&ctx, t, max_vpls);
-            let slots = run_pass(&ctx, &f, &pass, Some(window), None);
+            let slots = run_pass(&ctx, &f, &pass, Some(Windows::one(window)), None);
             assert_all_finite(&slots);
             let depth = pass.max_depth().min(window.levels);
             let cpu = cluster_cut_window(&rsm, t, depth, window.origin, window.levels);
@@ -449,6 +449,83 @@ fn dynamic_vpls_over_the_moving_objects_window_match_the_cpu_cut() {
             let got: Vec3 = slots.iter().map(|v| Vec3::from_slice(&v.flux[..3])).sum();
             for ch in 0..3 {
                 assert!(rel_close(got[ch], total[ch], 1e-3), "{got} vs {total}");
+            }
+        }
+    }
+}
+
+/// Moving objects far apart in the view get a window each
+/// ([`Windows::around`]): each window's slot range (a quarter of the
+/// view's, one depth less; the last one the remainder) holds the CPU twin's
+/// cut over that window, the rest of each range is empty, and the windows
+/// together hold all the moving flux of their texels. (The test scene's
+/// balls stand together; the windows are those of the two balls farthest
+/// apart in the view, which is what the rule splits.)
+#[test]
+fn dynamic_vpls_over_windows_far_apart_match_the_cpu_cut() {
+    let ctx = gpu();
+    let scene = scene();
+    let asset = bake(&ctx, &scene);
+    let diagonal = scene.full_bounds().diagonal();
+    for time in [0.0f32, 1.7] {
+        let f = frame(&ctx, &scene, &asset, time);
+        let rects: Vec<[u32; 4]> = (0..scene.dynamic_objects.len())
+            .filter_map(|i| f.view.texel_rect(&scene.dynamic_bounds(i, time)))
+            .collect();
+        let centre = |r: &[u32; 4]| Vec2::new((r[0] + r[2]) as f32, (r[1] + r[3]) as f32);
+        let (a, b) = (0..rects.len())
+            .flat_map(|i| (i + 1..rects.len()).map(move |j| (i, j)))
+            .max_by(|&(i, j), &(k, l)| {
+                let d = |p: usize, q: usize| centre(&rects[p]).distance(centre(&rects[q]));
+                d(i, j).total_cmp(&d(k, l))
+            })
+            .expect("two balls");
+        let windows = Windows::around(&[rects[a], rects[b]], f.view.size);
+        eprintln!("t = {time}: {:?} {:?} -> {windows:?}", rects[a], rects[b]);
+        assert_eq!(windows.as_slice().len(), 2, "t = {time}: {windows:?}");
+        run(&ctx, &f, None);
+        let rsm = cpu_rsm(&ctx, &scene, &f);
+        let inside = |i: usize| {
+            let (x, y) = ((i as u32) % rsm.size, (i as u32) / rsm.size);
+            windows.as_slice().iter().any(|w| {
+                let side = 1u32 << w.levels;
+                (w.origin[0]..w.origin[0] + side).contains(&x)
+                    && (w.origin[1]..w.origin[1] + side).contains(&y)
+            })
+        };
+        let total: Vec3 = (0..rsm.flux.len())
+            .filter(|&i| rsm.metric[i].is_finite() && inside(i))
+            .map(|i| rsm.flux[i])
+            .sum();
+        assert!(total.max_element() > 0.0, "t = {time}: the balls are lit");
+        for (max_vpls, t) in [(MAX_VPLS, f.threshold), (1000, 1e-5)] {
+            let pass = f.pass(&ctx, t, max_vpls);
+            let slots = run_pass(&ctx, &f, &pass, Some(windows), None);
+            assert_all_finite(&slots);
+            let n = windows.as_slice().len();
+            let each = slot_count(pass.max_depth() - 1) as usize;
+            let (mut at, mut got, mut used) = (0, Vec3::ZERO, 0);
+            for (k, w) in windows.as_slice().iter().enumerate() {
+                let range = if k + 1 == n { slots.len() - at } else { each };
+                let mine = &slots[at..at + range];
+                let depth = (pass.max_depth() - 1).min(w.levels);
+                let in_depth = slot_count(depth) as usize;
+                assert!(mine[in_depth..].iter().all(|v| *v == GpuDynVpl::default()));
+                let cpu = cluster_cut_window(&rsm, t, depth, w.origin, w.levels);
+                compare(&mine[..in_depth], &cpu, diagonal);
+                got += mine
+                    .iter()
+                    .map(|v| Vec3::from_slice(&v.flux[..3]))
+                    .sum::<Vec3>();
+                used += cpu.len();
+                at += range;
+            }
+            eprintln!("t = {time}, {max_vpls} VPLs: {used} in {n} windows");
+            for ch in 0..3 {
+                assert!(
+                    rel_close(got[ch], total[ch], 1e-3),
+                    "t = {time}: {got} vs {total}"
+                );
             }
         }
     }

@@ -32,7 +32,7 @@ use wgpu::util::DeviceExt;
 
 use crate::RuntimeError;
 use crate::baked::{BakedGpu, RsmGpu};
-use crate::dynamic_rsm::{DynamicRsmPass, OcclusionPass, OcclusionView, RsmView, Window};
+use crate::dynamic_rsm::{DynamicRsmPass, OcclusionPass, OcclusionView, RsmView, Window, Windows};
 use crate::dynamic_vpl::{DynamicVplPass, VplView};
 use crate::merge::VplMerge;
 use crate::plan::{FramePlan, Pass};
@@ -93,9 +93,12 @@ struct BounceView {
     /// The first slot of its range (the views recorded this frame come
     /// first, in order), as its parameters say.
     base: u32,
-    /// The square of its map the moving objects' boxes cover this frame
-    /// (occlusion and clustering run there only), as its parameters say.
-    window: Window,
+    /// Where its dynamic VPLs are clustered this frame (the squares of its
+    /// map around the moving objects' boxes; their union is where the
+    /// occlusion test runs), as its parameters say.
+    windows: Windows,
+    /// This frame's texel rectangles of the boxes it can see (scratch).
+    rects: Vec<[u32; 4]>,
     /// The moving draws whose box it can see this frame (only those are
     /// drawn into its RSM: the others' triangles would all be clipped).
     seen: Vec<u32>,
@@ -206,7 +209,8 @@ impl MovingPasses {
                     primary: sources[0].1,
                     touched: sources[0].1,
                     base: 0,
-                    window: Window::whole(pass.size),
+                    windows: Windows::one(Window::whole(pass.size)),
+                    rects: Vec::new(),
                     seen: Vec::new(),
                 }];
                 for &(r, primary) in sources.iter().skip(1) {
@@ -233,7 +237,8 @@ impl MovingPasses {
                         touched: primary,
                         // Set when it is first recorded.
                         base: u32::MAX,
-                        window: Window::whole(pass.size),
+                        windows: Windows::one(Window::whole(pass.size)),
+                        rects: Vec::new(),
                         seen: Vec::new(),
                     });
                 }
@@ -291,39 +296,26 @@ impl MovingPasses {
         let mut next = 0;
         for b in &mut self.bounce {
             b.seen.clear();
-            let mut rect: Option<[u32; 4]> = None;
+            b.rects.clear();
             for (k, x) in boxes.iter().enumerate() {
                 if let Some(c) = b.view.texel_rect(x) {
                     b.seen.push(k as u32);
-                    rect = Some(match rect {
-                        None => c,
-                        Some(a) => [
-                            a[0].min(c[0]),
-                            a[1].min(c[1]),
-                            a[2].max(c[2]),
-                            a[3].max(c[3]),
-                        ],
-                    });
+                    b.rects.push(c);
                 }
             }
             if !b.primary {
-                b.touched = rect.is_some();
+                b.touched = !b.rects.is_empty();
             }
             if !b.touched {
                 continue;
             }
-            let window = rect.map_or(
-                Window {
-                    origin: [0, 0],
-                    levels: 0,
-                },
-                |r| Window::around(r, b.view.size),
-            );
+            // No box seen: one texel (the primary view is recorded anyway).
+            let windows = Windows::around(&b.rects, b.view.size);
             if let Some((_, occlusion)) = &self.rsm
-                && b.window != window
+                && b.windows.union != windows.union
             {
                 let v = b.occlusion.as_ref().unwrap_or(occlusion.own_view());
-                occlusion.set_window(queue, v, window);
+                occlusion.set_window(queue, v, windows.union);
             }
             if let Some(d) = &self.vpls {
                 let v = match &b.rsm {
@@ -331,14 +323,14 @@ impl MovingPasses {
                     Some(_) => b.vpls.as_ref(),
                 };
                 if let Some(v) = v {
-                    if b.base != next || b.window != window {
-                        d.set_frame(queue, v, next, window);
+                    if b.base != next || b.windows != windows {
+                        d.set_frame(queue, v, next, &windows);
                         b.base = next;
                     }
                     next += DynamicVplPass::slots_of(v);
                 }
             }
-            b.window = window;
+            b.windows = windows;
         }
         self.dynamic_slots = next;
         let grown = match self.merge.as_mut() {
@@ -451,7 +443,7 @@ impl MovingPasses {
                 occlusion.encode_from(
                     encoder,
                     b.occlusion.as_ref().unwrap_or(occlusion.own_view()),
-                    b.window,
+                    b.windows.union,
                     occ_ts,
                 );
                 if let Some((d, v)) = &vpl_view {
@@ -460,7 +452,7 @@ impl MovingPasses {
                     } else {
                         timer.compute_span(Pass::LightBounce, false, last)
                     };
-                    d.encode_from(encoder, v, b.window, ts);
+                    d.encode_from(encoder, v, &b.windows, ts);
                 }
             }
         }
