@@ -37,9 +37,10 @@ pub struct SceneArgs {
     pub lights: Vec<String>,
     /// Every KHR_lights_punctual light of the scene (directional, spot and
     /// point, glTF ranges honoured), each with its shadow maps and its
-    /// share of one VPL budget (asset format 4). The first spot or
-    /// directional light leads: its maps take moving objects. Give the same
-    /// flag to `bake` and `render` (the asset records its lights).
+    /// share of one VPL budget (asset format 4). The first directional
+    /// light leads, else the first spot: its maps are the full-size
+    /// primary ones (cascades for a sun). Give the same flag to `bake` and
+    /// `render` (the asset records its lights).
     #[arg(long)]
     pub all_lights: bool,
     /// What the level needs that its file lacks (sun, moving objects).
@@ -250,9 +251,10 @@ pub struct BakeArgs {
     pub lights: Vec<String>,
     /// Every KHR_lights_punctual light of the scene (directional, spot and
     /// point, glTF ranges honoured), each with its shadow maps and its
-    /// share of one VPL budget (asset format 4). The first spot or
-    /// directional light leads: its maps take moving objects. Give the same
-    /// flag to `bake` and `render` (the asset records its lights).
+    /// share of one VPL budget (asset format 4). The first directional
+    /// light leads, else the first spot: its maps are the full-size
+    /// primary ones (cascades for a sun). Give the same flag to `bake` and
+    /// `render` (the asset records its lights).
     #[arg(long)]
     pub all_lights: bool,
     /// What the level needs that its file lacks (sun, moving objects).

@@ -6,8 +6,8 @@
 //! - **Primary lights**: by default the one `KHR_lights_punctual` light of
 //!   type `spot` or `directional` (several candidates are an error unless
 //!   [`LoadOptions::lights`] names one); with [`LoadOptions::all_lights`]
-//!   every light, point lights included, the first spot or directional
-//!   light first. `color × intensity` is radiant intensity in W/sr (spot,
+//!   every light, point lights included, the first directional light
+//!   first, else the first spot. `color × intensity` is radiant intensity in W/sr (spot,
 //!   point) or irradiance in W/m² (directional), linear RGB.
 //! - **Dynamic objects**: a node is dynamic if it or an ancestor has
 //!   `extras: {"dynamic": true}`, or if an animation channel targets it or an
@@ -338,7 +338,8 @@ pub struct Scene {
 
 impl Scene {
     /// The first primary light: the one whose maps are the primary ones (a
-    /// spot or directional light first, [`crate::LoadOptions::all_lights`]).
+    /// directional light first, else a spot,
+    /// [`crate::LoadOptions::all_lights`]).
     pub fn light(&self) -> &Light {
         &self.lights[0]
     }

@@ -550,11 +550,12 @@ fn repeated_light_option_restricts_the_set() {
     assert!(matches!(e, SceneError::NotSupported { .. }), "{e:?}");
 }
 
-/// The first light is the one whose maps take moving objects: the first
-/// spot or directional light in file order leads, the others keep their
-/// order; a file of point lights only keeps its order.
+/// The first light is the primary one: the first directional light in
+/// file order leads (a sun covers the level: full-size maps, cascades),
+/// else the first spot; the others keep their order; a file of point
+/// lights only keeps its order.
 #[test]
-fn the_first_spot_or_directional_light_leads() {
+fn a_directional_light_else_the_first_spot_leads() {
     let mut b = Builder::new();
     let q = b.quad("Floor", true);
     b.root_mesh_node("F", q);
@@ -573,7 +574,22 @@ fn the_first_spot_or_directional_light_leads() {
     }
     let s = b.load_with(&every_light()).unwrap();
     let names: Vec<&str> = s.lights.iter().map(|l| l.name.as_str()).collect();
-    assert_eq!(names, ["S", "P1", "P2", "D"]);
+    assert_eq!(names, ["D", "P1", "S", "P2"]);
+    // Without a directional light the first spot leads.
+    let mut b = Builder::new();
+    let q = b.quad("Floor", true);
+    b.root_mesh_node("F", q);
+    for (name, ty) in [("P1", "point"), ("S1", "spot"), ("S2", "spot")] {
+        let light = if ty == "spot" {
+            json!({ "name": name, "type": ty, "spot": {} })
+        } else {
+            json!({ "name": name, "type": ty })
+        };
+        b.light_node(light, json!({ "translation": [0.0, 2.0, 0.0] }));
+    }
+    let s = b.load_with(&every_light()).unwrap();
+    let names: Vec<&str> = s.lights.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["S1", "P1", "S2"]);
     let mut b = Builder::new();
     let q = b.quad("Floor", true);
     b.root_mesh_node("F", q);

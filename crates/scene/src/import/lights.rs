@@ -184,10 +184,23 @@ impl<'a> Ctx<'a> {
                     "no light of a known type (directional, spot or point)".to_string(),
                 ));
             }
-            // The first light is the one whose maps take moving objects: a
-            // spot or directional light. The first such light in file
-            // order leads; the others keep their order.
-            if let Some(p) = kept.iter().position(|&i| usable(&cands[i])) {
+            // The first light is the primary one: full-size maps, and
+            // cascades when it is a sun on a large level. A directional
+            // light leads (it covers the whole level; a lamp a part of it),
+            // else a spot; the first such light in file order, the others
+            // keep their order. (Exporters write lights in node order:
+            // Blender's puts a "Sun" after "Point" and "Spot" lamps.)
+            let directional = |i: &usize| {
+                matches!(
+                    cands[*i].ty,
+                    Some(json::extensions::scene::khr_lights_punctual::Type::Directional)
+                )
+            };
+            let lead = kept
+                .iter()
+                .position(directional)
+                .or_else(|| kept.iter().position(|&i| usable(&cands[i])));
+            if let Some(p) = lead {
                 let lead = kept.remove(p);
                 kept.insert(0, lead);
             }

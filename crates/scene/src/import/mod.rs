@@ -68,9 +68,9 @@ pub struct LoadOptions {
     /// one spot/directional light.
     pub lights: Vec<String>,
     /// Every `KHR_lights_punctual` light, point lights included, into
-    /// [`Scene::lights`]: the first spot or directional light in file order
-    /// first (the bake's and the runtime's primary light, whose maps take
-    /// moving objects), then the others in file order. `false` (the
+    /// [`Scene::lights`]: the first directional light in file order first,
+    /// else the first spot (the bake's and the runtime's primary light:
+    /// full-size maps, cascades for a sun), then the others in file order. `false` (the
     /// default): one spot or directional light.
     pub all_lights: bool,
     /// Resource budgets (file sizes, accessor elements, texels, animation
