@@ -144,8 +144,9 @@ impl Windows {
     /// `[x0, y0, x1, y1)` of a `size²` map; at least one): rectangles whose
     /// windows ([`Window::around`]) overlap are grouped, then the two
     /// groups whose joint window is smallest, until at most
-    /// [`MAX_WINDOWS`] disjoint windows are left. They are kept when each
-    /// is at most a quarter of the side of the one window around all the
+    /// [`MAX_WINDOWS`] disjoint windows are left (rectangle by rectangle,
+    /// in order: linear in their number). They are kept when each is at
+    /// most a quarter of the side of the one window around all the
     /// rectangles (so that at one depth less their cells are finer);
     /// otherwise that one window. Deterministic in the order of `rects`.
     pub(crate) fn around(rects: &[[u32; 4]], size: u32) -> Windows {
@@ -170,28 +171,31 @@ impl Windows {
             let (bx, by) = (u64::from(b.origin[0]), u64::from(b.origin[1]));
             ax < bx + sb && bx < ax + sa && ay < by + sb && by < ay + sa
         };
-        // Bounded: every pass merges two groups (at most `rects` passes).
-        let mut groups: Vec<[u32; 4]> = rects.to_vec();
-        loop {
-            let w: Vec<Window> = groups.iter().map(|&g| Window::around(g, size)).collect();
-            let n = groups.len();
-            let pair = (0..n)
-                .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
-                .find(|&(i, j)| overlap(w[i], w[j]))
-                .or_else(|| {
-                    (n > MAX_WINDOWS)
-                        .then(|| {
-                            (0..n)
-                                .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
-                                .min_by_key(|&(i, j)| {
+        // Incremental, so the work is linear in the rectangles: each one
+        // joins the groups as a group of its own, then groups whose windows
+        // overlap merge, then, past MAX_WINDOWS, the two whose joint window
+        // is smallest; at most MAX_WINDOWS + 1 groups at any time.
+        let pairs = |n: usize| (0..n).flat_map(move |i| (i + 1..n).map(move |j| (i, j)));
+        let mut groups: Vec<[u32; 4]> = Vec::with_capacity(MAX_WINDOWS + 1);
+        for &r in rects {
+            groups.push(r);
+            loop {
+                let w: Vec<Window> = groups.iter().map(|&g| Window::around(g, size)).collect();
+                let pair = pairs(groups.len())
+                    .find(|&(i, j)| overlap(w[i], w[j]))
+                    .or_else(|| {
+                        (groups.len() > MAX_WINDOWS)
+                            .then(|| {
+                                pairs(groups.len()).min_by_key(|&(i, j)| {
                                     Window::around(join(groups[i], groups[j]), size).levels
                                 })
-                        })
-                        .flatten()
-                });
-            let Some((i, j)) = pair else { break };
-            groups[i] = join(groups[i], groups[j]);
-            groups.remove(j);
+                            })
+                            .flatten()
+                    });
+                let Some((i, j)) = pair else { break };
+                groups[i] = join(groups[i], groups[j]);
+                groups.remove(j);
+            }
         }
         let finer = groups
             .iter()
@@ -560,6 +564,22 @@ mod tests {
         }
         // Deterministic.
         assert_eq!(Windows::around(&grid, size), w);
+        // Many objects: linear work, still at most four windows holding
+        // every rectangle.
+        let many: Vec<[u32; 4]> = (0..20_000u32)
+            .map(|k| {
+                let (x, y) = ((k * 7919) % 500, (k * 104_729) % 500);
+                [x, y, x + 4, y + 4]
+            })
+            .collect();
+        let w = Windows::around(&many, size);
+        assert!(w.as_slice().len() <= MAX_WINDOWS);
+        for r in many.iter().step_by(97) {
+            assert!(
+                w.as_slice().iter().any(|win| holds(*win, *r)),
+                "{r:?} in {w:?}"
+            );
+        }
     }
 
     /// A window holds its rectangle, is a power of two, and is the whole
