@@ -176,27 +176,33 @@ impl Windows {
         // overlap merge, then, past MAX_WINDOWS, the two whose joint window
         // is smallest; at most MAX_WINDOWS + 1 groups at any time.
         let pairs = |n: usize| (0..n).flat_map(move |i| (i + 1..n).map(move |j| (i, j)));
-        let mut groups: Vec<[u32; 4]> = Vec::with_capacity(MAX_WINDOWS + 1);
+        // A fixed array: no allocation per view per frame.
+        let mut store = [[0u32; 4]; MAX_WINDOWS + 1];
+        let mut n = 0;
         for &r in rects {
-            groups.push(r);
+            store[n] = r;
+            n += 1;
             loop {
-                let w: Vec<Window> = groups.iter().map(|&g| Window::around(g, size)).collect();
-                let pair = pairs(groups.len())
-                    .find(|&(i, j)| overlap(w[i], w[j]))
-                    .or_else(|| {
-                        (groups.len() > MAX_WINDOWS)
-                            .then(|| {
-                                pairs(groups.len()).min_by_key(|&(i, j)| {
-                                    Window::around(join(groups[i], groups[j]), size).levels
-                                })
-                            })
-                            .flatten()
-                    });
+                let g = &store[..n];
+                let mut w = [Window::whole(size); MAX_WINDOWS + 1];
+                for (w, &g) in w.iter_mut().zip(g) {
+                    *w = Window::around(g, size);
+                }
+                let pair = pairs(n).find(|&(i, j)| overlap(w[i], w[j])).or_else(|| {
+                    (n > MAX_WINDOWS)
+                        .then(|| {
+                            pairs(n)
+                                .min_by_key(|&(i, j)| Window::around(join(g[i], g[j]), size).levels)
+                        })
+                        .flatten()
+                });
                 let Some((i, j)) = pair else { break };
-                groups[i] = join(groups[i], groups[j]);
-                groups.remove(j);
+                store[i] = join(store[i], store[j]);
+                store.copy_within(j + 1..n, j);
+                n -= 1;
             }
         }
+        let groups = &store[..n];
         let finer = groups
             .iter()
             .all(|&g| Window::around(g, size).levels + 1 < union.levels);
@@ -204,7 +210,7 @@ impl Windows {
             return Windows::one(union);
         }
         let mut list = [union; MAX_WINDOWS];
-        for (slot, &g) in list.iter_mut().zip(&groups) {
+        for (slot, &g) in list.iter_mut().zip(groups) {
             *slot = Window::around(g, size);
         }
         Windows {
