@@ -121,7 +121,8 @@ pub(crate) const MAX_WINDOWS: usize = 4;
 pub(crate) struct Windows {
     list: [Window; MAX_WINDOWS],
     count: u32,
-    /// The one window around every rectangle (the occlusion test's).
+    /// The one window around every rectangle (a view of one slot clusters
+    /// this one).
     pub union: Window,
 }
 
@@ -359,8 +360,8 @@ pub(crate) struct OcclusionPass {
     size: u32,
 }
 
-/// One light view's occlusion test: its group 0 and the window it tests
-/// this frame (`window` in `occlusion.wgsl`).
+/// One light view's occlusion test: its group 0 and the windows it tests
+/// this frame (`windows` in `occlusion.wgsl`).
 pub(crate) struct OcclusionView {
     group: wgpu::BindGroup,
     window_buf: wgpu::Buffer,
@@ -435,21 +436,26 @@ impl OcclusionPass {
         &self.own
     }
 
-    /// Has `view` test the texels of `window` from the next recorded frame
-    /// (record it with the same window).
-    pub(crate) fn set_window(&self, queue: &wgpu::Queue, view: &OcclusionView, window: Window) {
-        let w = [window.origin[0], window.origin[1], 1u32 << window.levels, 0];
-        queue.write_buffer(&view.window_buf, 0, bytemuck::cast_slice(&w));
+    /// Has `view` test the texels of `windows` from the next recorded
+    /// frame (record it with the same windows). They are disjoint, so each
+    /// texel is counted once.
+    pub(crate) fn set_window(&self, queue: &wgpu::Queue, view: &OcclusionView, windows: &Windows) {
+        queue.write_buffer(
+            &view.window_buf,
+            0,
+            bytemuck::bytes_of(&GpuOcclusionWindows::new(windows.as_slice())),
+        );
     }
 
-    /// Records one invocation per texel of `window` (as set with
+    /// Records one invocation per texel of `windows` (as set with
     /// [`OcclusionPass::set_window`]) of the view of `view`, adding to the
-    /// sums (the caller clears them once per frame).
+    /// sums (the caller clears them once per frame): one dispatch, `z`
+    /// the window.
     pub(crate) fn encode_from(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         view: &OcclusionView,
-        window: Window,
+        windows: &Windows,
         ts: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -458,8 +464,35 @@ impl OcclusionPass {
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &view.group, &[]);
-        let side = (1u32 << window.levels).min(self.size.max(1));
-        pass.dispatch_workgroups(side.div_ceil(8), side.div_ceil(8), 1);
+        let list = windows.as_slice();
+        let side = list
+            .iter()
+            .map(|w| (1u32 << w.levels).min(self.size.max(1)))
+            .max()
+            .unwrap_or(1);
+        pass.dispatch_workgroups(side.div_ceil(8), side.div_ceil(8), list.len() as u32);
+    }
+}
+
+/// `OcclusionWindows` in occlusion.wgsl (must match): up to
+/// [`MAX_WINDOWS`] windows (first texel, side) and how many are in use.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct GpuOcclusionWindows {
+    w: [[u32; 4]; MAX_WINDOWS],
+    count: [u32; 4],
+}
+
+impl GpuOcclusionWindows {
+    fn new(list: &[Window]) -> GpuOcclusionWindows {
+        let mut g = GpuOcclusionWindows {
+            w: [[0; 4]; MAX_WINDOWS],
+            count: [list.len().min(MAX_WINDOWS) as u32, 0, 0, 0],
+        };
+        for (slot, w) in g.w.iter_mut().zip(list) {
+            *slot = [w.origin[0], w.origin[1], 1u32 << w.levels.min(31), 0];
+        }
+        g
     }
 }
 
@@ -472,10 +505,10 @@ fn occlusion_view(
     texel_info: &wgpu::Buffer,
     occluded: &wgpu::Buffer,
 ) -> OcclusionView {
-    let whole = Window::whole(rsm.size);
+    let whole = GpuOcclusionWindows::new(&[Window::whole(rsm.size)]);
     let window_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("occlusion window"),
-        contents: bytemuck::cast_slice(&[0u32, 0, 1u32 << whole.levels, 0]),
+        label: Some("occlusion windows"),
+        contents: bytemuck::bytes_of(&whole),
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
     });
     let group = device.create_bind_group(&wgpu::BindGroupDescriptor {

@@ -14,7 +14,7 @@ use wgpu::util::DeviceExt;
 
 use super::{DynamicVplPass, GpuDynVpl, slot_count};
 use crate::baked::BakedGpu;
-use crate::dynamic_rsm::{DynamicRsmPass, Window, Windows};
+use crate::dynamic_rsm::{DynamicRsmPass, OcclusionPass, Window, Windows};
 use crate::plan::Pass;
 use crate::stats::{FrameStats, Timer};
 
@@ -529,4 +529,57 @@ fn dynamic_vpls_over_windows_far_apart_match_the_cpu_cut() {
             }
         }
     }
+}
+
+/// The occlusion test over the moving objects' windows gives the same sums
+/// as over the whole map (no texel outside them has a moving surface), and
+/// over two disjoint windows in one dispatch the sums of each window alone.
+#[test]
+fn occlusion_over_windows_matches_the_whole_map() {
+    let ctx = gpu();
+    let scene = scene();
+    let asset = bake(&ctx, &scene);
+    let time = 0.9;
+    let f = frame(&ctx, &scene, &asset, time);
+    run(&ctx, &f, None);
+    let r = f.baked.rsm.as_ref().expect("RSM data");
+    let vpl_count = f.baked.vpls.len() as u32;
+    let occ = OcclusionPass::new(
+        &ctx.device,
+        &r.static_metric,
+        &f.rsm,
+        &r.texel_info,
+        vpl_count,
+    );
+    let sums = |windows: &Windows| -> Vec<u32> {
+        occ.set_window(&ctx.queue, occ.own_view(), windows);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.clear_buffer(&occ.occluded, 0, None);
+        occ.encode_from(&mut enc, occ.own_view(), windows, None);
+        ctx.queue.submit([enc.finish()]);
+        bytemuck::pod_collect_to_vec(&readback::read_buffer(&ctx, &occ.occluded).expect("read"))
+    };
+    let rects: Vec<[u32; 4]> = (0..scene.dynamic_objects.len())
+        .filter_map(|i| f.view.texel_rect(&scene.dynamic_bounds(i, time)))
+        .collect();
+    let whole = sums(&Windows::one(Window::whole(f.view.size)));
+    assert!(whole.iter().any(|&s| s > 0), "the balls occlude some VPL");
+    assert_eq!(sums(&Windows::around(&rects, f.view.size)), whole);
+    // The two balls farthest apart: two windows in one dispatch.
+    let centre = |r: &[u32; 4]| Vec2::new((r[0] + r[2]) as f32, (r[1] + r[3]) as f32);
+    let (a, b) = (0..rects.len())
+        .flat_map(|i| (i + 1..rects.len()).map(move |j| (i, j)))
+        .max_by(|&(i, j), &(k, l)| {
+            let d = |p: usize, q: usize| centre(&rects[p]).distance(centre(&rects[q]));
+            d(i, j).total_cmp(&d(k, l))
+        })
+        .expect("two balls");
+    let two = Windows::around(&[rects[a], rects[b]], f.view.size);
+    assert_eq!(two.as_slice().len(), 2, "{two:?}");
+    let both = sums(&two);
+    let one = sums(&Windows::one(two.as_slice()[0]));
+    let other = sums(&Windows::one(two.as_slice()[1]));
+    let added: Vec<u32> = one.iter().zip(&other).map(|(x, y)| x + y).collect();
+    assert_eq!(both, added);
+    assert!(both.iter().any(|&s| s > 0) && both != whole);
 }

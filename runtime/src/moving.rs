@@ -93,9 +93,9 @@ struct BounceView {
     /// The first slot of its range (the views recorded this frame come
     /// first, in order), as its parameters say.
     base: u32,
-    /// Where its dynamic VPLs are clustered this frame (the squares of its
-    /// map around the moving objects' boxes; their union is where the
-    /// occlusion test runs), as its parameters say.
+    /// Where its occlusion test and dynamic VPLs run this frame (the
+    /// squares of its map around the moving objects' boxes), as its
+    /// parameters say.
     windows: Windows,
     /// This frame's texel rectangles of the boxes it can see (scratch).
     rects: Vec<[u32; 4]>,
@@ -312,10 +312,10 @@ impl MovingPasses {
             // No box seen: one texel (the primary view is recorded anyway).
             let windows = Windows::around(&b.rects, b.view.size);
             if let Some((_, occlusion)) = &self.rsm
-                && b.windows.union != windows.union
+                && b.windows != windows
             {
                 let v = b.occlusion.as_ref().unwrap_or(occlusion.own_view());
-                occlusion.set_window(queue, v, windows.union);
+                occlusion.set_window(queue, v, &windows);
             }
             if let Some(d) = &self.vpls {
                 let v = match &b.rsm {
@@ -443,7 +443,7 @@ impl MovingPasses {
                 occlusion.encode_from(
                     encoder,
                     b.occlusion.as_ref().unwrap_or(occlusion.own_view()),
-                    b.windows.union,
+                    &b.windows,
                     occ_ts,
                 );
                 if let Some((d, v)) = &vpl_view {
