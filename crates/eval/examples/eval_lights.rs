@@ -20,6 +20,11 @@
 //! `random:SEED` / `random:A..B` (`gibake_scenegen::random_lights`). With
 //! `--out DIR`, writes `reference | full | rsm | error` (NAME.png) and the
 //! same for the indirect light alone (NAME_indirect.png).
+//!
+//! `DUMP_EXR=1` with `--out DIR`: also the reference's, `full`'s and
+//! `rsm`'s indirect images and the runtime's direct light as EXR
+//! (`NAME_ref_ind.exr`, `NAME_full_ind.exr`, `NAME_rsm_ind.exr`,
+//! `NAME_direct.exr`), for looking at where the indirect light is lost.
 
 use gibake_scene::LoadOptions;
 
@@ -151,6 +156,25 @@ fn main() {
                         &dir.join(format!("{file}_indirect.png")),
                     )
                     .expect("write panel");
+                    if std::env::var("DUMP_EXR").is_ok() {
+                        let r = images.reference.indirect();
+                        r.write_exr(&dir.join(format!("{file}_ref_ind.exr")))
+                            .unwrap();
+                        images
+                            .full
+                            .sub(&images.direct)
+                            .write_exr(&dir.join(format!("{file}_full_ind.exr")))
+                            .unwrap();
+                        images
+                            .rsm
+                            .sub(&images.direct)
+                            .write_exr(&dir.join(format!("{file}_rsm_ind.exr")))
+                            .unwrap();
+                        images
+                            .direct
+                            .write_exr(&dir.join(format!("{file}_direct.exr")))
+                            .unwrap();
+                    }
                 }
             }
             Err(e) => println!("{name}: {e}"),
