@@ -329,31 +329,60 @@ impl LightView {
     }
 
     /// The texels `[x0, x1) × [y0, y1)` of the map that `bounds` can cover
-    /// (every texel whose centre the box's projection may hold, plus one
-    /// texel of margin), or `None` when the view cannot see the box
-    /// ([`LightView::may_see`]). A box reaching behind a spot's or point
-    /// face's eye plane gives the whole map (its projection is unbounded).
+    /// (every texel whose centre the part of the box on the far side of the
+    /// near plane may project to, plus one texel of margin: the
+    /// rasterizer clips the rest), or `None` when the view cannot see the
+    /// box ([`LightView::may_see`]) or none of it lies beyond the near
+    /// plane. A box around a spot's or point face's eye gives the whole
+    /// map; one that reaches behind the eye beside it, only what its part in
+    /// front covers.
     pub fn texel_rect(&self, bounds: &Aabb) -> Option<[u32; 4]> {
         if !self.may_see(bounds) {
             return None;
         }
         let n = self.size as f32;
         let whole = Some([0, 0, self.size, self.size]);
+        let clip: [Vec4; 8] =
+            std::array::from_fn(|i| self.view_proj * corner(bounds, i).extend(1.0));
+        if clip.iter().any(|c| !c.is_finite()) {
+            return whole;
+        }
+        // Reversed Z: the near plane is z = w, the kept side w − z ≥ 0 (a
+        // point behind a perspective eye has w < 0 < z).
+        let side = |c: &Vec4| c.w - c.z;
         let (mut lo, mut hi) = (
             glam::Vec2::splat(f32::INFINITY),
             glam::Vec2::splat(f32::NEG_INFINITY),
         );
-        for i in 0..8 {
-            let c = self.view_proj * corner(bounds, i).extend(1.0);
-            // On or behind the eye plane (or not finite): unbounded.
+        let mut add = |c: Vec4| {
+            // On the near plane w is the near distance (> 0); a point
+            // there that is not (rounding at the eye) makes it unbounded.
             let in_front = c.w > 1e-6 * c.truncate().length().max(f32::MIN_POSITIVE);
-            if !in_front || !c.is_finite() {
-                return whole;
+            if !in_front {
+                lo = glam::Vec2::NEG_INFINITY;
+                hi = glam::Vec2::INFINITY;
+                return;
             }
             let ndc = c.truncate() / c.w;
             let t = glam::Vec2::new(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5) * n;
             lo = lo.min(t);
             hi = hi.max(t);
+        };
+        for c in &clip {
+            if side(c) >= 0.0 {
+                add(*c);
+            }
+        }
+        // The box's edges that cross the near plane, where they cross it.
+        for (i, j) in BOX_EDGES {
+            let (di, dj) = (side(&clip[i]), side(&clip[j]));
+            if (di >= 0.0) != (dj >= 0.0) {
+                let t = di / (di - dj);
+                add(clip[i] + (clip[j] - clip[i]) * t);
+            }
+        }
+        if lo.x > hi.x || lo.y > hi.y {
+            return None;
         }
         if !(lo.is_finite() && hi.is_finite()) {
             return whole;
@@ -434,6 +463,23 @@ impl LightView {
         }
     }
 }
+
+/// The twelve edges of a box, as pairs of [`corner`] indices (bit k of the
+/// index picks min or max along axis k).
+const BOX_EDGES: [(usize, usize); 12] = [
+    (0, 1),
+    (2, 3),
+    (4, 5),
+    (6, 7),
+    (0, 2),
+    (1, 3),
+    (4, 6),
+    (5, 7),
+    (0, 4),
+    (1, 5),
+    (2, 6),
+    (3, 7),
+];
 
 fn corner(b: &Aabb, i: usize) -> Vec3 {
     Vec3::new(
@@ -553,6 +599,44 @@ mod tests {
             max: Vec3::new(1.0, 6.0, 1.0),
         };
         assert_eq!(view.texel_rect(&around_eye), Some([0, 0, 256, 256]));
+        // Beside the eye, reaching behind its plane: only the part beyond
+        // the near plane counts (the rasterizer clips the rest), so not
+        // the whole map, and every point of the box the map shows is in it.
+        let beside = Aabb {
+            min: Vec3::new(0.3, 3.5, -0.2),
+            max: Vec3::new(0.6, 5.5, 0.1),
+        };
+        let [x0, y0, x1, y1] = view.texel_rect(&beside).expect("the spot sees it");
+        assert!(
+            (x1 - x0) * (y1 - y0) < 256 * 256 / 2,
+            "{:?}",
+            [x0, y0, x1, y1]
+        );
+        let mut shown = 0;
+        for i in 0..4000 {
+            let f = |k: u32| ((i * k) % 997) as f32 / 996.0;
+            let p = beside.min + (beside.max - beside.min) * Vec3::new(f(13), f(29), f(61));
+            let c = view.view_proj * p.extend(1.0);
+            if !(c.w > 0.0 && c.z <= c.w) {
+                continue;
+            }
+            let Some(t) = view.texel_coords(p) else {
+                continue;
+            };
+            if t.x < 0.0 || t.y < 0.0 || t.x >= 256.0 || t.y >= 256.0 {
+                continue;
+            }
+            shown += 1;
+            let (x, y) = (t.x.floor() as u32, t.y.floor() as u32);
+            assert!(x0 <= x && x < x1 && y0 <= y && y < y1, "{p} at ({x}, {y})");
+        }
+        assert!(shown > 100, "{shown} points of the box in the map");
+        // Wholly behind the eye: not seen.
+        let behind = Aabb {
+            min: Vec3::new(-0.5, 5.5, -0.5),
+            max: Vec3::new(0.5, 6.0, 0.5),
+        };
+        assert_eq!(view.texel_rect(&behind), None);
     }
 
     /// A point light's six faces cover every direction exactly once: the
