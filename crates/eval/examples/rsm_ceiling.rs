@@ -27,6 +27,11 @@ use gibake_raycast::RayScene;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
+//!
+//! A second line splits the receivers: those whose bounce light is at
+//! least 10× the mean (on an open level, the objects' sides facing the
+//! sunlit ground: 1% of the Blenvy level's receivers, 59% of its light)
+//! against the rest, with the bounded per-texel bias on each.
 
 /// Reference samples per receiver (stratified, cosine-weighted).
 const REF_SAMPLES_SIDE: u32 = 24;
@@ -127,7 +132,7 @@ fn main() {
                     .collect::<Vec<_>>()
             })
             .collect();
-        let total = (0..size * size)
+        let per_px = (0..size * size)
             .into_par_iter()
             .map(|p| {
                 let mut s = Sums::default();
@@ -171,7 +176,29 @@ fn main() {
                 s.largest = s.reference;
                 s
             })
-            .reduce(Sums::default, |mut a, b| {
+            .collect::<Vec<Sums>>();
+        // Receivers whose bounce light is ≥ 10× the mean (the objects'
+        // sides facing a sunlit ground on an open level) against the rest.
+        let mean = per_px.iter().map(|s| s.reference).sum::<f64>() / per_px.len().max(1) as f64;
+        let hot = |s: &&Sums| s.reference >= 10.0 * mean;
+        let part = |pick: &dyn Fn(&&Sums) -> bool| {
+            let (r, b, n) = per_px.iter().filter(pick).fold((0.0, 0.0, 0usize), |a, s| {
+                (a.0 + s.reference, a.1 + s.bounded, a.2 + 1)
+            });
+            (r, b, n)
+        };
+        let (hr, hb, hn) = part(&hot);
+        let (cr, cb, _) = part(&|s: &&Sums| !hot(s));
+        let split = format!(
+            "hot receivers (≥ 10× the mean): {:.1}% of them, {:.0}% of the light, bounded {:+.1}% there, {:+.1}% elsewhere",
+            100.0 * hn as f64 / per_px.len().max(1) as f64,
+            100.0 * hr / (hr + cr).max(f64::MIN_POSITIVE),
+            100.0 * (hb / hr.max(f64::MIN_POSITIVE) - 1.0),
+            100.0 * (cb / cr.max(f64::MIN_POSITIVE) - 1.0),
+        );
+        let total = per_px
+            .into_iter()
+            .fold(Sums::default(), |mut a, b| {
                 a.largest = a.largest.max(b.largest);
                 a.reference += b.reference;
                 for k in 0..BUCKETS.len() {
@@ -195,5 +222,6 @@ fn main() {
             100.0 * total.near[3] / r,
             100.0 * total.largest / r,
         );
+        println!("{:>12}   {split}", "");
     }
 }
