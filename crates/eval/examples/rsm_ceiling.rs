@@ -21,17 +21,18 @@
 //! glTF file with its own lights and camera, `FILE.glb[:K]`)
 //! (default 32² receivers; ≈ 5 s a level on 2 cores at 32²). `--rsm N`: the
 //! RSM resolution (default 512, the bake's).
+//!
+//! A second line splits the receivers: those whose bounce light is at
+//! least 10× the mean (on an open level, the objects' sides facing the
+//! sunlit ground: 1% of the Blenvy level's receivers, 59% of its light)
+//! against the rest, with the bounded per-texel bias on each.
+
 use gibake_bake::rsm::render_rsm;
 use gibake_gpu::LightView;
 use gibake_raycast::RayScene;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
-//!
-//! A second line splits the receivers: those whose bounce light is at
-//! least 10× the mean (on an open level, the objects' sides facing the
-//! sunlit ground: 1% of the Blenvy level's receivers, 59% of its light)
-//! against the rest, with the bounded per-texel bias on each.
 
 /// Reference samples per receiver (stratified, cosine-weighted).
 const REF_SAMPLES_SIDE: u32 = 24;
@@ -196,19 +197,17 @@ fn main() {
             100.0 * (hb / hr.max(f64::MIN_POSITIVE) - 1.0),
             100.0 * (cb / cr.max(f64::MIN_POSITIVE) - 1.0),
         );
-        let total = per_px
-            .into_iter()
-            .fold(Sums::default(), |mut a, b| {
-                a.largest = a.largest.max(b.largest);
-                a.reference += b.reference;
-                for k in 0..BUCKETS.len() {
-                    a.near[k] += b.near[k];
-                }
-                a.bounded += b.bounded;
-                a.bounded_unshadowed += b.bounded_unshadowed;
-                a.point += b.point;
-                a
-            });
+        let total = per_px.into_iter().fold(Sums::default(), |mut a, b| {
+            a.largest = a.largest.max(b.largest);
+            a.reference += b.reference;
+            for k in 0..BUCKETS.len() {
+                a.near[k] += b.near[k];
+            }
+            a.bounded += b.bounded;
+            a.bounded_unshadowed += b.bounded_unshadowed;
+            a.point += b.point;
+            a
+        });
         let r = total.reference.max(f64::MIN_POSITIVE);
         println!(
             "{name:>12} | {:>+8.1}% {:>+8.1}% {:>+8.1}% {:>9.4} m | {:.1}% / {:.1}% / {:.1}% / {:.1}% | {:.1}%",
