@@ -14,6 +14,9 @@
 //!        bake's near-field tree near it: gibake_eval::transport), with
 //!        exact visibility from B's origin — what the GPU computes with
 //!        exact maps (B's lift: env LIFT, default the bake's 0.2)
+//! After each scene's line, the same biases (A … T) on the "hot"
+//! receivers, whose reference is ≥ 10× the mean, and on the rest, with
+//! each group's share of the light.
 //! usage: vpl_diag SEED|BUNDLED|LEVEL... [--vpls N] [--size S]
 //! (LEVEL: a name in data/levels/levels.json; its camera and moving
 //! objects as `eval_levels` loads them; or `FILE.glb[:K]`, a glTF file's
@@ -342,6 +345,27 @@ fn main() {
             errs += &format!(" {:>6.3}", e);
         }
         println!("{line} |{errs}   {info} vpls={}", cl.vpls.len());
+        // The same biases on the receivers whose reference is ≥ 10× the
+        // mean (on an open level: the objects' sides facing the sunlit
+        // ground) and on the rest.
+        let lum = |v: Vec3| f64::from(v.x + v.y + v.z);
+        let mean0 = px.iter().map(|p| lum(p[0])).sum::<f64>() / px.len().max(1) as f64;
+        for (what, hot) in [("hot", true), ("rest", false)] {
+            let pick: Vec<&[Vec3; 10]> = px
+                .iter()
+                .filter(|p| (lum(p[0]) >= 10.0 * mean0) == hot)
+                .collect();
+            let r: f64 = pick.iter().map(|p| lum(p[0])).sum();
+            let mut line = format!("{:>14}", format!("{what} ({})", pick.len()));
+            for k in 1..10 {
+                let m: f64 = pick.iter().map(|p| lum(p[k])).sum();
+                line += &format!(" {:>+7.1}", 100.0 * (m / r.max(f64::MIN_POSITIVE) - 1.0));
+            }
+            println!(
+                "{line}   ({:.0}% of the light)",
+                100.0 * r / (mean0 * px.len() as f64).max(f64::MIN_POSITIVE)
+            );
+        }
         if std::env::var("TOP").is_ok() {
             let g = per_vpl.lock().unwrap();
             let mut idx: Vec<usize> = (0..g.len()).collect();
