@@ -454,6 +454,18 @@ fn dynamic_vpls_over_the_moving_objects_window_match_the_cpu_cut() {
     }
 }
 
+/// The two rectangles whose centres lie farthest apart.
+fn farthest_apart(rects: &[[u32; 4]]) -> (usize, usize) {
+    let centre = |r: &[u32; 4]| Vec2::new((r[0] + r[2]) as f32, (r[1] + r[3]) as f32);
+    (0..rects.len())
+        .flat_map(|i| (i + 1..rects.len()).map(move |j| (i, j)))
+        .max_by(|&(i, j), &(k, l)| {
+            let d = |p: usize, q: usize| centre(&rects[p]).distance(centre(&rects[q]));
+            d(i, j).total_cmp(&d(k, l))
+        })
+        .expect("two balls")
+}
+
 /// Moving objects far apart in the view get a window each
 /// ([`Windows::around`]): each window's slot range (a quarter of the
 /// view's, one depth less; the last one the remainder) holds the CPU twin's
@@ -472,14 +484,7 @@ fn dynamic_vpls_over_windows_far_apart_match_the_cpu_cut() {
         let rects: Vec<[u32; 4]> = (0..scene.dynamic_objects.len())
             .filter_map(|i| f.view.texel_rect(&scene.dynamic_bounds(i, time)))
             .collect();
-        let centre = |r: &[u32; 4]| Vec2::new((r[0] + r[2]) as f32, (r[1] + r[3]) as f32);
-        let (a, b) = (0..rects.len())
-            .flat_map(|i| (i + 1..rects.len()).map(move |j| (i, j)))
-            .max_by(|&(i, j), &(k, l)| {
-                let d = |p: usize, q: usize| centre(&rects[p]).distance(centre(&rects[q]));
-                d(i, j).total_cmp(&d(k, l))
-            })
-            .expect("two balls");
+        let (a, b) = farthest_apart(&rects);
         let windows = Windows::around(&[rects[a], rects[b]], f.view.size);
         eprintln!("t = {time}: {:?} {:?} -> {windows:?}", rects[a], rects[b]);
         assert_eq!(windows.as_slice().len(), 2, "t = {time}: {windows:?}");
@@ -566,14 +571,7 @@ fn occlusion_over_windows_matches_the_whole_map() {
     assert!(whole.iter().any(|&s| s > 0), "the balls occlude some VPL");
     assert_eq!(sums(&Windows::around(&rects, f.view.size)), whole);
     // The two balls farthest apart: two windows in one dispatch.
-    let centre = |r: &[u32; 4]| Vec2::new((r[0] + r[2]) as f32, (r[1] + r[3]) as f32);
-    let (a, b) = (0..rects.len())
-        .flat_map(|i| (i + 1..rects.len()).map(move |j| (i, j)))
-        .max_by(|&(i, j), &(k, l)| {
-            let d = |p: usize, q: usize| centre(&rects[p]).distance(centre(&rects[q]));
-            d(i, j).total_cmp(&d(k, l))
-        })
-        .expect("two balls");
+    let (a, b) = farthest_apart(&rects);
     let two = Windows::around(&[rects[a], rects[b]], f.view.size);
     assert_eq!(two.as_slice().len(), 2, "{two:?}");
     let both = sums(&two);

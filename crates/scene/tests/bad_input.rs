@@ -556,52 +556,39 @@ fn repeated_light_option_restricts_the_set() {
 /// lights only keeps its order.
 #[test]
 fn a_directional_light_else_the_first_spot_leads() {
-    let mut b = Builder::new();
-    let q = b.quad("Floor", true);
-    b.root_mesh_node("F", q);
-    for (name, ty) in [
-        ("P1", "point"),
-        ("S", "spot"),
-        ("P2", "point"),
-        ("D", "directional"),
-    ] {
-        let light = if ty == "spot" {
-            json!({ "name": name, "type": ty, "spot": {} })
-        } else {
-            json!({ "name": name, "type": ty })
-        };
-        b.light_node(light, json!({ "translation": [0.0, 2.0, 0.0] }));
-    }
-    let s = b.load_with(&every_light()).unwrap();
-    let names: Vec<&str> = s.lights.iter().map(|l| l.name.as_str()).collect();
-    assert_eq!(names, ["D", "P1", "S", "P2"]);
+    // The lights' names in the scene's order after import, for lights of
+    // the given names and types in file order.
+    let order = |lights: &[(&str, &str)]| -> Vec<String> {
+        let mut b = Builder::new();
+        let q = b.quad("Floor", true);
+        b.root_mesh_node("F", q);
+        for &(name, ty) in lights {
+            let light = if ty == "spot" {
+                json!({ "name": name, "type": ty, "spot": {} })
+            } else {
+                json!({ "name": name, "type": ty })
+            };
+            b.light_node(light, json!({ "translation": [0.0, 2.0, 0.0] }));
+        }
+        let s = b.load_with(&every_light()).unwrap();
+        s.lights.iter().map(|l| l.name.clone()).collect()
+    };
+    assert_eq!(
+        order(&[
+            ("P1", "point"),
+            ("S", "spot"),
+            ("P2", "point"),
+            ("D", "directional"),
+        ]),
+        ["D", "P1", "S", "P2"]
+    );
     // Without a directional light the first spot leads.
-    let mut b = Builder::new();
-    let q = b.quad("Floor", true);
-    b.root_mesh_node("F", q);
-    for (name, ty) in [("P1", "point"), ("S1", "spot"), ("S2", "spot")] {
-        let light = if ty == "spot" {
-            json!({ "name": name, "type": ty, "spot": {} })
-        } else {
-            json!({ "name": name, "type": ty })
-        };
-        b.light_node(light, json!({ "translation": [0.0, 2.0, 0.0] }));
-    }
-    let s = b.load_with(&every_light()).unwrap();
-    let names: Vec<&str> = s.lights.iter().map(|l| l.name.as_str()).collect();
-    assert_eq!(names, ["S1", "P1", "S2"]);
-    let mut b = Builder::new();
-    let q = b.quad("Floor", true);
-    b.root_mesh_node("F", q);
-    for name in ["P1", "P2"] {
-        b.light_node(
-            json!({ "name": name, "type": "point" }),
-            json!({ "translation": [0.0, 2.0, 0.0] }),
-        );
-    }
-    let s = b.load_with(&every_light()).unwrap();
-    let names: Vec<&str> = s.lights.iter().map(|l| l.name.as_str()).collect();
-    assert_eq!(names, ["P1", "P2"]);
+    assert_eq!(
+        order(&[("P1", "point"), ("S1", "spot"), ("S2", "spot")]),
+        ["S1", "P1", "S2"]
+    );
+    // Point lights only: file order.
+    assert_eq!(order(&[("P1", "point"), ("P2", "point")]), ["P1", "P2"]);
 }
 
 #[test]
