@@ -507,13 +507,14 @@ fn three_kinds() -> Builder {
 }
 
 #[test]
-fn every_light_is_kept_in_file_order() {
-    // (Its first light is a spot: file order throughout.)
+fn every_light_is_kept_the_sun_first() {
+    // The directional light leads (a_directional_light_else_the_first_spot_leads);
+    // the others keep their file order.
     let s = three_kinds().load_with(&every_light()).unwrap();
     let names: Vec<&str> = s.lights.iter().map(|l| l.name.as_str()).collect();
-    assert_eq!(names, ["Alpha", "Beta", "Bulb"]);
-    assert!(matches!(s.lights[0].kind, LightKind::Spot { .. }));
-    assert_eq!(s.lights[1].kind, LightKind::Directional);
+    assert_eq!(names, ["Beta", "Alpha", "Bulb"]);
+    assert_eq!(s.lights[0].kind, LightKind::Directional);
+    assert!(matches!(s.lights[1].kind, LightKind::Spot { .. }));
     assert_eq!(s.lights[2].kind, LightKind::Point);
     assert_eq!(s.lights[2].color, glam::Vec3::splat(5.0));
     assert_eq!(s.lights[2].position, glam::Vec3::new(1.0, 2.0, 3.0));
