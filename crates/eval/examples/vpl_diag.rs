@@ -111,10 +111,24 @@ fn main() {
                 members[v as usize].push((t, f.x + f.y + f.z));
             }
         }
-        // K stratified flux samples per VPL.
+        // K stratified flux samples per VPL, along the Morton order of the
+        // member texels (spread over the cluster; in row order a square
+        // cluster of uniform flux put all K in its first column).
+        let size_t = rsm.size as usize;
+        let morton = |t: usize| {
+            let (mut x, mut y, mut code) = ((t % size_t) as u64, (t / size_t) as u64, 0u64);
+            for bit in 0..16 {
+                code |= ((x & 1) << (2 * bit)) | ((y & 1) << (2 * bit + 1));
+                x >>= 1;
+                y >>= 1;
+            }
+            code
+        };
         let samples: Vec<Vec<usize>> = members
             .iter()
             .map(|m| {
+                let mut m = m.clone();
+                m.sort_by_key(|&(t, _)| morton(t));
                 let tot: f32 = m.iter().map(|x| x.1).sum();
                 let mut out = Vec::new();
                 let mut acc = 0.0;
