@@ -313,9 +313,8 @@ impl LightView {
         if !(bounds.min.cmple(bounds.max).all()) {
             return false;
         }
-        let clip: Vec<Vec4> = (0..8)
-            .map(|i| self.view_proj * corner(bounds, i).extend(1.0))
-            .collect();
+        let clip: [Vec4; 8] =
+            std::array::from_fn(|i| self.view_proj * corner(bounds, i).extend(1.0));
         // Reversed Z in wgpu's [0, 1]: inside is −w ≤ x, y ≤ w, 0 ≤ z ≤ w.
         let outside = [
             |c: &Vec4| c.x < -c.w,
