@@ -224,6 +224,14 @@ fn the_lights_and_their_merges_are_what_the_scene_needs() {
             341 + 21 * st.light_views_bounced,
             "t = {t}"
         );
+        // The per-texel work covers the balls' windows, not whole maps.
+        let map = u64::from(asset.manifest.settings.rsm_size).pow(2);
+        let whole = map * u64::from(1 + st.light_views_bounced);
+        assert!(
+            st.bounce_texels > 0 && st.bounce_texels < whole,
+            "t = {t}: {} texels of {whole}",
+            st.bounce_texels
+        );
     }
     // The asset's maps and the runtime's own give the same direct light.
     let baked = direct(&scene, Some(&asset));

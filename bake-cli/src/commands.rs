@@ -216,6 +216,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
             "update_ms": stats.update_ms(),
             "static_vpls": stats.static_vpls,
             "dynamic_vpl_slots": stats.dynamic_vpl_slots,
+            "bounce_texels": stats.bounce_texels,
             "affected_maps": stats.affected_maps,
             "update_draw_calls": stats.update_draw_calls,
             "draw_calls": stats.draw_calls,

@@ -504,6 +504,7 @@ impl Renderer {
             affected_maps: affected,
             light_views_merged: light_views,
             light_views_bounced,
+            bounce_texels: self.world.moving.bounce_texels(),
             update_draw_calls,
             draw_calls: update_draw_calls + view_draws,
             views: views.len() as u32,

@@ -354,6 +354,25 @@ impl MovingPasses {
             .count() as u32
     }
 
+    /// RSM texels this frame's occlusion tests and dynamic-VPL clustering
+    /// cover: the windows' areas over the views whose bounce is computed.
+    pub(crate) fn bounce_texels(&self) -> u64 {
+        if self.rsm.is_none() {
+            return 0;
+        }
+        self.bounce
+            .iter()
+            .filter(|b| b.touched)
+            .flat_map(|b| {
+                let size = u64::from(b.view.size.max(1));
+                b.windows
+                    .as_slice()
+                    .iter()
+                    .map(move |w| (1u64 << w.levels.min(31)).min(size).pow(2))
+            })
+            .sum()
+    }
+
     /// Draw calls [`MovingPasses::record`] records.
     pub(crate) fn draw_calls(&self) -> u32 {
         let primary = self.primary.as_ref().map_or(0, |_| self.moving_draws);

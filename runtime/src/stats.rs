@@ -83,6 +83,11 @@ pub struct FrameStats {
     /// this frame ([`Pass::LightBounce`]: the views with a stored RSM the
     /// moving objects touch).
     pub light_views_bounced: u32,
+    /// RSM texels the moving objects' occlusion test and dynamic-VPL
+    /// clustering covered this frame, over every view whose bounce was
+    /// computed (the sum of their windows' areas: the update's per-texel
+    /// work, the same on any GPU).
+    pub bounce_texels: u64,
     /// Draw calls recorded by the per-frame update (merge passes).
     pub update_draw_calls: u32,
     /// Draw calls in total.

@@ -45,6 +45,7 @@ pub(super) struct FrameSummary {
     /// Views of the lights after the first whose bounce off moving objects
     /// was computed (`Pass::LightBounce`).
     pub(super) light_bounce_views: f64,
+    pub(super) bounce_texels: f64,
     pub(super) update_draw_calls: f64,
     pub(super) draw_calls: f64,
     pub(super) static_vpls: u32,
@@ -66,6 +67,7 @@ impl FrameSummary {
             "affected_maps": self.affected_maps,
             "light_views_merged": self.light_views,
             "light_views_bounced": self.light_bounce_views,
+            "bounce_texels": self.bounce_texels,
             "update_draw_calls": self.update_draw_calls,
             "draw_calls": self.draw_calls,
             "static_vpls": self.static_vpls,
@@ -98,6 +100,7 @@ pub(super) fn summarize(frames: &[(FrameStats, f64)]) -> FrameSummary {
         affected_maps: col(&|s| f64::from(s.affected_maps)),
         light_views: col(&|s| f64::from(s.light_views_merged)),
         light_bounce_views: col(&|s| f64::from(s.light_views_bounced)),
+        bounce_texels: col(&|s| s.bounce_texels as f64),
         update_draw_calls: col(&|s| f64::from(s.update_draw_calls)),
         draw_calls: col(&|s| f64::from(s.draw_calls)),
         static_vpls: first.static_vpls,

@@ -249,6 +249,7 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
             "affected maps",
             "light views merged",
             "light views bounced",
+            "bounce texels",
             "update (ms)",
             "shade+filter (ms)",
         ];
@@ -278,6 +279,7 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
                 format!("{:.0}", m.affected_maps),
                 format!("{:.0}", m.light_views),
                 format!("{:.0}", m.light_bounce_views),
+                format!("{:.0}", m.bounce_texels),
                 sig(m.update_ms),
                 sig(m.shade_ms),
             ];
