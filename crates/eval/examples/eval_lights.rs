@@ -157,23 +157,16 @@ fn main() {
                     )
                     .expect("write panel");
                     if std::env::var("DUMP_EXR").is_ok() {
-                        let r = images.reference.indirect();
-                        r.write_exr(&dir.join(format!("{file}_ref_ind.exr")))
-                            .unwrap();
-                        images
-                            .full
-                            .sub(&images.direct)
-                            .write_exr(&dir.join(format!("{file}_full_ind.exr")))
-                            .unwrap();
-                        images
-                            .rsm
-                            .sub(&images.direct)
-                            .write_exr(&dir.join(format!("{file}_rsm_ind.exr")))
-                            .unwrap();
-                        images
-                            .direct
-                            .write_exr(&dir.join(format!("{file}_direct.exr")))
-                            .unwrap();
+                        for (part, image) in [
+                            ("ref_ind", images.reference.indirect()),
+                            ("full_ind", images.full.sub(&images.direct)),
+                            ("rsm_ind", images.rsm.sub(&images.direct)),
+                            ("direct", images.direct.clone()),
+                        ] {
+                            image
+                                .write_exr(&dir.join(format!("{file}_{part}.exr")))
+                                .expect("write EXR");
+                        }
                     }
                 }
             }

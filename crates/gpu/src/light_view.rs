@@ -310,21 +310,17 @@ impl LightView {
     /// may still say true). What decides which views a moving object is
     /// merged into; an empty box is in no view.
     pub fn may_see(&self, bounds: &Aabb) -> bool {
-        if !(bounds.min.cmple(bounds.max).all()) {
-            return false;
-        }
-        let clip: [Vec4; 8] =
-            std::array::from_fn(|i| self.view_proj * corner(bounds, i).extend(1.0));
-        // Reversed Z in wgpu's [0, 1]: inside is −w ≤ x, y ≤ w, 0 ≤ z ≤ w.
-        let outside = [
-            |c: &Vec4| c.x < -c.w,
-            |c: &Vec4| c.x > c.w,
-            |c: &Vec4| c.y < -c.w,
-            |c: &Vec4| c.y > c.w,
-            |c: &Vec4| c.z < 0.0,
-            |c: &Vec4| c.z > c.w,
-        ];
-        !outside.iter().any(|plane| clip.iter().all(plane))
+        self.clip_corners(bounds)
+            .is_some_and(|clip| sees_clip(&clip))
+    }
+
+    /// The clip-space corners of `bounds` (`None` for an empty box).
+    fn clip_corners(&self, bounds: &Aabb) -> Option<[Vec4; 8]> {
+        bounds
+            .min
+            .cmple(bounds.max)
+            .all()
+            .then(|| std::array::from_fn(|i| self.view_proj * corner(bounds, i).extend(1.0)))
     }
 
     /// The texels `[x0, x1) × [y0, y1)` of the map that `bounds` can cover
@@ -336,13 +332,9 @@ impl LightView {
     /// map; one that reaches behind the eye beside it, only what its part in
     /// front covers.
     pub fn texel_rect(&self, bounds: &Aabb) -> Option<[u32; 4]> {
-        if !self.may_see(bounds) {
-            return None;
-        }
+        let clip = self.clip_corners(bounds).filter(sees_clip)?;
         let n = self.size as f32;
         let whole = Some([0, 0, self.size, self.size]);
-        let clip: [Vec4; 8] =
-            std::array::from_fn(|i| self.view_proj * corner(bounds, i).extend(1.0));
         if clip.iter().any(|c| !c.is_finite()) {
             return whole;
         }
@@ -461,6 +453,21 @@ impl LightView {
             .to_array(),
         }
     }
+}
+
+/// Whether a box whose clip-space corners are `clip` may be in the view:
+/// not wholly outside one plane of its frustum ([`LightView::may_see`]).
+fn sees_clip(clip: &[Vec4; 8]) -> bool {
+    // Reversed Z in wgpu's [0, 1]: inside is −w ≤ x, y ≤ w, 0 ≤ z ≤ w.
+    let outside = [
+        |c: &Vec4| c.x < -c.w,
+        |c: &Vec4| c.x > c.w,
+        |c: &Vec4| c.y < -c.w,
+        |c: &Vec4| c.y > c.w,
+        |c: &Vec4| c.z < 0.0,
+        |c: &Vec4| c.z > c.w,
+    ];
+    !outside.iter().any(|plane| clip.iter().all(plane))
 }
 
 /// The twelve edges of a box, as pairs of [`corner`] indices (bit k of the

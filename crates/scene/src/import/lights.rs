@@ -188,8 +188,8 @@ impl<'a> Ctx<'a> {
             // cascades when it is a sun on a large level. A directional
             // light leads (it covers the whole level; a lamp a part of it),
             // else a spot; the first such light in file order, the others
-            // keep their order. (Exporters write lights in node order:
-            // Blender's puts a "Sun" after "Point" and "Spot" lamps.)
+            // keep their order. (Exporters write lights in node order,
+            // which need not put the sun first.)
             let directional = |i: &usize| {
                 matches!(
                     cands[*i].ty,
