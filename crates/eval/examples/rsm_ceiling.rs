@@ -26,6 +26,15 @@
 //! least 10× the mean (on an open level, the objects' sides facing the
 //! sunlit ground: 1% of the Blenvy level's receivers, 59% of its light)
 //! against the rest, with the bounded per-texel bias on each.
+//!
+//! A third line: the share of the reference's bounce light that comes from
+//! hits outside every view's map (ground a directional view's fit left
+//! out: Blenvy's sun 3.3% at 64², the town 2.8%, the other real levels
+//! 0.0%), and from hits inside a view whose texel's stored metric is more
+//! than two footprints away from the hit's (sub-texel detail the light
+//! sees past, and steep surfaces whose depth changes that much across one
+//! texel: an upper bound on what sub-texel detail misses, 1–5% on the real
+//! levels).
 
 use gibake_bake::rsm::render_rsm;
 use gibake_gpu::LightView;
@@ -51,6 +60,11 @@ struct Sums {
     /// The largest one receiver's reference (a receiver in a crease can
     /// hold a large share of the mean at few receivers).
     largest: f64,
+    /// The reference's bounce light from hits outside every view's map.
+    outside: f64,
+    /// … from hits inside a view whose texel holds another surface (the
+    /// light sees something else first at the texel's centre).
+    unseen: f64,
 }
 
 fn main() {
@@ -147,6 +161,11 @@ fn main() {
                 gibake_eval::bounce::one_bounce_samples(&rays, &h, p, m, |y2, lr| {
                     let v = f64::from((h.albedo * lr).element_sum()) / f64::from(m * m);
                     s.reference += v;
+                    match seen_by(&maps, y2.position) {
+                        Seen::Outside => s.outside += v,
+                        Seen::Other => s.unseen += v,
+                        Seen::Yes => {}
+                    }
                     let dist = (y2.position - h.position).length() / fp;
                     for (k, &limit) in BUCKETS.iter().enumerate() {
                         if dist < limit {
@@ -189,6 +208,8 @@ fn main() {
             (r, b, n)
         };
         let (hr, hb, hn) = part(&hot);
+        let hot_outside: f64 = per_px.iter().filter(hot).map(|s| s.outside).sum();
+        let hot_unseen: f64 = per_px.iter().filter(hot).map(|s| s.unseen).sum();
         let (cr, cb, _) = part(&|s: &&Sums| !hot(s));
         let split = format!(
             "hot receivers (≥ 10× the mean): {:.1}% of them, {:.0}% of the light, bounded {:+.1}% there, {:+.1}% elsewhere",
@@ -203,6 +224,8 @@ fn main() {
             for k in 0..BUCKETS.len() {
                 a.near[k] += b.near[k];
             }
+            a.outside += b.outside;
+            a.unseen += b.unseen;
             a.bounded += b.bounded;
             a.bounded_unshadowed += b.bounded_unshadowed;
             a.point += b.point;
@@ -222,5 +245,45 @@ fn main() {
             100.0 * total.largest / r,
         );
         println!("{:>12}   {split}", "");
+        println!(
+            "{:>12}   reference's bounce light from hits outside every view: {:.1}% ({:.1}% on the hot receivers), inside a view but not what its texel holds: {:.1}% ({:.1}%)",
+            "",
+            100.0 * total.outside / r,
+            100.0 * hot_outside / hr.max(f64::MIN_POSITIVE),
+            100.0 * total.unseen / r,
+            100.0 * hot_unseen / hr.max(f64::MIN_POSITIVE),
+        );
     }
+}
+
+/// Where a point the reference's light bounces off lies in the maps.
+enum Seen {
+    /// In no view's map.
+    Outside,
+    /// In a view, but its texel holds a surface more than two footprints
+    /// away along the view (the light sees something else there first).
+    Other,
+    /// What some view's texel holds.
+    Yes,
+}
+
+fn seen_by(maps: &[(LightView, gibake_bake::rsm::Rsm)], p: Vec3) -> Seen {
+    let mut inside = false;
+    for (v, rsm) in maps {
+        let Some(t) = v.texel_coords(p) else { continue };
+        let n = v.size as f32;
+        if !(t.x >= 0.0 && t.y >= 0.0 && t.x < n && t.y < n) {
+            continue;
+        }
+        let clip = v.view_proj * p.extend(1.0);
+        if !(clip.z >= 0.0 && clip.z <= clip.w) {
+            continue;
+        }
+        inside = true;
+        let i = t.y as usize * v.size as usize + t.x as usize;
+        if (rsm.metric[i] - v.metric(p)).abs() <= 2.0 * v.footprint(p) {
+            return Seen::Yes;
+        }
+    }
+    if inside { Seen::Other } else { Seen::Outside }
 }

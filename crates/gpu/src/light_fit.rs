@@ -32,7 +32,11 @@
 //!    a point at height `h` above it from beyond distance `R` is a fraction
 //!    `h²/(h² + R²)` of what the whole plane sends, small once `R` is the
 //!    core's quarter-size margin and `h` within the core; walls around the
-//!    core face it and cannot be judged so.
+//!    core face it and cannot be judged so. (That bound is for a receiver
+//!    facing up; an object's *side* at height `h` gets about `1.3 h/R` of
+//!    its ground light from beyond `R`, so objects on a cut ground lose some
+//!    bounce light: 3–5% on the real levels where this rule cuts, measured
+//!    by `rsm_ceiling` in gibake-eval; docs/method.md.)
 //!
 //! Either way the moving objects' swept bounds are added (the runtime merges
 //! them into the same maps), and the depth range along the light always
