@@ -71,10 +71,13 @@ fn main() {
     let mut names = Vec::new();
     let mut size = 32u32;
     let mut rsm_size = 512u32;
+    let mut whole = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         if a == "--size" {
             size = args.next().and_then(|s| s.parse().ok()).expect("--size N");
+        } else if a == "--whole" {
+            whole = true;
         } else if a == "--rsm" {
             rsm_size = args.next().and_then(|s| s.parse().ok()).expect("--rsm N");
         } else {
@@ -118,6 +121,10 @@ fn main() {
                 .expect("a bundled level");
             l.load(list.parent().unwrap()).unwrap()
         };
+        let mut scene = scene;
+        if whole {
+            scene.bake_volume = Some(scene.static_bounds());
+        }
         let stat = gibake_bake::static_only(&scene);
         let rays = RayScene::build(&stat, 0.0);
         // Every view of every light (one for a level's one light).
