@@ -233,6 +233,36 @@ fn the_lights_and_their_merges_are_what_the_scene_needs() {
             st.bounce_texels
         );
     }
+    // Balls far apart in a view bounce in a window each: never more
+    // texels than one window around them all (`split_windows` off), fewer
+    // at some time of the animation.
+    let mut one_window = Renderer::new(
+        &ctx.device,
+        &ctx.queue,
+        &scene,
+        Some(&asset),
+        &RenderSettings {
+            split_windows: false,
+            ..rs.clone()
+        },
+    )
+    .unwrap();
+    let mut fewer = 0;
+    for k in 0..8 {
+        let t = 0.3 * k as f32;
+        let mut texels = [0u64; 2];
+        for (r, n) in [&mut r, &mut one_window].into_iter().zip(&mut texels) {
+            r.prepare_at_time(&ctx.device, &ctx.queue, &scene, t)
+                .unwrap();
+            let mut enc = ctx.device.create_command_encoder(&Default::default());
+            r.record(&mut enc);
+            ctx.queue.submit([enc.finish()]);
+            *n = r.stats(&ctx.device).bounce_texels;
+        }
+        assert!(texels[0] <= texels[1], "t = {t}: {texels:?}");
+        fewer += usize::from(texels[0] < texels[1]);
+    }
+    assert!(fewer > 0, "no frame split a view's window");
     // The asset's maps and the runtime's own give the same direct light.
     let baked = direct(&scene, Some(&asset));
     let own = direct(&scene, None);

@@ -449,6 +449,13 @@ pub struct RenderArgs {
     /// measures what culling saves (see `--stats`).
     #[arg(long)]
     pub no_light_culling: bool,
+    /// Cluster the bounce off moving objects in one window per light view,
+    /// around all of them, instead of one window per group of objects
+    /// standing far apart (each with a quarter of the view's dynamic VPLs
+    /// at finer cells). For measuring what the split buys; the image
+    /// differs (coarser cells on each object).
+    #[arg(long)]
+    pub no_split_windows: bool,
     /// Most dynamic VPLs (moving surfaces bouncing light) per frame, rounded
     /// up to a power of 4; 0 turns them off. Fewer, larger clusters lose
     /// light next to the moving objects (docs/method.md, "Near field").

@@ -60,6 +60,8 @@ pub(crate) struct UpdateInputs<'a> {
     pub max_dynamic_vpls_per_view: u32,
     /// The scene's diagonal (scales the merge's depth).
     pub scene_diagonal: f32,
+    /// [`crate::RenderSettings::split_windows`].
+    pub split_windows: bool,
 }
 
 /// What shading reads from the update (`None`: the pass does not exist).
@@ -121,6 +123,8 @@ pub(crate) struct MovingPasses {
     /// Dynamic VPL slots of the views recorded this frame (shading reads
     /// those).
     dynamic_slots: u32,
+    /// [`crate::RenderSettings::split_windows`].
+    split_windows: bool,
 }
 
 impl MovingPasses {
@@ -265,6 +269,7 @@ impl MovingPasses {
             merge_draws: 0,
             moving_draws: i.scene_gpu.dynamic_draws.len() as u32,
             dynamic_slots: 0,
+            split_windows: i.split_windows,
         })
     }
 
@@ -310,7 +315,10 @@ impl MovingPasses {
                 continue;
             }
             // No box seen: one texel (the primary view is recorded anyway).
-            let windows = Windows::around(&b.rects, b.view.size);
+            let mut windows = Windows::around(&b.rects, b.view.size);
+            if !self.split_windows {
+                windows = Windows::one(windows.union);
+            }
             if let Some((_, occlusion)) = &self.rsm
                 && b.windows != windows
             {

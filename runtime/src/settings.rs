@@ -97,6 +97,14 @@ pub struct RenderSettings {
     /// where some light after the first has a range or is a spot
     /// ([`crate::FramePlan::shade_flags`]); off is for measuring it.
     pub light_culling: bool,
+    /// Moving objects far apart in one light view bounce in a window each
+    /// (on by default): up to four groups of objects, each clustered with a
+    /// quarter of the view's dynamic-VPL slots at one level less, so each
+    /// object gets finer cells than one window around all of them would
+    /// give (docs/method.md, "Objects far apart"). Off: one window around
+    /// every object the view sees; for measuring what the split buys
+    /// (`gibake bench scaling`, "moving objects far apart").
+    pub split_windows: bool,
 }
 
 impl Default for RenderSettings {
@@ -113,6 +121,7 @@ impl Default for RenderSettings {
             cascades: Cascades::Auto,
             cascade_map_size: 0,
             light_culling: true,
+            split_windows: true,
         }
     }
 }

@@ -114,6 +114,7 @@ impl World {
                 max_dynamic_vpls: settings.max_dynamic_vpls,
                 max_dynamic_vpls_per_view: settings.max_dynamic_vpls_per_view,
                 scene_diagonal: scene.full_bounds().diagonal(),
+                split_windows: settings.split_windows,
             },
         )?;
         let gbuffer = GBufferPass::new(device, &scene_gpu);

@@ -64,6 +64,35 @@ fn with_lights(base: &Scene, n: usize) -> Scene {
     s
 }
 
+/// corner_bunny with its balls replaced by four balls of a tenth of the
+/// room's width resting on its floor, one towards each corner (at 35% of the
+/// room's width from its centre): moving objects far apart in the spot's
+/// view, which the bounce clusters in a window each
+/// ([`RenderSettings::split_windows`]).
+fn with_balls_far_apart(base: &Scene) -> Scene {
+    let mut s = base.clone();
+    s.dynamic_objects.clear();
+    let b = s.static_bounds();
+    let (c, size) = ((b.min + b.max) * 0.5, b.max - b.min);
+    let r = 0.05 * size.x.min(size.z);
+    for (k, (dx, dz)) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)]
+        .into_iter()
+        .enumerate()
+    {
+        let ball = gibake_eval::levels::LevelBall {
+            center: [
+                c.x + dx * 0.35 * size.x,
+                b.min.y + r,
+                c.z + dz * 0.35 * size.z,
+            ],
+            radius: r,
+            albedo: [0.8, 0.3, 0.2],
+        };
+        gibake_eval::levels::add_ball(&mut s, &format!("far ball {k}"), &ball);
+    }
+    s
+}
+
 /// One sweep: its name, the x axis, and the scenes/bakes at each point.
 struct Sweep {
     key: &'static str,
@@ -388,8 +417,82 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
         }));
     }
     b.emit(&summary);
+    let far = far_apart(b, &cb, &settings, vpls, map, frames, size)?;
     b.write_json(
         "scaling",
-        &json!({"adapter": b.adapter, "size": size, "frames": frames, "vpl_map_size": map, "sweeps": fits_json}),
+        &json!({"adapter": b.adapter, "size": size, "frames": frames, "vpl_map_size": map, "sweeps": fits_json, "far_apart": far}),
     )
+}
+
+/// Moving objects far apart in one view ([`with_balls_far_apart`]): the
+/// bounce with a window per group against one window around them all,
+/// side by side. Returns the rows' JSON.
+fn far_apart(
+    b: &mut Bench,
+    cb: &Scene,
+    settings: &RenderSettings,
+    vpls: u32,
+    map: u32,
+    frames: u32,
+    size: u32,
+) -> crate::Result<serde_json::Value> {
+    let scene = with_balls_far_apart(cb);
+    let asset = b.bake(&scene, vpls, map)?.0.asset;
+    let configs: Vec<Config<'_>> = [true, false]
+        .into_iter()
+        .map(|split| Config {
+            scene: &scene,
+            asset: Some(&asset),
+            settings: RenderSettings {
+                split_windows: split,
+                // The first light's full slot pyramid, as a game would.
+                max_dynamic_vpls: 256,
+                ..settings.clone()
+            },
+            frames,
+        })
+        .collect();
+    let pb = bar(configs.len() as u64, "far apart");
+    let measured = measure_all(&b.ctx, &configs, &|| pb.inc(1))?;
+    pb.finish_and_clear();
+    let pass = |m: &FrameSummary, name: &str| {
+        m.passes
+            .iter()
+            .find(|(n, _)| n == name)
+            .map_or("—".into(), |(_, ms)| sig(*ms))
+    };
+    let mut t = Table::new(
+        format!(
+            "Moving objects far apart — corner_bunny with four balls towards its corners, mode full, {size}², interleave 1, {map}² maps, 256 dynamic VPLs, median of {frames} frame(s) after a warm-up — times: {} — adapter: {}",
+            measured.first().map(|m| m.timing.as_str()).unwrap_or(""),
+            b.adapter
+        ),
+        &[
+            "bounce windows",
+            "bounce texels",
+            "occlusion (ms)",
+            "dynamic vpls (ms)",
+            "update (ms)",
+            "frame (ms)",
+        ],
+    );
+    let mut rows = Vec::new();
+    for (m, name) in measured.iter().zip(["a window per group (default)", "one window around all"]) {
+        t.row(vec![
+            name.into(),
+            format!("{:.0}", m.bounce_texels),
+            pass(m, "occlusion"),
+            pass(m, "dynamic vpls"),
+            sig(m.update_ms),
+            sig(m.frame_ms),
+        ]);
+        rows.push(json!({"windows": name, "stats": m.json()}));
+    }
+    t.notes.push(
+        "Side by side in one run. The windows' accuracy (each ball's own cells against one coarse \
+         window's) is measured against the reference by `moving_effect` (docs/results.md)."
+            .into(),
+    );
+    b.emit(&t);
+    Ok(serde_json::Value::Array(rows))
 }
