@@ -23,7 +23,8 @@
 //!
 //! # Passes (one compute pass, "dynamic vpls")
 //!
-//! 1. `cs_reduce`, once per level `d = L−1 … 0` (`2^L`: the RSM size rounded
+//! 1. `cs_reduce`, once per level `d = L−1 … 4`, then `cs_reduce_top`
+//!    once for levels `min(L, 4)−1 … 0` in one workgroup (`2^L`: the RSM size rounded
 //!    up to a power of two; texels beyond the RSM are empty): node `i` of
 //!    level `d` merges its four children `4i … 4i+3` (Morton order) in that
 //!    order — Chan's mean/`M2` of the metric, and sums of lit count, normal,
@@ -134,6 +135,8 @@ pub(crate) struct VplView {
 /// The GPU clustering of the dynamic RSM into VPL slots.
 pub(crate) struct DynamicVplPass {
     reduce: wgpu::ComputePipeline,
+    /// Levels below [`TOP_LEVELS`] in one workgroup.
+    reduce_top: wgpu::ComputePipeline,
     slots_pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
     /// The view it was made for (slots `0..slots` until moved).
@@ -174,6 +177,13 @@ fn buffer_entry(
         count: None,
     }
 }
+
+/// Levels `0 … TOP_LEVELS − 1` of a window's pyramid (at most
+/// `4^(TOP_LEVELS − 1)` = 64 nodes, one workgroup) are reduced by one
+/// dispatch of `cs_reduce_top`; the levels above, one dispatch each. On
+/// lavapipe a dispatch costs about 3 ms whatever its size, and four windows
+/// of 64² took 28 of them (docs/results.md, "Moving objects far apart").
+const TOP_LEVELS: u32 = 4;
 
 /// Workgroups for `n` invocations, as `(x, y)`.
 fn groups(n: u32) -> (u32, u32) {
@@ -269,6 +279,7 @@ impl DynamicVplPass {
         );
         DynamicVplPass {
             reduce: pipeline("cs_reduce"),
+            reduce_top: pipeline("cs_reduce_top"),
             slots_pipeline: pipeline("cs_slots"),
             own,
             layout,
@@ -383,11 +394,19 @@ impl DynamicVplPass {
             // finish before the next window's reduction (dispatch order).
             let first = k as u32 * per_window;
             let offset = |block: u32| (PARAMS_STRIDE * u64::from(first + block)) as u32;
+            let levels = window.levels.min(self.shape.levels);
             pass.set_pipeline(&self.reduce);
-            for level in (0..window.levels.min(self.shape.levels)).rev() {
+            for level in (TOP_LEVELS.min(levels)..levels).rev() {
                 pass.set_bind_group(0, &view.bind_group, &[offset(level)]);
                 let (x, y) = groups(1u32 << (2 * level));
                 pass.dispatch_workgroups(x, y, 1);
+            }
+            // The last levels in one workgroup, from its parameter block.
+            if levels > 0 {
+                pass.set_pipeline(&self.reduce_top);
+                let top = TOP_LEVELS.min(levels) - 1;
+                pass.set_bind_group(0, &view.bind_group, &[offset(top)]);
+                pass.dispatch_workgroups(1, 1, 1);
             }
             pass.set_pipeline(&self.slots_pipeline);
             pass.set_bind_group(0, &view.bind_group, &[offset(self.shape.levels)]);
