@@ -23,8 +23,8 @@
 //!
 //! # Passes (one compute pass, "dynamic vpls")
 //!
-//! 1. `cs_reduce`, once per level `d = L−1 … 4`, then `cs_reduce_top`
-//!    once for levels `min(L, 4)−1 … 0` in one workgroup (`2^L`: the RSM size rounded
+//! 1. `cs_reduce`, once per level `d = L−1 … 6`, then `cs_reduce_top`
+//!    once for levels `min(L, 6)−1 … 0` in one workgroup (`2^L`: the RSM size rounded
 //!    up to a power of two; texels beyond the RSM are empty): node `i` of
 //!    level `d` merges its four children `4i … 4i+3` (Morton order) in that
 //!    order — Chan's mean/`M2` of the metric, and sums of lit count, normal,
@@ -179,11 +179,12 @@ fn buffer_entry(
 }
 
 /// Levels `0 … TOP_LEVELS − 1` of a window's pyramid (at most
-/// `4^(TOP_LEVELS − 1)` = 64 nodes, one workgroup) are reduced by one
+/// `4^(TOP_LEVELS − 1)` = 1024 nodes, 16 per invocation of one workgroup of
+/// 64: 1365 merges of four, microseconds on a GPU) are reduced by one
 /// dispatch of `cs_reduce_top`; the levels above, one dispatch each. On
 /// lavapipe a dispatch costs about 3 ms whatever its size, and four windows
 /// of 64² took 28 of them (docs/results.md, "Moving objects far apart").
-const TOP_LEVELS: u32 = 4;
+const TOP_LEVELS: u32 = 6;
 
 /// Workgroups for `n` invocations, as `(x, y)`.
 fn groups(n: u32) -> (u32, u32) {
@@ -401,7 +402,8 @@ impl DynamicVplPass {
                 let (x, y) = groups(1u32 << (2 * level));
                 pass.dispatch_workgroups(x, y, 1);
             }
-            // The last levels in one workgroup, from its parameter block.
+            // The last levels (1024 nodes and fewer) in one workgroup, from
+            // its parameter block.
             if levels > 0 {
                 pass.set_pipeline(&self.reduce_top);
                 let top = TOP_LEVELS.min(levels) - 1;

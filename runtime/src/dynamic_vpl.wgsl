@@ -12,9 +12,9 @@
 // (single texels) is computed from the RSM where it is read.
 //   cs_reduce: node i of level params.level from its four children 4i..4i+3
 //              (one dispatch per level, bottom-up; fixed merge order), for
-//              the levels of 256 nodes and more;
-//   cs_reduce_top: levels params.level … 0 (at most 64 nodes each) in one
-//              workgroup, the same merges, a barrier between levels.
+//              the levels of 4096 nodes and more;
+//   cs_reduce_top: levels params.level … 0 (at most 1024 nodes each) in
+//              one workgroup, the same merges, a barrier between levels.
 //   cs_slots:  one invocation per slot (every node of depth 0..=max_depth):
 //              is it a leaf of the cut? Writes the VPL or an empty slot.
 // No atomics: every value is a fixed-order f32 reduction, so the result is
@@ -239,20 +239,20 @@ fn cs_reduce(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
 }
 
 // Levels params.level … 0 in one workgroup (params.level < TOP_LEVELS, so
-// level params.level has at most 64 nodes): the same merges in the same
-// order as cs_reduce once per level, with a barrier between levels instead
-// of a dispatch (a fixed cost per dispatch dominated the pass on a CPU
-// device, docs/results.md).
+// level params.level has at most 1024 nodes, 16 per invocation): the same
+// merges in the same order as cs_reduce once per level, with a barrier
+// between levels instead of a dispatch (a fixed cost per dispatch
+// dominated the pass on a CPU device, docs/results.md).
 @compute @workgroup_size(64)
 fn cs_reduce_top(@builtin(local_invocation_index) i: u32) {
     for (var l = 0u; l <= params.level; l++) {
         let d = params.level - l;
-        if (i < (1u << (2u * d))) {
-            var acc = load_node(d + 1u, 4u * i);
+        for (var j = i; j < (1u << (2u * d)); j += 64u) {
+            var acc = load_node(d + 1u, 4u * j);
             for (var k = 1u; k < 4u; k++) {
-                acc = merge(acc, load_node(d + 1u, 4u * i + k));
+                acc = merge(acc, load_node(d + 1u, 4u * j + k));
             }
-            nodes[level_offset(d) + i] = acc;
+            nodes[level_offset(d) + j] = acc;
         }
         storageBarrier();
     }
