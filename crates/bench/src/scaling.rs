@@ -477,7 +477,10 @@ fn far_apart(
         ],
     );
     let mut rows = Vec::new();
-    for (m, name) in measured.iter().zip(["a window per group (default)", "one window around all"]) {
+    for (m, name) in measured
+        .iter()
+        .zip(["a window per group (default)", "one window around all"])
+    {
         t.row(vec![
             name.into(),
             format!("{:.0}", m.bounce_texels),
