@@ -224,6 +224,15 @@ fn flat_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
     return gid.x + gid.y * groups.x * 64u;
 }
 
+// Node i of level d from its four children 4i..4i+3, merged in that order.
+fn reduce_node(d: u32, i: u32) {
+    var acc = load_node(d + 1u, 4u * i);
+    for (var k = 1u; k < 4u; k++) {
+        acc = merge(acc, load_node(d + 1u, 4u * i + k));
+    }
+    nodes[level_offset(d) + i] = acc;
+}
+
 @compute @workgroup_size(64)
 fn cs_reduce(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = flat_index(gid, groups);
@@ -231,11 +240,7 @@ fn cs_reduce(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgro
     if (i >= (1u << (2u * d))) {
         return;
     }
-    var acc = load_node(d + 1u, 4u * i);
-    for (var k = 1u; k < 4u; k++) {
-        acc = merge(acc, load_node(d + 1u, 4u * i + k));
-    }
-    nodes[level_offset(d) + i] = acc;
+    reduce_node(d, i);
 }
 
 // Levels params.level … 0 in one workgroup (params.level < TOP_LEVELS, so
@@ -248,11 +253,7 @@ fn cs_reduce_top(@builtin(local_invocation_index) i: u32) {
     for (var l = 0u; l <= params.level; l++) {
         let d = params.level - l;
         for (var j = i; j < (1u << (2u * d)); j += 64u) {
-            var acc = load_node(d + 1u, 4u * j);
-            for (var k = 1u; k < 4u; k++) {
-                acc = merge(acc, load_node(d + 1u, 4u * j + k));
-            }
-            nodes[level_offset(d) + j] = acc;
+            reduce_node(d, j);
         }
         storageBarrier();
     }

@@ -94,7 +94,7 @@ fn main() {
         "level", "bounded", "point", "no vis", "footprint"
     );
     for name in names {
-        let scene = if let Some(spec) = name.strip_prefix("random_lights:") {
+        let mut scene = if let Some(spec) = name.strip_prefix("random_lights:") {
             let mut parts = spec.split(':');
             let seed: u64 = parts.next().and_then(|s| s.parse().ok()).expect("SEED");
             let only: Option<usize> = parts.next().and_then(|s| s.parse().ok());
@@ -121,7 +121,6 @@ fn main() {
                 .expect("a bundled level");
             l.load(list.parent().unwrap()).unwrap()
         };
-        let mut scene = scene;
         if whole {
             scene.bake_volume = Some(scene.static_bounds());
         }
