@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# The real-GPU measurements of docs/h100/, in one run (≈ 2 min on an H100
+# The real-GPU measurements of docs/h100/, in one run (≈ 3.5 min on an H100
 # with 16 CPU cores; far longer on lavapipe, which is not what it is for).
 #
 #   scripts/gpu_measure.sh [BIN_DIR] [OUT_DIR]
 #
 # BIN_DIR holds release builds of `gibake` and of the eval examples
-# `cascade_cost` and `eval_levels` (default: target/release and
+# `cascade_cost`, `eval_levels` and `eval_lights` (default: target/release and
 # target/release/examples; build them with
 # `cargo build --release -p gibake -p gibake-eval --examples --bins`).
 # Every command is also runnable on its own; this script only runs them in
@@ -63,3 +63,24 @@ step 900 "$examples/eval_levels" --size 40 --blur 1 --markdown --out "$out/level
 step 120 "$bin/gibake" bake data/corner_bunny.glb -o "$out/det1.gibake" --force
 step 120 "$bin/gibake" bake data/corner_bunny.glb -o "$out/det2.gibake" --force
 step 60 "$bin/gibake" diff "$out/det1.gibake" "$out/det2.gibake"
+
+# Every light (issue 19). The same for a level baked with every light.
+blenvy=data/lights/blenvy_start_level/StartLevel.glb
+store=data/lights/pyraxia_store/Store.gltf
+step 120 "$bin/gibake" bake "$blenvy" --all-lights -o "$out/blenvy1.gibake" --force
+step 120 "$bin/gibake" bake "$blenvy" --all-lights -o "$out/blenvy2.gibake" --force
+step 60 "$bin/gibake" diff "$out/blenvy1.gibake" "$out/blenvy2.gibake"
+# Per-pass frame time of every light on two real levels at 720p (the
+# third frame's passes in the stats file), and the 97-spot store with its
+# lights culled and not.
+step 120 "$bin/gibake" render "$blenvy" --all-lights --bake "$out/blenvy1.gibake" \
+    --width 1280 --height 720 --frames 3 -o "$out/blenvy_###.png" --stats "$out/blenvy_stats.json"
+step 300 "$bin/gibake" bake "$store" --all-lights -o "$out/store.gibake" --force
+for culling in "" --no-light-culling; do
+    step 120 "$bin/gibake" render "$store" --all-lights --bake "$out/store.gibake" \
+        --look-at 0,3,0,10,0,0 --width 1280 --height 720 --frames 3 $culling \
+        -o "$out/store${culling}_###.png" --stats "$out/store${culling}_stats.json"
+done
+# Every light against the reference (adapter-independent: compare with
+# docs/results.md, "Every light"); the CPU reference dominates.
+step 600 "$examples/eval_lights" data/lamps.glb random:0..8 "$blenvy" --out "$out/lights"
