@@ -9,8 +9,9 @@
 //! indirect light within ±7% of the reference's per channel (beyond three
 //! standard errors of the reference's own mean; a level listed with a
 //! `known_failure` is held to the looser bound written there, and says
-//! so), `full`'s blurred indirect error at most `rsm`'s, `naive` = `full`,
-//! every image finite.
+//! so), `full`'s blurred indirect error at most `rsm`'s, `naive` = `full`
+//! (on the same level baked with `common::NAIVE_VPLS` VPLs), every image
+//! finite.
 
 mod common;
 
@@ -24,40 +25,26 @@ fn settings() -> EvalSettings {
         vpls: 664,
         ssaa: 2,
         blur: 1,
+        // naive = full is checked apart, with fewer VPLs (common::NAIVE_VPLS).
+        naive: false,
         ..Default::default()
     }
 }
 
-/// The levels CI judges (about five minutes on the 2-core machine: an
-/// interior lit through a window, an outdoor game level, the town whose
-/// 2 km ground the light views must leave out, and the arena lit through
-/// roof openings, whose clusters need their depth layers); every level is
-/// judged by the ignored test below and by `eval_levels`.
-const CI_LEVELS: [&str; 4] = ["living_room", "roboblast", "town", "arena"];
-
+/// Every bundled level (under two minutes on the 2-core machine since
+/// `naive` = `full` is checked with 64 VPLs: `common::NAIVE_VPLS`; it
+/// was four levels in about five minutes before).
 #[test]
 fn real_levels_match_the_reference() {
-    judge(Some(&CI_LEVELS));
+    judge();
 }
 
-/// Every bundled level (about 15 minutes on the 2-core machine):
-/// `cargo test --release -p gibake --test real_levels -- --ignored`.
-#[test]
-#[ignore = "every level: ~19 min on 2 cores; CI runs CI_LEVELS"]
-fn every_real_level_matches_the_reference() {
-    judge(None);
-}
-
-fn judge(only: Option<&[&str]>) {
+fn judge() {
     let ctx = common::gpu();
     let list = bundled_list();
     let dir = list.parent().expect("data/levels").to_path_buf();
-    let mut specs = read_specs(&list).expect("data/levels/levels.json");
+    let specs = read_specs(&list).expect("data/levels/levels.json");
     assert!(specs.len() >= 8, "the bundled levels are missing");
-    if let Some(names) = only {
-        specs.retain(|s| names.contains(&s.name.as_str()));
-        assert_eq!(specs.len(), names.len(), "a CI level is missing");
-    }
     let s = settings();
     let mut failures = Vec::new();
     for spec in &specs {
@@ -117,11 +104,13 @@ fn judge(only: Option<&[&str]>) {
                 spec.name, i.full_err, i.rsm_err
             ));
         }
-        if i.naive_vs_full > 1e-4 {
-            failures.push(format!(
-                "{}: naive differs from full ({:.2e})",
-                spec.name, i.naive_vs_full
-            ));
+        match common::naive_against_full(&ctx, &scene, &s) {
+            Ok(d) if d <= 1e-4 => {}
+            Ok(d) => failures.push(format!("{}: naive differs from full ({d:.2e})", spec.name)),
+            Err(e) => failures.push(format!(
+                "{}: naive against full not rendered: {e}",
+                spec.name
+            )),
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));

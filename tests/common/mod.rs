@@ -101,3 +101,23 @@ pub fn command_line(c: &std::process::Command) -> String {
             .join(" ")
     )
 }
+
+/// VPLs of the bake that checks `naive` = `full` in the frame-level
+/// tests: the merge is the same per VPL whatever their number, and
+/// `naive` re-renders every map each frame (at 664 VPLs 90% of a level's
+/// judgement on lavapipe).
+pub const NAIVE_VPLS: u32 = 64;
+
+/// rel MSE of `naive` against `full` for `scene` baked with `s` at
+/// [`NAIVE_VPLS`] VPLs ([`gibake_eval::levels::naive_against_full`]).
+pub fn naive_against_full(
+    ctx: &GpuContext,
+    scene: &gibake_scene::Scene,
+    s: &gibake_eval::EvalSettings,
+) -> Result<f64, gibake_eval::EvalError> {
+    let s = gibake_eval::EvalSettings {
+        vpls: NAIVE_VPLS,
+        ..s.clone()
+    };
+    gibake_eval::levels::naive_against_full(ctx, scene, &s)
+}

@@ -263,6 +263,13 @@ pub struct LevelEval {
     pub flip: f64,
     /// Bake time, seconds (this machine).
     pub bake_s: f64,
+    /// Wall seconds of the judgement's parts (this machine): the CPU
+    /// reference, and each mode's render (`direct`, `full`, `rsm`,
+    /// `naive`), for seeing where a test's time goes.
+    pub reference_s: f64,
+    /// Render seconds per mode, in the order direct, full, rsm, naive (0
+    /// where not rendered).
+    pub render_s: [f64; 4],
     /// Static and moving triangles.
     pub triangles: (usize, usize),
     /// VPL maps stored (a map that sees no surface is not).
@@ -273,13 +280,18 @@ impl LevelEval {
     /// One line for logs.
     pub fn line(&self) -> String {
         format!(
-            "{} | image {:.4} direct {:.4} rsm {:.4} | flip {:.3} | bake {:.1} s",
+            "{} | image {:.4} direct {:.4} rsm {:.4} | flip {:.3} | bake {:.1} s | reference {:.1} s, renders {:.1}/{:.1}/{:.1}/{:.1} s (direct/full/rsm/naive)",
             self.indirect.line(),
             self.image_rel_mse,
             self.direct_rel_mse,
             self.rsm_image_rel_mse,
             self.flip,
-            self.bake_s
+            self.bake_s,
+            self.reference_s,
+            self.render_s[0],
+            self.render_s[1],
+            self.render_s[2],
+            self.render_s[3],
         )
     }
 
@@ -320,6 +332,22 @@ pub struct LevelImages {
     pub rsm: Image,
 }
 
+/// rel MSE of `naive` against `full` for `scene` baked with `s` (the
+/// merged maps against every map re-rendered from all geometry): the check
+/// [`judge_level`] makes when [`EvalSettings::naive`] is on, alone, so that
+/// a test can make it with fewer VPLs than it judges the image with (the
+/// merge is the same per VPL; `naive` costs a map render per VPL a frame).
+pub fn naive_against_full(
+    ctx: &GpuContext,
+    scene: &Scene,
+    s: &EvalSettings,
+) -> Result<f64, EvalError> {
+    let asset = crate::bake(ctx, scene, s)?;
+    let full = crate::render(ctx, scene, &asset, Mode::Full, s)?;
+    let naive = crate::render(ctx, scene, &asset, Mode::Naive, s)?;
+    Ok(gibake_image::rel_mse(&naive, &full))
+}
+
 /// Judges `scene` (a level loaded with its spec's options): bakes it with
 /// `s`, renders every mode and the reference, and computes the figures.
 pub fn judge_level(
@@ -328,15 +356,27 @@ pub fn judge_level(
     name: &str,
     s: &EvalSettings,
 ) -> Result<(LevelEval, LevelImages), EvalError> {
+    let t = Instant::now();
     let reference = crate::reference_images(scene, s)?;
+    let reference_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let asset = crate::bake(ctx, scene, s)?;
     let bake_s = t.elapsed().as_secs_f64();
-    let render = |m| crate::render(ctx, scene, &asset, m, s);
-    let direct = render(Mode::Direct)?;
-    let full = render(Mode::Full)?;
-    let rsm = render(Mode::Rsm)?;
-    let naive = render(Mode::Naive)?;
+    let mut render_s = [0.0; 4];
+    let mut render = |k: usize, m| {
+        let t = Instant::now();
+        let image = crate::render(ctx, scene, &asset, m, s);
+        render_s[k] = t.elapsed().as_secs_f64();
+        image
+    };
+    let direct = render(0, Mode::Direct)?;
+    let full = render(1, Mode::Full)?;
+    let rsm = render(2, Mode::Rsm)?;
+    let naive = if s.naive {
+        Some(render(3, Mode::Naive)?)
+    } else {
+        None
+    };
     let ref_ind = reference.indirect();
     let (full_ind, rsm_ind) = (full.sub(&direct), rsm.sub(&direct));
     let rm = ref_ind.mean();
@@ -354,12 +394,19 @@ pub fn judge_level(
         rsm_bias: crate::bias(rsm_ind.mean(), rm),
         full_err: crate::indirect_error(&full_ind, &ref_ind, s.blur),
         rsm_err: crate::indirect_error(&rsm_ind, &ref_ind, s.blur),
-        naive_vs_full: gibake_image::rel_mse(&naive, &full),
-        mode_indirect: vec![
-            ("full".into(), sum(&full_ind)),
-            ("rsm".into(), sum(&rsm_ind)),
-            ("naive".into(), sum(&naive.sub(&direct))),
-        ],
+        naive_vs_full: naive
+            .as_ref()
+            .map_or(f64::NAN, |n| gibake_image::rel_mse(n, &full)),
+        mode_indirect: [
+            Some(("full".into(), sum(&full_ind))),
+            Some(("rsm".into(), sum(&rsm_ind))),
+            naive
+                .as_ref()
+                .map(|n| ("naive".into(), sum(&n.sub(&direct)))),
+        ]
+        .into_iter()
+        .flatten()
+        .collect(),
     };
     let exposure = reference.one_bounce.auto_exposure();
     let eval = LevelEval {
@@ -370,6 +417,8 @@ pub fn judge_level(
         flip: crate::flip::mean_flip_exposed(&full, &reference.one_bounce, exposure)
             .unwrap_or(f64::NAN),
         bake_s,
+        reference_s,
+        render_s,
         triangles: scene.triangle_counts(),
         maps_stored: asset.vpls.iter().filter(|v| v.map != u32::MAX).count(),
     };

@@ -68,6 +68,12 @@ pub struct EvalSettings {
     /// their bounce off moving objects); false measures what they change
     /// (the asset renders as a 4.0 asset did).
     pub light_bounce: bool,
+    /// Whether [`levels::judge_level`] renders `naive` against `full`.
+    /// `naive` re-renders every VPL map each frame: on lavapipe it is 90% of
+    /// a judgement's time at 664 VPLs, so the suite's frame-level tests
+    /// turn it off and check naive = full apart with fewer VPLs
+    /// ([`levels::naive_against_full`]); the eval tools keep it.
+    pub naive: bool,
 }
 
 impl Default for EvalSettings {
@@ -84,6 +90,7 @@ impl Default for EvalSettings {
             max_dynamic_vpls: RenderSettings::default().max_dynamic_vpls,
             cascades: gibake_runtime::Cascades::Auto,
             light_bounce: true,
+            naive: true,
         }
     }
 }
@@ -124,7 +131,8 @@ pub struct IndirectEval {
     pub full_err: f64,
     /// `rsm`'s relative indirect error.
     pub rsm_err: f64,
-    /// rel MSE of `naive` against `full`.
+    /// rel MSE of `naive` against `full` (NaN where `naive` was not
+    /// rendered: [`EvalSettings::naive`]).
     pub naive_vs_full: f64,
     /// Per mode (`full`, `indirect`, `rsm`, `naive`): mean indirect radiance
     /// (sum of channels) — all must be positive where the reference's is.
@@ -149,7 +157,7 @@ impl IndirectEval {
         let pct =
             |b: [f32; 3]| format!("{:+.1}/{:+.1}/{:+.1}%", b[0] * 1e2, b[1] * 1e2, b[2] * 1e2);
         format!(
-            "{:<44} vpls {:>4} | bias full {} rsm {} (ref ±{:.1}%) | err full {:.4} rsm {:.4} ({:.2}×) | naive~full {:.1e}",
+            "{:<44} vpls {:>4} | bias full {} rsm {} (ref ±{:.1}%) | err full {:.4} rsm {:.4} ({:.2}×) | naive~full {}",
             self.name,
             self.vpls,
             pct(self.full_bias),
@@ -158,7 +166,11 @@ impl IndirectEval {
             self.full_err,
             self.rsm_err,
             self.full_err / self.rsm_err.max(1e-12),
-            self.naive_vs_full
+            if self.naive_vs_full.is_nan() {
+                "not rendered".to_string()
+            } else {
+                format!("{:.1e}", self.naive_vs_full)
+            }
         )
     }
 }
