@@ -1,9 +1,11 @@
-//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--cascades auto|on|off] [--out DIR] [--markdown]`
+//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive]`
 //! Judges the real levels of data/levels/levels.json (all, or those named)
 //! against the CPU reference; prints one line per level and, with --out,
 //! writes reference | full | rsm | error pictures (NAME.png) and the same
 //! for the indirect light alone (NAME_indirect.png); --markdown ends with
-//! the table of docs/results.md, "Real levels".
+//! the table of docs/results.md, "Real levels". `--no-naive` leaves out
+//! the `naive` render (every VPL map re-rendered: 90% of the time on
+//! lavapipe) and its naive~full figure.
 fn main() {
     let mut s = gibake_eval::EvalSettings {
         size: 128,
@@ -41,6 +43,7 @@ fn main() {
                 }
             }
             "--markdown" => markdown = true,
+            "--no-naive" => s.naive = false,
             "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
             _ => names.push(a.clone()),
         }

@@ -6,8 +6,11 @@
 //! against full, FLIP).
 //!
 //! ```text
-//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--look-at EX,EY,EZ,TX,TY,TZ] [--no-light-bounce] [--balls-under-lamps R] [--out DIR]
+//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--look-at EX,EY,EZ,TX,TY,TZ] [--no-light-bounce] [--balls-under-lamps R] [--out DIR] [--no-naive]
 //! ```
+//!
+//! `--no-naive` leaves out the `naive` render (every VPL map re-rendered:
+//! 90% of the time on lavapipe) and its naive~full figure.
 //!
 //! `--balls-under-lamps R` adds a moving ball of radius `R` under each
 //! point and spot light (`gibake_eval::moving::balls_under_lamps`).
@@ -79,11 +82,14 @@ fn main() {
                 )
             }
             "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
+            "--no-naive" => s.naive = false,
             _ => scenes.push(a.clone()),
         }
     }
     if scenes.is_empty() {
-        eprintln!("usage: eval_lights SCENE... [--size N] [--spp N] [--vpls N] [--out DIR]");
+        eprintln!(
+            "usage: eval_lights SCENE... [--size N] [--spp N] [--vpls N] [--out DIR] [--no-naive]"
+        );
         std::process::exit(2);
     }
     let opts = LoadOptions {
@@ -133,11 +139,10 @@ fn main() {
         match gibake_eval::levels::judge_level(&ctx, &scene, &name, &s) {
             Ok((e, images)) => {
                 println!(
-                    "{name} [{} lights: {}] {} | naive/full {:.1e} ({:.0} s)",
+                    "{name} [{} lights: {}] {} ({:.0} s)",
                     scene.lights.len(),
                     kinds.join(" "),
                     e.line(),
-                    e.indirect.naive_vs_full,
                     t.elapsed().as_secs_f64()
                 );
                 if let Some(dir) = &out {
