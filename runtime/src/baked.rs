@@ -32,7 +32,9 @@ pub(crate) struct BakedGpu {
     /// `position` is the map origin.
     pub vpls: Vec<GpuVpl>,
     /// [`BakedGpu::vpls`], then their near-field trees (`NODES_PER_VPL`
-    /// [`GpuVpl`]s per VPL, in VPL order) (storage).
+    /// [`GpuVpl`]s per VPL, in VPL order), then one far-field record per
+    /// VPL (its own with `position` its far-field centre,
+    /// `gibake_asset::far_field_centre`) (storage).
     pub vpl_buf: wgpu::Buffer,
     /// Baked hemisphere maps, one 2D atlas (one +inf tile when none is stored).
     pub static_maps: wgpu::TextureView,
@@ -171,9 +173,22 @@ impl BakedGpu {
             })
             .collect();
         let nodes: Vec<GpuVpl> = asset.vpl_nodes.iter().map(gpu_vpl).collect();
+        // Where each VPL is drawn from afar: its texels' centroid
+        // (`gibake_asset::far_field_centre`), else its map origin; the rest
+        // of the record is the VPL's own.
+        let far: Vec<GpuVpl> = vpls
+            .iter()
+            .zip(asset.far_field_centres())
+            .map(|(v, c)| GpuVpl {
+                position: c.unwrap_or(v.position),
+                map: NO_MAP,
+                ..*v
+            })
+            .collect();
         // The VPLs, then their near-field trees (NODES_PER_VPL records per
-        // VPL, as stored), in one storage buffer: shading binds four.
-        let records = [vpls.as_slice(), nodes.as_slice()].concat();
+        // VPL, as stored), then their far-field records, in one storage
+        // buffer: shading binds four.
+        let records = [vpls.as_slice(), nodes.as_slice(), far.as_slice()].concat();
         let vpl_bytes = std::mem::size_of_val(records.as_slice()) as u64;
         let max_binding = device.limits().max_storage_buffer_binding_size;
         if vpl_bytes > max_binding {

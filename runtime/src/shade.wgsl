@@ -55,7 +55,7 @@ const VPL_MAX_SLOPE: f32 = 10.0;
 @group(0) @binding(4) var out_radiance: texture_storage_2d<rgba32float, write>;
 
 // Group 1: light and GI data, shared by every view.
-@group(1) @binding(0) var<storage, read> vpls: array<Vpl>;   // n_static VPLs, then their near-field trees
+@group(1) @binding(0) var<storage, read> vpls: array<Vpl>;   // n_static VPLs, their near-field trees, their far-field records
 @group(1) @binding(1) var<storage, read> occlusion: array<u32>;
 @group(1) @binding(2) var<storage, read> vpl_tile: array<u32>;
 @group(1) @binding(3) var static_maps: texture_2d<f32>;
@@ -271,14 +271,16 @@ fn node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f
     return vpl_irradiance(n.position, n.normal, n.area, n.flux, x, ns, ng);
 }
 
-// Unshadowed irradiance at x from static VPL i (record v, at `origin`):
-// one disk from afar, its near-field tree up close. CPU twin:
-// gibake_runtime::transport::static_vpl_irradiance.
-fn static_vpl_irradiance(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
-    if (!is_near(x, origin, v.area)) {
+// Unshadowed irradiance at x from static VPL i (record v): one disk at
+// its far-field centre (its texels' centroid: the record after the trees,
+// baked.rs) from afar, its near-field tree up close. CPU twin:
+// gibake_eval::transport::twin_irradiance_of.
+fn static_vpl_irradiance(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
+    let centre = vpls[params.n_static * (1u + NODES_PER_VPL) + i].position;
+    if (!is_near(x, centre, v.area)) {
         // A static VPL's own record carries its lobe coherence in `texels`
         // (gibake_gpu::vpl::GpuVpl::texels), fixed point.
-        return vpl_lobe_irradiance(origin, v.normal, f32(v.texels) / LOBE_ONE, v.area, v.flux, x, ns, ng);
+        return vpl_lobe_irradiance(centre, v.normal, f32(v.texels) / LOBE_ONE, v.area, v.flux, x, ns, ng);
     }
     let base = params.n_static + i * NODES_PER_VPL;   // its tree, after the VPLs
     var e = vec3<f32>(0.0);
@@ -348,7 +350,7 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocat
             for (var i = k; i < params.n_static; i += stride) {
                 let v = vpls[i];
                 let origin = v.position;   // the map origin, lifted at load (baked.rs)
-                var ei = static_vpl_irradiance(i, v, origin, x, ns, ng);
+                var ei = static_vpl_irradiance(i, v, x, ns, ng);
                 if (all(ei == vec3<f32>(0.0))) {
                     continue;
                 }

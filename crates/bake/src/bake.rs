@@ -640,7 +640,8 @@ fn bake_with(
         let dropped = if clusters.vpls.is_empty() {
             0
         } else {
-            clusters.retain(|_, c| reach.sees_cluster(c))
+            let reaching = clusters.reaching_flux(&rsm);
+            clusters.retain(|i, c| reach.keeps(c, reaching[i]))
         };
         progress.end();
         lap("clustering", &mut stages);

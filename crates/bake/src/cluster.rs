@@ -278,6 +278,19 @@ pub struct Clustering {
 }
 
 impl Clustering {
+    /// Per VPL: the reaching flux `Σ (r + g + b) · reach` of its texels in
+    /// `rsm` (the map it was clustered from).
+    pub fn reaching_flux(&self, rsm: &Rsm) -> Vec<f64> {
+        let mut out = vec![0.0f64; self.vpls.len()];
+        for (t, &v) in self.texel_vpl.iter().enumerate() {
+            if v != NO_VPL {
+                let f = rsm.flux[t];
+                out[v as usize] += f64::from((f.x + f.y + f.z) * rsm.reach[t]);
+            }
+        }
+        out
+    }
+
     /// Keeps the VPLs for which `keep(index, vpl)` holds, in order; the
     /// texels of the others map to [`NO_VPL`]. Returns how many were removed.
     pub fn retain(&mut self, mut keep: impl FnMut(usize, &Cluster) -> bool) -> usize {

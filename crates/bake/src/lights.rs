@@ -171,8 +171,9 @@ pub fn every_light_with(
         }
     }
     let mut dropped_vpls = 0;
-    for c in &mut clusters.maps {
-        dropped_vpls += c.retain(|_, v| reach.sees_cluster(v));
+    for (c, m) in clusters.maps.iter_mut().zip(&maps) {
+        let reaching = c.reaching_flux(&m.rsm);
+        dropped_vpls += c.retain(|i, v| reach.keeps(v, reaching[i]));
     }
     EveryLight {
         maps,

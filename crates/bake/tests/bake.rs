@@ -282,12 +282,8 @@ fn vpl_flux_sums_to_the_rsm_reflected_power() {
             .sum();
         // The bake drops the VPLs whose light reaches nothing: the asset
         // carries the flux of the others.
-        clusters.retain(|_, c| {
-            reach.sees_anything(
-                gibake_gpu::hemisphere::vpl_origin(c.anchor, c.normal, c.area),
-                c.normal,
-            )
-        });
+        let reaching = clusters.reaching_flux(&rsm);
+        clusters.retain(|i, c| reach.keeps(c, reaching[i]));
         let kept_total: f64 = clusters
             .vpls
             .iter()

@@ -27,6 +27,12 @@
 //! `GIBAKE_NO_RANGE=1`: the lights without their glTF ranges (a
 //! diagnostic: what the range changes).
 //!
+//! `--split`: also where the bias comes from, without visibility: the
+//! clustered VPLs' transport against every texel of theirs as its own
+//! small disk, and what one visibility point per VPL costs against the
+//! reference's visible share (`gibake_eval::lights::Split`; every texel
+//! against every receiver, seconds to minutes).
+//!
 //! `--equal-split`: each light gets `N / lights` VPLs over its own views
 //! (the alternative to one budget spread by the light's bounce).
 //!
@@ -44,6 +50,7 @@ fn main() {
     let (mut vpls, mut size) = (664u32, 40u32);
     let mut equal = false;
     let mut keep_negligible = false;
+    let mut split = false;
     let mut only: Option<usize> = None;
     let mut rsm = 512u32;
     let mut side = 32u32;
@@ -62,6 +69,7 @@ fn main() {
             }
             "--equal-split" => equal = true,
             "--keep-negligible" => keep_negligible = true,
+            "--split" => split = true,
             "--look-at" => {
                 let v: Vec<f32> = args[i + 1]
                     .split(',')
@@ -126,7 +134,7 @@ fn main() {
                     (vpls, rsm, side),
                     size,
                     equal,
-                    keep_negligible,
+                    (keep_negligible, split),
                 ));
             }
             if all.len() > 1 {
@@ -149,7 +157,14 @@ fn main() {
             let scene = gibake_scene::load(std::path::Path::new(&f), &opts)
                 .unwrap_or_else(|e| panic!("{f}: {e}"));
             let scene = only_light(scene, only);
-            judge(&f, &scene, (vpls, rsm, side), size, equal, keep_negligible);
+            judge(
+                &f,
+                &scene,
+                (vpls, rsm, side),
+                size,
+                equal,
+                (keep_negligible, split),
+            );
         }
     }
 }
@@ -174,7 +189,7 @@ fn judge(
     (vpls, rsm_size, side): (u32, u32, u32),
     size: u32,
     equal: bool,
-    keep_negligible: bool,
+    (keep_negligible, split): (bool, bool),
 ) -> (DVec3, f64) {
     let budget = if equal {
         Budget::EqualSplit
@@ -190,6 +205,7 @@ fn judge(
             side,
             budget,
             keep_negligible,
+            split,
         },
     );
     println!(
@@ -218,5 +234,22 @@ fn judge(
         j.bias_sigma.max_element() * 100.0,
         j.blurred_error
     );
+    if let Some(sp) = j.split {
+        println!(
+            "  split (no visibility, channels summed): clustered / texels {:+.1}% (transport), texels of kept VPLs / all {:+.1}%, visibility from one point per VPL {:+.1}%",
+            sp.transport() * 100.0,
+            (sp.texels / sp.all_texels - 1.0) * 100.0,
+            sp.visibility() * 100.0
+        );
+        let near_t = sp.texels - sp.far_texels;
+        println!(
+            "    far field: {:.1}% of the texels' light, clustered / texels {:+.1}% (from the map origins {:+.1}%, as the level-1 nodes {:+.1}%); near field: clustered / texels {:+.1}%",
+            sp.far_texels / sp.texels * 100.0,
+            (sp.far_clustered / sp.far_texels - 1.0) * 100.0,
+            (sp.far_from_origin / sp.far_texels - 1.0) * 100.0,
+            (sp.far_level1 / sp.far_texels - 1.0) * 100.0,
+            ((sp.clustered - sp.far_clustered) / near_t - 1.0) * 100.0
+        );
+    }
     (j.bias, j.blurred_error)
 }

@@ -100,9 +100,8 @@ fn main() {
         let view = LightView::for_scene(&scene, 2048).resized(512);
         let rsm = render_rsm(&rays, scene.light(), &view, Some(&reach));
         let mut cl = cluster(&rsm, ClusterTarget::Count(vpls));
-        cl.retain(|_, c| {
-            reach.sees_anything(hemisphere::vpl_origin(c.anchor, c.normal, c.area), c.normal)
-        });
+        let reaching = cl.reaching_flux(&rsm);
+        cl.retain(|i, c| reach.keeps(c, reaching[i]));
         // Texels per VPL with flux weights.
         let mut members: Vec<Vec<(usize, f32)>> = vec![Vec::new(); cl.vpls.len()];
         for (t, &v) in cl.texel_vpl.iter().enumerate() {
@@ -264,9 +263,12 @@ fn main() {
                             flux: v.flux.to_array(),
                             map: 0,
                         };
+                        // Drawn from its far-field centre, as shading does.
+                        let centre = gibake_asset::far_field_centre(&nodes[vi])
+                            .map_or(orgb, Vec3::from_array);
                         out[9] += gibake_eval::transport::static_vpl_irradiance(
                             &rec,
-                            orgb,
+                            centre,
                             &nodes[vi],
                             lobes[vi],
                             xg,

@@ -40,6 +40,9 @@ pub struct Judgement {
     pub bias: DVec3,
     /// Relative RMS error of the 3×3-blurred indirect image.
     pub blurred_error: f64,
+    /// With [`JudgeSettings::split`]: where the bias comes from, without
+    /// visibility (see [`Split`]).
+    pub split: Option<Split>,
     /// Σ reference indirect radiance per channel (0: the camera sees no
     /// bounce light, and the bias means nothing).
     pub reference_sum: DVec3,
@@ -48,6 +51,50 @@ pub struct Judgement {
     /// variance; the samples are stratified, so this overestimates it). A
     /// bias within a few of these is not measured.
     pub bias_sigma: DVec3,
+}
+
+/// Where a light's indirect bias comes from (a diagnostic: no visibility
+/// on either side, so that the clustering's transport is judged alone).
+/// Σ over receivers, channels summed.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Split {
+    /// The kept VPLs' runtime transport (near-field trees, far-field
+    /// lobes), no visibility.
+    pub clustered: f64,
+    /// Every RSM texel of a kept VPL as its own small disk
+    /// ([`crate::transport::disk_irradiance`]), no visibility.
+    pub texels: f64,
+    /// The same, over every lit texel (kept VPL or not).
+    pub all_texels: f64,
+    /// The twin with exact visibility from each VPL's origin.
+    pub clustered_visible: f64,
+    /// The reference.
+    pub reference: f64,
+    /// `clustered`'s part from VPLs whose disk is in the receiver's far
+    /// field (one disk with its lobe, at its far-field centre).
+    pub far_clustered: f64,
+    /// `texels`' part from the same VPLs at the same receivers.
+    pub far_texels: f64,
+    /// `far_clustered` with each disk drawn from its map origin instead
+    /// (the rule before session 10).
+    pub far_from_origin: f64,
+    /// `far_clustered` drawn as each VPL's four level-1 near-field nodes
+    /// (disks with their own normals and cosine lobes).
+    pub far_level1: f64,
+}
+
+impl Split {
+    /// `clustered / texels − 1`: the clustering's transport loss.
+    pub fn transport(&self) -> f64 {
+        self.clustered / self.texels - 1.0
+    }
+
+    /// The clustered VPLs' visible share over the reference's visible
+    /// share of the texels' unshadowed light, − 1 (if the RSM were exact,
+    /// what one visibility point per VPL costs).
+    pub fn visibility(&self) -> f64 {
+        (self.clustered_visible / self.clustered) / (self.reference / self.texels) - 1.0
+    }
 }
 
 /// The bake settings [`judge`] uses.
@@ -65,6 +112,9 @@ pub struct JudgeSettings {
     pub budget: Budget,
     /// Keep the views whose light is negligible.
     pub keep_negligible: bool,
+    /// Also compute [`Judgement::split`] (every texel against every
+    /// receiver: seconds to minutes).
+    pub split: bool,
 }
 
 /// Judges `scene`'s every-light VPLs (see [`JudgeSettings`]).
@@ -76,6 +126,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
         side,
         budget,
         keep_negligible,
+        split,
     } = *j;
     let stat = gibake_bake::static_only(scene);
     let rays = RayScene::build(&stat, 0.0);
@@ -107,8 +158,9 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
             maps.extend(cluster_joint(&refs, ClusterTarget::Count(share)).maps);
         }
         every.dropped_vpls = 0;
-        for c in &mut maps {
-            every.dropped_vpls += c.retain(|_, v| reach.sees_cluster(v));
+        for (c, m) in maps.iter_mut().zip(&every.maps) {
+            let reaching = c.reaching_flux(&m.rsm);
+            every.dropped_vpls += c.retain(|i, v| reach.keeps(v, reaching[i]));
         }
         every.clusters.maps = maps;
     }
@@ -122,7 +174,27 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
     let per_light = every.vpls_per_light(scene.lights.len());
     let cam = gibake_reference::View::from_scene(scene, 0.0).expect("the scene has a camera");
     // Per pixel: (reference, twin) indirect radiance, and the variance of
-    // the reference's mean.
+    // the reference's mean; with `split`, the split's figures there.
+    // (position, normal, area, flux, global VPL index or u32::MAX).
+    let texels: Vec<(Vec3, Vec3, f32, Vec3, u32)> = if split {
+        let mut first = 0u32;
+        let mut out = Vec::new();
+        for (m, c) in every.maps.iter().zip(&every.clusters.maps) {
+            let r = &m.rsm;
+            for t in 0..r.flux.len() {
+                if r.flux[t] != Vec3::ZERO && r.metric[t].is_finite() {
+                    let v = c.texel_vpl.get(t).copied().unwrap_or(u32::MAX);
+                    let g = if v == u32::MAX { v } else { first + v };
+                    out.push((r.position[t], r.normal[t], r.area[t], r.flux[t], g));
+                }
+            }
+            first += c.vpls.len() as u32;
+        }
+        out
+    } else {
+        Vec::new()
+    };
+    let split_px = std::sync::Mutex::new(Split::default());
     let px: Vec<(Vec3, Vec3, DVec3)> = (0..size * size)
         .into_par_iter()
         .map(|p| {
@@ -140,9 +212,73 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
             let reference = h.albedo * s / (side * side) as f32;
             let mean = reference.as_dvec3();
             let var_mean = ((s2 / n - mean * mean) * (n / (n - 1.0).max(1.0)) / n).max(DVec3::ZERO);
-            let e =
-                crate::transport::twin_irradiance_of(&records, &nodes, &lobes, &rays, &h).visible;
-            (reference, h.albedo / PI * e, var_mean)
+            let twin = crate::transport::twin_irradiance_of(&records, &nodes, &lobes, &rays, &h);
+            if split {
+                let (x, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
+                let mut per_vpl = vec![0f64; records.len()];
+                let mut all = 0f64;
+                for &(p, n, a, f, g) in &texels {
+                    let e = crate::transport::disk_irradiance(p, n, a, f, x, ns, ng);
+                    let e = f64::from(h.albedo.dot(e)) / f64::from(PI);
+                    all += e;
+                    if let Some(v) = per_vpl.get_mut(g as usize) {
+                        *v += e;
+                    }
+                }
+                let kept: f64 = per_vpl.iter().sum();
+                let sum = |v: Vec3| f64::from(h.albedo.dot(v)) / f64::from(PI);
+                let (mut far_c, mut far_t, mut far_o, mut far_1) = (0f64, 0f64, 0f64, 0f64);
+                for (i, v) in records.iter().enumerate() {
+                    let nv = Vec3::from_array(v.normal);
+                    let origin = gibake_gpu::hemisphere::vpl_origin(
+                        Vec3::from_array(v.position),
+                        nv,
+                        v.area,
+                    );
+                    let tree = &nodes[i * per..(i + 1) * per];
+                    let centre =
+                        gibake_asset::far_field_centre(tree).map_or(origin, Vec3::from_array);
+                    if crate::transport::is_near(x, centre, v.area) {
+                        continue;
+                    }
+                    let far = |o| {
+                        sum(crate::transport::static_vpl_irradiance(
+                            v,
+                            o,
+                            &[],
+                            lobes[i],
+                            x,
+                            ns,
+                            ng,
+                        ))
+                    };
+                    far_c += far(centre);
+                    far_o += far(origin);
+                    for n in tree[..4].iter().filter(|n| n.texels > 0) {
+                        far_1 += sum(crate::transport::disk_irradiance(
+                            Vec3::from_array(n.position),
+                            Vec3::from_array(n.normal),
+                            n.area,
+                            Vec3::from_array(n.flux),
+                            x,
+                            ns,
+                            ng,
+                        ));
+                    }
+                    far_t += per_vpl[i];
+                }
+                let mut sp = split_px.lock().expect("no panics while held");
+                sp.clustered += sum(twin.unshadowed);
+                sp.clustered_visible += sum(twin.visible);
+                sp.texels += kept;
+                sp.far_clustered += far_c;
+                sp.far_texels += far_t;
+                sp.far_from_origin += far_o;
+                sp.far_level1 += far_1;
+                sp.all_texels += all;
+                sp.reference += f64::from(reference.x + reference.y + reference.z);
+            }
+            (reference, h.albedo / PI * twin.visible, var_mean)
         })
         .collect();
     let (mut sr, mut st, mut var) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
@@ -184,6 +320,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
         } else {
             f64::NAN
         },
+        split: split.then(|| split_px.into_inner().expect("no panics while held")),
         reference_sum: sr,
         bias_sigma: DVec3::select(sr.cmpgt(DVec3::ZERO), var.sqrt() / sr, DVec3::NAN),
     }

@@ -60,7 +60,8 @@ pub fn lobe_irradiance(
     if e.is_finite() { e } else { Vec3::ZERO }
 }
 
-fn is_near(x: Vec3, p: Vec3, a: f32) -> bool {
+/// Whether `x` is in the near field of a disk at `p` of area `a`.
+pub fn is_near(x: Vec3, p: Vec3, a: f32) -> bool {
     (x - p).length_squared() < NEAR_FIELD_RATIO * NEAR_FIELD_RATIO * a / std::f32::consts::PI
 }
 
@@ -79,7 +80,9 @@ fn node(n: &VplRecord, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 {
     )
 }
 
-/// Unshadowed irradiance at `x` from VPL `v` whose map origin is `origin`,
+/// Unshadowed irradiance at `x` from VPL `v` drawn from `origin` (its
+/// far-field centre, [`gibake_asset::far_field_centre`], where it has a
+/// tree; else its map origin),
 /// whose near-field tree is `nodes` ([`NODES_PER_VPL`] records; none: one
 /// disk at every distance) and whose far-field lobe coherence is
 /// `coherence` ([`gibake_asset::Asset::lobe_coherences`], computed once
@@ -171,9 +174,12 @@ pub fn twin_irradiance_of(
         let origin = gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
         let nodes = &vpl_nodes[i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL];
         let c = lobes.get(i).copied().unwrap_or(1.0);
+        // Transport from the VPL's texels' centroid, visibility from its
+        // map origin (shade.wgsl `static_vpl_irradiance`).
+        let centre = gibake_asset::far_field_centre(nodes).map_or(origin, Vec3::from_array);
         let (x, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
-        let near = static_vpl_irradiance(v, origin, nodes, c, x, ns, ng);
-        let disk = static_vpl_irradiance(v, origin, &[], c, x, ns, ng);
+        let near = static_vpl_irradiance(v, centre, nodes, c, x, ns, ng);
+        let disk = static_vpl_irradiance(v, centre, &[], c, x, ns, ng);
         if near == Vec3::ZERO && disk == Vec3::ZERO {
             continue;
         }
