@@ -218,7 +218,9 @@ impl Requirements {
         let side = u64::from(cols.max(rows)) * u64::from(s);
         self.need(Limit::Texture2d, "the asset's VPL map atlas", side);
         let atlas = u64::from(cols) * u64::from(rows) * sq(s);
-        let records = (a.vpls.len() + a.vpl_nodes.len()) as u64 * VPL_BYTES;
+        // The VPLs, their near-field trees, their far-field records
+        // (baked.rs).
+        let records = (2 * a.vpls.len() + a.vpl_nodes.len()) as u64 * VPL_BYTES;
         self.need(
             Limit::StorageBinding,
             "the asset's VPLs and near-field nodes",
