@@ -7,7 +7,9 @@
 //! cargo run --release -p gibake-eval --example lights_twin -- SCENE... [--vpls N] [--size S]
 //! ```
 //!
-//! `SCENE`: a glTF file, or `random:SEED` (`gibake_scenegen::random_lights`,
+//! `SCENE`: a glTF file, or a level of data/levels/levels.json by name
+//! (`city`: its sun, camera and moving objects as `eval_levels` loads
+//! them), or `random:SEED` (`gibake_scenegen::random_lights`,
 //! the seeded multi-light generator), or `random:A..B` (seeds `A` to `B−1`;
 //! a summary line over them follows).
 //!
@@ -154,8 +156,17 @@ fn main() {
                 );
             }
         } else {
-            let scene = gibake_scene::load(std::path::Path::new(&f), &opts)
-                .unwrap_or_else(|e| panic!("{f}: {e}"));
+            let list = gibake_eval::levels::bundled_list();
+            let levels = gibake_eval::levels::read_specs(&list).expect("data/levels/levels.json");
+            let scene = if let Some(l) = levels.iter().find(|l| l.name == f) {
+                // A real level of levels.json, its sun, camera and moving
+                // objects as eval_levels loads them.
+                l.load(list.parent().expect("a folder"))
+                    .unwrap_or_else(|e| panic!("{f}: {e}"))
+            } else {
+                gibake_scene::load(std::path::Path::new(&f), &opts)
+                    .unwrap_or_else(|e| panic!("{f}: {e}"))
+            };
             let scene = only_light(scene, only);
             judge(
                 &f,
