@@ -33,7 +33,10 @@
 //! clustered VPLs' transport against every texel of theirs as its own
 //! small disk, and what one visibility point per VPL costs against the
 //! reference's visible share (`gibake_eval::lights::Split`; every texel
-//! against every receiver, seconds to minutes).
+//! against every receiver, seconds to minutes). Its far-field line also
+//! draws each VPL from its map origin (the rule before session 10) and as
+//! its level-1 near-field nodes (`GIBAKE_SPLIT_LEVEL=2` or `3`: level 2
+//! or 3).
 //!
 //! `--equal-split`: each light gets `N / lights` VPLs over its own views
 //! (the alternative to one budget spread by the light's bounce).

@@ -194,6 +194,13 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
     } else {
         Vec::new()
     };
+    // Which near-field level `far_level1` draws (env GIBAKE_SPLIT_LEVEL:
+    // 1, the default, 2 or 3).
+    let far_nodes = match std::env::var("GIBAKE_SPLIT_LEVEL").as_deref() {
+        Ok("2") => 4..20,
+        Ok("3") => 20..84,
+        _ => 0..4,
+    };
     let split_px = std::sync::Mutex::new(Split::default());
     let px: Vec<(Vec3, Vec3, DVec3)> = (0..size * size)
         .into_par_iter()
@@ -254,7 +261,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
                     };
                     far_c += far(centre);
                     far_o += far(origin);
-                    for n in tree[..4].iter().filter(|n| n.texels > 0) {
+                    for n in tree[far_nodes.clone()].iter().filter(|n| n.texels > 0) {
                         far_1 += sum(crate::transport::disk_irradiance(
                             Vec3::from_array(n.position),
                             Vec3::from_array(n.normal),
