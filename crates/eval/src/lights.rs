@@ -261,16 +261,8 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
                     };
                     far_c += far(centre);
                     far_o += far(origin);
-                    for n in tree[far_nodes.clone()].iter().filter(|n| n.texels > 0) {
-                        far_1 += sum(crate::transport::disk_irradiance(
-                            Vec3::from_array(n.position),
-                            Vec3::from_array(n.normal),
-                            n.area,
-                            Vec3::from_array(n.flux),
-                            x,
-                            ns,
-                            ng,
-                        ));
+                    for n in &tree[far_nodes.clone()] {
+                        far_1 += sum(crate::transport::node_irradiance(n, x, ns, ng));
                     }
                     far_t += per_vpl[i];
                 }

@@ -65,7 +65,9 @@ pub fn is_near(x: Vec3, p: Vec3, a: f32) -> bool {
     (x - p).length_squared() < NEAR_FIELD_RATIO * NEAR_FIELD_RATIO * a / std::f32::consts::PI
 }
 
-fn node(n: &VplRecord, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 {
+/// Irradiance at `x` from one near-field node `n` drawn as a disk with
+/// its own normal and cosine lobe (none from an empty node).
+pub fn node_irradiance(n: &VplRecord, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 {
     if n.texels == 0 {
         return Vec3::ZERO;
     }
@@ -110,7 +112,7 @@ pub fn static_vpl_irradiance(
             continue;
         }
         if !is_near(x, Vec3::from_array(n1.position), n1.area) {
-            e += node(n1, x, ns, ng);
+            e += node_irradiance(n1, x, ns, ng);
             continue;
         }
         for c2 in 0..4 {
@@ -120,12 +122,12 @@ pub fn static_vpl_irradiance(
                 continue;
             }
             if !is_near(x, Vec3::from_array(n2.position), n2.area) {
-                e += node(n2, x, ns, ng);
+                e += node_irradiance(n2, x, ns, ng);
                 continue;
             }
             for c3 in 0..4 {
                 let (i3, j3) = (2 * i2 + c3 % 2, 2 * j2 + c3 / 2);
-                e += node(&nodes[20 + j3 * 8 + i3], x, ns, ng);
+                e += node_irradiance(&nodes[20 + j3 * 8 + i3], x, ns, ng);
             }
         }
     }
