@@ -20,7 +20,8 @@
 //! usage: vpl_diag SEED|BUNDLED|LEVEL... [--vpls N] [--size S]
 //! (LEVEL: a name in data/levels/levels.json; its camera and moving
 //! objects as `eval_levels` loads them; or `FILE.glb[:K]`, a glTF file's
-//! light K alone, default its first). VPLs as the bake makes them:
+//! light K alone, default its first; not a point light, whose six views
+//! `lights_twin FILE --only K --split` judges). VPLs as the bake makes them:
 //! reach-weighted clustering, VPLs that see nothing dropped.
 
 use gibake_bake::cluster::{ClusterTarget, cluster};
@@ -91,6 +92,13 @@ fn main() {
             let b = gibake_scenegen::by_name(&s).unwrap()(&Default::default());
             (gibake_eval::load(&b, "x.glb"), s.clone())
         };
+        if matches!(scene.light().kind, gibake_scene::LightKind::Point) {
+            // One view per scene here; a point light has six (cube faces).
+            eprintln!(
+                "vpl_diag: {s}: a point light has six views and vpl_diag judges one; use `lights_twin FILE --only K --split`"
+            );
+            std::process::exit(2);
+        }
         let stat = gibake_bake::static_only(&scene);
         let rays = RayScene::build(&stat, 0.0);
         let reach = Reach {
