@@ -25,7 +25,7 @@ fn settings(scene: &Scene, budget: Budget, keep_negligible: bool) -> JudgeSettin
         side: if many { 16 } else { 32 },
         budget,
         keep_negligible,
-        split: false,
+        split: None,
     }
 }
 
@@ -212,7 +212,7 @@ fn clustered_vpls_carry_their_texels_light_on_a_real_level() {
             &scene,
             &JudgeSettings {
                 vpls,
-                split: true,
+                split: Some(1),
                 size: 32,
                 side: 4,
                 ..settings(&scene, Budget::Joint, false)

@@ -35,8 +35,7 @@
 //! reference's visible share (`gibake_eval::lights::Split`; every texel
 //! against every receiver, seconds to minutes). Its far-field line also
 //! draws each VPL from its map origin (the rule before session 10) and as
-//! its level-1 near-field nodes (`GIBAKE_SPLIT_LEVEL=2` or `3`: level 2
-//! or 3).
+//! its level-1 near-field nodes (`--split-level 2` or `3`: level 2 or 3).
 //!
 //! `--equal-split`: each light gets `N / lights` VPLs over its own views
 //! (the alternative to one budget spread by the light's bounce).
@@ -56,6 +55,7 @@ fn main() {
     let mut equal = false;
     let mut keep_negligible = false;
     let mut split = false;
+    let mut split_level = 1u32;
     let mut only: Option<usize> = None;
     let mut rsm = 512u32;
     let mut side = 32u32;
@@ -75,6 +75,11 @@ fn main() {
             "--equal-split" => equal = true,
             "--keep-negligible" => keep_negligible = true,
             "--split" => split = true,
+            "--split-level" => {
+                split_level = args[i + 1].parse().expect("--split-level 1|2|3");
+                assert!((1..=3).contains(&split_level), "--split-level 1|2|3");
+                i += 1
+            }
             "--look-at" => {
                 let v: Vec<f32> = args[i + 1]
                     .split(',')
@@ -139,7 +144,7 @@ fn main() {
                     (vpls, rsm, side),
                     size,
                     equal,
-                    (keep_negligible, split),
+                    (keep_negligible, split.then_some(split_level)),
                 ));
             }
             if all.len() > 1 {
@@ -177,7 +182,7 @@ fn main() {
                 (vpls, rsm, side),
                 size,
                 equal,
-                (keep_negligible, split),
+                (keep_negligible, split.then_some(split_level)),
             );
         }
     }
@@ -203,7 +208,7 @@ fn judge(
     (vpls, rsm_size, side): (u32, u32, u32),
     size: u32,
     equal: bool,
-    (keep_negligible, split): (bool, bool),
+    (keep_negligible, split): (bool, Option<u32>),
 ) -> (DVec3, f64) {
     let budget = if equal {
         Budget::EqualSplit
@@ -257,11 +262,12 @@ fn judge(
         );
         let near_t = sp.texels - sp.far_texels;
         println!(
-            "    far field: {:.1}% of the texels' light, clustered / texels {:+.1}% (from the map origins {:+.1}%, as the level-1 nodes {:+.1}%); near field: clustered / texels {:+.1}%",
+            "    far field: {:.1}% of the texels' light, clustered / texels {:+.1}% (from the map origins {:+.1}%, as the level-{} nodes {:+.1}%); near field: clustered / texels {:+.1}%",
             sp.far_texels / sp.texels * 100.0,
             (sp.far_clustered / sp.far_texels - 1.0) * 100.0,
             (sp.far_from_origin / sp.far_texels - 1.0) * 100.0,
-            (sp.far_level1 / sp.far_texels - 1.0) * 100.0,
+            split.unwrap_or(1),
+            (sp.far_nodes / sp.far_texels - 1.0) * 100.0,
             ((sp.clustered - sp.far_clustered) / near_t - 1.0) * 100.0
         );
     }

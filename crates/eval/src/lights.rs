@@ -78,9 +78,10 @@ pub struct Split {
     /// `far_clustered` with each disk drawn from its map origin instead
     /// (the rule before session 10).
     pub far_from_origin: f64,
-    /// `far_clustered` drawn as each VPL's four level-1 near-field nodes
-    /// (disks with their own normals and cosine lobes).
-    pub far_level1: f64,
+    /// `far_clustered` drawn as each VPL's near-field nodes of level
+    /// [`JudgeSettings::split`] (disks with their own normals and cosine
+    /// lobes).
+    pub far_nodes: f64,
 }
 
 impl Split {
@@ -113,8 +114,9 @@ pub struct JudgeSettings {
     /// Keep the views whose light is negligible.
     pub keep_negligible: bool,
     /// Also compute [`Judgement::split`] (every texel against every
-    /// receiver: seconds to minutes).
-    pub split: bool,
+    /// receiver: seconds to minutes), with its far field also drawn as
+    /// each VPL's near-field nodes of this level (1, 2 or 3).
+    pub split: Option<u32>,
 }
 
 /// Judges `scene`'s every-light VPLs (see [`JudgeSettings`]).
@@ -176,7 +178,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
     // Per pixel: (reference, twin) indirect radiance, and the variance of
     // the reference's mean; with `split`, the split's figures there.
     // (position, normal, area, flux, global VPL index or u32::MAX).
-    let texels: Vec<(Vec3, Vec3, f32, Vec3, u32)> = if split {
+    let texels: Vec<(Vec3, Vec3, f32, Vec3, u32)> = if split.is_some() {
         let mut first = 0u32;
         let mut out = Vec::new();
         for (m, c) in every.maps.iter().zip(&every.clusters.maps) {
@@ -194,13 +196,29 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
     } else {
         Vec::new()
     };
-    // Which near-field level `far_level1` draws (env GIBAKE_SPLIT_LEVEL:
-    // 1, the default, 2 or 3).
-    let far_nodes = match std::env::var("GIBAKE_SPLIT_LEVEL").as_deref() {
-        Ok("2") => 4..20,
-        Ok("3") => 20..84,
+    // The split's nodes (records of that level in each tree), and each
+    // VPL's map origin and far-field centre.
+    let far_nodes = match split {
+        Some(2) => 4..20,
+        Some(3) => 20..84,
         _ => 0..4,
     };
+    let points: Vec<(Vec3, Vec3)> = records
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let o = gibake_gpu::hemisphere::vpl_origin(
+                Vec3::from_array(v.position),
+                Vec3::from_array(v.normal),
+                v.area,
+            );
+            let tree = &nodes[i * per..(i + 1) * per];
+            (
+                o,
+                gibake_asset::far_field_centre(tree).map_or(o, Vec3::from_array),
+            )
+        })
+        .collect();
     let split_px = std::sync::Mutex::new(Split::default());
     let px: Vec<(Vec3, Vec3, DVec3)> = (0..size * size)
         .into_par_iter()
@@ -220,31 +238,23 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
             let mean = reference.as_dvec3();
             let var_mean = ((s2 / n - mean * mean) * (n / (n - 1.0).max(1.0)) / n).max(DVec3::ZERO);
             let twin = crate::transport::twin_irradiance_of(&records, &nodes, &lobes, &rays, &h);
-            if split {
+            if split.is_some() {
                 let (x, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
+                let sum = |v: Vec3| f64::from(h.albedo.dot(v)) / f64::from(PI);
                 let mut per_vpl = vec![0f64; records.len()];
                 let mut all = 0f64;
                 for &(p, n, a, f, g) in &texels {
-                    let e = crate::transport::disk_irradiance(p, n, a, f, x, ns, ng);
-                    let e = f64::from(h.albedo.dot(e)) / f64::from(PI);
+                    let e = sum(crate::transport::disk_irradiance(p, n, a, f, x, ns, ng));
                     all += e;
                     if let Some(v) = per_vpl.get_mut(g as usize) {
                         *v += e;
                     }
                 }
                 let kept: f64 = per_vpl.iter().sum();
-                let sum = |v: Vec3| f64::from(h.albedo.dot(v)) / f64::from(PI);
-                let (mut far_c, mut far_t, mut far_o, mut far_1) = (0f64, 0f64, 0f64, 0f64);
+                let (mut far_c, mut far_t, mut far_o, mut far_n) = (0f64, 0f64, 0f64, 0f64);
                 for (i, v) in records.iter().enumerate() {
-                    let nv = Vec3::from_array(v.normal);
-                    let origin = gibake_gpu::hemisphere::vpl_origin(
-                        Vec3::from_array(v.position),
-                        nv,
-                        v.area,
-                    );
+                    let (origin, centre) = points[i];
                     let tree = &nodes[i * per..(i + 1) * per];
-                    let centre =
-                        gibake_asset::far_field_centre(tree).map_or(origin, Vec3::from_array);
                     if crate::transport::is_near(x, centre, v.area) {
                         continue;
                     }
@@ -262,7 +272,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
                     far_c += far(centre);
                     far_o += far(origin);
                     for n in &tree[far_nodes.clone()] {
-                        far_1 += sum(crate::transport::node_irradiance(n, x, ns, ng));
+                        far_n += sum(crate::transport::node_irradiance(n, x, ns, ng));
                     }
                     far_t += per_vpl[i];
                 }
@@ -273,7 +283,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
                 sp.far_clustered += far_c;
                 sp.far_texels += far_t;
                 sp.far_from_origin += far_o;
-                sp.far_level1 += far_1;
+                sp.far_nodes += far_n;
                 sp.all_texels += all;
                 sp.reference += f64::from(reference.x + reference.y + reference.z);
             }
@@ -319,7 +329,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
         } else {
             f64::NAN
         },
-        split: split.then(|| split_px.into_inner().expect("no panics while held")),
+        split: split.map(|_| split_px.into_inner().expect("no panics while held")),
         reference_sum: sr,
         bias_sigma: DVec3::select(sr.cmpgt(DVec3::ZERO), var.sqrt() / sr, DVec3::NAN),
     }
