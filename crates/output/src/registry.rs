@@ -6,7 +6,8 @@
 
 use std::ffi::OsString;
 use std::path::PathBuf;
-use std::sync::{Mutex, MutexGuard};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, LazyLock, Mutex, MutexGuard};
 
 /// One thing to undo when the process is stopped.
 #[derive(Clone, Debug)]
@@ -78,9 +79,32 @@ static REGISTRY: Mutex<Registry> = Mutex::new(Registry {
     items: Vec::new(),
 });
 
+/// Set in signal context the moment SIGINT, SIGTERM or SIGHUP arrives
+/// (`signal_hook::flag`), before the handler thread wakes: a writer that
+/// sees it set stops before its next step ([`lock`]).
+pub(crate) static SIGNALLED: LazyLock<Arc<AtomicBool>> =
+    LazyLock::new(|| Arc::new(AtomicBool::new(false)));
+
 /// The registry, locked (a poisoned lock is recovered: the data is a list
 /// of paths, valid whatever panicked).
+///
+/// Once a signal has arrived, this never returns: the calling thread waits
+/// for the handler thread to clean up and end the process. Without that, a
+/// writer that got the signal during its last system call could rename its
+/// output and return from `main` (exit 0) before the handler thread ran.
 pub(crate) fn lock() -> MutexGuard<'static, Registry> {
+    let guard = lock_unchecked();
+    if SIGNALLED.load(Ordering::SeqCst) {
+        drop(guard);
+        loop {
+            std::thread::park();
+        }
+    }
+    guard
+}
+
+/// The registry, locked, whatever signal arrived (for the handler itself).
+fn lock_unchecked() -> MutexGuard<'static, Registry> {
     REGISTRY.lock().unwrap_or_else(|e| e.into_inner())
 }
 
@@ -95,7 +119,7 @@ pub(crate) fn with<R>(f: impl FnOnce(&mut Registry) -> R) -> R {
 /// process ends.
 #[cfg_attr(not(feature = "signals"), allow(dead_code))]
 pub(crate) fn cleanup_all() -> MutexGuard<'static, Registry> {
-    let guard = lock();
+    let guard = lock_unchecked();
     // Temporaries first, lock files last (another writer may start as soon
     // as a lock file is gone).
     for (_, item) in &guard.items {

@@ -9,13 +9,19 @@
 //! signal context, so it may take locks and call the file system. It holds
 //! the registry's mutex from the clean-up to the end, so no writer of this
 //! process starts another step in between; [`finish`] lets `main` wait for
-//! a clean-up in progress instead of exiting under it.
+//! a clean-up in progress instead of exiting under it. A flag set in signal
+//! context stops every writer of this process at its next step even before
+//! the handler thread has woken, so a signal that lands in the last system
+//! call of a write still ends the process by the signal, never with exit 0.
 
 use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
 use signal_hook::iterator::Signals;
 
 /// Installs the handler (once, at the start of `main`).
 pub fn install() -> std::io::Result<()> {
+    for sig in [SIGINT, SIGTERM, SIGHUP] {
+        signal_hook::flag::register(sig, std::sync::Arc::clone(&crate::registry::SIGNALLED))?;
+    }
     let mut signals = Signals::new([SIGINT, SIGTERM, SIGHUP])?;
     std::thread::Builder::new()
         .name("gibake-signals".into())
