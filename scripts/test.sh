@@ -25,7 +25,7 @@ set -e
 # GIBAKE_FUZZ=0 skips it). A crash fails the run and is kept in
 # fuzz/regressions/ for the plain regression tests.
 if [ "${GIBAKE_FUZZ:-1}" != 0 ]; then
-    echo "== fuzzing (scripts/fuzz.sh, ${FUZZ_SECONDS:-30} s per target)"
+    echo "== fuzzing (scripts/fuzz.sh, ${FUZZ_SECONDS:-20} s per target)"
     if ! bash scripts/fuzz.sh; then
         status=1
     fi
