@@ -1,11 +1,13 @@
-//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive]`
+//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive] [--static-only]`
 //! Judges the real levels of data/levels/levels.json (all, or those named)
 //! against the CPU reference; prints one line per level and, with --out,
 //! writes reference | full | rsm | error pictures (NAME.png) and the same
 //! for the indirect light alone (NAME_indirect.png); --markdown ends with
 //! the table of docs/results.md, "Real levels". `--no-naive` leaves out
 //! the `naive` render (every VPL map re-rendered: 90% of the time on
-//! lavapipe) and its naive~full figure.
+//! lavapipe) and its naive~full figure. `--static-only` judges each level
+//! without its moving objects (bake, frames and reference alike), to tell
+//! the static VPLs' error from what the moving objects add.
 fn main() {
     let mut s = gibake_eval::EvalSettings {
         size: 128,
@@ -18,6 +20,7 @@ fn main() {
     let mut names = Vec::new();
     let mut out = None;
     let mut markdown = false;
+    let mut static_only = false;
     let mut rows = Vec::new();
     while let Some(a) = it.next() {
         let mut num = || {
@@ -44,6 +47,7 @@ fn main() {
             }
             "--markdown" => markdown = true,
             "--no-naive" => s.naive = false,
+            "--static-only" => static_only = true,
             "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
             _ => names.push(a.clone()),
         }
@@ -56,7 +60,10 @@ fn main() {
         .iter()
         .filter(|l| names.is_empty() || names.contains(&l.name))
     {
-        let scene = spec.load(&dir).unwrap();
+        let mut scene = spec.load(&dir).unwrap();
+        if static_only {
+            scene = gibake_bake::static_only(&scene);
+        }
         let t = std::time::Instant::now();
         let (e, images) = gibake_eval::levels::judge_level(&ctx, &scene, &spec.name, &s).unwrap();
         println!("{} ({:.0} s)", e.line(), t.elapsed().as_secs_f64());

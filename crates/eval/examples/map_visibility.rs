@@ -7,7 +7,11 @@
 //! CPU above 1 is light the maps let through that rays stop (as
 //! `tests/runtime_modes.rs` checks on the bundled scenes). A second line
 //! gives the twin with exact visibility but without the near-field trees
-//! (every VPL one disk): what the near field adds.
+//! (every VPL one disk): what the near field adds. A third line: the CPU
+//! reference's one-bounce light at the same pixel centres
+//! (`gibake_eval::bounce`, 16 × 16 stratified samples), and the GPU's and
+//! the twin's mean against it (the static bake's own bias, to compare with
+//! `lights_twin`'s, whose bake is the every-light path's).
 use gibake_runtime::{Mode, RenderSettings};
 fn main() {
     let names: Vec<String> = std::env::args().skip(1).collect();
@@ -49,6 +53,7 @@ fn main() {
         let view = gibake_reference::View::from_scene(&scene, time).unwrap();
         let lobes = asset.lobe_coherences();
         let (mut sd, mut sg, mut sv, mut su) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        let mut sr = 0.0f64;
         for y in 0..size {
             for x in 0..size {
                 let (o, d, t0) = view.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
@@ -64,6 +69,9 @@ fn main() {
                 sd += radiance(t.visible_disk);
                 let g = gpu.get(x, y);
                 sg += (g.x + g.y + g.z) as f64;
+                let mut l = glam::Vec3::ZERO;
+                gibake_eval::bounce::one_bounce_samples(&rays, &h, y * size + x, 16, |_, r| l += r);
+                sr += (h.albedo * l / 256.0).element_sum() as f64;
             }
         }
         println!(
@@ -78,6 +86,12 @@ fn main() {
             "  disk only (no near field), exact vis: {:.4e} (near field / disk {:.3})",
             sd,
             sv / sd
+        );
+        println!(
+            "  reference one bounce {:.4e}: GPU {:+.1}%, CPU twin exact vis {:+.1}%",
+            sr,
+            (sg / sr - 1.0) * 100.0,
+            (sv / sr - 1.0) * 100.0
         );
     }
 }
