@@ -158,7 +158,7 @@ fn vpl_visibility_check(name: &str) {
     let gpu = render(&ctx, &scene, &asset, Mode::Indirect, size, time, 1);
     let rays = gibake_reference::RayScene::build(&scene, time);
     let view = gibake_reference::View::from_scene(&scene, time).unwrap();
-    let lobes = asset.lobe_coherences();
+    let twin = gibake_eval::transport::TwinVpls::of_asset(&asset);
     let mut cpu = Image::new(size, size);
     for y in 0..size {
         for x in 0..size {
@@ -167,7 +167,7 @@ fn vpl_visibility_check(name: &str) {
                 continue;
             };
             // Dynamic objects receive too, but the check is about static receivers.
-            let e = gibake_eval::transport::twin_irradiance(&asset, &lobes, &rays, &h).visible;
+            let e = twin.irradiance(&rays, &h).visible;
             cpu.set(x, y, h.albedo / std::f32::consts::PI * e);
         }
     }

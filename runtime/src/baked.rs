@@ -194,7 +194,7 @@ impl BakedGpu {
         if vpl_bytes > max_binding {
             return Err(RuntimeError::DeviceLimit {
                 what: format!(
-                    "the asset's {} VPLs and their near-field nodes (bytes in one storage binding; bake fewer VPLs)",
+                    "the asset's {} VPLs, their near-field nodes and far-field records (bytes in one storage binding; bake fewer VPLs)",
                     vpls.len()
                 ),
                 needed: vpl_bytes,
@@ -202,7 +202,7 @@ impl BakedGpu {
             });
         }
         let vpl_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("static VPLs and near-field nodes"),
+            label: Some("static VPLs, near-field nodes and far-field records"),
             contents: if records.is_empty() {
                 &[0u8; 48]
             } else {

@@ -223,7 +223,7 @@ impl Requirements {
         let records = (2 * a.vpls.len() + a.vpl_nodes.len()) as u64 * VPL_BYTES;
         self.need(
             Limit::StorageBinding,
-            "the asset's VPLs and near-field nodes",
+            "the asset's VPLs, near-field nodes and far-field records",
             records,
         );
         let mut upload = 4 * atlas + 4 * sq(a.primary_depth.size) + records;

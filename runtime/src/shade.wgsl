@@ -274,7 +274,7 @@ fn node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f
 // Unshadowed irradiance at x from static VPL i (record v): one disk at
 // its far-field centre (its texels' centroid: the record after the trees,
 // baked.rs) from afar, its near-field tree up close. CPU twin:
-// gibake_eval::transport::twin_irradiance_of.
+// gibake_eval::transport::TwinVpls::irradiance.
 fn static_vpl_irradiance(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
     let centre = vpls[params.n_static * (1u + NODES_PER_VPL) + i].position;
     if (!is_near(x, centre, v.area)) {

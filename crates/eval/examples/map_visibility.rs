@@ -51,7 +51,7 @@ fn main() {
         .unwrap();
         let rays = gibake_reference::RayScene::build(&scene, time);
         let view = gibake_reference::View::from_scene(&scene, time).unwrap();
-        let lobes = asset.lobe_coherences();
+        let twin = gibake_eval::transport::TwinVpls::of_asset(&asset);
         let (mut sd, mut sg, mut sv, mut su) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         let mut sr = 0.0f64;
         for y in 0..size {
@@ -60,7 +60,7 @@ fn main() {
                 let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
                     continue;
                 };
-                let t = gibake_eval::transport::twin_irradiance(&asset, &lobes, &rays, &h);
+                let t = twin.irradiance(&rays, &h);
                 // Radiance (albedo/π · E), summed over the channels.
                 let radiance =
                     |e: glam::Vec3| (h.albedo / std::f32::consts::PI * e).element_sum() as f64;

@@ -169,10 +169,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
     let bake_seconds = t0.elapsed().as_secs_f64();
     let records = every.vpl_records();
     let nodes = every.vpl_nodes();
-    let per = gibake_asset::NODES_PER_VPL;
-    let lobes: Vec<f32> = (0..records.len())
-        .map(|i| gibake_asset::lobe_coherence(&nodes[i * per..(i + 1) * per]))
-        .collect();
+    let twin_vpls = crate::transport::TwinVpls::new(&records, &nodes);
     let per_light = every.vpls_per_light(scene.lights.len());
     let cam = gibake_reference::View::from_scene(scene, 0.0).expect("the scene has a camera");
     // Per pixel: (reference, twin) indirect radiance, and the variance of
@@ -196,29 +193,12 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
     } else {
         Vec::new()
     };
-    // The split's nodes (records of that level in each tree), and each
-    // VPL's map origin and far-field centre.
+    // The split's nodes (records of that level in each tree).
     let far_nodes = match split {
         Some(2) => 4..20,
         Some(3) => 20..84,
         _ => 0..4,
     };
-    let points: Vec<(Vec3, Vec3)> = records
-        .iter()
-        .enumerate()
-        .map(|(i, v)| {
-            let o = gibake_gpu::hemisphere::vpl_origin(
-                Vec3::from_array(v.position),
-                Vec3::from_array(v.normal),
-                v.area,
-            );
-            let tree = &nodes[i * per..(i + 1) * per];
-            (
-                o,
-                gibake_asset::far_field_centre(tree).map_or(o, Vec3::from_array),
-            )
-        })
-        .collect();
     let split_px = std::sync::Mutex::new(Split::default());
     let px: Vec<(Vec3, Vec3, DVec3)> = (0..size * size)
         .into_par_iter()
@@ -237,7 +217,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
             let reference = h.albedo * s / (side * side) as f32;
             let mean = reference.as_dvec3();
             let var_mean = ((s2 / n - mean * mean) * (n / (n - 1.0).max(1.0)) / n).max(DVec3::ZERO);
-            let twin = crate::transport::twin_irradiance_of(&records, &nodes, &lobes, &rays, &h);
+            let twin = twin_vpls.irradiance(&rays, &h);
             if split.is_some() {
                 let (x, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
                 let sum = |v: Vec3| f64::from(h.albedo.dot(v)) / f64::from(PI);
@@ -253,8 +233,8 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
                 let kept: f64 = per_vpl.iter().sum();
                 let (mut far_c, mut far_t, mut far_o, mut far_n) = (0f64, 0f64, 0f64, 0f64);
                 for (i, v) in records.iter().enumerate() {
-                    let (origin, centre) = points[i];
-                    let tree = &nodes[i * per..(i + 1) * per];
+                    let (origin, centre) = (twin_vpls.origins[i], twin_vpls.centres[i]);
+                    let tree = twin_vpls.tree(i);
                     if crate::transport::is_near(x, centre, v.area) {
                         continue;
                     }
@@ -263,7 +243,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
                             v,
                             o,
                             &[],
-                            lobes[i],
+                            twin_vpls.lobes[i],
                             x,
                             ns,
                             ng,
@@ -271,7 +251,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
                     };
                     far_c += far(centre);
                     far_o += far(origin);
-                    for n in &tree[far_nodes.clone()] {
+                    for n in tree.get(far_nodes.clone()).unwrap_or(&[]) {
                         far_n += sum(crate::transport::node_irradiance(n, x, ns, ng));
                     }
                     far_t += per_vpl[i];

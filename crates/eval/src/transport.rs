@@ -149,47 +149,94 @@ pub struct TwinIrradiance {
     pub visible_disk: Vec3,
 }
 
-/// [`TwinIrradiance`] at `h` from the static VPLs of `asset`, whose lobe
-/// coherences are `lobes` ([`gibake_asset::Asset::lobe_coherences`]).
-pub fn twin_irradiance(
-    asset: &gibake_asset::Asset,
-    lobes: &[f32],
-    rays: &gibake_reference::RayScene,
-    h: &gibake_reference::Hit,
-) -> TwinIrradiance {
-    twin_irradiance_of(&asset.vpls, &asset.vpl_nodes, lobes, rays, h)
+/// Static VPLs as shading holds them after load (`baked.rs`): each VPL's
+/// record and near-field tree, and, computed once per VPL, its lobe
+/// coherence ([`gibake_asset::lobe_coherence`]), its map origin (where its
+/// visibility is tested) and its far-field centre
+/// ([`gibake_asset::far_field_centre`], where its transport is drawn from;
+/// its map origin without a full tree).
+pub struct TwinVpls<'a> {
+    /// The VPL records.
+    pub vpls: &'a [VplRecord],
+    /// Their near-field trees ([`NODES_PER_VPL`] each, in the same order).
+    pub nodes: &'a [VplRecord],
+    /// Per VPL: its far-field lobe coherence.
+    pub lobes: Vec<f32>,
+    /// Per VPL: its map origin.
+    pub origins: Vec<Vec3>,
+    /// Per VPL: its far-field centre.
+    pub centres: Vec<Vec3>,
 }
 
-/// [`twin_irradiance`] from VPL records `vpls` and their near-field trees
-/// `vpl_nodes` ([`NODES_PER_VPL`] each, in the same order): an asset's, or
-/// the every-light bake's before it is an asset.
-pub fn twin_irradiance_of(
-    vpls: &[VplRecord],
-    vpl_nodes: &[VplRecord],
-    lobes: &[f32],
-    rays: &gibake_reference::RayScene,
-    h: &gibake_reference::Hit,
-) -> TwinIrradiance {
-    let mut sum = TwinIrradiance::default();
-    for (i, v) in vpls.iter().enumerate() {
-        let n = Vec3::from_array(v.normal);
-        let origin = gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
-        let nodes = &vpl_nodes[i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL];
-        let c = lobes.get(i).copied().unwrap_or(1.0);
-        // Transport from the VPL's texels' centroid, visibility from its
-        // map origin (shade.wgsl `static_vpl_irradiance`).
-        let centre = gibake_asset::far_field_centre(nodes).map_or(origin, Vec3::from_array);
-        let (x, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
-        let near = static_vpl_irradiance(v, centre, nodes, c, x, ns, ng);
-        let disk = static_vpl_irradiance(v, centre, &[], c, x, ns, ng);
-        if near == Vec3::ZERO && disk == Vec3::ZERO {
-            continue;
-        }
-        sum.unshadowed += near;
-        if rays.visible(origin, n, x, ng) {
-            sum.visible += near;
-            sum.visible_disk += disk;
+impl<'a> TwinVpls<'a> {
+    /// From VPL records `vpls` and their trees `nodes`: an asset's, or the
+    /// every-light bake's before it is an asset.
+    pub fn new(vpls: &'a [VplRecord], nodes: &'a [VplRecord]) -> Self {
+        let tree = |i: usize| {
+            nodes
+                .get(i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL)
+                .unwrap_or(&[])
+        };
+        let origins: Vec<Vec3> = vpls
+            .iter()
+            .map(|v| {
+                gibake_gpu::hemisphere::vpl_origin(
+                    Vec3::from_array(v.position),
+                    Vec3::from_array(v.normal),
+                    v.area,
+                )
+            })
+            .collect();
+        TwinVpls {
+            vpls,
+            nodes,
+            lobes: (0..vpls.len())
+                .map(|i| gibake_asset::lobe_coherence(tree(i)))
+                .collect(),
+            centres: (0..vpls.len())
+                .map(|i| {
+                    gibake_asset::far_field_centre(tree(i)).map_or(origins[i], Vec3::from_array)
+                })
+                .collect(),
+            origins,
         }
     }
-    sum
+
+    /// The static VPLs of `asset`.
+    pub fn of_asset(asset: &'a gibake_asset::Asset) -> Self {
+        Self::new(&asset.vpls, &asset.vpl_nodes)
+    }
+
+    /// VPL `i`'s near-field tree (empty where the asset has none).
+    pub fn tree(&self, i: usize) -> &'a [VplRecord] {
+        self.nodes
+            .get(i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL)
+            .unwrap_or(&[])
+    }
+
+    /// [`TwinIrradiance`] at receiver `h`: transport from each VPL's
+    /// far-field centre, visibility from its map origin (shade.wgsl
+    /// `static_vpl_irradiance`).
+    pub fn irradiance(
+        &self,
+        rays: &gibake_reference::RayScene,
+        h: &gibake_reference::Hit,
+    ) -> TwinIrradiance {
+        let mut sum = TwinIrradiance::default();
+        let (x, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
+        for (i, v) in self.vpls.iter().enumerate() {
+            let (centre, c) = (self.centres[i], self.lobes[i]);
+            let near = static_vpl_irradiance(v, centre, self.tree(i), c, x, ns, ng);
+            let disk = static_vpl_irradiance(v, centre, &[], c, x, ns, ng);
+            if near == Vec3::ZERO && disk == Vec3::ZERO {
+                continue;
+            }
+            sum.unshadowed += near;
+            if rays.visible(self.origins[i], Vec3::from_array(v.normal), x, ng) {
+                sum.visible += near;
+                sum.visible_disk += disk;
+            }
+        }
+        sum
+    }
 }
