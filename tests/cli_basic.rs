@@ -160,7 +160,6 @@ fn help_of_every_subcommand() {
                 "--direct-only",
                 "--output",
                 "--light",
-                "--all-lights",
             ],
         ),
         (
@@ -365,12 +364,14 @@ fn reference_direct_only_writes_exr() {
     assert_eq!(list_dir(out.path()), vec!["ref.exr".to_string()]);
 }
 
-/// `reference --all-lights` shades every lamp of the multi-light scene: no
+/// `reference` shades every lamp of the multi-light scene by default: no
 /// lamp is ignored, and the image is the sum of its lights (here: brighter
-/// than the one spot the default takes, everywhere on average, and the
-/// direct image equals the sum of the per-light images up to rounding).
+/// than the spot alone, everywhere on average, and the direct image equals
+/// the sum of the per-light images, each picked with `--light`, up to
+/// rounding). `--all-lights`, once needed for this, is still accepted and
+/// changes nothing.
 #[test]
-fn reference_all_lights_shades_every_lamp() {
+fn reference_shades_every_lamp_by_default() {
     let out = tempfile::tempdir().unwrap();
     let run = |name: &str, extra: &[&str]| {
         let p = out.path().join(name);
@@ -393,14 +394,16 @@ fn reference_all_lights_shades_every_lamp() {
         assert_ok(&r);
         (r, read_exr(&p))
     };
-    let (r, all) = run("all.exr", &["--all-lights"]);
+    let (r, all) = run("all.exr", &[]);
     assert!(!r.stderr.contains("ignoring"), "{r}");
-    assert_sane(&all, "reference --all-lights");
-    let (r, spot) = run("spot.exr", &[]);
+    assert_sane(&all, "reference");
+    let (_, legacy) = run("legacy.exr", &["--all-lights"]);
+    assert_eq!(legacy.pixels, all.pixels, "--all-lights changes nothing");
+    let (r, spot) = run("spot.exr", &["--light", "spot_lamp"]);
     assert!(r.stderr.contains("ignoring"), "{r}");
     let mut sum = spot.clone();
     for lamp in ["point_lamp", "point_lamp_low"] {
-        let (_, one) = run(&format!("{lamp}.exr"), &["--all-lights", "--light", lamp]);
+        let (_, one) = run(&format!("{lamp}.exr"), &["--light", lamp]);
         for (s, o) in sum.pixels.iter_mut().zip(&one.pixels) {
             *s += *o;
         }

@@ -351,15 +351,29 @@ fn scene_index_out_of_range() {
     every_command_rejects(&scene, &["index 7", "out of range"]);
 }
 
+/// Every command takes a scene whose only light is a point light: it is
+/// the primary light (cube-face maps), not an error.
 #[test]
-fn scene_only_point_light() {
+fn scene_with_only_a_point_light_is_taken_by_every_command() {
     let dir = tempfile::tempdir().unwrap();
     let t = Tiny {
         lights: vec![("bulb", "point")],
         ..Tiny::default()
     };
     let scene = t.write(dir.path(), "point_only.gltf");
-    every_command_rejects(&scene, &["point", "bulb"]);
+    let out = tempfile::tempdir().unwrap();
+    let frame = out.path().join("frame.exr");
+    let r = render(&scene, &frame, &[]);
+    assert_eq!(r.code, Some(0), "{r}");
+    assert!(frame.is_file(), "{r}");
+    let mut c = common::gibake();
+    c.arg("bake")
+        .arg(&scene)
+        .arg("-o")
+        .arg(out.path().join("out.gibake"))
+        .args(TINY_BAKE);
+    let r = run_command(c);
+    assert_eq!(r.code, Some(0), "{r}");
 }
 
 #[test]
@@ -373,30 +387,37 @@ fn scene_without_light() {
     every_command_rejects(&scene, &["light"]);
 }
 
+/// Two spots: both are primary lights by default; `--light NAME` picks
+/// one; an unknown name is an error naming the available lights.
 #[test]
-fn scene_two_spot_lights_need_light_flag() {
+fn scene_with_two_spots_lights_both_and_light_picks_one() {
     let dir = tempfile::tempdir().unwrap();
     let t = Tiny {
         lights: vec![("left_spot", "spot"), ("right_spot", "spot")],
         ..Tiny::default()
     };
     let scene = t.write(dir.path(), "two_spots.gltf");
-    every_command_rejects(&scene, &["left_spot", "right_spot", "--light"]);
-
-    // `--light NAME` picks one and the scene loads.
     let out = tempfile::tempdir().unwrap();
+    let both = out.path().join("both.exr");
+    let r = render(&scene, &both, &[]);
+    assert_eq!(r.code, Some(0), "{r}");
+    assert!(!r.stderr.contains("ignoring"), "{r}");
+    assert!(both.is_file(), "{r}");
     let frame = out.path().join("frame.exr");
     let r = render(&scene, &frame, &["--light", "right_spot"]);
     assert_eq!(r.code, Some(0), "{r}");
+    assert!(
+        r.stderr.contains("left_spot"),
+        "the other light is named: {r}"
+    );
     assert!(frame.is_file(), "{r}");
-    // An unknown name is an error naming the available lights.
     let frame2 = out.path().join("frame2.exr");
     let r = render(&scene, &frame2, &["--light", "nope"]);
     assert_bad(&r, &["two_spots.gltf", "nope", "left_spot", "right_spot"]);
     assert!(!frame2.exists(), "{r}");
 }
 
-/// More lights than `--max-lights` (with every light) is one clear error,
+/// More lights than `--max-lights` is one clear error,
 /// exit 2, no output; a limit of 0 is a usage error.
 #[test]
 fn reference_over_max_lights() {
@@ -405,7 +426,6 @@ fn reference_over_max_lights() {
     let r = gibake!(
         "reference",
         common::data("lamps.glb"),
-        "--all-lights",
         "--max-lights",
         "2",
         "--spp",
@@ -422,7 +442,6 @@ fn reference_over_max_lights() {
     let r = gibake!(
         "reference",
         common::data("lamps.glb"),
-        "--all-lights",
         "--max-lights",
         "0",
         "-o",
@@ -982,9 +1001,9 @@ fn diff_images_dir_with_damaged_asset_writes_nothing() {
     );
 }
 
-/// An asset baked with every light, rendered without `--all-lights` (the
+/// An asset baked with every light, rendered with `--light spot_lamp` (the
 /// scene then has one light): one clear message naming both light sets and
-/// the flags, exit 2, nothing written.
+/// the flag, exit 2, nothing written.
 #[test]
 fn render_with_other_lights_than_the_bake_is_refused() {
     let dir = tempfile::tempdir().unwrap();
@@ -992,7 +1011,6 @@ fn render_with_other_lights_than_the_bake_is_refused() {
     let r = gibake!(
         "bake",
         common::data("lamps.glb"),
-        "--all-lights",
         "--rsm-size",
         "32",
         "--vpl-map-size",
@@ -1010,6 +1028,8 @@ fn render_with_other_lights_than_the_bake_is_refused() {
     let r = gibake!(
         "render",
         common::data("lamps.glb"),
+        "--light",
+        "spot_lamp",
         "--bake",
         &asset,
         "--width",
@@ -1021,7 +1041,7 @@ fn render_with_other_lights_than_the_bake_is_refused() {
     );
     assert_bad(
         &r,
-        &["3 light(s)", "point_lamp", "loaded with 1", "--all-lights"],
+        &["3 light(s)", "point_lamp", "loaded with 1", "--light"],
     );
     assert_empty(out.path(), &r);
 }

@@ -30,10 +30,7 @@ fn settings(scene: &Scene, budget: Budget, keep_negligible: bool) -> JudgeSettin
 }
 
 fn options() -> LoadOptions {
-    LoadOptions {
-        all_lights: true,
-        ..Default::default()
-    }
+    LoadOptions::default()
 }
 
 fn every_light(bytes: &[u8], name: &str) -> Scene {

@@ -634,15 +634,7 @@ fn a_bake_of_every_light_over_the_memory_budget_is_refused() {
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().join("lamps.gibake");
     let lamps = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/lamps.glb");
-    let r = run(&[
-        &"--max-memory",
-        &"150M",
-        &"bake",
-        &lamps,
-        &"--all-lights",
-        &"-o",
-        &out,
-    ]);
+    let r = run(&[&"--max-memory", &"150M", &"bake", &lamps, &"-o", &out]);
     assert_bad(
         &r,
         &["lamps.glb", "13 RSM(s)", "--light NAME", "--max-memory"],

@@ -80,10 +80,7 @@ fn scene_with(ball_rgb: [f32; 3], lamp: Option<DVec3>) -> Scene {
     gibake_scene::load_from_slice(
         &bytes,
         std::path::Path::new("wall_ball.glb"),
-        &LoadOptions {
-            all_lights: true,
-            ..Default::default()
-        },
+        &LoadOptions::default(),
     )
     .unwrap()
 }

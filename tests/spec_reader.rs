@@ -384,7 +384,6 @@ fn edit_manifest(asset: &Path, edit: &dyn Fn(&mut gibake_asset::Manifest)) {
 /// of [`reader_checks_every_lights_views_and_maps`]), `extra` flags added.
 fn bake_lamps(dir: &Path, extra: &[&str]) -> PathBuf {
     let mut flags = vec![
-        "--all-lights",
         "--vpls",
         "32",
         "--rsm-size",

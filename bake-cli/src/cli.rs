@@ -31,17 +31,17 @@ pub struct SceneArgs {
     /// The glTF 2.0 scene (.gltf or .glb).
     pub scene: PathBuf,
     /// Only this light (its glTF light name, else its node's name); give
-    /// it again for several. Without --all-lights the level is lit by one
-    /// spot or directional light: pick it with this when it has several.
+    /// it again for several. Default: every KHR_lights_punctual light of
+    /// the scene (directional, spot and point, glTF ranges honoured), each
+    /// with its shadow maps and its share of one VPL budget. The first
+    /// directional light leads, else the first spot: its maps are the
+    /// full-size primary ones (cascades for a sun). Give `bake` and
+    /// `render` the same --light flags (the asset records its lights).
     #[arg(long = "light", value_name = "NAME")]
     pub lights: Vec<String>,
-    /// Every KHR_lights_punctual light of the scene (directional, spot and
-    /// point, glTF ranges honoured), each with its shadow maps and its
-    /// share of one VPL budget (asset format 4). The first directional
-    /// light leads, else the first spot: its maps are the full-size
-    /// primary ones (cascades for a sun). Give the same flag to `bake` and
-    /// `render` (the asset records its lights).
-    #[arg(long)]
+    /// Every light is the default since format 4.1's every-light import;
+    /// the flag is still accepted (scripts) and changes nothing.
+    #[arg(long, hide = true)]
     pub all_lights: bool,
     /// What the level needs that its file lacks (sun, moving objects).
     #[command(flatten)]
@@ -59,7 +59,6 @@ impl SceneArgs {
     pub fn load_options(&self) -> gibake_scene::LoadOptions {
         gibake_scene::LoadOptions {
             lights: self.lights.clone(),
-            all_lights: self.all_lights,
             limits: self.limits.to_limits(),
             sun: self.level.sun(),
             camera: self.camera.choice(),
@@ -245,17 +244,17 @@ pub struct BakeArgs {
     #[arg(required = true, value_name = "SCENE")]
     pub scenes: Vec<PathBuf>,
     /// Only this light (its glTF light name, else its node's name); give
-    /// it again for several. Without --all-lights the level is lit by one
-    /// spot or directional light: pick it with this when it has several.
+    /// it again for several. Default: every KHR_lights_punctual light of
+    /// the scene (directional, spot and point, glTF ranges honoured), each
+    /// with its shadow maps and its share of one VPL budget. The first
+    /// directional light leads, else the first spot: its maps are the
+    /// full-size primary ones (cascades for a sun). Give `bake` and
+    /// `render` the same --light flags (the asset records its lights).
     #[arg(long = "light", value_name = "NAME")]
     pub lights: Vec<String>,
-    /// Every KHR_lights_punctual light of the scene (directional, spot and
-    /// point, glTF ranges honoured), each with its shadow maps and its
-    /// share of one VPL budget (asset format 4). The first directional
-    /// light leads, else the first spot: its maps are the full-size
-    /// primary ones (cascades for a sun). Give the same flag to `bake` and
-    /// `render` (the asset records its lights).
-    #[arg(long)]
+    /// Every light is the default since format 4.1's every-light import;
+    /// the flag is still accepted (scripts) and changes nothing.
+    #[arg(long, hide = true)]
     pub all_lights: bool,
     /// What the level needs that its file lacks (sun, moving objects).
     #[command(flatten)]

@@ -139,7 +139,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         if !baked.is_empty() && baked.len() != scene.lights.len() {
             let names = |v: Vec<&str>| v.join(", ");
             bail!(
-                "{} was baked with {} light(s) ({}) but the scene is loaded with {} ({}): give `bake` and `render` the same --all-lights and --light flags",
+                "{} was baked with {} light(s) ({}) but the scene is loaded with {} ({}): give `bake` and `render` the same --light flags, or re-bake",
                 dir.display(),
                 baked.len(),
                 names(baked.iter().map(|l| l.name.as_str()).collect()),

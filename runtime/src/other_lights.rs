@@ -232,7 +232,7 @@ impl OtherLights {
             let count = views.iter().filter(|v| v.0 as usize == k).count();
             let Some(first) = first else {
                 return Err(RuntimeError::InvalidSetting(format!(
-                    "the asset has no shadow-map view of light '{}' (it was baked with other lights: re-bake with --all-lights)",
+                    "the asset has no shadow-map view of light '{}' (it was baked with other lights: re-bake it with this scene's lights)",
                     l.name
                 )));
             };

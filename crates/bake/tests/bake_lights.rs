@@ -27,10 +27,7 @@ fn gpu() -> GpuContext {
 
 fn lamps() -> Scene {
     let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/lamps.glb"));
-    let opts = LoadOptions {
-        all_lights: true,
-        ..Default::default()
-    };
+    let opts = LoadOptions::default();
     gibake_scene::load(path, &opts).expect("data/lamps.glb")
 }
 

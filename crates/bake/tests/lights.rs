@@ -305,10 +305,7 @@ fn every_light_is_scale_invariant() {
         gibake_scene::load_from_slice(
             &bytes,
             std::path::Path::new("random_lights.glb"),
-            &gibake_scene::LoadOptions {
-                all_lights: true,
-                ..Default::default()
-            },
+            &gibake_scene::LoadOptions::default(),
         )
         .expect("generated scenes load")
     };

@@ -151,10 +151,7 @@ fn the_views_moving_objects_can_enter_are_compared() {
         panic!("needs a GPU adapter ({e}); `apt-get install mesa-vulkan-drivers` gives lavapipe")
     });
     let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/lamps.glb"));
-    let load = LoadOptions {
-        all_lights: true,
-        ..Default::default()
-    };
+    let load = LoadOptions::default();
     let scene = gibake_scene::load(path, &load).expect("data/lamps.glb loads");
     assert!(scene.lights.len() > 1 && !scene.dynamic_objects.is_empty());
     let opts = BakeOptions {

@@ -29,10 +29,7 @@ pub(super) fn bench_accuracy(b: &mut Bench, seeds: u64) -> crate::Result<()> {
         scenes.push((name, scene));
     }
     // Every light: the bundled room and the random multi-light scenes.
-    let every = gibake_scene::LoadOptions {
-        all_lights: true,
-        ..Default::default()
-    };
+    let every = gibake_scene::LoadOptions::default();
     let lamps = gibake_scenegen::lamps(&Default::default());
     let scene = gibake_scene::load_from_slice(&lamps, std::path::Path::new("lamps.glb"), &every)?;
     scenes.push(("lamps (every light)".into(), scene));

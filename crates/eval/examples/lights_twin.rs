@@ -114,7 +114,6 @@ fn main() {
         std::process::exit(2);
     }
     let opts = LoadOptions {
-        all_lights: true,
         camera,
         ..Default::default()
     };

@@ -72,10 +72,7 @@ fn main() {
         gibake_scene::load_from_slice(
             &bytes,
             std::path::Path::new("random_lights.glb"),
-            &gibake_scene::LoadOptions {
-                all_lights: true,
-                ..Default::default()
-            },
+            &gibake_scene::LoadOptions::default(),
         )
         .expect("the random scene loads")
     } else {

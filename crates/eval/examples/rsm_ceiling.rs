@@ -102,10 +102,7 @@ fn main() {
             let mut scene = gibake_scene::load_from_slice(
                 &bytes,
                 std::path::Path::new("random_lights.glb"),
-                &gibake_scene::LoadOptions {
-                    all_lights: true,
-                    ..Default::default()
-                },
+                &gibake_scene::LoadOptions::default(),
             )
             .expect("generated scenes load");
             if let Some(k) = only {

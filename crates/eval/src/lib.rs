@@ -194,10 +194,7 @@ pub fn load_gltf_lights(spec: &str) -> Option<Scene> {
     };
     let mut scene = gibake_scene::load(
         std::path::Path::new(file),
-        &gibake_scene::LoadOptions {
-            all_lights: true,
-            ..Default::default()
-        },
+        &gibake_scene::LoadOptions::default(),
     )
     .expect("the file loads");
     if let Some(k) = only {

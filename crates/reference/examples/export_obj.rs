@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! cargo run -p gibake-reference --release --example export_obj -- OUT_DIR \
-//!     [--scene SCENE.glb [--all-lights]] [--time T] [--size N] [--spp N] [--segments N] [--seed S]
+//!     [--scene SCENE.glb] [--time T] [--size N] [--spp N] [--segments N] [--seed S]
 //!     [--spot | --multi]
 //! ```
 //!
@@ -13,8 +13,8 @@
 //! 6 W/sr), which Mitsuba's `spot` emitter reproduces up to a 0.1°-wide rim;
 //! `--multi` uses `validation_corner_multi` (the corner's directional light,
 //! a point light and a hard-edged spot, distinct colours). With `--scene`,
-//! `--all-lights` imports every glTF light (`LoadOptions::all_lights`, point
-//! lights included) instead of the one spot/directional light. Writes to
+//! every glTF light of the file is imported, point lights included
+//! (`--all-lights`, once needed for that, is still accepted). Writes to
 //! `OUT_DIR`: one OBJ per mesh (world space at time T, positions and vertex
 //! normals), `scene.json` (camera, `lights` — every light of the scene —,
 //! meshes with albedo, image size, spp, timings) and `gibake_direct.exr` /
@@ -37,7 +37,7 @@ use glam::Vec3;
 
 fn usage() -> ! {
     eprintln!(
-        "usage: export_obj OUT_DIR [--scene SCENE.glb [--all-lights]] [--time T] [--size N] [--spp N] [--segments N] [--seed S] [--spot | --multi]"
+        "usage: export_obj OUT_DIR [--scene SCENE.glb] [--time T] [--size N] [--spp N] [--segments N] [--seed S] [--spot | --multi]"
     );
     std::process::exit(2);
 }
@@ -50,7 +50,7 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let mut out: Option<PathBuf> = None;
     let mut scene_path: Option<PathBuf> = None;
-    let (mut use_spot, mut multi, mut all_lights) = (false, false, false);
+    let (mut use_spot, mut multi) = (false, false);
     let (mut time, mut size, mut spp, mut segments, mut seed) =
         (0.0f32, 128u32, 1024u32, 48u32, 0u64);
     while let Some(a) = args.next() {
@@ -64,7 +64,7 @@ fn main() {
             "--seed" => seed = val().parse().unwrap_or_else(|_| usage()),
             "--spot" => use_spot = true,
             "--multi" => multi = true,
-            "--all-lights" => all_lights = true,
+            "--all-lights" => {}
             s if s.starts_with("--") => usage(),
             s => out = Some(s.into()),
         }
@@ -74,10 +74,6 @@ fn main() {
         eprintln!(
             "--spot and --multi choose a light for the built-in corner: use one, without --scene"
         );
-        std::process::exit(2);
-    }
-    if all_lights && scene_path.is_none() {
-        eprintln!("--all-lights is for --scene");
         std::process::exit(2);
     }
 
@@ -99,11 +95,7 @@ fn main() {
             (scene, view)
         }
         Some(p) => {
-            let options = LoadOptions {
-                all_lights,
-                ..LoadOptions::default()
-            };
-            let scene = gibake_scene::load(p, &options).unwrap_or_else(|e| {
+            let scene = gibake_scene::load(p, &LoadOptions::default()).unwrap_or_else(|e| {
                 eprintln!("{e}");
                 std::process::exit(2)
             });

@@ -3,12 +3,11 @@
 //! Turns a `.gltf` / `.glb` file into a flat [`Scene`] following the
 //! conventions of `docs/method.md` (and the design brief):
 //!
-//! - **Primary lights**: by default the one `KHR_lights_punctual` light of
-//!   type `spot` or `directional` (several candidates are an error unless
-//!   [`LoadOptions::lights`] names one); with [`LoadOptions::all_lights`]
-//!   every light, point lights included, the first directional light
-//!   first, else the first spot. `color × intensity` is radiant intensity in W/sr (spot,
-//!   point) or irradiance in W/m² (directional), linear RGB.
+//! - **Primary lights**: every `KHR_lights_punctual` light (directional,
+//!   spot, point), or the ones [`LoadOptions::lights`] names; the first
+//!   directional light first, else the first spot. `color × intensity` is
+//!   radiant intensity in W/sr (spot, point) or irradiance in W/m²
+//!   (directional), linear RGB.
 //! - **Dynamic objects**: a node is dynamic if it or an ancestor has
 //!   `extras: {"dynamic": true}`, or if an animation channel targets it or an
 //!   ancestor. Everything else is static and is flattened to world space.
@@ -308,10 +307,9 @@ pub struct DynamicObject {
 pub struct Scene {
     /// Source file, for messages.
     pub source: std::path::PathBuf,
-    /// The primary lights, in file order (never empty). Until the bake and
-    /// the runtime take several (the every-light issue), the importer gives
-    /// one unless [`crate::LoadOptions::all_lights`] asks for every light,
-    /// and they use [`Scene::light`].
+    /// The primary lights (never empty): the first directional light first,
+    /// else the first spot, then the others in file order
+    /// ([`crate::LoadOptions::lights`]).
     pub lights: Vec<Light>,
     /// The first camera, if the file has one.
     pub camera: Option<Camera>,
@@ -339,7 +337,7 @@ pub struct Scene {
 impl Scene {
     /// The first primary light: the one whose maps are the primary ones (a
     /// directional light first, else a spot,
-    /// [`crate::LoadOptions::all_lights`]).
+    /// [`crate::LoadOptions::lights`]).
     pub fn light(&self) -> &Light {
         &self.lights[0]
     }

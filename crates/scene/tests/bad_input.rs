@@ -239,18 +239,16 @@ fn no_light() {
     let mut b = Builder::new();
     let q = b.quad("Floor", true);
     b.root_mesh_node("F", q);
-    let e = assert_err_contains(
-        b.load(),
-        &[FILE, "no KHR_lights_punctual spot or directional light"],
-    );
+    let e = assert_err_contains(b.load(), &[FILE, "no KHR_lights_punctual light", "--sun"]);
     assert!(matches!(e, SceneError::Invalid { .. }));
     // Defined but not used by any node.
     b.light(spot_light());
     assert_err_contains(b.load(), &[FILE, "no KHR_lights_punctual", "no node"]);
 }
 
+/// A point light alone is the primary light (its maps are cube faces).
 #[test]
-fn only_a_point_light() {
+fn a_point_light_alone_is_the_primary_light() {
     let mut b = Builder::new();
     let q = b.quad("Floor", true);
     b.root_mesh_node("F", q);
@@ -258,15 +256,16 @@ fn only_a_point_light() {
         json!({ "name": "Bulb", "type": "point", "intensity": 5.0 }),
         json!({ "name": "BulbNode" }),
     );
-    let e = assert_err_contains(b.load(), &[FILE, "point", "Bulb"]);
-    assert!(matches!(e, SceneError::NotSupported { .. }), "{e:?}");
-    // Picking it by name is also not supported.
+    let s = b.load().unwrap();
+    assert_eq!(s.lights.len(), 1);
+    assert_eq!(s.light().name, "Bulb");
+    assert_eq!(s.light().kind, LightKind::Point);
+    // Picked by name: the same.
     let opts = LoadOptions {
         lights: vec!["Bulb".into()],
         ..Default::default()
     };
-    let e = assert_err_contains(b.load_with(&opts), &[FILE, "Bulb", "point"]);
-    assert!(matches!(e, SceneError::NotSupported { .. }), "{e:?}");
+    assert_eq!(b.load_with(&opts).unwrap().light().kind, LightKind::Point);
 }
 
 fn two_spots() -> Builder {
@@ -284,10 +283,13 @@ fn two_spots() -> Builder {
     b
 }
 
+/// Two lights: both are primary lights, the directional one first.
 #[test]
-fn two_candidate_lights_error_names_both() {
-    let e = assert_err_contains(two_spots().load(), &[FILE, "Alpha", "Beta", "--light"]);
-    assert!(matches!(e, SceneError::Invalid { .. }));
+fn two_lights_are_both_kept() {
+    let s = two_spots().load().unwrap();
+    let names: Vec<&str> = s.lights.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["Beta", "Alpha"]);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
 }
 
 #[test]
@@ -487,13 +489,10 @@ fn bad_light_and_camera_parameters() {
     assert_err_contains(b.load(), &[FILE, "perspective"]);
 }
 
-// ------------------------------------------------- every light (all_lights)
+// ------------------------------------------------- every light
 
 fn every_light() -> LoadOptions {
-    LoadOptions {
-        all_lights: true,
-        ..Default::default()
-    }
+    LoadOptions::default()
 }
 
 /// A spot, a directional and a point light with a range.
@@ -521,8 +520,6 @@ fn every_light_is_kept_the_sun_first() {
     assert_eq!(s.lights[2].range, Some(3.0));
     assert_eq!(s.lights[0].range, None);
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
-    // Today's default still takes one light and names the candidates.
-    assert_err_contains(three_kinds().load(), &[FILE, "Alpha", "Beta", "--light"]);
 }
 
 #[test]
@@ -539,16 +536,6 @@ fn repeated_light_option_restricts_the_set() {
         "{:?}",
         s.warnings
     );
-    // In the one-light mode two names are refused, clearly.
-    let opts = LoadOptions {
-        lights: vec!["Alpha".into(), "Beta".into()],
-        ..Default::default()
-    };
-    let e = assert_err_contains(
-        three_kinds().load_with(&opts),
-        &[FILE, "Alpha", "Beta", "one"],
-    );
-    assert!(matches!(e, SceneError::NotSupported { .. }), "{e:?}");
 }
 
 /// The first light is the primary one: the first directional light in

@@ -533,7 +533,7 @@ fn rgba_png_texture_kept_as_is() {
 }
 
 #[test]
-fn skins_and_point_lights_beside_the_primary_are_warnings() {
+fn skins_are_warnings_and_a_point_light_beside_the_primary_is_kept() {
     let mut b = basic();
     b.light_node(
         json!({ "name": "Bulb", "type": "point" }),
@@ -550,9 +550,14 @@ fn skins_and_point_lights_beside_the_primary_are_warnings() {
         s.warnings
     );
     assert_eq!(s.triangle_counts(), (2, 0), "skinned mesh rendered rigid");
-    assert_eq!(s.light().name, "Key");
+    let names: Vec<&str> = s.lights.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["Key", "Bulb"],
+        "the spot leads, the point light is kept"
+    );
     assert!(
-        s.warnings.iter().any(|w| w.contains("Bulb")),
+        !s.warnings.iter().any(|w| w.contains("Bulb")),
         "{:?}",
         s.warnings
     );

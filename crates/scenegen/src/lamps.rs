@@ -9,10 +9,8 @@
 //! LINEAR loops: one rolling around under the hanging lamp, one bobbing past
 //! the pillar, one circling through the spot's cone.
 //!
-//! One spot light and two point lights: with the default import (one
-//! primary light) the spot is kept and the point lights are ignored with a
-//! warning, so the file also bakes today; with `all_lights` all three are
-//! primary lights.
+//! One spot light and two point lights, all three primary lights (the spot
+//! leads: the first spot when there is no directional light).
 
 use std::f64::consts::{PI, TAU};
 

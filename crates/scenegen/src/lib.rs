@@ -137,9 +137,7 @@ pub fn sun(p: &Params) -> Vec<u8> {
 
 /// A room lit by three lamps: a ceiling spot (glTF `range` 6 m), a hanging
 /// point lamp (no range) and a low point lamp (range 2.5 m); four static
-/// blocks, three balls on LINEAR loops. Imported with the default options
-/// (one primary light) it keeps the spot and ignores the point lamps with a
-/// warning; with `all_lights` it has all three.
+/// blocks, three balls on LINEAR loops; all three lamps are primary lights.
 pub fn lamps(p: &Params) -> Vec<u8> {
     lamps::build(p)
 }

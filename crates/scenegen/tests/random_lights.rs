@@ -1,8 +1,8 @@
 //! Tests of the multi-light scenes: `random_lights` is deterministic per
-//! seed, its scenes import with every light (`LoadOptions::all_lights`) and
-//! cover the kinds, ranges and rooms the module docs promise; the bundled
-//! `lamps` scene is what `data/lamps.glb` holds and imports with its three
-//! lamps (and, with the default options, with its one spot).
+//! seed, its scenes import with every light and cover the kinds, ranges and
+//! rooms the module docs promise; the bundled `lamps` scene is what
+//! `data/lamps.glb` holds and imports with its three lamps (and, with
+//! `--light spot_lamp`, with its one spot).
 
 use std::collections::HashSet;
 use std::path::Path;
@@ -13,16 +13,20 @@ use gibake_scenegen::{Params, RandomLightsInfo, random_lights};
 
 const SEEDS: u64 = 64;
 
-fn import(bytes: &[u8], name: &str, all_lights: bool) -> Scene {
+fn import_with(bytes: &[u8], name: &str, lights: &[&str]) -> Scene {
     load_from_slice(
         bytes,
         Path::new(name),
         &LoadOptions {
-            all_lights,
+            lights: lights.iter().map(|l| l.to_string()).collect(),
             ..Default::default()
         },
     )
     .unwrap_or_else(|e| panic!("{name}: import failed: {e}"))
+}
+
+fn import(bytes: &[u8], name: &str) -> Scene {
+    import_with(bytes, name, &[])
 }
 
 fn kind(k: &LightKind) -> &'static str {
@@ -124,7 +128,7 @@ fn every_seed_imports_with_all_its_lights_and_the_seeds_cover_the_cases() {
     for seed in 0..SEEDS {
         let (bytes, info) = random_lights(seed, &Params::default());
         let what = format!("seed {seed} ({info})");
-        let scene = import(&bytes, &format!("random_lights_{seed}.glb"), true);
+        let scene = import(&bytes, &format!("random_lights_{seed}.glb"));
         let n = scene.lights.len();
         assert!((1..=8).contains(&n), "{what}: {n} lights");
         let expected = sorted(info.lights.iter().map(|l| (l.kind, l.range)).collect());
@@ -205,10 +209,7 @@ fn scaled_random_lights_scale_intensity_and_range() {
                 ..Params::default()
             },
         );
-        let (a, b) = (
-            import(&a, "a.glb", true).lights,
-            import(&b, "b.glb", true).lights,
-        );
+        let (a, b) = (import(&a, "a.glb").lights, import(&b, "b.glb").lights);
         assert_eq!(a.len(), b.len());
         for (la, lb) in a.iter().zip(&b) {
             let what = format!("seed {seed} ({info}): {}", la.name);
@@ -250,7 +251,7 @@ fn heavy_random_lights_import() {
                 ..Params::default()
             },
         );
-        let scene = import(&bytes, "heavy.glb", true);
+        let scene = import(&bytes, "heavy.glb");
         assert_eq!(scene.lights.len(), info.lights.len());
     }
 }
@@ -289,7 +290,7 @@ fn committed_lamps_is_reproducible() {
 #[test]
 fn lamps_imports_with_every_light_and_with_one() {
     let bytes = committed_lamps();
-    let scene = import(&bytes, "lamps.glb", true);
+    let scene = import(&bytes, "lamps.glb");
     check_light_parameters(&scene, "lamps");
     let got = imported_lights(&scene);
     assert!(
@@ -302,8 +303,8 @@ fn lamps_imports_with_every_light_and_with_one() {
     assert_eq!(scene.dynamic_objects.len(), 3);
     assert!(scene.camera.is_some());
 
-    // Today's single-light import keeps the spot and warns about the rest.
-    let one = import(&bytes, "lamps.glb", false);
+    // `--light spot_lamp` keeps the spot and warns about the rest.
+    let one = import_with(&bytes, "lamps.glb", &["spot_lamp"]);
     assert_eq!(one.lights.len(), 1);
     assert_eq!(one.lights[0].name, "spot_lamp");
     assert!(matches!(one.lights[0].kind, LightKind::Spot { .. }));

@@ -1,8 +1,7 @@
-//! Lights: finds the primary lights (every `KHR_lights_punctual` light, or
-//! while the bake takes one, the one spot or directional light, chosen by
-//! name when there are several) and converts glTF's units to gibake's
-//! radiometric ones (`color × intensity`; glTF's photometric intensity is
-//! read as W/sr or W/m², docs/method.md).
+//! Lights: finds the primary lights (every `KHR_lights_punctual` light on a
+//! node of the scene, or the ones `--light NAME` picks) and converts glTF's
+//! units to gibake's radiometric ones (`color × intensity`; glTF's
+//! photometric intensity is read as W/sr or W/m², docs/method.md).
 
 use glam::Vec3;
 use gltf::json;
@@ -47,10 +46,9 @@ impl<'a> Ctx<'a> {
     }
 
     /// The primary lights: every `KHR_lights_punctual` light on a node of
-    /// the scene ([`LoadOptions::all_lights`]), or the one the bake and the
-    /// runtime take today (a spot or directional light, chosen by
-    /// `--light NAME` when there are several). `--light` (repeatable)
-    /// restricts the set in both modes; more than `max_lights` is refused.
+    /// the scene, or the ones `--light NAME` (repeatable) picks; more than
+    /// `max_lights` is refused. The first directional light leads, else the
+    /// first spot (see below).
     pub(super) fn primary_lights(
         &mut self,
         order: &[usize],
@@ -116,13 +114,8 @@ impl<'a> Ctx<'a> {
                     lights.len()
                 )
             };
-            let kinds = if options.all_lights {
-                "light"
-            } else {
-                "spot or directional light"
-            };
             return Err(self.invalid(format!(
-                "no KHR_lights_punctual {kinds}{extra}; gibake needs one as its primary light (add a sun with --sun AZIMUTH,ELEVATION)"
+                "no KHR_lights_punctual light{extra}; gibake needs one as its primary light (add a sun with --sun AZIMUTH,ELEVATION)"
             )));
         }
 
@@ -162,124 +155,69 @@ impl<'a> Ctx<'a> {
         }
         picked.sort_unstable();
 
-        let chosen: Vec<usize> = if options.all_lights {
-            let set: Vec<usize> = if picked.is_empty() {
-                (0..cands.len()).collect()
-            } else {
-                picked
-            };
-            let mut kept = Vec::with_capacity(set.len());
-            for i in set {
-                if cands[i].ty.is_none() {
-                    self.warn(format!(
-                        "ignoring light {}: its type is not directional, spot or point",
-                        describe(i)
-                    ));
-                } else {
-                    kept.push(i);
-                }
-            }
-            if kept.is_empty() {
-                return Err(self.not_supported(
-                    "no light of a known type (directional, spot or point)".to_string(),
-                ));
-            }
-            // The first light is the primary one: full-size maps, and
-            // cascades when it is a sun on a large level. A directional
-            // light leads (it covers the whole level; a lamp a part of it),
-            // else a spot; the first such light in file order, the others
-            // keep their order. (Exporters write lights in node order,
-            // which need not put the sun first.)
-            let directional = |i: &usize| {
-                matches!(
-                    cands[*i].ty,
-                    Some(json::extensions::scene::khr_lights_punctual::Type::Directional)
-                )
-            };
-            let lead = kept
-                .iter()
-                .position(directional)
-                .or_else(|| kept.iter().position(|&i| usable(&cands[i])));
-            if let Some(p) = lead {
-                let lead = kept.remove(p);
-                kept.insert(0, lead);
-            }
-            let max = options.limits.max_lights as usize;
-            if kept.len() > max {
-                return Err(self.invalid(format!(
-                    "{} lights, over the limit of {max} (raise it with --max-lights, or pick lights with --light NAME)",
-                    kept.len()
-                )));
-            }
-            kept
+        let set: Vec<usize> = if picked.is_empty() {
+            (0..cands.len()).collect()
         } else {
-            vec![self.one_light(&cands, &picked, &described)?]
+            picked
         };
+        let mut chosen = Vec::with_capacity(set.len());
+        for i in set {
+            if cands[i].ty.is_none() {
+                self.warn(format!(
+                    "ignoring light {}: its type is not directional, spot or point",
+                    describe(i)
+                ));
+            } else {
+                chosen.push(i);
+            }
+        }
+        if chosen.is_empty() {
+            return Err(self.not_supported(
+                "no light of a known type (directional, spot or point)".to_string(),
+            ));
+        }
+        // The first light is the primary one: full-size maps, and
+        // cascades when it is a sun on a large level. A directional
+        // light leads (it covers the whole level; a lamp a part of it),
+        // else a spot; the first such light in file order, the others
+        // keep their order. (Exporters write lights in node order,
+        // which need not put the sun first.)
+        let directional = |i: &usize| {
+            matches!(
+                cands[*i].ty,
+                Some(json::extensions::scene::khr_lights_punctual::Type::Directional)
+            )
+        };
+        let lead = chosen
+            .iter()
+            .position(directional)
+            .or_else(|| chosen.iter().position(|&i| is_spot(&cands[i])));
+        if let Some(p) = lead {
+            let lead = chosen.remove(p);
+            chosen.insert(0, lead);
+        }
+        let max = options.limits.max_lights as usize;
+        if chosen.len() > max {
+            return Err(self.invalid(format!(
+                "{} lights, over the limit of {max} (raise it with --max-lights, or pick lights with --light NAME)",
+                chosen.len()
+            )));
+        }
 
         let ignored: Vec<String> = (0..cands.len())
             .filter(|i| !chosen.contains(i))
             .map(describe)
             .collect();
         if !ignored.is_empty() {
-            let what = if options.all_lights {
-                "the lights --light left out"
-            } else {
-                "light(s) other than the primary one"
-            };
-            self.warn(format!("ignoring {what}: {}", ignored.join(", ")));
+            self.warn(format!(
+                "ignoring the lights --light left out: {}",
+                ignored.join(", ")
+            ));
         }
         chosen
             .into_iter()
             .map(|i| self.convert(&cands[i], dynamic, animator))
             .collect()
-    }
-
-    /// Today's single primary light: the one `--light` picked, else the one
-    /// spot or directional light of the file.
-    fn one_light(
-        &self,
-        cands: &[Cand],
-        picked: &[usize],
-        described: &[String],
-    ) -> Result<usize, SceneError> {
-        match picked {
-            [] => {}
-            [i] => {
-                let c = &cands[*i];
-                if !usable(c) {
-                    return Err(self.not_supported(format!(
-                        "light {} is a {} light; gibake bakes only spot and directional lights so far",
-                        described[*i],
-                        kind_str(c.ty)
-                    )));
-                }
-                return Ok(*i);
-            }
-            _ => {
-                let all: Vec<String> = picked.iter().map(|&i| described[i].clone()).collect();
-                return Err(self.not_supported(format!(
-                    "several lights picked: {}; the bake takes one primary light so far, pick one with --light NAME",
-                    all.join(", ")
-                )));
-            }
-        }
-        let valid: Vec<usize> = (0..cands.len()).filter(|&i| usable(&cands[i])).collect();
-        match valid.len() {
-            0 => {
-                Err(self.not_supported(format!(
-                    "only point lights: {}; gibake needs one KHR_lights_punctual spot or directional light",
-                    described.join(", ")
-                )))
-            }
-            1 => Ok(valid[0]),
-            _ => {
-                let all: Vec<String> = valid.iter().map(|&i| described[i].clone()).collect();
-                Err(self.invalid(format!(
-                    "several spot/directional lights: {}; pick one with --light NAME",
-                    all.join(", ")
-                )))
-            }
-        }
     }
 
     /// One glTF light on its node, in gibake's units.
@@ -413,7 +351,7 @@ fn kind_str(t: Option<json::extensions::scene::khr_lights_punctual::Type>) -> &'
 }
 
 /// What the single-light bake takes.
-fn usable(c: &Cand) -> bool {
+fn is_spot(c: &Cand) -> bool {
     use json::extensions::scene::khr_lights_punctual::Type;
-    matches!(c.ty, Some(Type::Spot | Type::Directional))
+    matches!(c.ty, Some(Type::Spot))
 }

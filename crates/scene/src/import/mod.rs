@@ -64,15 +64,12 @@ use precheck::{check_glb_header, precheck};
 #[derive(Clone, Debug, Default)]
 pub struct LoadOptions {
     /// `--light NAME` (repeatable): only these lights (by light name, else
-    /// node name). Empty: every light ([`LoadOptions::all_lights`]) or the
-    /// one spot/directional light.
+    /// node name). Empty: every `KHR_lights_punctual` light on a node of
+    /// the scene, point lights included. Either way [`Scene::lights`] holds
+    /// the first directional light in file order first, else the first
+    /// spot (the bake's and the runtime's primary light: full-size maps,
+    /// cascades for a sun), then the others in file order.
     pub lights: Vec<String>,
-    /// Every `KHR_lights_punctual` light, point lights included, into
-    /// [`Scene::lights`]: the first directional light in file order first,
-    /// else the first spot (the bake's and the runtime's primary light:
-    /// full-size maps, cascades for a sun), then the others in file order. `false` (the
-    /// default): one spot or directional light.
-    pub all_lights: bool,
     /// Resource budgets (file sizes, accessor elements, texels, animation
     /// work, where external URIs may point).
     pub limits: Limits,
