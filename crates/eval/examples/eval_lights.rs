@@ -19,7 +19,10 @@
 //! (format 4.1) before rendering: their bounce off moving objects is not
 //! computed, as with a 4.0 asset.
 //!
-//! `SCENE`: a glTF file (loaded with every light, `--all-lights`), or
+//! `--ssaa N` (default 4): N² samples per pixel, as eval_levels (its docs
+//! say why 2 is too few on a small image).
+//!
+//! `SCENE`: a glTF file (loaded with every light), or
 //! `random:SEED` / `random:A..B` (`gibake_scenegen::random_lights`). With
 //! `--out DIR`, writes `reference | full | rsm | error` (NAME.png) and the
 //! same for the indirect light alone (NAME_indirect.png).
@@ -36,6 +39,7 @@ fn main() {
         size: 96,
         spp: 512,
         blur: 4,
+        ssaa: 4,
         ..Default::default()
     };
     let args: Vec<String> = std::env::args().skip(1).collect();
