@@ -156,7 +156,10 @@ fn vpl_map_distance(i: u32, map: u32, tile: u32, c: vec2<i32>) -> f32 {
 // 1–14% more light than exact rays on real levels (`map_visibility`,
 // docs/method.md "Real levels"). Known issue: a receiver within one
 // footprint of a concave crease is partly shadowed by the tap that sees
-// the crease's other side (as before, somewhat more).
+// the crease's other side (as before, somewhat more). A receiver below the
+// VPL's horizon (lit only by near-field nodes facing it) is looked up on the
+// map's rim: the map holds nothing below its horizon. CPU twin:
+// gibake_eval::transport::map_visibility.
 fn vpl_visibility(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ng: vec3<f32>) -> f32 {
     var tile = NONE;
     if (has(FLAG_TILES)) {

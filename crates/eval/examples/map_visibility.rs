@@ -11,7 +11,13 @@
 //! reference's one-bounce light at the same pixel centres
 //! (`gibake_eval::bounce`, 16 × 16 stratified samples), and the GPU's and
 //! the twin's mean against it (the static bake's own bias, to compare with
-//! `lights_twin`'s, whose bake is the every-light path's).
+//! `lights_twin`'s, whose bake is the every-light path's). A fourth line:
+//! the maps emulated on the CPU (`gibake_eval::transport::map_visibility`,
+//! the shader's lookup on the asset's maps; its ratio to the rays should
+//! match the GPU's), and where their excess over the rays lies — light to
+//! receivers below the VPL's horizon (lit only by near-field nodes facing
+//! them; the map holds nothing there and answers from its rim) or above
+//! it — as shares of the rays' total.
 use gibake_runtime::{Mode, RenderSettings};
 fn main() {
     let names: Vec<String> = std::env::args().skip(1).collect();
@@ -52,6 +58,12 @@ fn main() {
         let rays = gibake_reference::RayScene::build(&scene, time);
         let view = gibake_reference::View::from_scene(&scene, time).unwrap();
         let twin = gibake_eval::transport::TwinVpls::of_asset(&asset);
+        let maps: Vec<Option<Vec<f32>>> =
+            (0..asset.vpls.len()).map(|i| asset.vpl_map_of(i)).collect();
+        let map_size = asset.manifest.settings.vpl_map_size;
+        // Emulated maps' total; their excess over rays below / above the
+        // VPL's horizon.
+        let (mut sm, mut below, mut above) = (0.0f64, 0.0f64, 0.0f64);
         let (mut sd, mut sg, mut sv, mut su) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         let mut sr = 0.0f64;
         for y in 0..size {
@@ -67,6 +79,34 @@ fn main() {
                 sv += radiance(t.visible);
                 su += radiance(t.unshadowed);
                 sd += radiance(t.visible_disk);
+                let (p, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
+                for (i, v) in asset.vpls.iter().enumerate() {
+                    let e = gibake_eval::transport::static_vpl_irradiance(
+                        v,
+                        twin.centres[i],
+                        twin.tree(i),
+                        twin.lobes[i],
+                        p,
+                        ns,
+                        ng,
+                    );
+                    if e == glam::Vec3::ZERO {
+                        continue;
+                    }
+                    let nv = glam::Vec3::from_array(v.normal);
+                    let origin = twin.origins[i];
+                    let exact = f64::from(u8::from(rays.visible(origin, nv, p, ng)));
+                    let m = maps[i].as_deref().map_or(1.0, |map| {
+                        gibake_eval::transport::map_visibility(map, map_size, nv, origin, p, ng)
+                    });
+                    let r = radiance(e);
+                    sm += r * f64::from(m);
+                    if nv.dot(p - origin) < 0.0 {
+                        below += r * (f64::from(m) - exact);
+                    } else {
+                        above += r * (f64::from(m) - exact);
+                    }
+                }
                 let g = gpu.get(x, y);
                 sg += (g.x + g.y + g.z) as f64;
                 let mut l = glam::Vec3::ZERO;
@@ -92,6 +132,13 @@ fn main() {
             sr,
             (sg / sr - 1.0) * 100.0,
             (sv / sr - 1.0) * 100.0
+        );
+        println!(
+            "  maps on the CPU {:.4e} (CPU maps / rays {:.3}); their excess over rays: {:+.1}% below the VPLs' horizon, {:+.1}% above",
+            sm,
+            sm / sv,
+            below / sv * 100.0,
+            above / sv * 100.0
         );
     }
 }

@@ -240,3 +240,62 @@ impl<'a> TwinVpls<'a> {
         sum
     }
 }
+
+/// Hemisphere-map biases of shade.wgsl `vpl_visibility`, in texel
+/// footprints at the receiver (must match `VPL_DEPTH_BIAS` and
+/// `VPL_MAX_SLOPE` there).
+pub const VPL_DEPTH_BIAS: f32 = 0.5;
+/// See [`VPL_DEPTH_BIAS`].
+pub const VPL_MAX_SLOPE: f32 = 10.0;
+
+/// CPU twin of shade.wgsl `vpl_visibility` on a baked map alone (no
+/// moving-object tile): the fraction of a VPL's light that its `size²`
+/// hemisphere map `map` (row-major distances, +inf = no surface, around
+/// `normal`) lets reach `x` (geometric normal `ng`) from the map's
+/// `origin` — the 2×2 PCF with the receiver-plane test. A receiver below
+/// the VPL's horizon (`normal · (x − origin) < 0`, lit only by near-field
+/// nodes facing it) is looked up on the map's rim, as on the GPU: the map
+/// holds nothing below its horizon (docs/method.md, "Real levels").
+pub fn map_visibility(
+    map: &[f32],
+    size: u32,
+    normal: Vec3,
+    origin: Vec3,
+    x: Vec3,
+    ng: Vec3,
+) -> f32 {
+    use gibake_gpu::hemisphere;
+    let n = size as f32;
+    let dx = x - origin;
+    let d = dx.length();
+    if d.is_nan() || d <= 0.0 || map.len() != (size * size) as usize {
+        return 1.0;
+    }
+    let w = d * (2.83 / n);
+    let h = -dx.dot(ng);
+    let tc = hemisphere::texel_coords(normal, dx / d, size) - glam::Vec2::splat(0.5);
+    let i0 = tc.floor();
+    let f = tc - i0;
+    let t_min = d - w * VPL_MAX_SLOPE;
+    let mut lit = [0f32; 4];
+    for (k, (ox, oy)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
+        let cx = (i0.x as i32 + ox).clamp(0, size as i32 - 1);
+        let cy = (i0.y as i32 + oy).clamp(0, size as i32 - 1);
+        let e = glam::Vec2::new(cx as f32 + 0.5, cy as f32 + 0.5) * (2.0 / n) - glam::Vec2::ONE;
+        let u = hemisphere::to_world(normal, hemisphere::decode(e));
+        let cu = -u.dot(ng);
+        let mut t = d;
+        if h > 0.0 && cu * d > h {
+            t = (h / cu).max(t_min);
+        }
+        let stored = map[(cy as u32 * size + cx as u32) as usize];
+        lit[k] = if t <= stored + w * VPL_DEPTH_BIAS {
+            1.0
+        } else {
+            0.0
+        };
+    }
+    let top = lit[0] + (lit[1] - lit[0]) * f.x;
+    let bottom = lit[2] + (lit[3] - lit[2]) * f.x;
+    top + (bottom - top) * f.y
+}
