@@ -196,9 +196,7 @@ fn map_lookup_twin_matches_the_gpu() {
         let rays = gibake_reference::RayScene::build(&scene, time);
         let view = gibake_reference::View::from_scene(&scene, time).unwrap();
         let twin = gibake_eval::transport::TwinVpls::of_asset(&asset);
-        let maps: Vec<Option<Vec<f32>>> =
-            (0..asset.vpls.len()).map(|i| asset.vpl_map_of(i)).collect();
-        let map_size = asset.manifest.settings.vpl_map_size;
+        let maps = gibake_eval::transport::TwinMaps::of_asset(&asset);
         let (mut cpu, mut exact) = (Image::new(size, size), Image::new(size, size));
         for y in 0..size {
             for x in 0..size {
@@ -207,30 +205,10 @@ fn map_lookup_twin_matches_the_gpu() {
                     continue;
                 };
                 let (p, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
-                let mut e = glam::Vec3::ZERO;
-                for (i, v) in asset.vpls.iter().enumerate() {
-                    let ei = gibake_eval::transport::static_vpl_irradiance(
-                        v,
-                        twin.centres[i],
-                        twin.tree(i),
-                        twin.lobes[i],
-                        p,
-                        ns,
-                        ng,
-                    );
-                    let nv = glam::Vec3::from_array(v.normal);
-                    let m = maps[i].as_deref().map_or(1.0, |map| {
-                        gibake_eval::transport::map_visibility(
-                            map,
-                            map_size,
-                            nv,
-                            twin.origins[i],
-                            p,
-                            ng,
-                        )
-                    });
-                    e += ei * m;
-                }
+                let e: glam::Vec3 = twin
+                    .terms(p, ns, ng)
+                    .map(|(i, e)| e * maps.visibility(&twin, i, p, ng))
+                    .sum();
                 cpu.set(x, y, h.albedo / std::f32::consts::PI * e);
                 let ex = twin.irradiance(&rays, &h).visible;
                 exact.set(x, y, h.albedo / std::f32::consts::PI * ex);

@@ -58,9 +58,7 @@ fn main() {
         let rays = gibake_reference::RayScene::build(&scene, time);
         let view = gibake_reference::View::from_scene(&scene, time).unwrap();
         let twin = gibake_eval::transport::TwinVpls::of_asset(&asset);
-        let maps: Vec<Option<Vec<f32>>> =
-            (0..asset.vpls.len()).map(|i| asset.vpl_map_of(i)).collect();
-        let map_size = asset.manifest.settings.vpl_map_size;
+        let maps = gibake_eval::transport::TwinMaps::of_asset(&asset);
         // Emulated maps' total; their excess over rays below / above the
         // VPL's horizon.
         let (mut sm, mut below, mut above) = (0.0f64, 0.0f64, 0.0f64);
@@ -80,25 +78,11 @@ fn main() {
                 su += radiance(t.unshadowed);
                 sd += radiance(t.visible_disk);
                 let (p, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
-                for (i, v) in asset.vpls.iter().enumerate() {
-                    let e = gibake_eval::transport::static_vpl_irradiance(
-                        v,
-                        twin.centres[i],
-                        twin.tree(i),
-                        twin.lobes[i],
-                        p,
-                        ns,
-                        ng,
-                    );
-                    if e == glam::Vec3::ZERO {
-                        continue;
-                    }
-                    let nv = glam::Vec3::from_array(v.normal);
+                for (i, e) in twin.terms(p, ns, ng) {
+                    let nv = glam::Vec3::from_array(asset.vpls[i].normal);
                     let origin = twin.origins[i];
                     let exact = f64::from(u8::from(rays.visible(origin, nv, p, ng)));
-                    let m = maps[i].as_deref().map_or(1.0, |map| {
-                        gibake_eval::transport::map_visibility(map, map_size, nv, origin, p, ng)
-                    });
+                    let m = maps.visibility(&twin, i, p, ng);
                     let r = radiance(e);
                     sm += r * f64::from(m);
                     if nv.dot(p - origin) < 0.0 {

@@ -214,6 +214,17 @@ impl<'a> TwinVpls<'a> {
             .unwrap_or(&[])
     }
 
+    /// Each VPL's unshadowed irradiance at `x` (shading normal `ns`,
+    /// geometric `ng`) as `(index, irradiance)`, VPLs that send nothing
+    /// left out: the terms [`TwinVpls::irradiance`] sums.
+    pub fn terms(&self, x: Vec3, ns: Vec3, ng: Vec3) -> impl Iterator<Item = (usize, Vec3)> + '_ {
+        self.vpls.iter().enumerate().filter_map(move |(i, v)| {
+            let e =
+                static_vpl_irradiance(v, self.centres[i], self.tree(i), self.lobes[i], x, ns, ng);
+            (e != Vec3::ZERO).then_some((i, e))
+        })
+    }
+
     /// [`TwinIrradiance`] at receiver `h`: transport from each VPL's
     /// far-field centre, visibility from its map origin (shade.wgsl
     /// `static_vpl_irradiance`).
@@ -238,6 +249,34 @@ impl<'a> TwinVpls<'a> {
             }
         }
         sum
+    }
+}
+
+/// An asset's hemisphere maps, for the CPU twin of the shader's lookup
+/// ([`map_visibility`]).
+pub struct TwinMaps {
+    /// Per VPL its map (`None`: no stored map, every direction open).
+    pub maps: Vec<Option<Vec<f32>>>,
+    /// The maps' side.
+    pub size: u32,
+}
+
+impl TwinMaps {
+    /// The maps of `asset`'s static VPLs.
+    pub fn of_asset(asset: &gibake_asset::Asset) -> Self {
+        TwinMaps {
+            maps: (0..asset.vpls.len()).map(|i| asset.vpl_map_of(i)).collect(),
+            size: asset.manifest.settings.vpl_map_size,
+        }
+    }
+
+    /// The shader's visibility of VPL `i` of `twin` (the same VPLs) at `x`
+    /// (geometric normal `ng`).
+    pub fn visibility(&self, twin: &TwinVpls<'_>, i: usize, x: Vec3, ng: Vec3) -> f32 {
+        self.maps[i].as_deref().map_or(1.0, |map| {
+            let nv = Vec3::from_array(twin.vpls[i].normal);
+            map_visibility(map, self.size, nv, twin.origins[i], x, ng)
+        })
     }
 }
 
