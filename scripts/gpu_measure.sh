@@ -67,17 +67,17 @@ step 60 "$bin/gibake" diff "$out/det1.gibake" "$out/det2.gibake"
 # Every light (issue 19). The same for a level baked with every light.
 blenvy=data/lights/blenvy_start_level/StartLevel.glb
 store=data/lights/pyraxia_store/Store.gltf
-step 120 "$bin/gibake" bake "$blenvy" --all-lights -o "$out/blenvy1.gibake" --force
-step 120 "$bin/gibake" bake "$blenvy" --all-lights -o "$out/blenvy2.gibake" --force
+step 120 "$bin/gibake" bake "$blenvy" -o "$out/blenvy1.gibake" --force
+step 120 "$bin/gibake" bake "$blenvy" -o "$out/blenvy2.gibake" --force
 step 60 "$bin/gibake" diff "$out/blenvy1.gibake" "$out/blenvy2.gibake"
 # Per-pass frame time of every light on two real levels at 720p (the
 # third frame's passes in the stats file), and the 97-spot store with its
 # lights culled and not.
-step 120 "$bin/gibake" render "$blenvy" --all-lights --bake "$out/blenvy1.gibake" \
+step 120 "$bin/gibake" render "$blenvy" --bake "$out/blenvy1.gibake" \
     --width 1280 --height 720 --frames 3 -o "$out/blenvy_###.png" --stats "$out/blenvy_stats.json"
-step 300 "$bin/gibake" bake "$store" --all-lights -o "$out/store.gibake" --force
+step 300 "$bin/gibake" bake "$store" -o "$out/store.gibake" --force
 for culling in "" --no-light-culling; do
-    step 120 "$bin/gibake" render "$store" --all-lights --bake "$out/store.gibake" \
+    step 120 "$bin/gibake" render "$store" --bake "$out/store.gibake" \
         --look-at 0,3,0,10,0,0 --width 1280 --height 720 --frames 3 $culling \
         -o "$out/store${culling}_###.png" --stats "$out/store${culling}_stats.json"
 done
