@@ -39,8 +39,8 @@ pub struct SceneArgs {
     /// `render` the same --light flags (the asset records its lights).
     #[arg(long = "light", value_name = "NAME")]
     pub lights: Vec<String>,
-    /// Every light is the default since format 4.1's every-light import;
-    /// the flag is still accepted (scripts) and changes nothing.
+    /// Once needed for every light; every light is now the default. Still
+    /// accepted (scripts written before) and changes nothing.
     #[arg(long, hide = true)]
     pub all_lights: bool,
     /// What the level needs that its file lacks (sun, moving objects).
@@ -252,8 +252,8 @@ pub struct BakeArgs {
     /// `render` the same --light flags (the asset records its lights).
     #[arg(long = "light", value_name = "NAME")]
     pub lights: Vec<String>,
-    /// Every light is the default since format 4.1's every-light import;
-    /// the flag is still accepted (scripts) and changes nothing.
+    /// Once needed for every light; every light is now the default. Still
+    /// accepted (scripts written before) and changes nothing.
     #[arg(long, hide = true)]
     pub all_lights: bool,
     /// What the level needs that its file lacks (sun, moving objects).

@@ -172,11 +172,6 @@ impl<'a> TwinVpls<'a> {
     /// From VPL records `vpls` and their trees `nodes`: an asset's, or the
     /// every-light bake's before it is an asset.
     pub fn new(vpls: &'a [VplRecord], nodes: &'a [VplRecord]) -> Self {
-        let tree = |i: usize| {
-            nodes
-                .get(i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL)
-                .unwrap_or(&[])
-        };
         let origins: Vec<Vec3> = vpls
             .iter()
             .map(|v| {
@@ -187,19 +182,23 @@ impl<'a> TwinVpls<'a> {
                 )
             })
             .collect();
-        TwinVpls {
+        let mut twin = TwinVpls {
             vpls,
             nodes,
-            lobes: (0..vpls.len())
-                .map(|i| gibake_asset::lobe_coherence(tree(i)))
-                .collect(),
-            centres: (0..vpls.len())
-                .map(|i| {
-                    gibake_asset::far_field_centre(tree(i)).map_or(origins[i], Vec3::from_array)
-                })
-                .collect(),
+            lobes: Vec::new(),
             origins,
-        }
+            centres: Vec::new(),
+        };
+        twin.lobes = (0..vpls.len())
+            .map(|i| gibake_asset::lobe_coherence(twin.tree(i)))
+            .collect();
+        twin.centres = (0..vpls.len())
+            .map(|i| {
+                gibake_asset::far_field_centre(twin.tree(i))
+                    .map_or(twin.origins[i], Vec3::from_array)
+            })
+            .collect();
+        twin
     }
 
     /// The static VPLs of `asset`.
@@ -282,7 +281,9 @@ impl TwinMaps {
 
 /// Hemisphere-map biases of shade.wgsl `vpl_visibility`, in texel
 /// footprints at the receiver (must match `VPL_DEPTH_BIAS` and
-/// `VPL_MAX_SLOPE` there).
+/// `VPL_MAX_SLOPE` there, as must the footprint factor 2.83 of
+/// [`map_visibility`]; `tests/runtime_modes.rs`,
+/// `map_lookup_twin_matches_the_gpu`, fails when they do not).
 pub const VPL_DEPTH_BIAS: f32 = 0.5;
 /// See [`VPL_DEPTH_BIAS`].
 pub const VPL_MAX_SLOPE: f32 = 10.0;
