@@ -1,4 +1,4 @@
-//! `cargo run --release -p gibake-eval --example map_visibility -- LEVEL...`
+//! `cargo run --release -p gibake-eval --example map_visibility -- LEVEL|FILE.glb...`
 //! How much of a level's indirect error is the VPL maps' visibility: bakes
 //! the level (static part only, 664 VPLs, default maps), renders `indirect`
 //! on the GPU (48², interleave 1), and sums at the same pixel centres the
@@ -27,11 +27,22 @@ fn main() {
     );
     let list = gibake_eval::levels::bundled_list();
     let ctx = gibake_gpu::GpuContext::new(&Default::default()).unwrap();
+    let is_file = |n: &String| n.ends_with(".glb") || n.ends_with(".gltf");
+    let mut scenes = Vec::new();
     for spec in gibake_eval::levels::read_specs(&list).unwrap() {
-        if !names.contains(&spec.name) {
-            continue;
+        if names.contains(&spec.name) {
+            scenes.push((
+                spec.name.clone(),
+                spec.load(list.parent().unwrap()).unwrap(),
+            ));
         }
-        let mut scene = spec.load(list.parent().unwrap()).unwrap();
+    }
+    for n in names.iter().filter(|n| is_file(n)) {
+        let scene = gibake_scene::load(std::path::Path::new(n), &Default::default())
+            .unwrap_or_else(|e| panic!("{n}: {e}"));
+        scenes.push((n.clone(), scene));
+    }
+    for (name, mut scene) in scenes {
         scene.dynamic_meshes.clear();
         scene.dynamic_objects.clear();
         let s = gibake_eval::EvalSettings::default();
@@ -100,7 +111,7 @@ fn main() {
         }
         println!(
             "{}: GPU indirect {:.4e}, CPU twin exact vis {:.4e} (GPU/CPU {:.3}), CPU twin no vis {:.4e}",
-            spec.name,
+            name,
             sg,
             sv,
             sg / sv,
