@@ -3,6 +3,7 @@
 
 use std::time::Instant;
 
+use crate::lights::ViewPlan;
 use gibake_asset::{
     Asset, BakeSettings, MAX_SHARDS, Manifest, Map, MapAtlas, NO_MAP, Provenance, RsmData,
     ShardMaps, ShardPart, VplRecord, assign_map_tiles, shard_range,
@@ -445,14 +446,17 @@ fn every_light_front(
     reach: &Reach<'_, '_>,
     view: &LightView,
     opts: &BakeOptions,
-) -> Front {
-    let every = crate::lights::every_light(
-        scene,
-        reach,
-        opts.rsm_size,
-        opts.shadow_map_size,
-        opts.target,
-    );
+    budget: Option<(u64, u64)>,
+) -> Result<Front, BakeError> {
+    let plan = ViewPlan::new(scene, reach, opts.rsm_size, opts.shadow_map_size);
+    // The memory budget with each view's own RSM resolution, before the
+    // full RSMs are made (`budget`: the limit, and the other lights'
+    // shadow-map texels already held).
+    if let Some((limit, light_map_texels)) = budget {
+        let views = (plan.sizes().len() as u64, plan.texels());
+        crate::budget::check_lights(opts, views, light_map_texels, limit)?;
+    }
+    let every = crate::lights::every_light_planned(scene, reach, plan, opts.target, true);
     let per_light = every
         .vpls_per_light(scene.lights.len())
         .into_iter()
@@ -490,7 +494,7 @@ fn every_light_front(
             (Some(rsm), vec![NO_VPL; n])
         }
     };
-    Front {
+    Ok(Front {
         vpls,
         vpl_nodes,
         per_light,
@@ -500,7 +504,7 @@ fn every_light_front(
         texel_vpl,
         rsm,
         view_rsms,
-    }
+    })
 }
 
 /// The bake; with `shard`, the asset has no hemisphere maps and the maps of
@@ -581,14 +585,20 @@ fn bake_with(
     let mut warnings = warnings;
     let n = light_maps::view_count(scene);
     // Several lights: every view's RSM is held at once; checked before any
-    // is made (the views are known from the scene alone).
+    // is made with the fewest texels the views' plan can have (the views
+    // are known from the scene alone), and again once the plan has chosen
+    // each view's resolution (every_light_front).
     let every = bakes_every_light(scene);
-    if every && let Some(limit) = progress.memory_limit() {
-        // The light-map views, and the primary's one when it has one.
-        let rsm_views = n + light_maps::first_viewed_light(scene);
+    let light_map_texels = {
         let (size, _) = light_maps::light_map_size(opts.shadow_map_size, n, max_tex);
-        let texels = n as u64 * u64::from(size) * u64::from(size);
-        crate::budget::check_lights(opts, rsm_views as u64, texels, limit)?;
+        n as u64 * u64::from(size) * u64::from(size)
+    };
+    let budget = progress
+        .memory_limit()
+        .map(|limit| (limit, light_map_texels));
+    if every && let Some(limit) = progress.memory_limit() {
+        let least = ViewPlan::least_texels(scene, opts.rsm_size, opts.shadow_map_size);
+        crate::budget::check_lights(opts, least, light_map_texels, limit)?;
     }
     let (views, light_maps, light_map_size) = if n > 0 {
         let (size, capped) = light_maps::light_map_size(opts.shadow_map_size, n, max_tex);
@@ -625,7 +635,7 @@ fn bake_with(
     // every view.
     let front = if every {
         progress.begin("RSMs and clustering of every light", 0);
-        let f = every_light_front(scene, &reach, &view, opts);
+        let f = every_light_front(scene, &reach, &view, opts, budget)?;
         progress.end();
         lap("rsm+clustering", &mut stages);
         f

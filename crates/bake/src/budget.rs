@@ -5,7 +5,7 @@
 //!
 //! | part | bytes |
 //! |---|---|
-//! | RSM (metric, position, normal, flux, area) and the clustering pyramid | 64 × rsm², per view of a bake of several lights |
+//! | RSM (metric, position, normal, flux, area) and the clustering pyramid | 64 × rsm², per view of a bake of several lights (at the view's own resolution: `lights::ViewPlan`) |
 //! | hemisphere maps: the layers, the atlas copy and its EXR encoding | 12 × VPLs × map² |
 //! | primary shadow map: read-back, map and EXR encoding | 12 × shadow² |
 //! | the other lights' shadow maps: the same | 12 × views × light map² |
@@ -16,7 +16,11 @@
 //! ([`check_with`]) once clustering has counted the VPLs, before any
 //! near-field tree or map exists (`BakeProgress::memory_limit`). A bake of
 //! several lights holds every view's RSM at once: it checks
-//! ([`check_lights`]) once the scene's views are known, before any RSM.
+//! ([`check_lights`]) once the scene's views are known, before any RSM,
+//! with the fewest texels their plan can have (the probes' resolution for
+//! the views that may get less than `rsm_size`,
+//! `lights::ViewPlan::least_texels`), and again with the planned
+//! resolutions before the full RSMs are made.
 
 use crate::BakeOptions;
 use crate::cluster::ClusterTarget;
@@ -44,7 +48,7 @@ impl MemoryEstimate {
 /// A bake whose estimate is over the budget.
 #[derive(Debug, thiserror::Error)]
 #[error(
-    "the bake would need about {} MiB ({} VPL maps of {vpl_map_size}² = {} MiB, {rsm_views} RSM(s) of {rsm_size}² = {} MiB, shadow maps (primary {shadow_map_size}²) = {} MiB), over the memory limit of {} MiB; lower --vpls, --vpl-map-size, --rsm-size or --shadow-map-size, bake fewer lights (--light NAME), or raise the limit with --max-memory",
+    "the bake would need about {} MiB ({} VPL maps of {vpl_map_size}² = {} MiB, {rsm_views} RSM(s) of {rsm_texels} texels in all (up to {rsm_size}² each) = {} MiB, shadow maps (primary {shadow_map_size}²) = {} MiB), over the memory limit of {} MiB; lower --vpls, --vpl-map-size, --rsm-size or --shadow-map-size, bake fewer lights (--light NAME), or raise the limit with --max-memory",
     mib(estimate.total()),
     vpls,
     mib(estimate.vpl_maps),
@@ -67,6 +71,8 @@ pub struct OverBudget {
     pub shadow_map_size: u32,
     /// RSMs held at once (every view of every light; 1 with one light).
     pub rsm_views: u64,
+    /// Their texels together (`rsm_size²` with one light).
+    pub rsm_texels: u64,
 }
 
 fn mib(b: u64) -> u64 {
@@ -79,7 +85,7 @@ fn within(
     limit: u64,
     opts: &BakeOptions,
     vpls: u64,
-    rsm_views: u64,
+    (rsm_views, rsm_texels): (u64, u64),
 ) -> Result<MemoryEstimate, Box<OverBudget>> {
     if estimate.total() <= limit {
         return Ok(estimate);
@@ -92,6 +98,7 @@ fn within(
         rsm_size: opts.rsm_size,
         shadow_map_size: opts.shadow_map_size,
         rsm_views,
+        rsm_texels,
     }))
 }
 
@@ -105,7 +112,6 @@ pub fn assumed_vpls(opts: &BakeOptions) -> u64 {
 
 /// The bake's estimated peak memory for `opts`.
 pub fn estimate(opts: &BakeOptions) -> MemoryEstimate {
-    let sq = |n: u32| n as u64 * n as u64;
     MemoryEstimate {
         rsm: sq(opts.rsm_size).saturating_mul(64),
         vpl_maps: assumed_vpls(opts)
@@ -118,20 +124,30 @@ pub fn estimate(opts: &BakeOptions) -> MemoryEstimate {
 /// Checks the estimate of `opts` against `limit` bytes.
 pub fn check(opts: &BakeOptions, limit: u64) -> Result<MemoryEstimate, Box<OverBudget>> {
     let estimate = estimate(opts);
-    within(estimate, limit, opts, assumed_vpls(opts), 1)
+    within(
+        estimate,
+        limit,
+        opts,
+        assumed_vpls(opts),
+        (1, sq(opts.rsm_size)),
+    )
 }
 
-/// The estimate of a bake of several lights: `rsm_views` RSMs held at once
-/// (every view of every light) and `light_map_texels` of the other lights'
-/// shadow maps.
+fn sq(n: u32) -> u64 {
+    u64::from(n) * u64::from(n)
+}
+
+/// The estimate of a bake of several lights: `rsm_views` RSMs of
+/// `rsm_texels` texels together held at once (every view of every light)
+/// and `light_map_texels` of the other lights' shadow maps.
 pub fn estimate_lights(
     opts: &BakeOptions,
-    rsm_views: u64,
+    rsm_texels: u64,
     light_map_texels: u64,
 ) -> MemoryEstimate {
     let e = estimate(opts);
     MemoryEstimate {
-        rsm: e.rsm.saturating_mul(rsm_views.max(1)),
+        rsm: rsm_texels.saturating_mul(64),
         vpl_maps: e.vpl_maps,
         shadow_map: e
             .shadow_map
@@ -142,12 +158,18 @@ pub fn estimate_lights(
 /// Checks [`estimate_lights`] against `limit`, before any RSM is made.
 pub fn check_lights(
     opts: &BakeOptions,
-    rsm_views: u64,
+    (rsm_views, rsm_texels): (u64, u64),
     light_map_texels: u64,
     limit: u64,
 ) -> Result<MemoryEstimate, Box<OverBudget>> {
-    let estimate = estimate_lights(opts, rsm_views, light_map_texels);
-    within(estimate, limit, opts, assumed_vpls(opts), rsm_views)
+    let estimate = estimate_lights(opts, rsm_texels, light_map_texels);
+    within(
+        estimate,
+        limit,
+        opts,
+        assumed_vpls(opts),
+        (rsm_views, rsm_texels),
+    )
 }
 
 /// Bytes per VPL besides its map: the record (48) and its near-field tree
@@ -159,7 +181,6 @@ const BYTES_PER_VPL: u64 = 2 * 48 * (1 + gibake_asset::NODES_PER_VPL as u64);
 /// `mapped` get a hemisphere map in this run (all of them, or a shard's).
 pub fn estimate_with(opts: &BakeOptions, vpls: u64, mapped: u64) -> MemoryEstimate {
     let e = estimate(opts);
-    let sq = |n: u32| n as u64 * n as u64;
     MemoryEstimate {
         rsm: e.rsm.saturating_add(vpls.saturating_mul(BYTES_PER_VPL)),
         vpl_maps: mapped
@@ -179,7 +200,7 @@ pub fn check_with(
     limit: u64,
 ) -> Result<MemoryEstimate, Box<OverBudget>> {
     let estimate = estimate_with(opts, vpls, mapped);
-    within(estimate, limit, opts, vpls, 1)
+    within(estimate, limit, opts, vpls, (1, sq(opts.rsm_size)))
 }
 
 #[cfg(test)]

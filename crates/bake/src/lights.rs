@@ -1,6 +1,7 @@
 //! The bake's front part for every light (issue 19): each light's views
 //! ([`LightView::of_light`]: a spot's one, a sun's fitted one, a point
-//! light's six cube faces), one reflective shadow map per view, and one VPL
+//! light's six cube faces), one reflective shadow map per view (at a
+//! resolution by the view's share of the bounce, [`ViewPlan`]), and one VPL
 //! budget over all of them ([`cluster_joint`]: a node's share of the light
 //! is its part of every light's reaching flux, so VPLs go where the bounce
 //! is, whichever light made it).
@@ -39,7 +40,8 @@ pub struct LightMap {
     pub face: usize,
     /// The view at the primary shadow map's resolution (the runtime's).
     pub view: LightView,
-    /// The RSM, at the bake's RSM resolution.
+    /// The RSM, at the view's planned resolution ([`ViewPlan`]: the bake's
+    /// RSM resolution, or less for a view with a small share of the light).
     pub rsm: Rsm,
 }
 
@@ -118,24 +120,37 @@ pub fn every_light_with(
     target: ClusterTarget,
     leave_out_negligible: bool,
 ) -> EveryLight {
+    let plan = ViewPlan::new(scene, reach, rsm_size, shadow_map_size);
+    every_light_planned(scene, reach, plan, target, leave_out_negligible)
+}
+
+/// [`every_light_with`] on views whose RSM resolutions are already chosen
+/// ([`ViewPlan`]; the bake checks its memory budget in between).
+pub fn every_light_planned(
+    scene: &Scene,
+    reach: &Reach<'_, '_>,
+    plan: ViewPlan,
+    target: ClusterTarget,
+    leave_out_negligible: bool,
+) -> EveryLight {
     let mut maps = Vec::new();
     let mut unlit_views = 0;
-    for (k, light) in scene.lights.iter().enumerate() {
-        for (face, view) in LightView::of_light(scene, light, shadow_map_size)
-            .into_iter()
-            .enumerate()
-        {
-            let rsm = render_rsm(reach.rays, light, &view.resized(rsm_size), Some(reach));
-            if rsm.flux.iter().any(|f| f.max_element() > 0.0) {
-                maps.push(LightMap {
-                    light: k,
-                    face,
-                    view,
-                    rsm,
-                });
-            } else {
-                unlit_views += 1;
-            }
+    for (((k, face, view), size), probe) in plan.views.into_iter().zip(plan.sizes).zip(plan.probes)
+    {
+        let light = &scene.lights[k];
+        let rsm = match probe {
+            Some(rsm) if rsm.size == size => rsm,
+            _ => render_rsm(reach.rays, light, &view.resized(size), Some(reach)),
+        };
+        if rsm.flux.iter().any(|f| f.max_element() > 0.0) {
+            maps.push(LightMap {
+                light: k,
+                face,
+                view,
+                rsm,
+            });
+        } else {
+            unlit_views += 1;
         }
     }
     let refs: Vec<&Rsm> = maps.iter().map(|m| &m.rsm).collect();
@@ -144,16 +159,7 @@ pub fn every_light_with(
     if leave_out_negligible && !maps.is_empty() {
         // The light each view bounces onto a surface (its flux if nothing
         // anywhere reaches one), against an average VPL's share.
-        let reaching = |r: &Rsm| -> (f64, f64) {
-            r.flux
-                .iter()
-                .zip(&r.reach)
-                .fold((0.0, 0.0), |(a, b), (f, w)| {
-                    let f = f.as_dvec3().element_sum();
-                    (a + f * f64::from(*w), b + f)
-                })
-        };
-        let per: Vec<(f64, f64)> = maps.iter().map(|m| reaching(&m.rsm)).collect();
+        let per: Vec<(f64, f64)> = maps.iter().map(|m| reaching_and_flux(&m.rsm)).collect();
         let (tr, tf) = per.iter().fold((0.0, 0.0), |(a, b), (r, f)| (a + r, b + f));
         let by_reach = tr > 0.0;
         let total = if by_reach { tr } else { tf };
@@ -182,4 +188,170 @@ pub fn every_light_with(
         negligible_views,
         dropped_vpls,
     }
+}
+
+/// A view's RSM is at least this many texels wide ([`ViewPlan`]), and
+/// this is the resolution its share of the light is measured at first.
+pub const MIN_VIEW_RSM_SIZE: u32 = 64;
+
+/// A view that is not the leading light's gets this many times its share
+/// of all views' reaching flux in RSM texels ([`ViewPlan`]): a light that
+/// bounces a sixteenth of the level's light or more keeps the full
+/// resolution. Measured on the 97-spot store (`lights_twin`, 24²
+/// receivers, 64² samples each; docs/method.md): 4, 8 and 16 give a
+/// blurred error of 0.024, 0.024 and 0.025 against 0.021 at full size,
+/// and a bias of +1.1, +0.9 and +0.1% against +0.3%.
+pub const VIEW_RSM_TEXEL_FACTOR: f64 = 16.0;
+
+/// Every view of every light ([`LightView::of_light`], in light order)
+/// and the resolution of its RSM.
+///
+/// The leading light's views and the views whose static RSM the asset
+/// stores ([`crate::bake::moving_views`]; the format stores them at
+/// `rsm_size`) get `rsm_size`: a bake of one light is unchanged. Every
+/// other view is first rendered at [`MIN_VIEW_RSM_SIZE`] (its *probe*)
+/// and gets `VIEW_RSM_TEXEL_FACTOR · share · rsm_size²` texels (rounded up
+/// to a multiple of 8 wide, at least the probe's, at most `rsm_size`),
+/// `share` its part of all views' reaching flux (the flux when nothing
+/// reaches anything) measured on the probes (a share does not depend on
+/// the resolution, `cluster.rs`). One budget spreads the VPLs by the same
+/// share, so a view keeps at least `VIEW_RSM_TEXEL_FACTOR` times the
+/// texels per VPL that one light alone gets, while a level of a hundred
+/// lamps no longer renders and holds a hundred full-size RSMs for a few
+/// VPLs each (docs/method.md, "One VPL budget over every light").
+pub struct ViewPlan {
+    /// (light, face, view) of every view.
+    views: Vec<(usize, usize, LightView)>,
+    /// The RSM resolution of each view.
+    sizes: Vec<u32>,
+    /// Each view's probe RSM, where it was made (reused when the view's
+    /// resolution is the probe's).
+    probes: Vec<Option<Rsm>>,
+}
+
+impl ViewPlan {
+    /// Plans every view of `scene`'s lights (see the type's docs).
+    pub fn new(scene: &Scene, reach: &Reach<'_, '_>, rsm_size: u32, shadow_map_size: u32) -> Self {
+        let views = all_views(scene, shadow_map_size);
+        let full = full_size_views(scene, shadow_map_size, &views);
+        let probe_size = MIN_VIEW_RSM_SIZE.min(rsm_size);
+        if probe_size == rsm_size || full.iter().all(|f| *f) {
+            return ViewPlan {
+                sizes: vec![rsm_size; views.len()],
+                probes: views.iter().map(|_| None).collect(),
+                views,
+            };
+        }
+        let probes: Vec<Rsm> = views
+            .iter()
+            .map(|(k, _, view)| {
+                render_rsm(
+                    reach.rays,
+                    &scene.lights[*k],
+                    &view.resized(probe_size),
+                    Some(reach),
+                )
+            })
+            .collect();
+        let totals: Vec<(f64, f64)> = probes.iter().map(reaching_and_flux).collect();
+        let (tr, tf) = totals
+            .iter()
+            .fold((0.0, 0.0), |(a, b), (r, f)| (a + r, b + f));
+        let (by_reach, total) = if tr > 0.0 { (true, tr) } else { (false, tf) };
+        let sizes = totals
+            .iter()
+            .zip(&full)
+            .map(|(&(r, f), &full)| {
+                if full || total.is_nan() || total <= 0.0 {
+                    return rsm_size;
+                }
+                let share = (if by_reach { r } else { f }) / total;
+                let texels = VIEW_RSM_TEXEL_FACTOR * share * f64::from(rsm_size).powi(2);
+                let wide = (texels.sqrt().ceil().min(f64::from(rsm_size)) as u32).div_ceil(8) * 8;
+                wide.clamp(probe_size, rsm_size)
+            })
+            .collect();
+        ViewPlan {
+            views,
+            sizes,
+            probes: probes.into_iter().map(Some).collect(),
+        }
+    }
+
+    /// The RSM resolution of each view, in light order.
+    pub fn sizes(&self) -> &[u32] {
+        &self.sizes
+    }
+
+    /// The RSM texels of every view together (what the bake holds).
+    pub fn texels(&self) -> u64 {
+        self.sizes
+            .iter()
+            .map(|&s| u64::from(s) * u64::from(s))
+            .sum()
+    }
+
+    /// The fewest RSM texels a plan of `scene` can have, known before any
+    /// RSM is made: the full-size views at `rsm_size²`, every other at the
+    /// probe's (the bake's first memory check, [`crate::budget`]).
+    pub fn least_texels(scene: &Scene, rsm_size: u32, shadow_map_size: u32) -> (u64, u64) {
+        let views = all_views(scene, shadow_map_size);
+        let full = full_size_views(scene, shadow_map_size, &views);
+        let probe = u64::from(MIN_VIEW_RSM_SIZE.min(rsm_size));
+        let texels = full
+            .iter()
+            .map(|&f| {
+                if f {
+                    u64::from(rsm_size).pow(2)
+                } else {
+                    probe * probe
+                }
+            })
+            .sum();
+        (views.len() as u64, texels)
+    }
+}
+
+/// (light, face, view) of every view of `scene`'s lights, in light order.
+fn all_views(scene: &Scene, shadow_map_size: u32) -> Vec<(usize, usize, LightView)> {
+    scene
+        .lights
+        .iter()
+        .enumerate()
+        .flat_map(|(k, light)| {
+            LightView::of_light(scene, light, shadow_map_size)
+                .into_iter()
+                .enumerate()
+                .map(move |(face, view)| (k, face, view))
+        })
+        .collect()
+}
+
+/// Which views keep the full RSM resolution ([`ViewPlan`]).
+fn full_size_views(
+    scene: &Scene,
+    shadow_map_size: u32,
+    views: &[(usize, usize, LightView)],
+) -> Vec<bool> {
+    let stored = crate::bake::moving_views(scene, shadow_map_size);
+    // `moving_views` counts the views from the first light with shadow-map
+    // views of its own (the second, unless the first is a point light).
+    let first = gibake_gpu::passes::light_maps::first_viewed_light(scene);
+    let skipped = views.iter().filter(|(k, _, _)| *k < first).count();
+    views
+        .iter()
+        .enumerate()
+        .map(|(i, (k, _, _))| *k == 0 || (i >= skipped && stored.contains(&((i - skipped) as u32))))
+        .collect()
+}
+
+/// A map's reaching flux (`Σ flux · reach`) and flux, channels summed.
+fn reaching_and_flux(r: &Rsm) -> (f64, f64) {
+    r.flux
+        .iter()
+        .zip(&r.reach)
+        .fold((0.0, 0.0), |(a, b), (f, w)| {
+            let f = f.as_dvec3().element_sum();
+            (a + f * f64::from(*w), b + f)
+        })
 }

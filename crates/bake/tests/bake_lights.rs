@@ -202,12 +202,18 @@ impl gibake_bake::BakeProgress for Budget {
     }
 }
 
-/// Every view's RSM is held at once: 64 point lamps (384 faces) at the
-/// default RSM of 512² need about 6 GiB, and are refused before any RSM is
-/// made, with a message naming the views and what to lower; the same at
-/// 64² fit.
+/// Every view's RSM is held at once: 64 point lamps (384 faces) beside a
+/// spot. Each lamp's faces get RSM texels by their share of the bounce
+/// (`lights::ViewPlan`), so at the default RSM of 512² they need about
+/// 0.4 GiB, not 6. Under a budget below even the fewest texels the plan
+/// could have, the bake is refused before any RSM is made, with a message
+/// naming the views and what to lower; under one between that and the
+/// planned resolutions, it is refused once the plan is made, before the
+/// full RSMs.
 #[test]
-fn many_lights_over_the_memory_budget_are_refused_before_any_rsm() {
+fn many_lights_over_the_memory_budget_are_refused_before_their_rsms() {
+    use gibake_bake::budget::{check_lights, estimate_lights};
+    use gibake_bake::lights::ViewPlan;
     let ctx = gpu();
     let mut scene = lamps();
     let spot = scene.lights[0].clone();
@@ -218,27 +224,60 @@ fn many_lights_over_the_memory_budget_are_refused_before_any_rsm() {
             ..lamp.clone()
         }))
         .collect();
+    // Static: views that moving objects can enter keep the full size.
+    scene.dynamic_meshes.clear();
+    scene.dynamic_objects.clear();
     let opts = BakeOptions {
         rsm_size: 512,
         ..options()
     };
+    let least = ViewPlan::least_texels(&scene, 512, opts.shadow_map_size);
+    assert_eq!(least, (385, 512 * 512 + 384 * 64 * 64));
     let t = std::time::Instant::now();
-    match bake(&ctx, &scene, &opts, &Budget(2 << 30), "test") {
+    match bake(&ctx, &scene, &opts, &Budget(64 << 20), "test") {
         Err(gibake_bake::BakeError::OverBudget(e)) => {
             let m = e.to_string();
             assert!(m.contains("385 RSM(s)") && m.contains("--rsm-size"), "{m}");
         }
         Err(e) => panic!("another error: {e}"),
-        Ok(_) => panic!("6 GiB of RSMs were baked within 2 GiB"),
+        Ok(_) => panic!("64 lamps' RSMs were baked within 64 MiB"),
     }
     assert!(
         t.elapsed().as_secs() < 20,
         "refused only after {:?}",
         t.elapsed()
     );
-    let small = BakeOptions {
-        rsm_size: 16,
-        ..options()
+    // The plan's own texels: more than the fewest, far fewer than 385
+    // full-size RSMs.
+    let rays = gibake_raycast::RayScene::build(&scene, 0.0);
+    let reach = gibake_bake::reach::Reach {
+        rays: &rays,
+        moving: gibake_scene::Aabb::EMPTY,
     };
-    assert!(gibake_bake::budget::check_lights(&small, 385, 384 * 128 * 128, 2 << 30).is_ok());
+    let planned = ViewPlan::new(&scene, &reach, 512, opts.shadow_map_size).texels();
+    assert!(
+        planned > least.1 && planned < 385 * 512 * 512 / 8,
+        "planned {planned} texels"
+    );
+    let light_maps = {
+        let n = gibake_gpu::passes::light_maps::view_count(&scene);
+        let (size, _) = gibake_gpu::passes::light_maps::light_map_size(
+            opts.shadow_map_size,
+            n,
+            ctx.device.limits().max_texture_dimension_2d,
+        );
+        n as u64 * u64::from(size) * u64::from(size)
+    };
+    let low = estimate_lights(&opts, least.1, light_maps).total();
+    let high = estimate_lights(&opts, planned, light_maps).total();
+    let between = low + (high - low) / 2;
+    assert!(check_lights(&opts, least, light_maps, between).is_ok());
+    match bake(&ctx, &scene, &opts, &Budget(between), "test") {
+        Err(gibake_bake::BakeError::OverBudget(e)) => {
+            let m = e.to_string();
+            assert!(m.contains(&format!("{planned} texels in all")), "{m}");
+        }
+        Err(e) => panic!("another error: {e}"),
+        Ok(_) => panic!("the planned RSMs were baked over the budget"),
+    }
 }

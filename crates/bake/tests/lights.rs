@@ -7,7 +7,7 @@
 //! meet a VPL count. CPU only (the RSM is ray cast).
 
 use gibake_bake::cluster::{ClusterTarget, cluster, cluster_joint};
-use gibake_bake::lights::every_light;
+use gibake_bake::lights::{MIN_VIEW_RSM_SIZE, ViewPlan, every_light};
 use gibake_bake::reach::Reach;
 use gibake_bake::rsm::{Rsm, render_rsm};
 use gibake_gpu::LightView;
@@ -333,5 +333,57 @@ fn every_light_is_scale_invariant() {
                 );
             }
         }
+    }
+}
+
+/// Each view's RSM resolution follows its share of the bounce
+/// ([`ViewPlan`]): the leading light keeps `rsm_size` on every face, a lamp
+/// a thousandth as bright beside it gets the probe's resolution, a second
+/// lamp as bright as the first keeps the full size, and the fewest texels
+/// the plan could have (the bake's first memory check) bounds it below.
+#[test]
+fn each_view_gets_rsm_texels_by_its_share_of_the_bounce() {
+    let lead = point(Vec3::new(-0.5, 1.0, 0.5), Vec3::splat(5.0));
+    let plan_with = |second: Light| {
+        let mut scene = closed_room(0.6, 1.0, lead.clone());
+        scene.lights.push(second);
+        let rays = RayScene::build(&scene, 0.0);
+        let reach = Reach {
+            rays: &rays,
+            moving: gibake_scene::Aabb::EMPTY,
+        };
+        let plan = ViewPlan::new(&scene, &reach, 512, 512);
+        let least = ViewPlan::least_texels(&scene, 512, 512);
+        (plan.sizes().to_vec(), plan.texels(), least)
+    };
+    let (dim, texels, least) = plan_with(point(Vec3::new(0.5, 1.0, -0.5), Vec3::splat(5e-3)));
+    assert_eq!(dim.len(), 12, "{dim:?}");
+    assert_eq!(
+        &dim[..6],
+        &[512; 6],
+        "the leading light keeps the full size"
+    );
+    assert_eq!(
+        &dim[6..],
+        &[MIN_VIEW_RSM_SIZE; 6],
+        "a dim lamp gets the probe's size"
+    );
+    assert_eq!(least, (12, 6 * 512 * 512 + 6 * 64 * 64));
+    assert_eq!(texels, least.1);
+    let (bright, texels, least) = plan_with(point(Vec3::new(0.5, 1.0, -0.5), Vec3::splat(5.0)));
+    assert_eq!(
+        bright,
+        vec![512; 12],
+        "an equal lamp's faces each bounce a twelfth"
+    );
+    assert!(texels > least.1);
+    // In between: a lamp a hundredth as bright, at least the probe's and a
+    // multiple of 8.
+    let (mid, _, _) = plan_with(point(Vec3::new(0.5, 1.0, -0.5), Vec3::splat(5e-2)));
+    for &s in &mid[6..] {
+        assert!(
+            (MIN_VIEW_RSM_SIZE..512).contains(&s) && s % 8 == 0,
+            "{mid:?}"
+        );
     }
 }
