@@ -215,8 +215,11 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
         let per_point = 2 + u64::from(frames) + u64::from(culling_off) * (1 + u64::from(frames));
         let pb = bar(points.len() as u64 * per_point, sw.key);
         let mut assets = Vec::new();
+        let mut bake_s = Vec::new();
         for (scene, v) in &points {
-            assets.push(b.bake(scene, *v, map)?.0.asset);
+            let (out, seconds) = b.bake(scene, *v, map)?;
+            assets.push(out.asset);
+            bake_s.push(seconds);
             pb.inc(1);
         }
         let mut configs: Vec<Config<'_>> = points
@@ -286,6 +289,7 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
             head.push("shade+filter, no light culling (ms)");
         }
         head.push("frame (ms)");
+        head.push("bake (s)");
         let mut t = Table::new(
             format!(
                 "Scaling with {} — corner_bunny, mode full, {size}², interleave 1, {map}² maps, median of {frames} frame(s) after a warm-up — times: {} — adapter: {}",
@@ -316,6 +320,7 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
                 row.push(unculled.get(k).map_or("—".into(), |u| sig(u.shade_ms)));
             }
             row.push(sig(m.frame_ms));
+            row.push(sig(bake_s[k]));
             t.row(row);
             rows.push(json!({
                 "x": xs[k],
@@ -324,6 +329,7 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
                 "static_vpls": asset.manifest.vpl_count,
                 "stats": m.json(),
                 "stats_no_light_culling": unculled.get(k).map(FrameSummary::json),
+                "bake_seconds": bake_s[k],
             }));
         }
         let line = format!(
@@ -355,12 +361,22 @@ pub(super) fn bench_scaling(b: &mut Bench) -> crate::Result<()> {
                 .last()
                 .zip(unculled.last())
                 .map_or(f64::NAN, |(m, u)| m.shade_ms / u.shade_ms);
+            // The bake against the lights: each view's RSM by its share of
+            // the bounce (lights::ViewPlan), so more lamps sharing one
+            // budget do not each cost a full-size RSM.
+            let fb = power_fit(
+                &xs.iter()
+                    .zip(&bake_s)
+                    .map(|(x, s)| (*x, *s))
+                    .collect::<Vec<_>>(),
+            );
             let line = format!(
-                "Update (light merge and light bounce) against the lamps' views the moving objects touch (x = views merged): **{}**. Shade+filter with light culling (each 8×8 tile skips the lamps whose range ends before its surfaces) **{}**, without **{}**; at the most lights, culled / unculled = **{:.2}** (side by side).",
+                "Update (light merge and light bounce) against the lamps' views the moving objects touch (x = views merged): **{}**. Shade+filter with light culling (each 8×8 tile skips the lamps whose range ends before its surfaces) **{}**, without **{}**; at the most lights, culled / unculled = **{:.2}** (side by side). Bake (one budget; each view's RSM by its share of the bounce) against the lights: **{}**.",
                 show(&fv),
                 show(&fs),
                 show(&unculled_fit),
-                ratio
+                ratio,
+                show(&fb)
             );
             eprintln!("{line}");
             t.notes.push(line);
