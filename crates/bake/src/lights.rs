@@ -215,8 +215,8 @@ pub const VIEW_RSM_TEXEL_FACTOR: f64 = 16.0;
 /// `share` its part of all views' reaching flux (the flux when nothing
 /// reaches anything) measured on the probes (a share does not depend on
 /// the resolution, `cluster.rs`). One budget spreads the VPLs by the same
-/// share, so a view keeps at least `VIEW_RSM_TEXEL_FACTOR` times the
-/// texels per VPL that one light alone gets, while a level of a hundred
+/// share, so a view keeps about `VIEW_RSM_TEXEL_FACTOR` times the texels
+/// per VPL that one light alone gets (or more), while a level of a hundred
 /// lamps no longer renders and holds a hundred full-size RSMs for a few
 /// VPLs each (docs/method.md, "One VPL budget over every light").
 pub struct ViewPlan {
@@ -224,8 +224,8 @@ pub struct ViewPlan {
     views: Vec<(usize, usize, LightView)>,
     /// The RSM resolution of each view.
     sizes: Vec<u32>,
-    /// Each view's probe RSM, where it was made (reused when the view's
-    /// resolution is the probe's).
+    /// Each view's probe RSM where it is the view's RSM (its resolution
+    /// is the probe's).
     probes: Vec<Option<Rsm>>,
 }
 
@@ -270,11 +270,17 @@ impl ViewPlan {
                 let wide = (texels.sqrt().ceil().min(f64::from(rsm_size)) as u32).div_ceil(8) * 8;
                 wide.clamp(probe_size, rsm_size)
             })
+            .collect::<Vec<u32>>();
+        // Only the probes that are already their view's RSM are kept.
+        let probes = probes
+            .into_iter()
+            .zip(&sizes)
+            .map(|(p, &size)| (p.size == size).then_some(p))
             .collect();
         ViewPlan {
             views,
             sizes,
-            probes: probes.into_iter().map(Some).collect(),
+            probes,
         }
     }
 
