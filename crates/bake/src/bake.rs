@@ -449,6 +449,13 @@ fn every_light_front(
     budget: Option<(u64, u64)>,
 ) -> Result<Front, BakeError> {
     let plan = ViewPlan::new(scene, reach, opts.rsm_size, opts.shadow_map_size);
+    let full = plan.sizes().iter().filter(|&&s| s == opts.rsm_size).count();
+    tracing::info!(
+        "RSMs of {} views: {} texels in all ({full} at {}², the others by their share of the bounce)",
+        plan.sizes().len(),
+        plan.texels(),
+        opts.rsm_size
+    );
     // The memory budget with each view's own RSM resolution, before the
     // full RSMs are made (`budget`: the limit, and the other lights'
     // shadow-map texels already held).
