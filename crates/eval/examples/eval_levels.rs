@@ -3,7 +3,10 @@
 //! against the CPU reference; prints one line per level and, with --out,
 //! writes reference | full | rsm | error pictures (NAME.png) and the same
 //! for the indirect light alone (NAME_indirect.png); --markdown ends with
-//! the table of docs/results.md, "Real levels". `--no-naive` leaves out
+//! the table of docs/results.md, "Real levels". `DUMP_EXR=1` with
+//! `--out DIR` also writes the reference's, `full`'s and `rsm`'s indirect
+//! images and the direct light as EXR (`NAME_ref_ind.exr`, …), as
+//! `eval_lights` does. `--no-naive` leaves out
 //! the `naive` render (every VPL map re-rendered: 90% of the time on
 //! lavapipe) and its naive~full figure. `--static-only` judges each level
 //! without its moving objects (bake, frames and reference alike), to tell
@@ -84,6 +87,18 @@ fn main() {
                 &d.join(format!("{}_indirect.png", spec.name)),
             )
             .unwrap();
+            if std::env::var("DUMP_EXR").is_ok() {
+                for (part, image) in [
+                    ("ref_ind", images.reference.indirect()),
+                    ("full_ind", images.full.sub(&images.direct)),
+                    ("rsm_ind", images.rsm.sub(&images.direct)),
+                    ("direct", images.direct.clone()),
+                ] {
+                    image
+                        .write_exr(&d.join(format!("{}_{part}.exr", spec.name)))
+                        .unwrap();
+                }
+            }
         }
     }
     if markdown {
