@@ -88,16 +88,7 @@ fn main() {
             )
             .unwrap();
             if std::env::var("DUMP_EXR").is_ok() {
-                for (part, image) in [
-                    ("ref_ind", images.reference.indirect()),
-                    ("full_ind", images.full.sub(&images.direct)),
-                    ("rsm_ind", images.rsm.sub(&images.direct)),
-                    ("direct", images.direct.clone()),
-                ] {
-                    image
-                        .write_exr(&d.join(format!("{}_{part}.exr", spec.name)))
-                        .unwrap();
-                }
+                gibake_eval::levels::write_exrs(&images, d, &spec.name).unwrap();
             }
         }
     }

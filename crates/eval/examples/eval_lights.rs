@@ -165,16 +165,7 @@ fn main() {
                     )
                     .expect("write panel");
                     if std::env::var("DUMP_EXR").is_ok() {
-                        for (part, image) in [
-                            ("ref_ind", images.reference.indirect()),
-                            ("full_ind", images.full.sub(&images.direct)),
-                            ("rsm_ind", images.rsm.sub(&images.direct)),
-                            ("direct", images.direct.clone()),
-                        ] {
-                            image
-                                .write_exr(&dir.join(format!("{file}_{part}.exr")))
-                                .expect("write EXR");
-                        }
+                        gibake_eval::levels::write_exrs(&images, dir, &file).expect("write EXR");
                     }
                 }
             }

@@ -454,6 +454,26 @@ pub fn write_indirect_panel(
     write_row(&r, &full, &rsm, path)
 }
 
+/// Writes the reference's, `full`'s and `rsm`'s indirect light and the
+/// direct light as EXR, `DIR/NAME_ref_ind.exr`, `NAME_full_ind.exr`,
+/// `NAME_rsm_ind.exr` and `NAME_direct.exr` (the examples' `DUMP_EXR=1`:
+/// for looking at where the indirect light is lost).
+pub fn write_exrs(
+    images: &LevelImages,
+    dir: &Path,
+    name: &str,
+) -> Result<(), gibake_image::ImageError> {
+    for (part, image) in [
+        ("ref_ind", images.reference.indirect()),
+        ("full_ind", images.full.sub(&images.direct)),
+        ("rsm_ind", images.rsm.sub(&images.direct)),
+        ("direct", images.direct.clone()),
+    ] {
+        image.write_exr(&dir.join(format!("{name}_{part}.exr")))?;
+    }
+    Ok(())
+}
+
 /// `reference | full | rsm | 4·|full − reference|` at the reference's exposure,
 /// at least 640 pixels wide.
 pub fn write_row(
