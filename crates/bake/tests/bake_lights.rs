@@ -204,8 +204,9 @@ impl gibake_bake::BakeProgress for Budget {
 
 /// Every view's RSM is held at once: 64 point lamps (384 faces) beside a
 /// spot. Each lamp's faces get RSM texels by their share of the bounce
-/// (`lights::ViewPlan`), so at the default RSM of 512² they need about
-/// 0.4 GiB, not 6. Under a budget below even the fewest texels the plan
+/// (`lights::ViewPlan`), so at the default RSM of 512² their RSMs hold
+/// under an eighth of the texels of 385 full-size ones (about 6 GiB).
+/// Under a budget below even the fewest texels the plan
 /// could have, the bake is refused before any RSM is made, with a message
 /// naming the views and what to lower; under one between that and the
 /// planned resolutions, it is refused once the plan is made, before the
