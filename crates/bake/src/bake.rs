@@ -603,7 +603,7 @@ fn bake_with(
     let budget = progress
         .memory_limit()
         .map(|limit| (limit, light_map_texels));
-    if every && let Some(limit) = progress.memory_limit() {
+    if every && let Some((limit, _)) = budget {
         let least = ViewPlan::least_texels(scene, opts.rsm_size, opts.shadow_map_size);
         crate::budget::check_lights(opts, least, light_map_texels, limit)?;
     }
