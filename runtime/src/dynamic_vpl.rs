@@ -77,8 +77,8 @@ pub(crate) struct GpuDynVpl {
     /// whole slot is zero).
     pub normal: [f32; 4],
     /// rgb flux, w = its lobe coherence `|Σ w·n| / Σ w` over its texels
-    /// (shading draws it with the whole-sphere lobe of `shade.wgsl`
-    /// `dyn_vpl_irradiance`; 0 in an empty slot).
+    /// (shading draws it with the lobe of `shade.wgsl` `far_lobe`; 0 in an
+    /// empty slot).
     pub flux: [f32; 4],
 }
 

@@ -296,7 +296,7 @@ fn cs_slots(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
         // very bright lights (w ~ 1e20), and normalize() would give zero.
         var normal = n.wn / n.w;
         // Its far-field lobe's coherence |Σw·n| / Σw (shade.wgsl
-        // dyn_vpl_irradiance): a dynamic VPL is always drawn as one disk.
+        // far_lobe): a dynamic VPL is always drawn as one disk.
         var coherence = 1.0;
         if (dot(normal, normal) > 0.0) {
             coherence = clamp(length(normal), 0.0, 1.0);

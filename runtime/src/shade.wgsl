@@ -8,7 +8,7 @@
 //   other_lights.wgsl),
 // + every static VPL with its merged hemisphere map, its flux scaled by the
 //   lit fraction of its own RSM texels,
-// + every dynamic VPL, unshadowed, its lobe over the whole sphere.
+// + every dynamic VPL, unshadowed, with its far-field lobe (far_lobe).
 // VPL transport has no singularity: a VPL is a small disk of its texels'
 // area A, E = Φ/π · cosθ_v cosθ_r / sqrt(d⁴ + (A/π)²): at contact this is
 // the disk's exitance Φ/A, beyond the disk's radius R it is the point
@@ -204,62 +204,60 @@ fn vpl_visibility(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ng: vec3<f32>
 }
 
 // Irradiance from a disk-like VPL at `origin` (normal nv, area a, flux phi)
-// with its cosine lobe: vpl_lobe_irradiance with coherence 1.
+// with its cosine lobe: vpl_lobe_irradiance with coherence 1 (far_lobe(1, μ)
+// = max(μ, 0)).
 fn vpl_irradiance(origin: vec3<f32>, nv: vec3<f32>, a: f32, phi: vec3<f32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
     return vpl_lobe_irradiance(origin, nv, 1.0, a, phi, x, ns, ng);
 }
 
-// A static VPL seen from afar: the disk of vpl_irradiance with the
-// far-field lobe c·cosθ_v/π + (1 − c)/2π per unit flux over its normal's
-// hemisphere in place of its cosine lobe, c its texels' flux-weighted
-// normal coherence (gibake_asset::lobe_coherence): texels facing every
-// way (a tree's crown) send light sideways too, as one lobe with their
-// mean normal would not. Its hemisphere map covers no more than that
-// hemisphere. CPU twin: gibake_eval::transport::lobe_irradiance.
+// A VPL seen from afar (a static VPL beyond its near field, every
+// dynamic VPL): the disk of vpl_irradiance with the lobe far_lobe(c, cosθ_v)/π
+// per unit flux in place of its cosine lobe, c its texels' flux-weighted
+// normal coherence (gibake_asset::lobe_coherence; a dynamic VPL's own
+// texels'). CPU twin: gibake_eval::transport::lobe_irradiance.
 fn vpl_lobe_irradiance(p: vec3<f32>, nv: vec3<f32>, coherence: f32, a: f32, phi: vec3<f32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
-    return disk_irradiance(p, nv, coherence, false, a, phi, x, ns, ng);
-}
-
-// A moving object's VPL (dynamic_vpl.wgsl; unshadowed, no hemisphere
-// map): its lobe's incoherent part spread over the whole sphere,
-// c·max(cosθ_v, 0)/π + (1 − c)/4π per unit flux. This keeps its texels'
-// odd part c·cosθ_v/2π exactly (Σw·max(0, n·ω) − Σw·max(0, −n·ω) =
-// Σw·n·ω) with an isotropic even part: a ball's lit cap, one VPL with its
-// mean normal toward the light, sends light behind that normal too, onto
-// the ground on the ball's far side, as the cap's rim does (docs/method.md,
-// "Dynamic VPLs").
-fn dyn_vpl_irradiance(p: vec3<f32>, nv: vec3<f32>, coherence: f32, a: f32, phi: vec3<f32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
-    return disk_irradiance(p, nv, coherence, true, a, phi, x, ns, ng);
-}
-
-// The disk's transport with the lobe of coherence c: over the normal's
-// hemisphere (whole_sphere false) or the whole sphere (true).
-fn disk_irradiance(p: vec3<f32>, nv: vec3<f32>, coherence: f32, whole_sphere: bool, a: f32, phi: vec3<f32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
     let dv = x - p;
     let d2 = dot(dv, dv);
     if (d2 <= 0.0) {
         return vec3<f32>(0.0);
     }
     let dir = dv * inverseSqrt(d2);
-    let cos_v = dot(nv, dir);
     let cos_r = dot(ns, -dir);
     if (cos_r <= 0.0 || dot(ng, -dir) <= 0.0) {
         return vec3<f32>(0.0);
     }
-    let c = clamp(coherence, 0.0, 1.0);
-    var lobe: f32;
-    if (whole_sphere) {
-        lobe = c * max(cos_v, 0.0) + (1.0 - c) * 0.25;
-    } else {
-        if (cos_v <= 0.0) {
-            return vec3<f32>(0.0);
-        }
-        lobe = c * cos_v + (1.0 - c) * 0.5;
+    let lobe = far_lobe(coherence, dot(nv, dir));
+    if (lobe <= 0.0) {
+        return vec3<f32>(0.0);
     }
     // sqrt(d⁴ + (A/π)²): equals the disk's irradiance at contact (Φ/A),
     // and 1/d² within (A/π)²/(2d⁴) beyond the disk's radius.
     let r2 = a * INV_PI;
     return finite_or_zero3(phi * (INV_PI * lobe * cos_r * inverseSqrt(d2 * d2 + r2 * r2)));
+}
+
+// The lobe of a cluster of Lambertian texels whose flux-weighted normals
+// have coherence c = |Σw·n| / Σw about the unit normal n, as a function
+// of μ = n·ω (per unit flux, times 1/π; over the whole sphere, integral π):
+//   c ≥ ½: (2c − 1)·max(μ, 0) + (1 − c)·(1 + μ)/2
+//   c < ½: (1 + 2c·μ)/4
+// — texels all facing n (max(μ, 0), c = 1) mixed with texels whose normals
+// are spread evenly over n's hemisphere ((1 + μ)/4: the mean of
+// max(m·ω, 0) over those normals m, c = ½), and below ½ with normals spread
+// over the whole sphere (¼, c = 0). Its first moment (2c/3 along n), hence
+// its odd part c·μ/2, is the texels' own for every c; it is exact for
+// texels facing one way and for texels facing every way of a hemisphere
+// (a lit crown, a ball's lit cap: every lit texel faces the light), whose
+// light goes below their mean normal's horizon too, onto the ground under
+// the crown: a quarter of it at c = ½. Below a static VPL's horizon its
+// visibility is looked up on its map's rim (vpl_visibility). Measured in
+// docs/method.md, "Far-field lobe".
+fn far_lobe(c_in: f32, mu: f32) -> f32 {
+    let c = clamp(c_in, 0.0, 1.0);
+    if (c >= 0.5) {
+        return (2.0 * c - 1.0) * max(mu, 0.0) + (1.0 - c) * (1.0 + mu) * 0.5;
+    }
+    return (1.0 + 2.0 * c * mu) * 0.25;
 }
 
 fn is_near(x: vec3<f32>, p: vec3<f32>, a: f32) -> bool {
@@ -371,7 +369,7 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocat
             for (var i = k; i < params.n_dynamic; i += stride) {
                 let v = dyn_vpls[i];
                 if (v.normal.w > 0.5) {
-                    e += dyn_vpl_irradiance(v.position.xyz, v.normal.xyz, v.flux.w, v.position.w, v.flux.rgb, x, ns, ng);
+                    e += vpl_lobe_irradiance(v.position.xyz, v.normal.xyz, v.flux.w, v.position.w, v.flux.rgb, x, ns, ng);
                 }
             }
         }

@@ -96,8 +96,8 @@ pub const NODES_PER_VPL: usize = 84;
 /// tree `nodes` ([`NODES_PER_VPL`] records; fewer: 1). 1 where every node
 /// faces the same way; towards 0 for texels facing every way (a tree's
 /// crown, a mech). Shading draws a VPL seen from afar with the lobe
-/// `c · cos θ/π + (1 − c)/2π` per unit flux, whose first moment is the
-/// texels' own (docs/method.md, "Far-field lobe"). Computed at load from
+/// `far_lobe(c, cos θ)/π` per unit flux (shade.wgsl), whose first moment is
+/// the texels' own (docs/method.md, "Far-field lobe"). Computed at load from
 /// what the asset stores, so it needs no field of its own. Flux weights
 /// are the channel sum; the result is finite and in `[0, 1]`.
 pub fn lobe_coherence(nodes: &[VplRecord]) -> f32 {

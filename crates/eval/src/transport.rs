@@ -28,10 +28,10 @@ pub fn disk_irradiance(
 }
 
 /// Irradiance at `x` from a VPL seen from afar: the disk of
-/// [`disk_irradiance`] with the far-field lobe `c · cos θ_v/π + (1 − c)/2π`
+/// [`disk_irradiance`] with the far-field lobe [`far_lobe`]`(c, cos θ_v)/π`
 /// per unit flux (`c`: [`gibake_asset::lobe_coherence`]) in place of the
-/// cosine lobe; `c = 1` gives [`disk_irradiance`] (shade.wgsl
-/// `vpl_lobe_irradiance`).
+/// cosine lobe, below the normal's horizon too; `c = 1` gives
+/// [`disk_irradiance`] (shade.wgsl `vpl_lobe_irradiance`).
 #[allow(clippy::too_many_arguments)]
 pub fn lobe_irradiance(
     origin: Vec3,
@@ -49,15 +49,31 @@ pub fn lobe_irradiance(
         return Vec3::ZERO;
     }
     let dir = dv / d2.sqrt();
-    let (cv, cr) = (nv.dot(dir), ns.dot(-dir));
-    if cv <= 0.0 || cr <= 0.0 || ng.dot(-dir) <= 0.0 {
+    let cr = ns.dot(-dir);
+    if cr <= 0.0 || ng.dot(-dir) <= 0.0 {
         return Vec3::ZERO;
     }
-    let c = c.clamp(0.0, 1.0);
-    let lobe = c * cv + (1.0 - c) * 0.5;
+    let lobe = far_lobe(c, nv.dot(dir));
+    if lobe <= 0.0 {
+        return Vec3::ZERO;
+    }
     let r2 = a / std::f32::consts::PI;
     let e = phi * (lobe * cr / std::f32::consts::PI / (d2 * d2 + r2 * r2).sqrt());
     if e.is_finite() { e } else { Vec3::ZERO }
+}
+
+/// The far-field lobe of a cluster whose texels' normals have coherence
+/// `c` about its normal, at `mu = n·ω` (per unit flux, times `1/π`):
+/// `(2c − 1)·max(μ, 0) + (1 − c)(1 + μ)/2` for `c ≥ ½`, `(1 + 2cμ)/4`
+/// below (shade.wgsl `far_lobe`, which says why). `far_lobe(1, μ) =
+/// max(μ, 0)`, the cosine lobe.
+pub fn far_lobe(c: f32, mu: f32) -> f32 {
+    let c = if c.is_nan() { 1.0 } else { c.clamp(0.0, 1.0) };
+    if c >= 0.5 {
+        (2.0 * c - 1.0) * mu.max(0.0) + (1.0 - c) * (1.0 + mu) * 0.5
+    } else {
+        (1.0 + 2.0 * c * mu) * 0.25
+    }
 }
 
 /// Whether `x` is in the near field of a disk at `p` of area `a`.
@@ -338,4 +354,82 @@ pub fn map_visibility(
     let top = lit[0] + (lit[1] - lit[0]) * f.x;
     let bottom = lit[2] + (lit[3] - lit[2]) * f.x;
     top + (bottom - top) * f.y
+}
+
+#[cfg(test)]
+mod tests {
+    use super::far_lobe;
+
+    /// `∫ f(μ) dω = 2π ∫₋₁¹ f(μ) dμ` by the midpoint rule.
+    fn sphere_integral(f: impl Fn(f64) -> f64) -> f64 {
+        let n = 20_000;
+        let h = 2.0 / n as f64;
+        2.0 * std::f64::consts::PI
+            * (0..n)
+                .map(|k| f(-1.0 + (k as f64 + 0.5) * h) * h)
+                .sum::<f64>()
+    }
+
+    #[test]
+    fn far_lobe_keeps_the_flux_and_the_texels_first_moment() {
+        for k in 0..=20 {
+            let c = k as f32 / 20.0;
+            let lobe = |mu: f64| f64::from(far_lobe(c, mu as f32));
+            // Per unit flux the lobe is far_lobe/π: it integrates to π.
+            let flux = sphere_integral(lobe);
+            assert!(
+                (flux / std::f64::consts::PI - 1.0).abs() < 1e-4,
+                "c {c}: flux {flux}"
+            );
+            // First moment along the normal, per unit flux: 2c/3.
+            let moment = sphere_integral(|mu| mu * lobe(mu)) / std::f64::consts::PI;
+            assert!(
+                (moment - 2.0 * f64::from(c) / 3.0).abs() < 1e-4,
+                "c {c}: moment {moment}"
+            );
+            assert!(
+                (0..=200).all(|k| lobe(-1.0 + k as f64 / 100.0) >= 0.0),
+                "c {c}: negative lobe"
+            );
+        }
+        for mu in [-1.0f32, -0.3, 0.0, 0.4, 1.0] {
+            assert_eq!(far_lobe(1.0, mu), mu.max(0.0), "c = 1 is the cosine lobe");
+            assert!((far_lobe(0.5, mu) - (1.0 + mu) / 4.0).abs() < 1e-7);
+            assert_eq!(far_lobe(0.0, mu), 0.25);
+        }
+        assert_eq!(far_lobe(f32::NAN, 0.5), 0.5);
+        assert_eq!(far_lobe(2.0, 0.5), 0.5);
+    }
+
+    /// Texels whose normals are spread evenly over a hemisphere (a lit
+    /// crown): the mean of their clamped cosines is the lobe at c = ½.
+    #[test]
+    fn far_lobe_is_exact_for_normals_spread_over_a_hemisphere() {
+        // Deterministic stratified normals over the upper hemisphere.
+        let (nt, np) = (200, 400);
+        let mut normals = Vec::new();
+        for i in 0..nt {
+            let z = (i as f64 + 0.5) / nt as f64; // uniform in cos θ: uniform on the hemisphere
+            let r = (1.0 - z * z).sqrt();
+            for j in 0..np {
+                let p = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / np as f64;
+                normals.push([r * p.cos(), r * p.sin(), z]);
+            }
+        }
+        let coherence = normals.iter().map(|n| n[2]).sum::<f64>() / normals.len() as f64;
+        assert!((coherence - 0.5).abs() < 1e-4);
+        for mu in [-0.9f64, -0.5, 0.0, 0.5, 1.0] {
+            let w = [(1.0 - mu * mu).sqrt(), 0.0, mu];
+            let mean = normals
+                .iter()
+                .map(|n| (n[0] * w[0] + n[1] * w[1] + n[2] * w[2]).max(0.0))
+                .sum::<f64>()
+                / normals.len() as f64;
+            let lobe = f64::from(far_lobe(coherence as f32, mu as f32));
+            assert!(
+                (mean - lobe).abs() < 2e-3,
+                "μ {mu}: texels {mean}, lobe {lobe}"
+            );
+        }
+    }
 }
