@@ -31,12 +31,13 @@ use crate::output::bar;
 pub const BAKER_VERSION_ENV: &str = "GIBAKE_BAKER_VERSION";
 
 /// The baker version to record: `GIBAKE_BAKER_VERSION` when set and not
-/// empty, else this binary's version.
+/// empty, else the bake library's version and method revision
+/// ([`gibake_bake::baker_version`], e.g. `0.1.0+bake.1`).
 pub fn baker_version() -> String {
     std::env::var(BAKER_VERSION_ENV)
         .ok()
         .filter(|v| !v.is_empty())
-        .unwrap_or_else(|| env!("CARGO_PKG_VERSION").to_string())
+        .unwrap_or_else(gibake_bake::baker_version)
 }
 
 fn options(a: &BakeArgs) -> BakeOptions {

@@ -29,3 +29,21 @@ pub use bake::{
 };
 pub use gibake_scene::static_scene_hash;
 pub use uptodate::{Freshness, check_up_to_date};
+
+/// Revision of the bake's method. Bump it in every change that makes a bake
+/// of the same scene, settings and adapter write other bytes (the RSM, the
+/// clustering, the near-field trees, the maps, the lights' plan…): the
+/// baker version an asset records is `CRATE_VERSION+bake.N`
+/// ([`baker_version`]), so the up-to-date check re-bakes an asset baked by
+/// an older method even when the crate version did not change.
+/// `tests/method_revision.rs` holds the VPLs of a small bake to a hash per
+/// revision and says when it is due. A change to the runtime alone (how the
+/// same asset is shaded) needs no bump.
+pub const BAKE_METHOD: u32 = 1;
+
+/// The baker version to record in an asset and to compare with an existing
+/// one: this crate's version with the method revision as build metadata,
+/// e.g. `0.1.0+bake.1` ([`BAKE_METHOD`]).
+pub fn baker_version() -> String {
+    format!("{}+bake.{BAKE_METHOD}", env!("CARGO_PKG_VERSION"))
+}

@@ -139,8 +139,16 @@ pub fn differences(
         ));
     }
     if p.baker_version != baker_version {
+        // Same release, another method revision (crate::BAKE_METHOD), or an
+        // asset from before the revision was recorded.
+        let release = |v: &str| v.split('+').next().unwrap_or_default().to_string();
+        let why = if release(&p.baker_version) == release(baker_version) {
+            ": the bake's method was revised since this asset was baked"
+        } else {
+            ""
+        };
         r.push(format!(
-            "baker version changed ({} → {baker_version})",
+            "baker version changed ({} → {baker_version}){why}",
             p.baker_version
         ));
     }

@@ -46,6 +46,12 @@ fn every_changed_input_is_named_and_nothing_else() {
         diff(&scene, &opts, "1.0.1"),
         "baker version changed (1.0.0 → 1.0.1)",
     );
+    assert!(!diff(&scene, &opts, "1.0.1")[0].contains("method"));
+    // The same release with a revised bake method (gibake_bake::BAKE_METHOD).
+    one(
+        diff(&scene, &opts, "1.0.0+bake.7"),
+        "baker version changed (1.0.0 → 1.0.0+bake.7): the bake's method was revised",
+    );
     for (o, what) in [
         (
             BakeOptions {

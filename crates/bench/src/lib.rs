@@ -209,7 +209,7 @@ impl Bench {
             scene,
             &opts,
             &NoProgress,
-            env!("CARGO_PKG_VERSION"),
+            &gibake_bake::baker_version(),
         )
         .with_context(|| format!("baking {}", scene.source.display()))?;
         Ok((out, t.elapsed().as_secs_f64()))

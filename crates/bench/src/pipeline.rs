@@ -28,7 +28,7 @@ pub(super) fn bench_pipeline(b: &mut Bench) -> crate::Result<()> {
     b.section("Pipeline: up-to-date check against the bake it skips");
     std::fs::create_dir_all(&b.tmp).with_context(|| format!("creating {}", b.tmp.display()))?;
     let opts = BakeOptions::default();
-    let version = env!("CARGO_PKG_VERSION");
+    let version = &gibake_bake::baker_version();
     let gpu = GpuOptions {
         adapter: Some(b.ctx.record.name.clone()),
     };

@@ -1,0 +1,110 @@
+//! The bake's method revision ([`gibake_bake::BAKE_METHOD`]) against what a
+//! bake writes: two small bakes of bundled scenes (a spot light; every light
+//! of a room with a spot and two point lights), their VPLs, near-field trees
+//! and hemisphere maps hashed, held to the hash recorded for the current
+//! revision. These are the parts computed on the CPU by rays and the
+//! clustering, the same on every adapter; the GPU's shadow maps are left
+//! out.
+//!
+//! When this fails after a change that meant to change the bake, bump
+//! `BAKE_METHOD` in crates/bake/src/lib.rs (assets of the older method then
+//! read as stale: "baker version changed (… → …+bake.N): the bake's method
+//! was revised") and record the new revision and hashes below. When it
+//! fails after a change that did not mean to, the bake changed by accident.
+//!
+//! Runs on the GPU (lavapipe in CI; the shadow map is a GPU pass); without
+//! an adapter it fails with a message saying what to install.
+
+use std::path::Path;
+
+use gibake_asset::Asset;
+use gibake_bake::cluster::ClusterTarget;
+use gibake_bake::{BAKE_METHOD, BakeOptions, NoProgress, bake};
+use gibake_gpu::GpuContext;
+use gibake_scene::LoadOptions;
+
+/// The revision these hashes belong to, and the hash of each scene's bake.
+const RECORDED: (u32, [(&str, &str); 2]) = (
+    1,
+    [
+        ("corner_bunny", "5c40e29037a96f2b"),
+        ("lamps", "f0197d688ae3b529"),
+    ],
+);
+
+/// BLAKE3 of the VPL records, the near-field trees and the hemisphere maps,
+/// every float by its bits.
+fn hash(asset: &Asset) -> String {
+    let mut h = blake3::Hasher::new();
+    for v in asset.vpls.iter().chain(&asset.vpl_nodes) {
+        for f in v
+            .position
+            .iter()
+            .chain(&[v.area])
+            .chain(&v.normal)
+            .chain(&v.flux)
+        {
+            h.update(&f.to_bits().to_le_bytes());
+        }
+        h.update(&v.texels.to_le_bytes());
+        h.update(&v.map.to_le_bytes());
+    }
+    h.update(&asset.vpl_maps.tile_size().to_le_bytes());
+    h.update(&asset.vpl_maps.count().to_le_bytes());
+    for t in asset.vpl_maps.texels() {
+        h.update(&t.to_bits().to_le_bytes());
+    }
+    h.finalize().to_hex()[..16].to_string()
+}
+
+#[test]
+fn the_bake_method_revision_matches_what_a_bake_writes() {
+    let ctx = GpuContext::new(&Default::default()).unwrap_or_else(|e| {
+        panic!(
+            "this test needs a GPU adapter ({e}); on Debian/Ubuntu \
+             `apt-get install mesa-vulkan-drivers` gives the lavapipe software GPU"
+        )
+    });
+    let opts = BakeOptions {
+        rsm_size: 128,
+        vpl_map_size: 16,
+        shadow_map_size: 256,
+        target: ClusterTarget::Count(48),
+        ..Default::default()
+    };
+    let mut got = Vec::new();
+    for (name, _) in RECORDED.1 {
+        let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data"))
+            .join(format!("{name}.glb"));
+        let scene = gibake_scene::load(&path, &LoadOptions::default())
+            .unwrap_or_else(|e| panic!("load {}: {e}", path.display()));
+        let asset = bake(&ctx, &scene, &opts, &NoProgress, "test")
+            .unwrap_or_else(|e| panic!("bake of {name}: {e}"))
+            .asset;
+        got.push((name, hash(&asset)));
+    }
+    let table: Vec<String> = got
+        .iter()
+        .map(|(n, h)| format!("(\"{n}\", \"{h}\")"))
+        .collect();
+    assert_eq!(
+        RECORDED.0,
+        BAKE_METHOD,
+        "BAKE_METHOD is {BAKE_METHOD} but the hashes here are revision {}'s: record this \
+         revision's, RECORDED = ({BAKE_METHOD}, [{}])",
+        RECORDED.0,
+        table.join(", ")
+    );
+    for ((name, want), (_, have)) in RECORDED.1.iter().zip(&got) {
+        assert_eq!(
+            want,
+            have,
+            "the bake of data/{name}.glb changed (hash {have}, revision {BAKE_METHOD} recorded \
+             {want}). If that was meant, bump gibake_bake::BAKE_METHOD (crates/bake/src/lib.rs) \
+             so that assets of the older method re-bake, and record RECORDED = \
+             ({}, [{}]) here; if not, the bake changed by accident",
+            BAKE_METHOD + 1,
+            table.join(", ")
+        );
+    }
+}
