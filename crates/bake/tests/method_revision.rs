@@ -70,7 +70,6 @@ fn the_bake_method_revision_matches_what_a_bake_writes() {
         vpl_map_size: 16,
         shadow_map_size: 256,
         target: ClusterTarget::Count(48),
-        ..Default::default()
     };
     let mut got = Vec::new();
     for (name, _) in RECORDED.1 {
