@@ -265,96 +265,11 @@ fn is_near(x: vec3<f32>, p: vec3<f32>, a: f32) -> bool {
     return dot(d, d) < NEAR_FIELD_RATIO * NEAR_FIELD_RATIO * a * INV_PI;
 }
 
-// A near-field node at a crease. Where the receiver's normal is across
-// the node's (|ns·nv| < CREASE_MU_HI: a floor beside a lit wall, a wall
-// above a lit floor), the disk kernel's cosines, taken at the node's
-// centre, miss most of what the node's part nearest the receiver sends;
-// there the node is drawn as what it is, a uniformly emitting regular
-// octagon of its area in its plane, with Lambert's exact formula for a
-// polygon clipped to the receiver's hemisphere (crease_irradiance),
-// blended with the disk over |ns·nv| ∈ [CREASE_MU_LO, CREASE_MU_HI].
-// Receivers facing the node or coplanar with it keep the disk: there a
-// node's centroid, off a curved or thin surface by a fraction of its
-// radius, would put an exact polygon millimetres from the receiver (a
-// thin shell's back face lit at the front face's full exitance).
-// Must match gibake_eval::transport::{CREASE_MU_LO, CREASE_MU_HI}.
-const CREASE_MU_LO: f32 = 0.4;
-const CREASE_MU_HI: f32 = 0.6;
-
 fn node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
     if (n.texels == 0u) {
         return vec3<f32>(0.0);
     }
-    let disk = vpl_irradiance(n.position, n.normal, n.area, n.flux, x, ns, ng);
-    let w = clamp((CREASE_MU_HI - abs(dot(ns, n.normal))) / (CREASE_MU_HI - CREASE_MU_LO), 0.0, 1.0);
-    if (w <= 0.0) {
-        return disk;
-    }
-    return mix(disk, crease_irradiance(n.position, n.normal, n.area, n.flux, x, ns, ng), w);
-}
-
-// Irradiance at x (normals ns, ng) from a uniformly emitting regular
-// octagon of area a and flux phi centred at p in the plane of normal nv,
-// which emits on nv's side: Lambert's formula E = Φ/A · Σ θₖ (ns·ĝₖ)/2π
-// over the edges of the octagon clipped to the planes ns·w ≥ 0 and
-// ng·w ≥ 0 through x (θₖ the angle an edge subtends, ĝₖ its plane's unit
-// normal). At most Φ/A, the octagon's exitance. CPU twin:
-// gibake_eval::transport::crease_irradiance.
-fn crease_irradiance(p: vec3<f32>, nv: vec3<f32>, a: f32, phi: vec3<f32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
-    if (!(a > 0.0) || dot(nv, x - p) <= 0.0) {
-        return vec3<f32>(0.0);
-    }
-    let t = basis_t(nv);
-    let b = basis_b(nv);
-    // Circumradius of the regular octagon of area a (a = 2√2 R²).
-    let r = sqrt(a / 2.828427);
-    var poly: array<vec3<f32>, 10>;
-    for (var k = 0u; k < 8u; k++) {
-        let th = f32(k) * 0.7853982;
-        poly[k] = p + (t * cos(th) + b * sin(th)) * r - x;
-    }
-    var n = 8u;
-    for (var side = 0u; side < 2u; side++) {
-        let plane = select(ng, ns, side == 0u);
-        var out: array<vec3<f32>, 10>;
-        var m = 0u;
-        for (var i = 0u; i < n; i++) {
-            let c = poly[i];
-            let d = poly[(i + 1u) % n];
-            let dc = dot(plane, c);
-            let dd = dot(plane, d);
-            if (dc >= 0.0 && m < 10u) {
-                out[m] = c;
-                m++;
-            }
-            if ((dc >= 0.0) != (dd >= 0.0) && m < 10u) {
-                out[m] = c + (d - c) * (dc / (dc - dd));
-                m++;
-            }
-        }
-        poly = out;
-        n = m;
-        if (n < 3u) {
-            return vec3<f32>(0.0);
-        }
-    }
-    var sum = 0.0;
-    for (var i = 0u; i < n; i++) {
-        let lc = length(poly[i]);
-        let ld = length(poly[(i + 1u) % n]);
-        if (!(lc > 0.0) || !(ld > 0.0)) {
-            continue;
-        }
-        let c = poly[i] / lc;
-        let d = poly[(i + 1u) % n] / ld;
-        let cr = cross(c, d);
-        let l = length(cr);
-        if (!(l > 0.0)) {
-            continue;
-        }
-        sum += acos(clamp(dot(c, d), -1.0, 1.0)) * dot(ns, cr / l);
-    }
-    return finite_or_zero3(phi * (abs(sum) * 0.15915494 / a));
+    return vpl_irradiance(n.position, n.normal, n.area, n.flux, x, ns, ng);
 }
 
 // Unshadowed irradiance at x from static VPL i (record v): one disk at

@@ -87,85 +87,15 @@ pub fn node_irradiance(n: &VplRecord, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 {
     if n.texels == 0 {
         return Vec3::ZERO;
     }
-    let (p, nv, phi) = (
+    disk_irradiance(
         Vec3::from_array(n.position),
         Vec3::from_array(n.normal),
+        n.area,
         Vec3::from_array(n.flux),
-    );
-    let disk = disk_irradiance(p, nv, n.area, phi, x, ns, ng);
-    let w = ((CREASE_MU_HI - ns.dot(nv).abs()) / (CREASE_MU_HI - CREASE_MU_LO)).clamp(0.0, 1.0);
-    if w <= 0.0 {
-        return disk;
-    }
-    disk.lerp(crease_irradiance(p, nv, n.area, phi, x, ns, ng), w)
-}
-
-/// Below this `|ns·nv|` a near-field node is drawn by
-/// [`crease_irradiance`] alone, above [`CREASE_MU_HI`] as a disk, in
-/// between a blend (shade.wgsl `node_irradiance` says why; must match
-/// `CREASE_MU_LO` there).
-pub const CREASE_MU_LO: f32 = 0.4;
-/// See [`CREASE_MU_LO`].
-pub const CREASE_MU_HI: f32 = 0.6;
-
-/// Irradiance at `x` from a uniformly emitting regular octagon of area `a`
-/// and flux `phi` centred at `p` in the plane of normal `nv` (emitting on
-/// its side): Lambert's formula over the octagon clipped to the receiver's
-/// hemispheres of `ns` and `ng` (shade.wgsl `crease_irradiance`).
-pub fn crease_irradiance(
-    p: Vec3,
-    nv: Vec3,
-    a: f32,
-    phi: Vec3,
-    x: Vec3,
-    ns: Vec3,
-    ng: Vec3,
-) -> Vec3 {
-    if a.is_nan() || a <= 0.0 || nv.dot(x - p) <= 0.0 {
-        return Vec3::ZERO;
-    }
-    let r = (a / 2.828427).sqrt();
-    let mut poly: Vec<Vec3> = (0..8)
-        .map(|k| {
-            let th = k as f32 * std::f32::consts::FRAC_PI_4;
-            // The WGSL's basis_t(nv)·cos + basis_b(nv)·sin.
-            p + gibake_gpu::hemisphere::to_world(nv, Vec3::new(th.cos(), th.sin(), 0.0)) * r - x
-        })
-        .collect();
-    for plane in [ns, ng] {
-        let mut out = Vec::with_capacity(poly.len() + 1);
-        for i in 0..poly.len() {
-            let (c, d) = (poly[i], poly[(i + 1) % poly.len()]);
-            let (dc, dd) = (plane.dot(c), plane.dot(d));
-            if dc >= 0.0 {
-                out.push(c);
-            }
-            if (dc >= 0.0) != (dd >= 0.0) {
-                out.push(c + (d - c) * (dc / (dc - dd)));
-            }
-        }
-        poly = out;
-        if poly.len() < 3 {
-            return Vec3::ZERO;
-        }
-    }
-    let mut sum = 0.0f32;
-    for i in 0..poly.len() {
-        let (c, d) = (poly[i], poly[(i + 1) % poly.len()]);
-        let (lc, ld) = (c.length(), d.length());
-        if lc.is_nan() || ld.is_nan() || lc <= 0.0 || ld <= 0.0 {
-            continue;
-        }
-        let (c, d) = (c / lc, d / ld);
-        let cr = c.cross(d);
-        let l = cr.length();
-        if l.is_nan() || l <= 0.0 {
-            continue;
-        }
-        sum += c.dot(d).clamp(-1.0, 1.0).acos() * ns.dot(cr / l);
-    }
-    let e = phi * (sum.abs() * 0.159_154_94 / a);
-    if e.is_finite() { e } else { Vec3::ZERO }
+        x,
+        ns,
+        ng,
+    )
 }
 
 /// Unshadowed irradiance at `x` from VPL `v` drawn from `origin` (its
@@ -469,49 +399,6 @@ mod tests {
         }
         assert_eq!(far_lobe(f32::NAN, 0.5), 0.5);
         assert_eq!(far_lobe(2.0, 0.5), 0.5);
-    }
-
-    /// Lambert's formula for the octagon against closed forms: on its axis
-    /// at distance d a disk of radius R gives Φ/A · R²/(d² + R²) (the
-    /// octagon of the same area within 1%), right in front of it its
-    /// exitance Φ/A, and nothing behind it; across it at a crease (a floor
-    /// point facing along the node, near its lower edge) below the
-    /// exitance and well above what the disk kernel's centre cosines give.
-    #[test]
-    fn crease_irradiance_matches_closed_forms() {
-        use super::{crease_irradiance, disk_irradiance};
-        use glam::Vec3;
-        let (a, phi) = (std::f32::consts::PI, Vec3::ONE); // R = 1, exitance 1/π
-        let m = 1.0 / std::f32::consts::PI;
-        for d in [0.01f32, 0.5, 1.0, 3.0] {
-            let x = Vec3::new(0.0, 0.0, d);
-            let e = crease_irradiance(Vec3::ZERO, Vec3::Z, a, phi, x, -Vec3::Z, -Vec3::Z).x;
-            let disk = m / (d * d + 1.0);
-            assert!(
-                (e / disk - 1.0).abs() < 0.01,
-                "d {d}: octagon {e}, disk {disk}"
-            );
-        }
-        let behind = crease_irradiance(
-            Vec3::ZERO,
-            Vec3::Z,
-            a,
-            phi,
-            Vec3::new(0.0, 0.0, -0.5),
-            Vec3::Z,
-            Vec3::Z,
-        );
-        assert_eq!(behind, Vec3::ZERO);
-        // A floor point (normal +y) 0.1 R in front of a wall node (normal
-        // +x), near the node's lower edge.
-        let x = Vec3::new(0.1, -0.99, 0.0);
-        let e = crease_irradiance(Vec3::ZERO, Vec3::X, a, phi, x, Vec3::Y, Vec3::Y).x;
-        let kernel = disk_irradiance(Vec3::ZERO, Vec3::X, a, phi, x, Vec3::Y, Vec3::Y).x;
-        assert!(e > 0.0 && e < m, "crease {e} within the exitance {m}");
-        assert!(
-            e > 2.0 * kernel,
-            "crease {e} against the centre's cosines {kernel}"
-        );
     }
 
     /// Texels whose normals are spread evenly over a hemisphere (a lit
