@@ -36,8 +36,8 @@ pub use uptodate::{Freshness, check_up_to_date};
 /// baker version an asset records is `CRATE_VERSION+bake.N`
 /// ([`baker_version`]), so the up-to-date check re-bakes an asset baked by
 /// an older method even when the crate version did not change.
-/// `tests/method_revision.rs` holds the VPLs of a small bake to a hash per
-/// revision and says when it is due. A change to the runtime alone (how the
+/// `crates/bake/tests/method_revision.rs` holds the VPLs of two small bakes
+/// to a hash per revision and says when it is due. A change to the runtime alone (how the
 /// same asset is shaded) needs no bump.
 pub const BAKE_METHOD: u32 = 1;
 

@@ -141,8 +141,7 @@ pub fn differences(
     if p.baker_version != baker_version {
         // Same release, another method revision (crate::BAKE_METHOD), or an
         // asset from before the revision was recorded.
-        let release = |v: &str| v.split('+').next().unwrap_or_default().to_string();
-        let why = if release(&p.baker_version) == release(baker_version) {
+        let why = if p.baker_version.split('+').next() == baker_version.split('+').next() {
             ": the bake's method was revised since this asset was baked"
         } else {
             ""
