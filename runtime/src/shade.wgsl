@@ -71,8 +71,12 @@ const VPL_MAX_SLOPE: f32 = 10.0;
 // receiver is nearer than NEAR_FIELD_RATIO × its disk radius √(A/π) is
 // replaced by its four children, down to level 3 (8×8 nodes). Dimensionless:
 // the descent is the same at every scene scale. Must match
-// gibake_runtime::transport::NEAR_FIELD_RATIO.
+// gibake_eval::transport::NEAR_FIELD_RATIO.
 const NEAR_FIELD_RATIO: f32 = 4.0;
+// Crease sub-disks (near_node_irradiance); must match gibake_eval::transport.
+const CREASE_SUBDISKS: u32 = 3u;
+const CREASE_LO: f32 = 0.4;
+const CREASE_HI: f32 = 0.6;
 const NODES_PER_VPL: u32 = 84u;
 
 fn has(f: u32) -> bool {
@@ -272,6 +276,43 @@ fn node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f
     return vpl_irradiance(n.position, n.normal, n.area, n.flux, x, ns, ng);
 }
 
+// A finest near-field node (level 3) at a receiver in its near field. The
+// disk kernel takes both cosines at the node's centre; for a receiver
+// across the node's normal (a floor beside a lit wall, the street under a
+// façade: |ns·nv| small) the centre's cosines are small near contact while
+// the part of the node nearest the receiver sends most of its light. There
+// the node is drawn as CREASE_SUBDISKS² disks tiling its square (area A
+// about its centre, in its plane), each with A/k² and Φ/k², blended with
+// the one disk as |ns·nv| goes from CREASE_LO to CREASE_HI. Nine disk
+// kernels, no arrays, no trigonometry: most of the exact polygon's gain
+// (docs/experiments/crease_kernel.patch) at a fraction of its cost;
+// measured in docs/method.md, "Crease sub-disks". CPU twin:
+// gibake_eval::transport::near_node_irradiance.
+fn near_node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
+    if (n.texels == 0u) {
+        return vec3<f32>(0.0);
+    }
+    let disk = vpl_irradiance(n.position, n.normal, n.area, n.flux, x, ns, ng);
+    let s = abs(dot(ns, n.normal));
+    if (s >= CREASE_HI || !is_near(x, n.position, n.area)) {
+        return disk;
+    }
+    let k = f32(CREASE_SUBDISKS);
+    let side = sqrt(max(n.area, 0.0));
+    let tb = basis_t(n.normal) * (side / k);
+    let bb = basis_b(n.normal) * (side / k);
+    let a = n.area / (k * k);
+    let phi = n.flux / (k * k);
+    var e = vec3<f32>(0.0);
+    for (var j = 0u; j < CREASE_SUBDISKS; j++) {
+        for (var i = 0u; i < CREASE_SUBDISKS; i++) {
+            let q = n.position + tb * (f32(i) + 0.5 - 0.5 * k) + bb * (f32(j) + 0.5 - 0.5 * k);
+            e += vpl_irradiance(q, n.normal, a, phi, x, ns, ng);
+        }
+    }
+    return mix(e, disk, smoothstep(CREASE_LO, CREASE_HI, s));
+}
+
 // Unshadowed irradiance at x from static VPL i (record v): one disk at
 // its far-field centre (its texels' centroid: the record after the trees,
 // baked.rs) from afar, its near-field tree up close. CPU twin:
@@ -310,7 +351,7 @@ fn static_vpl_irradiance(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f
             for (var c3 = 0u; c3 < 4u; c3++) {
                 let i3 = 2u * i2 + c3 % 2u;
                 let j3 = 2u * j2 + c3 / 2u;
-                e += node_irradiance(vpls[base + 20u + j3 * 8u + i3], x, ns, ng);
+                e += near_node_irradiance(vpls[base + 20u + j3 * 8u + i3], x, ns, ng);
             }
         }
     }
