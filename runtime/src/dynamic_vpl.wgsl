@@ -81,8 +81,11 @@ fn empty_node() -> Node {
 
 // The node of texel (x, y) of the window (the map's texel origin + (x, y)),
 // with the bake's RSM radiometry (gibake_bake::rsm::render_rsm): flux =
-// albedo · color · att · measure, area = measure · d² / cos (spot) or
-// measure / cos (directional).
+// albedo · color · att · measure · s, s = cos_s / cos_g (the shading
+// normal's cosine over the geometric one, at most 1/MIN_AREA_COSINE),
+// area = measure · d² / cos_g (spot) or measure / cos_g (directional),
+// cos_g ≥ MIN_AREA_COSINE; the node's normal is the geometric one, which
+// the texel emits about.
 fn texel_node(wx: u32, wy: u32) -> Node {
     let x = wx + params.origin.x;
     let y = wy + params.origin.y;
@@ -96,7 +99,9 @@ fn texel_node(wx: u32, wy: u32) -> Node {
     }
     let p = pm.xyz;
     let albedo = textureLoad(dyn_albedo, c, 0).rgb;
-    let nrm = oct_decode(textureLoad(dyn_normal, c, 0).xy);
+    let normals = textureLoad(dyn_normal, c, 0);
+    let nrm = oct_decode(normals.xy);
+    let ns = oct_decode(normals.zw);
     var dir = light.direction.xyz;
     var att = 1.0;
     let directional = light.position.w > 0.5;
@@ -107,12 +112,13 @@ fn texel_node(wx: u32, wy: u32) -> Node {
         att = light_attenuation(light, dir, dist);
     }
     let measure = lv_texel_measure(view, dir);
-    let cos_s = max(dot(nrm, -dir), MIN_AREA_COSINE);
-    var flux = albedo * light.color.rgb * (att * measure);
-    var area = measure / cos_s;
+    let cos_g = max(dot(nrm, -dir), MIN_AREA_COSINE);
+    let shading = min(max(dot(ns, -dir), 0.0) / max(dot(nrm, -dir), 1.0e-30), 1.0 / MIN_AREA_COSINE);
+    var flux = albedo * light.color.rgb * (att * measure * shading);
+    var area = measure / cos_g;
     if (!directional) {
         let d = length(p - light.position.xyz);
-        area = measure * d * d / cos_s;
+        area = measure * d * d / cos_g;
     }
     flux = finite_or_zero3(flux);
     if (!is_finite_f32(area)) {

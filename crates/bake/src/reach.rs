@@ -81,10 +81,9 @@ impl Reach<'_, '_> {
 
     /// The fraction of texel `index`'s reflected light that reaches
     /// something: `RAYS_PER_TEXEL` stratified cosine-distributed rays about
-    /// the shading normal `ns` from `p`, offset along the geometric normal
-    /// `ng` (both facing the light); a direction below the geometric plane
-    /// reaches nothing.
-    pub fn texel_reach(&self, index: u64, p: Vec3, ng: Vec3, ns: Vec3) -> f32 {
+    /// the geometric normal `ng` (facing the light: the normal the texel
+    /// emits about, [`crate::rsm::Rsm::normal`]) from `p`, offset along it.
+    pub fn texel_reach(&self, index: u64, p: Vec3, ng: Vec3) -> f32 {
         let origin = self.rays.offset_point(p, ng);
         let h = mix(index);
         let (j1, j2) = (
@@ -94,7 +93,7 @@ impl Reach<'_, '_> {
         let mut hit = 0u32;
         for k in 0..RAYS_PER_TEXEL {
             let (sx, sy) = ((k % 2) as f32, (k / 2) as f32);
-            let d = cosine_direction(ns, (sx + j1) * 0.5, (sy + j2) * 0.5);
+            let d = cosine_direction(ng, (sx + j1) * 0.5, (sy + j2) * 0.5);
             if d.dot(ng) > 0.0 && self.hits(origin, d) {
                 hit += 1;
             }

@@ -22,7 +22,11 @@ pub struct Rsm {
     pub metric: Vec<f32>,
     /// World position of the surface seen by the texel.
     pub position: Vec<Vec3>,
-    /// Unit geometric normal of that surface, facing the light.
+    /// Unit geometric normal of that surface, facing the light: the normal
+    /// the texel emits about. A Lambertian surface's radiance leaves the
+    /// facet that is there, so its intensity towards `ω` is `Φ/π ·
+    /// max(n_g·ω, 0)`, as the reference's bounce has it; the shading normal
+    /// sets only its irradiance, hence [`Rsm::flux`].
     pub normal: Vec<Vec3>,
     /// Reflected flux (W, linear RGB): spot `albedo · I(ω) · Ω_texel`,
     /// directional `albedo · E · A_texel`.
@@ -125,11 +129,11 @@ pub fn render_rsm(
                     let r = match reach {
                         Some(r) if lit => {
                             let index = u64::from(y) * u64::from(size) + u64::from(x);
-                            r.texel_reach(index, p, hit.geometric_normal, ns)
+                            r.texel_reach(index, p, hit.geometric_normal)
                         }
                         _ => 1.0,
                     };
-                    (view.metric(p), p, ns, flux, area, r)
+                    (view.metric(p), p, hit.geometric_normal, flux, area, r)
                 })
                 .collect()
         })
