@@ -11,8 +11,6 @@
 //! `cargo run --release -p gibake-eval --example band_sources -- LEVEL --size N --rows A B`
 //! (`LEVEL` a name in data/levels/levels.json; receivers: the pixel rows
 //! `A..B` of an `N`² image; ≈ 20 s for 12 rows of 96 on 2 cores).
-use gibake_bake::rsm::render_rsm;
-use gibake_gpu::LightView;
 use gibake_raycast::RayScene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -42,19 +40,7 @@ fn main() {
         .unwrap();
     let stat = gibake_bake::static_only(&scene);
     let rays = RayScene::build(&stat, 0.0);
-    let maps: Vec<(LightView, gibake_bake::rsm::Rsm)> = scene
-        .lights
-        .iter()
-        .flat_map(|light| {
-            LightView::of_light(&scene, light, 2048)
-                .into_iter()
-                .map(|v| {
-                    let v = v.resized(512);
-                    (v, render_rsm(&rays, light, &v, None))
-                })
-                .collect::<Vec<_>>()
-        })
-        .collect();
+    let maps = gibake_eval::bounce::every_view_rsm(&scene, &rays, 512);
     // Each lit texel with the mesh its own ray from the light hits.
     let texels: Vec<(Vec3, Vec3, f32, Vec3, u32)> = maps
         .iter()
@@ -78,9 +64,7 @@ fn main() {
         .into_par_iter()
         .map(|p| {
             let mut t = Tally::default();
-            let (x, y) = (p % size, p / size);
-            let (o, d, t0) = cam.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
-            let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
+            let Some(h) = gibake_eval::bounce::pixel_hit(&rays, &cam, size, p) else {
                 return t;
             };
             *t[3].entry(h.mesh).or_insert(0.0) += 1.0;
@@ -91,19 +75,10 @@ fn main() {
                 *t[0].entry(y2.mesh).or_insert(0.0) += v;
             });
             for &(pp, nn, area, flux, mesh) in &texels {
-                let dv = h.position - pp;
-                let d2 = dv.length_squared();
-                if d2 <= 0.0 {
+                let Some(k) = gibake_eval::bounce::texel_kernel(pp, nn, area, &h) else {
                     continue;
-                }
-                let dir = dv / d2.sqrt();
-                let (cv, cr) = (nn.dot(dir), h.shading_normal.dot(-dir));
-                if cv <= 0.0 || cr <= 0.0 || h.geometric_normal.dot(-dir) <= 0.0 {
-                    continue;
-                }
-                let r2 = area / PI;
-                let f = (a * flux).x * cv * cr / PI;
-                let b = f64::from(f / (d2 * d2 + r2 * r2).sqrt());
+                };
+                let b = f64::from((a * flux).x * k.bounded);
                 *t[2].entry(mesh).or_insert(0.0) += b;
                 if rays.visible(pp, nn, h.position, h.geometric_normal) {
                     *t[1].entry(mesh).or_insert(0.0) += b;

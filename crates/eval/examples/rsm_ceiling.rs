@@ -36,7 +36,6 @@
 //! texel: an upper bound on what sub-texel detail misses, 1–5% on the real
 //! levels).
 
-use gibake_bake::rsm::render_rsm;
 use gibake_gpu::LightView;
 use gibake_raycast::RayScene;
 use glam::Vec3;
@@ -124,19 +123,7 @@ fn main() {
         let stat = gibake_bake::static_only(&scene);
         let rays = RayScene::build(&stat, 0.0);
         // Every view of every light (one for a level's one light).
-        let maps: Vec<(LightView, gibake_bake::rsm::Rsm)> = scene
-            .lights
-            .iter()
-            .flat_map(|light| {
-                LightView::of_light(&scene, light, 2048)
-                    .into_iter()
-                    .map(|v| {
-                        let v = v.resized(rsm_size);
-                        (v, render_rsm(&rays, light, &v, None))
-                    })
-                    .collect::<Vec<_>>()
-            })
-            .collect();
+        let maps = gibake_eval::bounce::every_view_rsm(&scene, &rays, rsm_size);
         let cam = gibake_reference::View::from_scene(&stat, 0.0).unwrap();
         // Footprint buckets in the first view's texels at its origin's
         // scale (a level's one view; indicative for several).
@@ -154,9 +141,7 @@ fn main() {
             .into_par_iter()
             .map(|p| {
                 let mut s = Sums::default();
-                let (x, y) = (p % size, p / size);
-                let (o, d, t0) = cam.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
-                let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
+                let Some(h) = gibake_eval::bounce::pixel_hit(&rays, &cam, size, p) else {
                     return s;
                 };
                 let a = h.albedo / PI;
@@ -177,23 +162,15 @@ fn main() {
                     }
                 });
                 for &(pp, nn, area, flux) in &texels {
-                    let dv = h.position - pp;
-                    let d2 = dv.length_squared();
-                    if d2 <= 0.0 {
+                    let Some(k) = gibake_eval::bounce::texel_kernel(pp, nn, area, &h) else {
                         continue;
-                    }
-                    let dir = dv / d2.sqrt();
-                    let (cv, cr) = (nn.dot(dir), h.shading_normal.dot(-dir));
-                    if cv <= 0.0 || cr <= 0.0 || h.geometric_normal.dot(-dir) <= 0.0 {
-                        continue;
-                    }
-                    let r2 = area / PI;
-                    let f = (a * flux).element_sum() * cv * cr / PI;
-                    let bounded = f64::from(f / (d2 * d2 + r2 * r2).sqrt());
+                    };
+                    let f = (a * flux).element_sum();
+                    let bounded = f64::from(f * k.bounded);
                     s.bounded_unshadowed += bounded;
                     if rays.visible(pp, nn, h.position, h.geometric_normal) {
                         s.bounded += bounded;
-                        s.point += f64::from(f / d2);
+                        s.point += f64::from(f * k.point);
                     }
                 }
                 s.largest = s.reference;

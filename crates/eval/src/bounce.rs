@@ -1,10 +1,12 @@
-//! The diagnostics' one-bounce estimator (`vpl_diag`, `rsm_ceiling`): at a
-//! receiver, stratified cosine-distributed directions about its shading
-//! normal, each secondary hit's direct radiance from the reference
-//! (`gibake_reference::direct_radiance`). Deterministic: the jitter is a
-//! hash of the receiver's index and the sample's.
+//! The diagnostics' one-bounce estimator (`vpl_diag`, `rsm_ceiling`,
+//! `band_sources`): at a receiver, stratified cosine-distributed directions
+//! about its shading normal, each secondary hit's direct radiance from the
+//! reference (`gibake_reference::direct_radiance`). Deterministic: the
+//! jitter is a hash of the receiver's index and the sample's. And the
+//! kernel those diagnostics give one RSM texel as its own point VPL
+//! ([`texel_kernel`]).
 
-use gibake_reference::{Hit, RayScene};
+use gibake_reference::{Hit, RayScene, View};
 use glam::Vec3;
 use std::f32::consts::PI;
 
@@ -50,4 +52,69 @@ pub fn hash(p: u32, i: u32, c: u32) -> f32 {
     z = (z ^ (z >> 27)).wrapping_mul(0x94d049bb133111eb);
     z ^= z >> 31;
     (z >> 40) as f32 / (1u64 << 24) as f32
+}
+
+/// The transport from one RSM texel, as its own point VPL, to a receiver,
+/// per unit flux and before the receiver's albedo and any visibility.
+#[derive(Clone, Copy, Debug)]
+pub struct TexelKernel {
+    /// `cos θ_v · cos θ_r / (π · √(d⁴ + (A/π)²))`: the runtime's bounded
+    /// disk kernel (shade.wgsl `vpl_lobe_irradiance` at coherence 1).
+    pub bounded: f32,
+    /// `cos θ_v · cos θ_r / (π · d²)`: the unbounded point kernel.
+    pub point: f32,
+}
+
+/// [`TexelKernel`] from a texel at `p` emitting about `n` (the RSM's
+/// geometric normal) with area `area` to the receiver `h` (its shading
+/// normal's cosine, cut below its geometric plane); `None` where either
+/// faces away or the two coincide.
+pub fn texel_kernel(p: Vec3, n: Vec3, area: f32, h: &Hit) -> Option<TexelKernel> {
+    let dv = h.position - p;
+    let d2 = dv.length_squared();
+    if d2 <= 0.0 {
+        return None;
+    }
+    let dir = dv / d2.sqrt();
+    let (cv, cr) = (n.dot(dir), h.shading_normal.dot(-dir));
+    if cv <= 0.0 || cr <= 0.0 || h.geometric_normal.dot(-dir) <= 0.0 {
+        return None;
+    }
+    let g = cv * cr / PI;
+    let r2 = area / PI;
+    Some(TexelKernel {
+        bounded: g / (d2 * d2 + r2 * r2).sqrt(),
+        point: g / d2,
+    })
+}
+
+/// What the centre of pixel `p` (row-major) of a `size × size` image of
+/// `cam` sees: the diagnostics' receivers.
+pub fn pixel_hit(rays: &RayScene<'_>, cam: &View, size: u32, p: u32) -> Option<Hit> {
+    let (x, y) = (p % size, p / size);
+    let (o, d, t0) = cam.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
+    rays.intersect_range(o, d, t0, f32::INFINITY)
+}
+
+/// The RSM of every view of every light of `scene` at `rsm_size`² (a
+/// level's one view for its one light), rendered against `rays` (its
+/// static part) as the bake renders them, without reach.
+pub fn every_view_rsm(
+    scene: &gibake_scene::Scene,
+    rays: &RayScene<'_>,
+    rsm_size: u32,
+) -> Vec<(gibake_gpu::LightView, gibake_bake::rsm::Rsm)> {
+    scene
+        .lights
+        .iter()
+        .flat_map(|light| {
+            gibake_gpu::LightView::of_light(scene, light, 2048)
+                .into_iter()
+                .map(|v| {
+                    let v = v.resized(rsm_size);
+                    (v, gibake_bake::rsm::render_rsm(rays, light, &v, None))
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect()
 }
