@@ -73,8 +73,8 @@ const VPL_MAX_SLOPE: f32 = 10.0;
 // the descent is the same at every scene scale. Must match
 // gibake_eval::transport::NEAR_FIELD_RATIO.
 const NEAR_FIELD_RATIO: f32 = 4.0;
-// Crease sub-disks (near_node_irradiance); must match gibake_eval::transport.
-const CREASE_SUBDISKS: u32 = 3u;
+// The crease kernel's blend (near_node_irradiance); must match
+// gibake_eval::transport.
 const CREASE_LO: f32 = 0.4;
 const CREASE_HI: f32 = 0.6;
 const NODES_PER_VPL: u32 = 84u;
@@ -276,17 +276,74 @@ fn node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f
     return vpl_irradiance(n.position, n.normal, n.area, n.flux, x, ns, ng);
 }
 
+// Lambert's term of the polygon edge a → b (relative to the receiver):
+// the angle it subtends times the cosine of its plane's normal with n.
+fn edge_term(a: vec3<f32>, b: vec3<f32>, n: vec3<f32>) -> f32 {
+    let ua = normalize(a);
+    let ub = normalize(b);
+    let c = cross(ua, ub);
+    let l = length(c);
+    if (!(l > 1.0e-12)) {
+        return 0.0;
+    }
+    return acos(clamp(dot(ua, ub), -1.0, 1.0)) * dot(c, n) / l;
+}
+
+// Corner k (0..3, in order round it) of the square c ± t ± b.
+fn square_corner(c: vec3<f32>, t: vec3<f32>, b: vec3<f32>, k: u32) -> vec3<f32> {
+    let st = select(-1.0, 1.0, k == 1u || k == 2u);
+    let sb = select(-1.0, 1.0, k >= 2u);
+    return c + t * st + b * sb;
+}
+
+// Form factor from a receiver at the origin with normal n to the square
+// c ± t ± b (relative to the receiver), clipped to the receiver's
+// hemisphere: Lambert's formula, (1/2π)|Σ θᵢ (n·γᵢ)|, straight-line code
+// (the clipped polygon's edges one by one, and the edge along the plane
+// from where it leaves to where it comes back).
+fn square_form_factor(c: vec3<f32>, t: vec3<f32>, b: vec3<f32>, n: vec3<f32>) -> f32 {
+    var sum = 0.0;
+    var exit_p = vec3<f32>(0.0);
+    var entry_p = vec3<f32>(0.0);
+    var clipped = false;
+    for (var k = 0u; k < 4u; k++) {
+        let a = square_corner(c, t, b, k);
+        let bq = square_corner(c, t, b, (k + 1u) % 4u);
+        let ha = dot(a, n);
+        let hb = dot(bq, n);
+        if (ha >= 0.0 && hb >= 0.0) {
+            sum += edge_term(a, bq, n);
+        } else if (ha >= 0.0 && hb < 0.0) {
+            let p = a + (bq - a) * (ha / (ha - hb));
+            sum += edge_term(a, p, n);
+            exit_p = p;
+            clipped = true;
+        } else if (ha < 0.0 && hb >= 0.0) {
+            let p = a + (bq - a) * (ha / (ha - hb));
+            sum += edge_term(p, bq, n);
+            entry_p = p;
+            clipped = true;
+        }
+    }
+    if (clipped) {
+        sum += edge_term(exit_p, entry_p, n);
+    }
+    return abs(sum) * (0.5 * INV_PI);
+}
+
 // A finest near-field node (level 3) at a receiver in its near field. The
 // disk kernel takes both cosines at the node's centre; for a receiver
 // across the node's normal (a floor beside a lit wall, the street under a
 // façade: |ns·nv| small) the centre's cosines are small near contact while
 // the part of the node nearest the receiver sends most of its light. There
-// the node is drawn as CREASE_SUBDISKS² disks tiling its square (area A
-// about its centre, in its plane), each with A/k² and Φ/k², blended with
-// the one disk as |ns·nv| goes from CREASE_LO to CREASE_HI. Nine disk
-// kernels, no arrays, no trigonometry: most of the exact polygon's gain
-// (docs/experiments/crease_kernel.patch) at a fraction of its cost;
-// measured in docs/method.md, "Crease sub-disks". CPU twin:
+// the node is drawn as what it stands for, a uniformly emitting square of
+// its area about its centre in its plane (exitance Φ/A), with Lambert's
+// exact formula clipped to the receiver's hemisphere
+// (square_form_factor), blended with the one disk as |ns·nv| goes from
+// CREASE_LO to CREASE_HI. Receivers facing the node or coplanar with it
+// keep the disk: a node's centroid, off a curved or thin surface by a
+// fraction of its radius, would put a flat emitter millimetres from them.
+// Measured in docs/method.md, "Crease kernel". CPU twin:
 // gibake_eval::transport::near_node_irradiance.
 fn near_node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
     if (n.texels == 0u) {
@@ -297,18 +354,11 @@ fn near_node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> v
     if (s >= CREASE_HI || !is_near(x, n.position, n.area)) {
         return disk;
     }
-    let k = f32(CREASE_SUBDISKS);
-    let side = sqrt(max(n.area, 0.0));
-    let tb = basis_t(n.normal) * (side / k);
-    let bb = basis_b(n.normal) * (side / k);
-    let a = n.area / (k * k);
-    let phi = n.flux / (k * k);
+    let half = 0.5 * sqrt(max(n.area, 0.0));
     var e = vec3<f32>(0.0);
-    for (var j = 0u; j < CREASE_SUBDISKS; j++) {
-        for (var i = 0u; i < CREASE_SUBDISKS; i++) {
-            let q = n.position + tb * (f32(i) + 0.5 - 0.5 * k) + bb * (f32(j) + 0.5 - 0.5 * k);
-            e += vpl_irradiance(q, n.normal, a, phi, x, ns, ng);
-        }
+    if (dot(n.normal, x - n.position) > 0.0 && n.area > 0.0) {
+        let f = square_form_factor(n.position - x, basis_t(n.normal) * half, basis_b(n.normal) * half, ns);
+        e = finite_or_zero3(n.flux * (f / n.area));
     }
     return mix(e, disk, smoothstep(CREASE_LO, CREASE_HI, s));
 }
