@@ -349,10 +349,9 @@ fn near_node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> v
     if (n.texels == 0u) {
         return vec3<f32>(0.0);
     }
-    let disk = vpl_irradiance(n.position, n.normal, n.area, n.flux, x, ns, ng);
     let s = abs(dot(ns, n.normal));
     if (s >= CREASE_HI || !is_near(x, n.position, n.area)) {
-        return disk;
+        return vpl_irradiance(n.position, n.normal, n.area, n.flux, x, ns, ng);
     }
     let half = 0.5 * sqrt(max(n.area, 0.0));
     var e = vec3<f32>(0.0);
@@ -360,6 +359,10 @@ fn near_node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> v
         let f = square_form_factor(n.position - x, basis_t(n.normal) * half, basis_b(n.normal) * half, ns);
         e = finite_or_zero3(n.flux * (f / n.area));
     }
+    if (s <= CREASE_LO) {
+        return e;
+    }
+    let disk = vpl_irradiance(n.position, n.normal, n.area, n.flux, x, ns, ng);
     return mix(e, disk, smoothstep(CREASE_LO, CREASE_HI, s));
 }
 

@@ -159,14 +159,13 @@ pub fn square_form_factor(c: Vec3, t: Vec3, b: Vec3, n: Vec3) -> f32 {
 /// between [`CREASE_LO`] and [`CREASE_HI`] (shade.wgsl
 /// `near_node_irradiance`, which says why).
 pub fn near_node_irradiance(n: &VplRecord, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 {
-    let disk = node_irradiance(n, x, ns, ng);
     if n.texels == 0 {
-        return disk;
+        return Vec3::ZERO;
     }
     let (p, nv) = (Vec3::from_array(n.position), Vec3::from_array(n.normal));
     let s = ns.dot(nv).abs();
     if s >= CREASE_HI || !is_near(x, p, n.area) {
-        return disk;
+        return node_irradiance(n, x, ns, ng);
     }
     let half = 0.5 * n.area.max(0.0).sqrt();
     let mut e = Vec3::ZERO;
@@ -179,8 +178,11 @@ pub fn near_node_irradiance(n: &VplRecord, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 
             e = Vec3::ZERO;
         }
     }
+    if s <= CREASE_LO {
+        return e;
+    }
     let u = ((s - CREASE_LO) / (CREASE_HI - CREASE_LO)).clamp(0.0, 1.0);
-    e.lerp(disk, u * u * (3.0 - 2.0 * u))
+    e.lerp(node_irradiance(n, x, ns, ng), u * u * (3.0 - 2.0 * u))
 }
 
 /// Unshadowed irradiance at `x` from VPL `v` drawn from `origin` (its
