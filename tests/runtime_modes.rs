@@ -207,7 +207,7 @@ fn map_lookup_twin_matches_the_gpu() {
                 let (p, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
                 let e: glam::Vec3 = twin
                     .terms(p, ns, ng)
-                    .map(|(i, e)| e * maps.visibility(&twin, i, p, ng))
+                    .map(|(i, t)| t.with_visibility(maps.visibility(&twin, i, p, ng)))
                     .sum();
                 cpu.set(x, y, h.albedo / std::f32::consts::PI * e);
                 let ex = twin.irradiance(&rays, &h).visible;

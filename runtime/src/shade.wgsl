@@ -366,19 +366,40 @@ fn near_node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> v
     return mix(e, disk, smoothstep(CREASE_LO, CREASE_HI, s));
 }
 
+// A static VPL's unshadowed irradiance at a receiver in two parts:
+// `shadowed`, what its hemisphere map's visibility applies to (the
+// far-field disk, the level-1 and level-2 near-field nodes), and `open`,
+// the finest (level-3) nodes in their parent's near field, which no map
+// test darkens. The map is taken from the VPL's one origin, lifted above
+// its mean plane; a receiver within a VPL radius of a finest node (an
+// eighth of that radius) sees the node past surfaces that hide the origin
+// — a curved rock or crown, a crease at a mech's foot — and the twin
+// with exact rays from each node's own position measured it: the origin's
+// test took 6–10 points of the city's and the garden's bounce light that
+// rays from the nodes keep. At that range what lies between a node and
+// its receiver is mostly their own surfaces, which the kernel's two
+// cosines already take; the known cost is light through a thin occluder
+// standing within a VPL radius of both (docs/method.md, "Finest nodes
+// unshadowed"). CPU twin: gibake_eval::transport::VplTerms.
+struct VplTerms {
+    shadowed: vec3<f32>,
+    open: vec3<f32>,
+}
+
 // Unshadowed irradiance at x from static VPL i (record v): one disk at
 // its far-field centre (its texels' centroid: the record after the trees,
-// baked.rs) from afar, its near-field tree up close. CPU twin:
-// gibake_eval::transport::TwinVpls::irradiance.
-fn static_vpl_irradiance(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
+// baked.rs) from afar, its near-field tree up close, as VplTerms. CPU
+// twin: gibake_eval::transport::static_vpl_terms.
+fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> VplTerms {
+    var t = VplTerms(vec3<f32>(0.0), vec3<f32>(0.0));
     let centre = vpls[params.n_static * (1u + NODES_PER_VPL) + i].position;
     if (!is_near(x, centre, v.area)) {
         // A static VPL's own record carries its lobe coherence in `texels`
         // (gibake_gpu::vpl::GpuVpl::texels), fixed point.
-        return vpl_lobe_irradiance(centre, v.normal, f32(v.texels) / LOBE_ONE, v.area, v.flux, x, ns, ng);
+        t.shadowed = vpl_lobe_irradiance(centre, v.normal, f32(v.texels) / LOBE_ONE, v.area, v.flux, x, ns, ng);
+        return t;
     }
     let base = params.n_static + i * NODES_PER_VPL;   // its tree, after the VPLs
-    var e = vec3<f32>(0.0);
     for (var c1 = 0u; c1 < 4u; c1++) {
         let i1 = c1 % 2u;
         let j1 = c1 / 2u;
@@ -387,7 +408,7 @@ fn static_vpl_irradiance(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f
             continue;
         }
         if (!is_near(x, n1.position, n1.area)) {
-            e += node_irradiance(n1, x, ns, ng);
+            t.shadowed += node_irradiance(n1, x, ns, ng);
             continue;
         }
         for (var c2 = 0u; c2 < 4u; c2++) {
@@ -398,17 +419,17 @@ fn static_vpl_irradiance(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f
                 continue;
             }
             if (!is_near(x, n2.position, n2.area)) {
-                e += node_irradiance(n2, x, ns, ng);
+                t.shadowed += node_irradiance(n2, x, ns, ng);
                 continue;
             }
             for (var c3 = 0u; c3 < 4u; c3++) {
                 let i3 = 2u * i2 + c3 % 2u;
                 let j3 = 2u * j2 + c3 / 2u;
-                e += near_node_irradiance(vpls[base + 20u + j3 * 8u + i3], x, ns, ng);
+                t.open += near_node_irradiance(vpls[base + 20u + j3 * 8u + i3], x, ns, ng);
             }
         }
     }
-    return e;
+    return t;
 }
 
 @compute @workgroup_size(8, 8)
@@ -445,18 +466,22 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocat
             for (var i = k; i < params.n_static; i += stride) {
                 let v = vpls[i];
                 let origin = v.position;   // the map origin, lifted at load (baked.rs)
-                var ei = static_vpl_irradiance(i, v, x, ns, ng);
-                if (all(ei == vec3<f32>(0.0))) {
+                let t = static_vpl_terms(i, v, x, ns, ng);
+                if (all(t.shadowed == vec3<f32>(0.0)) && all(t.open == vec3<f32>(0.0))) {
                     continue;
+                }
+                var ei = t.open;
+                if (any(t.shadowed != vec3<f32>(0.0))) {
+                    var vis = 1.0;
+                    if (has(FLAG_VISIBILITY)) {
+                        vis = vpl_visibility(i, v, origin, x, ng);
+                    }
+                    ei += t.shadowed * vis;
                 }
                 if (has(FLAG_OCCLUSION)) {
                     ei = ei * max(1.0 - f32(occlusion[i]) / OCCL_ONE, 0.0);
                 }
-                var vis = 1.0;
-                if (has(FLAG_VISIBILITY)) {
-                    vis = vpl_visibility(i, v, origin, x, ng);
-                }
-                e += ei * vis;
+                e += ei;
             }
         }
         if (has(FLAG_DYNAMIC_VPL)) {

@@ -89,13 +89,14 @@ fn main() {
                 su += radiance(t.unshadowed);
                 sd += radiance(t.visible_disk);
                 let (p, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
-                for (i, e) in twin.terms(p, ns, ng) {
+                for (i, t) in twin.terms(p, ns, ng) {
                     let nv = glam::Vec3::from_array(asset.vpls[i].normal);
                     let origin = twin.origins[i];
                     let exact = f64::from(u8::from(rays.visible(origin, nv, p, ng)));
                     let m = maps.visibility(&twin, i, p, ng);
-                    let r = radiance(e);
-                    sm += r * f64::from(m);
+                    // The finest near-field nodes are not map-tested.
+                    let r = radiance(t.shadowed);
+                    sm += r * f64::from(m) + radiance(t.open);
                     if nv.dot(p - origin) < 0.0 {
                         below += r * (f64::from(m) - exact);
                     } else {

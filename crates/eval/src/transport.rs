@@ -185,13 +185,38 @@ pub fn near_node_irradiance(n: &VplRecord, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 
     e.lerp(node_irradiance(n, x, ns, ng), u * u * (3.0 - 2.0 * u))
 }
 
+/// A static VPL's unshadowed irradiance at a receiver in two parts: what
+/// its hemisphere map shadows (the far-field disk, the level-1 and level-2
+/// near-field nodes) and what reaches the receiver without a map test (the
+/// finest, level-3 nodes in their parent's near field). shade.wgsl
+/// `VplTerms`, which says why.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct VplTerms {
+    /// Irradiance the VPL's visibility applies to.
+    pub shadowed: Vec3,
+    /// Irradiance from the finest near-field nodes, not map-tested.
+    pub open: Vec3,
+}
+
+impl VplTerms {
+    /// Both parts, unshadowed.
+    pub fn total(&self) -> Vec3 {
+        self.shadowed + self.open
+    }
+
+    /// The irradiance with visibility `vis` on the shadowed part.
+    pub fn with_visibility(&self, vis: f32) -> Vec3 {
+        self.shadowed * vis + self.open
+    }
+}
+
 /// Unshadowed irradiance at `x` from VPL `v` drawn from `origin` (its
 /// far-field centre, [`gibake_asset::far_field_centre`], where it has a
 /// tree; else its map origin),
 /// whose near-field tree is `nodes` ([`NODES_PER_VPL`] records; none: one
 /// disk at every distance) and whose far-field lobe coherence is
 /// `coherence` ([`gibake_asset::Asset::lobe_coherences`], computed once
-/// per VPL as the runtime does at load).
+/// per VPL as the runtime does at load): [`static_vpl_terms`] summed.
 #[allow(clippy::too_many_arguments)]
 pub fn static_vpl_irradiance(
     v: &VplRecord,
@@ -202,12 +227,28 @@ pub fn static_vpl_irradiance(
     ns: Vec3,
     ng: Vec3,
 ) -> Vec3 {
+    static_vpl_terms(v, origin, nodes, coherence, x, ns, ng).total()
+}
+
+/// [`static_vpl_irradiance`] split into what the VPL's map shadows and
+/// what it does not ([`VplTerms`]; shade.wgsl `static_vpl_terms`).
+#[allow(clippy::too_many_arguments)]
+pub fn static_vpl_terms(
+    v: &VplRecord,
+    origin: Vec3,
+    nodes: &[VplRecord],
+    coherence: f32,
+    x: Vec3,
+    ns: Vec3,
+    ng: Vec3,
+) -> VplTerms {
     let nv = Vec3::from_array(v.normal);
+    let mut t = VplTerms::default();
     if !is_near(x, origin, v.area) || nodes.len() < NODES_PER_VPL {
         let phi = Vec3::from_array(v.flux);
-        return lobe_irradiance(origin, nv, coherence, v.area, phi, x, ns, ng);
+        t.shadowed = lobe_irradiance(origin, nv, coherence, v.area, phi, x, ns, ng);
+        return t;
     }
-    let mut e = Vec3::ZERO;
     for c1 in 0..4 {
         let (i1, j1) = (c1 % 2, c1 / 2);
         let n1 = &nodes[j1 * 2 + i1];
@@ -215,7 +256,7 @@ pub fn static_vpl_irradiance(
             continue;
         }
         if !is_near(x, Vec3::from_array(n1.position), n1.area) {
-            e += node_irradiance(n1, x, ns, ng);
+            t.shadowed += node_irradiance(n1, x, ns, ng);
             continue;
         }
         for c2 in 0..4 {
@@ -225,16 +266,16 @@ pub fn static_vpl_irradiance(
                 continue;
             }
             if !is_near(x, Vec3::from_array(n2.position), n2.area) {
-                e += node_irradiance(n2, x, ns, ng);
+                t.shadowed += node_irradiance(n2, x, ns, ng);
                 continue;
             }
             for c3 in 0..4 {
                 let (i3, j3) = (2 * i2 + c3 % 2, 2 * j2 + c3 / 2);
-                e += near_node_irradiance(&nodes[20 + j3 * 8 + i3], x, ns, ng);
+                t.open += near_node_irradiance(&nodes[20 + j3 * 8 + i3], x, ns, ng);
             }
         }
     }
-    e
+    t
 }
 
 /// The static VPLs' irradiance at a receiver `h`, summed by the CPU twin
@@ -244,7 +285,8 @@ pub fn static_vpl_irradiance(
 /// visibility ray per VPL that sends anything.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct TwinIrradiance {
-    /// Near-field transport, ray-cast visibility.
+    /// Near-field transport, ray-cast visibility (from the VPL's map
+    /// origin, on [`VplTerms::shadowed`]; the finest nodes unshadowed).
     pub visible: Vec3,
     /// Near-field transport, no visibility.
     pub unshadowed: Vec3,
@@ -317,13 +359,17 @@ impl<'a> TwinVpls<'a> {
     }
 
     /// Each VPL's unshadowed irradiance at `x` (shading normal `ns`,
-    /// geometric `ng`) as `(index, irradiance)`, VPLs that send nothing
-    /// left out: the terms [`TwinVpls::irradiance`] sums.
-    pub fn terms(&self, x: Vec3, ns: Vec3, ng: Vec3) -> impl Iterator<Item = (usize, Vec3)> + '_ {
+    /// geometric `ng`) as `(index, terms)`, VPLs that send nothing left
+    /// out: the terms [`TwinVpls::irradiance`] sums.
+    pub fn terms(
+        &self,
+        x: Vec3,
+        ns: Vec3,
+        ng: Vec3,
+    ) -> impl Iterator<Item = (usize, VplTerms)> + '_ {
         self.vpls.iter().enumerate().filter_map(move |(i, v)| {
-            let e =
-                static_vpl_irradiance(v, self.centres[i], self.tree(i), self.lobes[i], x, ns, ng);
-            (e != Vec3::ZERO).then_some((i, e))
+            let t = static_vpl_terms(v, self.centres[i], self.tree(i), self.lobes[i], x, ns, ng);
+            (t != VplTerms::default()).then_some((i, t))
         })
     }
 
@@ -339,15 +385,17 @@ impl<'a> TwinVpls<'a> {
         let (x, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
         for (i, v) in self.vpls.iter().enumerate() {
             let (centre, c) = (self.centres[i], self.lobes[i]);
-            let near = static_vpl_irradiance(v, centre, self.tree(i), c, x, ns, ng);
+            let near = static_vpl_terms(v, centre, self.tree(i), c, x, ns, ng);
             let disk = static_vpl_irradiance(v, centre, &[], c, x, ns, ng);
-            if near == Vec3::ZERO && disk == Vec3::ZERO {
+            if near == VplTerms::default() && disk == Vec3::ZERO {
                 continue;
             }
-            sum.unshadowed += near;
+            sum.unshadowed += near.total();
             if rays.visible(self.origins[i], Vec3::from_array(v.normal), x, ng) {
-                sum.visible += near;
+                sum.visible += near.total();
                 sum.visible_disk += disk;
+            } else {
+                sum.visible += near.open;
             }
         }
         sum
