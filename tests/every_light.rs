@@ -88,10 +88,11 @@ fn scenes() -> Vec<(String, Scene)> {
 }
 
 /// Known failures: (scene index in [`scenes`], the bound it is held to,
-/// why). None since session 16 (the finest near-field nodes not
-/// map-tested, docs/method.md "Finest nodes unshadowed"): random seed 1
+/// why). None since session 16 (the finest near-field nodes' light not
+/// map-tested near them, docs/method.md "Finest nodes near their
+/// receiver"): random seed 1
 /// (a sun and seven lamps over open ground, ~100 VPLs a light) was held
-/// to ±10% and measures −1.4/−6.5/−3.7% here (−4.7/−7.9/−6.0% before);
+/// to ±10% and measures −1.7/−6.8/−4.0% here (−4.7/−7.9/−6.0% before);
 /// the Blenvy level (a sun over a 94 m ground plane, four lamps) was held
 /// to ±20% for the crease where an icosphere meets the ground at this
 /// test's 24² receivers and measures +0.8/−1.2/+0.9%, as it did before

@@ -68,6 +68,9 @@ struct Params {
     mixed: bool,
     /// One static triangle instead of the corner.
     one_triangle: bool,
+    /// A floor split by a thin partition, both halves sunlit, a box
+    /// facing the partition on one side, instead of the corner.
+    partition: bool,
 }
 
 impl Default for Params {
@@ -83,6 +86,7 @@ impl Default for Params {
             cover_light: false,
             mixed: false,
             one_triangle: false,
+            partition: false,
         }
     }
 }
@@ -103,6 +107,30 @@ fn build(p: &Params) -> Vec<u8> {
             idx: vec![0, 1, 2],
         };
         b.static_mesh("triangle", &g, a);
+    } else if p.partition {
+        let floor = geom::quad_facing(
+            DVec3::new(-1.5, 0.0, -1.5),
+            DVec3::X * 3.0,
+            DVec3::Z * 3.0,
+            4,
+            DVec3::Y,
+        );
+        b.static_mesh("floor", &floor, a);
+        // 1 cm thick, 0.5 tall, across the whole floor.
+        let wall = geom::aabox(
+            DVec3::new(-0.005, 0.0, -1.5),
+            DVec3::new(0.005, 0.5, 1.5),
+            2,
+            false,
+        );
+        b.static_mesh("partition", &wall, a);
+        let boxg = geom::aabox(
+            DVec3::new(0.25, 0.0, -0.3),
+            DVec3::new(0.6, 0.35, 0.3),
+            2,
+            false,
+        );
+        b.static_mesh("box", &boxg, a);
     } else if p.mixed {
         let floor = geom::quad_facing(
             DVec3::new(-5e3, 0.0, -5e3),
@@ -164,7 +192,19 @@ fn build(p: &Params) -> Vec<u8> {
     let mat = b.material("mover", [0.5, 0.5, 0.5]);
     let mesh = b.mesh("mover", g, mat);
     b.dynamic_mesh("mover", mesh, &[0.0, 1.0], &path);
-    if let Some(elev) = p.grazing_deg {
+    if p.partition {
+        // Falling along the partition (its shadow 2.5 cm wide): both
+        // halves lit up to it; the box's face towards it (x = 0.25) gets
+        // no direct light, only the bounce from its own side's floor.
+        let dir = DVec3::new(-0.05, -1.0, -0.4).normalize();
+        b.directional(
+            "sun",
+            DVec3::new(-1.0, 3.0, 0.0),
+            dir,
+            [1.0; 3],
+            p.intensity / 4.0,
+        );
+    } else if let Some(elev) = p.grazing_deg {
         let e = elev.to_radians();
         let dir = DVec3::new(-e.cos(), -e.sin(), -0.2).normalize();
         b.directional(
@@ -191,14 +231,27 @@ fn build(p: &Params) -> Vec<u8> {
             outer,
         );
     }
-    b.perspective(
-        "camera",
-        DVec3::new(0.6, 1.3, 3.0),
-        DVec3::new(-0.3, 0.5, -0.5),
-        55f64.to_radians(),
-        0.05,
-        1e5,
-    );
+    if p.partition {
+        // From above the gap between the partition and the box, onto the
+        // box's face that looks at the partition.
+        b.perspective(
+            "camera",
+            DVec3::new(0.05, 1.1, 0.6),
+            DVec3::new(0.3, 0.15, 0.0),
+            55f64.to_radians(),
+            0.05,
+            1e5,
+        );
+    } else {
+        b.perspective(
+            "camera",
+            DVec3::new(0.6, 1.3, 3.0),
+            DVec3::new(-0.3, 0.5, -0.5),
+            55f64.to_radians(),
+            0.05,
+            1e5,
+        );
+    }
     b.finish()
 }
 
@@ -228,7 +281,17 @@ fn read(p: &Path) -> Image {
 
 /// Bakes and renders `p` in every mode, and renders both references.
 fn run_case(name: &str, p: &Params) -> Outcome {
-    let dir = tempfile::tempdir().expect("tempdir");
+    // GIBAKE_STIFF_KEEP=1 keeps each case's scene, asset and images (the
+    // directory is printed) to look at.
+    let keep = std::env::var_os("GIBAKE_STIFF_KEEP").is_some();
+    let dir = tempfile::Builder::new()
+        .prefix(&format!("stiff_{name}_"))
+        .disable_cleanup(keep)
+        .tempdir()
+        .expect("tempdir");
+    if keep {
+        eprintln!("{name}: kept in {}", dir.path().display());
+    }
     let scene = dir.path().join(format!("{name}.glb"));
     std::fs::write(&scene, build(p)).expect("write scene");
     let asset = dir.path().join("a.gibake");
@@ -330,6 +393,56 @@ fn check_against_reference(name: &str, p: &Params, full_bound: f64, direct_bound
         direct <= direct_bound,
         "{name}: direct rel MSE {direct} > {direct_bound}"
     );
+}
+
+/// A thin partition (1 cm, 0.5 tall) across a sunlit floor whose two
+/// halves are lit up to it, and a box on one side whose face towards the
+/// partition (25 cm from it) gets no direct light, seen from above the
+/// gap. The finest near-field nodes' light skips the map test near them
+/// (docs/method.md, "Finest nodes near their receiver"), so the other
+/// side's floor could light the face through the partition. Where the
+/// reference has no direct light (the face, 82 pixels), `full`'s indirect
+/// light is held to 1.12× the reference's. Measured at these settings
+/// (48², 64 VPLs: VPLs four times the default's radius): 1.072 with the
+/// rule built (the open share fading from the node's own near field to
+/// its parent's), 0.921 with every node map-tested, 1.179 with the finest
+/// nodes never map-tested, 1.404 with no near-field node map-tested;
+/// full rel MSE 0.019, direct 0.029.
+#[test]
+fn thin_partition_between_lit_floors() {
+    let p = Params {
+        partition: true,
+        ..Params::default()
+    };
+    let o = run_case("partition", &p);
+    ok(&o.bake);
+    let (full, direct) = errors("partition", &o);
+    let (f, d) = (o.image("full"), o.image("direct"));
+    let (r, rd) = (&o.reference, &o.reference_direct);
+    let (mut sf, mut sr, mut n) = (0.0f64, 0.0f64, 0u32);
+    for y in 0..r.height {
+        for x in 0..r.width {
+            if rd.get(x, y).max_element() < 1e-4 {
+                sf += f64::from((f.get(x, y) - d.get(x, y)).element_sum());
+                sr += f64::from((r.get(x, y) - rd.get(x, y)).element_sum());
+                n += 1;
+            }
+        }
+    }
+    let ratio = sf / sr;
+    eprintln!(
+        "partition: indirect where the reference has no direct light ({n} px): full / reference {ratio:.3}"
+    );
+    assert!(
+        n >= 50 && sr > 0.0,
+        "partition: {n} unlit pixels, reference {sr}"
+    );
+    assert!(
+        ratio <= 1.12,
+        "partition: full's indirect light {ratio:.3}× the reference's where it has no direct light"
+    );
+    assert!(full <= 0.04, "partition: full rel MSE {full}");
+    assert!(direct <= 0.05, "partition: direct rel MSE {direct}");
 }
 
 #[test]

@@ -367,23 +367,37 @@ fn near_node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> v
 }
 
 // A static VPL's unshadowed irradiance at a receiver in two parts:
-// `shadowed`, what its hemisphere map's visibility applies to (the
-// far-field disk, the level-1 and level-2 near-field nodes), and `open`,
-// the finest (level-3) nodes in their parent's near field, which no map
-// test darkens. The map is taken from the VPL's one origin, lifted above
-// its mean plane; a receiver within a VPL radius of a finest node (an
-// eighth of that radius) sees the node past surfaces that hide the origin
-// — a curved rock or crown, a crease at a mech's foot — and the twin
-// with exact rays from each node's own position measured it: the origin's
-// test took 6–10 points of the city's and the garden's bounce light that
-// rays from the nodes keep. At that range what lies between a node and
-// its receiver is mostly their own surfaces, which the kernel's two
-// cosines already take; the known cost is light through a thin occluder
-// standing within a VPL radius of both (docs/method.md, "Finest nodes
-// unshadowed"). CPU twin: gibake_eval::transport::VplTerms.
+// `shadowed`, what its hemisphere map's visibility applies to, and `open`,
+// what no map test darkens: the share open_weight of a finest (level-3)
+// node's light at a receiver in that node's own near field. The map is
+// taken from the VPL's one origin, lifted above its mean plane; a receiver
+// next to a finest node (an eighth of the VPL's radius) sees it past
+// surfaces that hide the origin (a curved rock or crown, a crease at a
+// mech's foot), and at that range what stands between them is mostly the
+// two surfaces themselves, which the kernel's cosines already take. The
+// CPU twin with exact rays from each node measured what the origin's test
+// lost there: 6–10 points of the city's and the garden's bounce light.
+// Known cost: light through an occluder thinner than a few node radii
+// (tests/stiff_cases.rs, thin_partition_between_lit_floors). Measured in
+// docs/method.md, "Finest nodes near their receiver". CPU twin:
+// gibake_eval::transport::VplTerms.
 struct VplTerms {
     shadowed: vec3<f32>,
     open: vec3<f32>,
+}
+
+// The open share of a finest node's light at x: 1 within the node's own
+// near field (NEAR_FIELD_RATIO of its radii), 0 from twice that (its
+// parent's near-field edge, where the parent's shadowed disk takes over:
+// no seam), smoothstep between. CPU twin:
+// gibake_eval::transport::open_weight.
+fn open_weight(x: vec3<f32>, p: vec3<f32>, a: f32) -> f32 {
+    let r = NEAR_FIELD_RATIO * sqrt(max(a, 0.0) * INV_PI);
+    if (!(r > 0.0)) {
+        return 0.0;
+    }
+    let u = clamp((length(x - p) - r) / r, 0.0, 1.0);
+    return 1.0 - u * u * (3.0 - 2.0 * u);
 }
 
 // Unshadowed irradiance at x from static VPL i (record v): one disk at
@@ -425,7 +439,11 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
             for (var c3 = 0u; c3 < 4u; c3++) {
                 let i3 = 2u * i2 + c3 % 2u;
                 let j3 = 2u * j2 + c3 / 2u;
-                t.open += near_node_irradiance(vpls[base + 20u + j3 * 8u + i3], x, ns, ng);
+                let n3 = vpls[base + 20u + j3 * 8u + i3];
+                let e3 = near_node_irradiance(n3, x, ns, ng);
+                let w = open_weight(x, n3.position, n3.area);
+                t.open += e3 * w;
+                t.shadowed += e3 * (1.0 - w);
             }
         }
     }

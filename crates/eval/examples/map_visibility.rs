@@ -94,7 +94,7 @@ fn main() {
                     let origin = twin.origins[i];
                     let exact = f64::from(u8::from(rays.visible(origin, nv, p, ng)));
                     let m = maps.visibility(&twin, i, p, ng);
-                    // The finest near-field nodes are not map-tested.
+                    // The open part (finest nodes, near) is not map-tested.
                     let r = radiance(t.shadowed);
                     sm += r * f64::from(m) + radiance(t.open);
                     if nv.dot(p - origin) < 0.0 {

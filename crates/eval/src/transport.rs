@@ -185,16 +185,30 @@ pub fn near_node_irradiance(n: &VplRecord, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 
     e.lerp(node_irradiance(n, x, ns, ng), u * u * (3.0 - 2.0 * u))
 }
 
+/// How much of a finest near-field node's light at `x` skips the map
+/// test: 1 within the node's own near field ([`NEAR_FIELD_RATIO`] of its
+/// radii), 0 from twice that (its parent's near-field edge), smoothstep
+/// between (shade.wgsl `open_weight`).
+pub fn open_weight(x: Vec3, p: Vec3, a: f32) -> f32 {
+    let r = NEAR_FIELD_RATIO * (a.max(0.0) / std::f32::consts::PI).sqrt();
+    let d = (x - p).length();
+    if r.is_nan() || r <= 0.0 || d.is_nan() {
+        return 0.0;
+    }
+    let u = ((d - r) / r).clamp(0.0, 1.0);
+    1.0 - u * u * (3.0 - 2.0 * u)
+}
+
 /// A static VPL's unshadowed irradiance at a receiver in two parts: what
-/// its hemisphere map shadows (the far-field disk, the level-1 and level-2
-/// near-field nodes) and what reaches the receiver without a map test (the
-/// finest, level-3 nodes in their parent's near field). shade.wgsl
-/// `VplTerms`, which says why.
+/// its hemisphere map shadows, and what reaches the receiver without a map
+/// test (the [`open_weight`] share of a finest near-field node's light at
+/// a receiver in that node's own near field). shade.wgsl `VplTerms`,
+/// which says why.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct VplTerms {
     /// Irradiance the VPL's visibility applies to.
     pub shadowed: Vec3,
-    /// Irradiance from the finest near-field nodes, not map-tested.
+    /// Irradiance no map test darkens (finest near-field nodes, near).
     pub open: Vec3,
 }
 
@@ -271,7 +285,11 @@ pub fn static_vpl_terms(
             }
             for c3 in 0..4 {
                 let (i3, j3) = (2 * i2 + c3 % 2, 2 * j2 + c3 / 2);
-                t.open += near_node_irradiance(&nodes[20 + j3 * 8 + i3], x, ns, ng);
+                let n3 = &nodes[20 + j3 * 8 + i3];
+                let e3 = near_node_irradiance(n3, x, ns, ng);
+                let w = open_weight(x, Vec3::from_array(n3.position), n3.area);
+                t.open += e3 * w;
+                t.shadowed += e3 * (1.0 - w);
             }
         }
     }
@@ -286,7 +304,7 @@ pub fn static_vpl_terms(
 #[derive(Clone, Copy, Debug, Default)]
 pub struct TwinIrradiance {
     /// Near-field transport, ray-cast visibility (from the VPL's map
-    /// origin, on [`VplTerms::shadowed`]; the finest nodes unshadowed).
+    /// origin, on [`VplTerms::shadowed`]; [`VplTerms::open`] unshadowed).
     pub visible: Vec3,
     /// Near-field transport, no visibility.
     pub unshadowed: Vec3,
@@ -493,7 +511,9 @@ pub fn map_visibility(
 
 #[cfg(test)]
 mod tests {
-    use super::{CREASE_HI, disk_irradiance, far_lobe, near_node_irradiance};
+    use super::{
+        CREASE_HI, NEAR_FIELD_RATIO, disk_irradiance, far_lobe, near_node_irradiance, open_weight,
+    };
     use gibake_asset::VplRecord;
     use glam::Vec3;
 
@@ -551,6 +571,29 @@ mod tests {
     /// drawn as its square with Lambert's formula: the numerically
     /// integrated square's irradiance within 0.2%, where its one disk is
     /// up to 3× off; a receiver facing the node keeps the disk exactly.
+    /// The open share of a finest node's light is 1 in its own near field,
+    /// 0 from twice that (where the parent's shadowed disk takes over),
+    /// continuous and falling between, and 0 for a node without area.
+    #[test]
+    fn open_weight_fades_from_the_nodes_near_field_to_its_parents() {
+        let (p, a) = (Vec3::new(1.0, 2.0, 3.0), 0.04);
+        let r = NEAR_FIELD_RATIO * (a / std::f32::consts::PI).sqrt();
+        let at = |d: f32| open_weight(p + Vec3::new(0.6, 0.0, 0.8) * d, p, a);
+        assert_eq!(at(0.0), 1.0);
+        assert_eq!(at(0.999 * r), 1.0);
+        assert_eq!(at(2.0 * r), 0.0);
+        assert_eq!(at(10.0 * r), 0.0);
+        assert!((at(1.5 * r) - 0.5).abs() < 1e-5);
+        let mut last = 1.0;
+        for k in 0..=100 {
+            let w = at(r * (1.0 + k as f32 / 100.0));
+            assert!(w <= last + 1e-6 && (last - w) < 0.02, "{k}: {last} → {w}");
+            last = w;
+        }
+        assert_eq!(open_weight(p, p, 0.0), 0.0);
+        assert_eq!(open_weight(Vec3::NAN, p, a), 0.0);
+    }
+
     #[test]
     fn crease_kernel_is_the_exact_square() {
         let s = 1.0f32;
