@@ -93,6 +93,18 @@ impl Default for Params {
 
 const LIGHT: DVec3 = DVec3::new(0.5, 2.5, 1.0);
 
+/// The base scene's 3 × 3 floor at y = 0.
+fn floor(b: &mut Builder, albedo: [f32; 3]) {
+    let g = geom::quad_facing(
+        DVec3::new(-1.5, 0.0, -1.5),
+        DVec3::X * 3.0,
+        DVec3::Z * 3.0,
+        4,
+        DVec3::Y,
+    );
+    b.static_mesh("floor", &g, albedo);
+}
+
 fn build(p: &Params) -> Vec<u8> {
     let mut b = Builder::new(p.scale, "move");
     let a = [p.albedo; 3];
@@ -108,14 +120,7 @@ fn build(p: &Params) -> Vec<u8> {
         };
         b.static_mesh("triangle", &g, a);
     } else if p.partition {
-        let floor = geom::quad_facing(
-            DVec3::new(-1.5, 0.0, -1.5),
-            DVec3::X * 3.0,
-            DVec3::Z * 3.0,
-            4,
-            DVec3::Y,
-        );
-        b.static_mesh("floor", &floor, a);
+        floor(&mut b, a);
         // 1 cm thick, 0.5 tall, across the whole floor.
         let wall = geom::aabox(
             DVec3::new(-0.005, 0.0, -1.5),
@@ -151,14 +156,7 @@ fn build(p: &Params) -> Vec<u8> {
         );
         b.static_mesh("wall", &wall, a);
     } else {
-        let floor = geom::quad_facing(
-            DVec3::new(-1.5, 0.0, -1.5),
-            DVec3::X * 3.0,
-            DVec3::Z * 3.0,
-            4,
-            DVec3::Y,
-        );
-        b.static_mesh("floor", &floor, a);
+        floor(&mut b, a);
         let back = geom::quad_facing(
             DVec3::new(-1.5, 0.0, -1.5),
             DVec3::X * 3.0,
