@@ -566,11 +566,6 @@ mod tests {
         assert_eq!(value("CREASE_HI"), super::CREASE_HI);
     }
 
-    /// A finest node across its receiver (a wall node above a floor
-    /// point near the crease, or a node crossing the floor's plane) is
-    /// drawn as its square with Lambert's formula: the numerically
-    /// integrated square's irradiance within 0.2%, where its one disk is
-    /// up to 3× off; a receiver facing the node keeps the disk exactly.
     /// The open share of a finest node's light is 1 in its own near field,
     /// 0 from twice that (where the parent's shadowed disk takes over),
     /// continuous and falling between, and 0 for a node without area.
@@ -594,6 +589,11 @@ mod tests {
         assert_eq!(open_weight(Vec3::NAN, p, a), 0.0);
     }
 
+    /// A finest node across its receiver (a wall node above a floor
+    /// point near the crease, or a node crossing the floor's plane) is
+    /// drawn as its square with Lambert's formula: the numerically
+    /// integrated square's irradiance within 0.2%, where its one disk is
+    /// up to 3× off; a receiver facing the node keeps the disk exactly.
     #[test]
     fn crease_kernel_is_the_exact_square() {
         let s = 1.0f32;
