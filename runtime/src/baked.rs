@@ -6,7 +6,7 @@
 //! static RSM metric plus each texel's share of its VPL's flux (baked; for
 //! partial occlusion).
 
-use gibake_asset::{Asset, VplRecord};
+use gibake_asset::{Asset, NODES_PER_VPL, VplRecord};
 use gibake_gpu::LightView;
 use gibake_gpu::vpl::{GpuVpl, NO_MAP};
 use glam::Vec3;
@@ -172,7 +172,23 @@ impl BakedGpu {
                 }
             })
             .collect();
-        let nodes: Vec<GpuVpl> = asset.vpl_nodes.iter().map(gpu_vpl).collect();
+        // A level-1 or level-2 node's `texels` carries its far-field lobe
+        // coherence, from its level-3 nodes (`GpuVpl::texels`); at least 1,
+        // as 0 marks an empty node.
+        let nodes: Vec<GpuVpl> = asset
+            .vpl_nodes
+            .chunks(NODES_PER_VPL)
+            .flat_map(|tree| {
+                tree.iter().enumerate().map(move |(k, n)| {
+                    let mut g = gpu_vpl(n);
+                    if n.texels != 0 && k < 4 + 16 {
+                        let c = gibake_asset::node_lobe_coherence(tree, k);
+                        g.texels = gibake_gpu::vpl::lobe_fixed(c).max(1);
+                    }
+                    g
+                })
+            })
+            .collect();
         // Where each VPL is drawn from afar: its texels' centroid
         // (`gibake_asset::far_field_centre`), else its map origin; the rest
         // of the record is the VPL's own.

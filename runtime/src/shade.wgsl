@@ -73,6 +73,12 @@ const VPL_MAX_SLOPE: f32 = 10.0;
 // the descent is the same at every scene scale. Must match
 // gibake_eval::transport::NEAR_FIELD_RATIO.
 const NEAR_FIELD_RATIO: f32 = 4.0;
+// A static VPL is one disk only beyond FAR_FIELD_RATIO of its radii;
+// nearer, its tree, whose level-1 nodes stand for it between the two: a
+// crown's or a rock's texels send their light from where each part is and
+// the way each faces (docs/method.md, "Node lobes"). Must match
+// gibake_eval::transport::FAR_FIELD_RATIO.
+const FAR_FIELD_RATIO: f32 = 2.0 * NEAR_FIELD_RATIO;
 // The crease kernel's blend (near_node_irradiance); must match
 // gibake_eval::transport.
 const CREASE_LO: f32 = 0.4;
@@ -214,7 +220,8 @@ fn vpl_irradiance(origin: vec3<f32>, nv: vec3<f32>, a: f32, phi: vec3<f32>, x: v
     return vpl_lobe_irradiance(origin, nv, 1.0, a, phi, x, ns, ng);
 }
 
-// A VPL seen from afar (a static VPL beyond its near field, every
+// A VPL seen from afar (a static VPL beyond FAR_FIELD_RATIO, a level-1 or
+// level-2 node beyond its own near field, every
 // dynamic VPL): the disk of vpl_irradiance with the lobe far_lobe(c, cosθ_v)/π
 // per unit flux in place of its cosine lobe, c its texels' flux-weighted
 // normal coherence (gibake_asset::lobe_coherence; a dynamic VPL's own
@@ -264,9 +271,25 @@ fn far_lobe(c_in: f32, mu: f32) -> f32 {
     return (1.0 + 2.0 * c * mu) * 0.25;
 }
 
-fn is_near(x: vec3<f32>, p: vec3<f32>, a: f32) -> bool {
+fn within(x: vec3<f32>, p: vec3<f32>, a: f32, ratio: f32) -> bool {
     let d = x - p;
-    return dot(d, d) < NEAR_FIELD_RATIO * NEAR_FIELD_RATIO * a * INV_PI;
+    return dot(d, d) < ratio * ratio * a * INV_PI;
+}
+
+fn is_near(x: vec3<f32>, p: vec3<f32>, a: f32) -> bool {
+    return within(x, p, a, NEAR_FIELD_RATIO);
+}
+
+// A level-1 or level-2 node beyond its own near field: its disk with the
+// far-field lobe at its level-3 nodes' coherence, which its record carries
+// in `texels` (fixed point, at least 1; 0: an empty node; baked.rs,
+// gibake_gpu::vpl::GpuVpl::texels). CPU twin:
+// gibake_eval::transport::node_lobe_irradiance.
+fn node_lobe_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
+    if (n.texels == 0u) {
+        return vec3<f32>(0.0);
+    }
+    return vpl_lobe_irradiance(n.position, n.normal, f32(n.texels) / LOBE_ONE, n.area, n.flux, x, ns, ng);
 }
 
 fn node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
@@ -402,12 +425,12 @@ fn open_weight(x: vec3<f32>, p: vec3<f32>, a: f32) -> f32 {
 
 // Unshadowed irradiance at x from static VPL i (record v): one disk at
 // its far-field centre (its texels' centroid: the record after the trees,
-// baked.rs) from afar, its near-field tree up close, as VplTerms. CPU
+// baked.rs) beyond FAR_FIELD_RATIO, its near-field tree nearer, as VplTerms. CPU
 // twin: gibake_eval::transport::static_vpl_terms.
 fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> VplTerms {
     var t = VplTerms(vec3<f32>(0.0), vec3<f32>(0.0));
     let centre = vpls[params.n_static * (1u + NODES_PER_VPL) + i].position;
-    if (!is_near(x, centre, v.area)) {
+    if (!within(x, centre, v.area, FAR_FIELD_RATIO)) {
         // A static VPL's own record carries its lobe coherence in `texels`
         // (gibake_gpu::vpl::GpuVpl::texels), fixed point.
         t.shadowed = vpl_lobe_irradiance(centre, v.normal, f32(v.texels) / LOBE_ONE, v.area, v.flux, x, ns, ng);
@@ -422,7 +445,7 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
             continue;
         }
         if (!is_near(x, n1.position, n1.area)) {
-            t.shadowed += node_irradiance(n1, x, ns, ng);
+            t.shadowed += node_lobe_irradiance(n1, x, ns, ng);
             continue;
         }
         for (var c2 = 0u; c2 < 4u; c2++) {
@@ -433,7 +456,7 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
                 continue;
             }
             if (!is_near(x, n2.position, n2.area)) {
-                t.shadowed += node_irradiance(n2, x, ns, ng);
+                t.shadowed += node_lobe_irradiance(n2, x, ns, ng);
                 continue;
             }
             for (var c3 = 0u; c3 < 4u; c3++) {

@@ -105,9 +105,39 @@ pub fn lobe_coherence(nodes: &[VplRecord]) -> f32 {
         return 1.0;
     }
     let side = 1usize << NEAR_FIELD_LEVELS;
+    coherence_of(&nodes[NODES_PER_VPL - side * side..NODES_PER_VPL])
+}
+
+/// [`lobe_coherence`] of one level-1 or level-2 node of a near-field tree
+/// `nodes`: the coherence of the deepest-level nodes under it. `k` is the
+/// node's index in the tree (0–3 level 1, 4–19 level 2, each level
+/// row-major); 1 for a deeper or missing node, or a tree of fewer than
+/// [`NODES_PER_VPL`] records. Shading draws such a node, where the
+/// receiver is beyond its own near field, with the far-field lobe at this
+/// coherence (docs/method.md, "Node lobes"); computed at load.
+pub fn node_lobe_coherence(nodes: &[VplRecord], k: usize) -> f32 {
+    let side = 1usize << NEAR_FIELD_LEVELS;
+    if nodes.len() < NODES_PER_VPL || k >= 4 + 16 {
+        return 1.0;
+    }
+    // (column, row, side) of the node on its level's grid.
+    let (i, j, level_side) = if k < 4 {
+        (k % 2, k / 2, 2)
+    } else {
+        ((k - 4) % 4, (k - 4) / 4, 4)
+    };
+    let span = side / level_side;
     let deepest = &nodes[NODES_PER_VPL - side * side..NODES_PER_VPL];
+    let under = (j * span..(j + 1) * span)
+        .flat_map(|r| deepest[r * side + i * span..r * side + (i + 1) * span].iter());
+    coherence_of(under)
+}
+
+/// `|Σ Φₖ nₖ| / Σ Φₖ` over `nodes` (flux weights the channel sum; nodes
+/// without finite positive flux left out; 1 where none is left).
+fn coherence_of<'a>(nodes: impl IntoIterator<Item = &'a VplRecord>) -> f32 {
     let (mut sum, mut weight) = ([0f64; 3], 0f64);
-    for n in deepest {
+    for n in nodes {
         let w = f64::from(n.flux[0]) + f64::from(n.flux[1]) + f64::from(n.flux[2]);
         if !(w > 0.0 && w.is_finite()) {
             continue;
@@ -528,6 +558,55 @@ mod tests {
         nodes[first] = node([0.0, -1.0, 0.0], 1.0);
         nodes[first + 2] = node([0.0, 0.0, 1.0], f32::NAN);
         assert!(crate::lobe_coherence(&nodes).abs() < 1e-6);
+    }
+
+    /// A level-1 or level-2 node's coherence is its own level-3 nodes'
+    /// (the 4×4 or 2×2 block under it), not the whole tree's.
+    #[test]
+    fn node_lobe_coherence_of_the_nodes_under_it() {
+        let node = |n: [f32; 3], f: f32| crate::VplRecord {
+            position: [0.0; 3],
+            area: 1.0,
+            normal: n,
+            texels: 1,
+            flux: [f; 3],
+            map: crate::NO_MAP,
+        };
+        let mut nodes = vec![node([0.0, 1.0, 0.0], 1.0); crate::NODES_PER_VPL];
+        // Level-3 grid 8×8 from record 20; the right half faces ±x by
+        // columns, the bottom-left quarter faces +x.
+        for r in 0..8 {
+            for c in 0..8 {
+                let n = if c >= 4 {
+                    [if c % 2 == 0 { 1.0 } else { -1.0 }, 0.0, 0.0]
+                } else if r >= 4 {
+                    [1.0, 0.0, 0.0]
+                } else {
+                    [0.0, 1.0, 0.0]
+                };
+                nodes[20 + r * 8 + c] = node(n, 1.0);
+            }
+        }
+        let c = |k| crate::node_lobe_coherence(&nodes, k);
+        assert!((c(0) - 1.0).abs() < 1e-6, "top-left level-1 node: {}", c(0));
+        assert!(c(1).abs() < 1e-6, "top-right level-1 node: {}", c(1));
+        assert!(
+            (c(2) - 1.0).abs() < 1e-6,
+            "bottom-left level-1 node: {}",
+            c(2)
+        );
+        // Level 2: (0, 0) faces +y; (2, 0) holds columns 4–5: +x and −x.
+        assert!((c(4) - 1.0).abs() < 1e-6);
+        assert!(c(6).abs() < 1e-6, "{}", c(6));
+        // The whole tree: 16 +y, 16 +x, 32 cancelling.
+        let whole = crate::lobe_coherence(&nodes);
+        assert!(
+            (whole - (16f32 * 16.0 * 2.0).sqrt() / 64.0).abs() < 1e-6,
+            "{whole}"
+        );
+        // Level 3, out of range and short trees: one lobe.
+        assert_eq!(c(20), 1.0);
+        assert_eq!(crate::node_lobe_coherence(&nodes[..83], 0), 1.0);
     }
 
     /// The far-field centre is the level-1 nodes' flux-weighted centroid

@@ -235,7 +235,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
                 for (i, v) in records.iter().enumerate() {
                     let (origin, centre) = (twin_vpls.origins[i], twin_vpls.centres[i]);
                     let tree = twin_vpls.tree(i);
-                    if crate::transport::is_near(x, centre, v.area) {
+                    if !crate::transport::is_far(x, centre, v.area) {
                         continue;
                     }
                     let far = |o| {

@@ -12,6 +12,15 @@ use glam::Vec3;
 /// per cent; measured in docs/method.md ("Near field").
 pub const NEAR_FIELD_RATIO: f32 = 4.0;
 
+/// A static VPL is drawn as one disk only beyond this many of its disk
+/// radii (must match `FAR_FIELD_RATIO` in shade.wgsl); nearer, as its
+/// near-field tree, whose level-1 nodes stand for it between
+/// [`NEAR_FIELD_RATIO`] and this. Twice the near field: a cluster of
+/// texels facing different ways (a crown, a rock) sends its light from
+/// where each part is and the way each faces, which one disk misses there
+/// (docs/method.md, "Node lobes").
+pub const FAR_FIELD_RATIO: f32 = 2.0 * NEAR_FIELD_RATIO;
+
 /// Irradiance at `x` (shading normal `ns`, geometric `ng`) from a disk-like
 /// emitter at `origin` with normal `nv`, area `a`, flux `phi`:
 /// `Φ/π · cosθ_v cosθ_r / √(d⁴ + (A/π)²)` (shade.wgsl `vpl_irradiance`).
@@ -78,7 +87,40 @@ pub fn far_lobe(c: f32, mu: f32) -> f32 {
 
 /// Whether `x` is in the near field of a disk at `p` of area `a`.
 pub fn is_near(x: Vec3, p: Vec3, a: f32) -> bool {
-    (x - p).length_squared() < NEAR_FIELD_RATIO * NEAR_FIELD_RATIO * a / std::f32::consts::PI
+    within(x, p, a, NEAR_FIELD_RATIO)
+}
+
+/// Whether a static VPL of area `a` drawn from `p` is one disk at `x`
+/// (beyond [`FAR_FIELD_RATIO`] radii).
+pub fn is_far(x: Vec3, p: Vec3, a: f32) -> bool {
+    !within(x, p, a, FAR_FIELD_RATIO)
+}
+
+/// Whether `x` is nearer to `p` than `ratio` radii `√(a/π)`.
+fn within(x: Vec3, p: Vec3, a: f32, ratio: f32) -> bool {
+    (x - p).length_squared() < ratio * ratio * a / std::f32::consts::PI
+}
+
+/// Irradiance at `x` from a level-1 or level-2 near-field node `n` (index
+/// `k` in `tree`) beyond its own near field: its disk with the far-field
+/// lobe at its level-3 nodes' coherence
+/// ([`gibake_asset::node_lobe_coherence`]; none from an empty node;
+/// shade.wgsl `node_lobe_irradiance`).
+pub fn node_lobe_irradiance(tree: &[VplRecord], k: usize, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 {
+    let n = &tree[k];
+    if n.texels == 0 {
+        return Vec3::ZERO;
+    }
+    lobe_irradiance(
+        Vec3::from_array(n.position),
+        Vec3::from_array(n.normal),
+        gibake_asset::node_lobe_coherence(tree, k),
+        n.area,
+        Vec3::from_array(n.flux),
+        x,
+        ns,
+        ng,
+    )
 }
 
 /// Irradiance at `x` from one near-field node `n` drawn as a disk with
@@ -258,7 +300,7 @@ pub fn static_vpl_terms(
 ) -> VplTerms {
     let nv = Vec3::from_array(v.normal);
     let mut t = VplTerms::default();
-    if !is_near(x, origin, v.area) || nodes.len() < NODES_PER_VPL {
+    if is_far(x, origin, v.area) || nodes.len() < NODES_PER_VPL {
         let phi = Vec3::from_array(v.flux);
         t.shadowed = lobe_irradiance(origin, nv, coherence, v.area, phi, x, ns, ng);
         return t;
@@ -270,7 +312,7 @@ pub fn static_vpl_terms(
             continue;
         }
         if !is_near(x, Vec3::from_array(n1.position), n1.area) {
-            t.shadowed += node_irradiance(n1, x, ns, ng);
+            t.shadowed += node_lobe_irradiance(nodes, j1 * 2 + i1, x, ns, ng);
             continue;
         }
         for c2 in 0..4 {
@@ -280,7 +322,7 @@ pub fn static_vpl_terms(
                 continue;
             }
             if !is_near(x, Vec3::from_array(n2.position), n2.area) {
-                t.shadowed += node_irradiance(n2, x, ns, ng);
+                t.shadowed += node_lobe_irradiance(nodes, 4 + j2 * 4 + i2, x, ns, ng);
                 continue;
             }
             for c3 in 0..4 {

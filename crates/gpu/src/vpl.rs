@@ -20,11 +20,13 @@ pub struct GpuVpl {
     pub area: f32,
     /// Unit normal.
     pub normal: [f32; 3],
-    /// A near-field node: its RSM texels (0: an empty node). A static
-    /// VPL's own record: its far-field lobe coherence in fixed point
-    /// ([`LOBE_ONE`] = 1, [`lobe_fixed`]), which shading reads where it
-    /// draws the VPL as one disk and which no pass needs the texel count
-    /// for (a fifth storage buffer would refuse downlevel devices).
+    /// A level-3 near-field node: its RSM texels (0: an empty node). A
+    /// static VPL's own record: its far-field lobe coherence in fixed
+    /// point ([`LOBE_ONE`] = 1, [`lobe_fixed`]), which shading reads where
+    /// it draws the VPL as one disk; a level-1 or level-2 node's: its own
+    /// ([`gibake_asset::node_lobe_coherence`]), at least 1 (0: an empty
+    /// node). No pass needs those records' texel counts, and a fifth
+    /// storage buffer would refuse downlevel devices.
     pub texels: u32,
     /// Flux (W, linear RGB).
     pub flux: [f32; 3],
