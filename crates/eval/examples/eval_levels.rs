@@ -65,6 +65,21 @@ fn main() {
     let list = gibake_eval::levels::bundled_list();
     let dir = list.parent().unwrap().to_path_buf();
     let specs = gibake_eval::levels::read_specs(&list).unwrap();
+    // A name that is no level (a second `--vpls` value, a typo) is an
+    // error, not a level silently left out.
+    let unknown: Vec<&String> = names
+        .iter()
+        .filter(|n| !specs.iter().any(|l| &l.name == *n))
+        .collect();
+    if !unknown.is_empty() {
+        let known: Vec<&str> = specs.iter().map(|l| l.name.as_str()).collect();
+        eprintln!(
+            "error: not a level of {}: {unknown:?} (levels: {}; each option takes one value)",
+            list.display(),
+            known.join(", ")
+        );
+        std::process::exit(2);
+    }
     let ctx = gibake_gpu::GpuContext::new(&Default::default()).unwrap();
     for spec in specs
         .iter()
