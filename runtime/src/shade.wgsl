@@ -78,7 +78,7 @@ const NEAR_FIELD_RATIO: f32 = 4.0;
 // crown's or a rock's texels send their light from where each part is and
 // the way each faces (docs/method.md, "Node lobes"). Must match
 // gibake_eval::transport::FAR_FIELD_RATIO.
-const FAR_FIELD_RATIO: f32 = 2.0 * NEAR_FIELD_RATIO;
+const FAR_FIELD_RATIO: f32 = 8.0;   // 2 × NEAR_FIELD_RATIO
 // The crease kernel's blend (near_node_irradiance); must match
 // gibake_eval::transport.
 const CREASE_LO: f32 = 0.4;

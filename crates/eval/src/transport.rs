@@ -595,6 +595,7 @@ mod tests {
                 .find(|l| l.starts_with(&format!("const {name}:")))
                 .unwrap_or_else(|| panic!("shade.wgsl defines {name}"));
             let v = line.split('=').nth(1).expect("a value");
+            let v = v.split("//").next().expect("a value");
             v.trim()
                 .trim_end_matches(';')
                 .trim_end_matches('u')
@@ -602,10 +603,114 @@ mod tests {
                 .expect("a number")
         };
         assert_eq!(value("NEAR_FIELD_RATIO"), super::NEAR_FIELD_RATIO);
+        assert_eq!(value("FAR_FIELD_RATIO"), super::FAR_FIELD_RATIO);
         assert_eq!(value("VPL_DEPTH_BIAS"), super::VPL_DEPTH_BIAS);
         assert_eq!(value("VPL_MAX_SLOPE"), super::VPL_MAX_SLOPE);
         assert_eq!(value("CREASE_LO"), super::CREASE_LO);
         assert_eq!(value("CREASE_HI"), super::CREASE_HI);
+    }
+
+    /// A VPL with a full tree is one disk with its far-field lobe beyond
+    /// `FAR_FIELD_RATIO` radii, and its four level-1 nodes, each with the
+    /// lobe at its own level-3 nodes' coherence, between `NEAR_FIELD_RATIO`
+    /// and that.
+    #[test]
+    fn a_vpl_is_its_level_1_nodes_out_to_the_far_field() {
+        use super::{
+            FAR_FIELD_RATIO, lobe_irradiance, node_irradiance, node_lobe_irradiance,
+            static_vpl_terms,
+        };
+        let rec = |p: Vec3, n: Vec3, a: f32, f: f32, texels: u32| VplRecord {
+            position: p.to_array(),
+            area: a,
+            normal: n.normalize().to_array(),
+            texels,
+            flux: [f; 3],
+            map: gibake_asset::NO_MAP,
+        };
+        let area = 0.16f32;
+        let radius = (area / std::f32::consts::PI).sqrt();
+        // Four level-1 quadrants 0.1 apart, facing four ways; under
+        // quadrant 0 the level-3 nodes face ±z by columns (coherence 0),
+        // elsewhere their quadrant's way.
+        let ways = [
+            Vec3::new(0.3, 1.0, 0.0),
+            Vec3::new(-0.3, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.3),
+            Vec3::new(0.0, 1.0, -0.3),
+        ];
+        let centre = |q: usize| {
+            Vec3::new(
+                (q % 2) as f32 * 0.1 - 0.05,
+                0.0,
+                (q / 2) as f32 * 0.1 - 0.05,
+            )
+        };
+        let mut tree = Vec::new();
+        for (q, w) in ways.iter().enumerate() {
+            tree.push(rec(centre(q), *w, area / 4.0, 1.0, 16));
+        }
+        for j in 0..4 {
+            for i in 0..4 {
+                let q = (j / 2) * 2 + i / 2;
+                tree.push(rec(centre(q), ways[q], area / 16.0, 0.25, 4));
+            }
+        }
+        for j in 0..8 {
+            for i in 0..8 {
+                let q = (j / 4) * 2 + i / 4;
+                let n = if q == 0 {
+                    Vec3::new(0.0, 0.0, if i % 2 == 0 { 1.0 } else { -1.0 })
+                } else {
+                    ways[q]
+                };
+                tree.push(rec(centre(q), n, area / 64.0, 1.0 / 16.0, 1));
+            }
+        }
+        assert_eq!(tree.len(), gibake_asset::NODES_PER_VPL);
+        let v = rec(Vec3::ZERO, Vec3::Y, area, 4.0, 64);
+        let c = gibake_asset::lobe_coherence(&tree);
+        let (ns, dir) = (
+            Vec3::new(0.2, -1.0, 0.1).normalize(),
+            Vec3::new(0.6, 0.5, 0.62).normalize(),
+        );
+        let at = |k: f32| dir * (k * radius);
+        for k in [4.5f32, 6.0, 7.9] {
+            let x = at(k);
+            let got = static_vpl_terms(&v, Vec3::ZERO, &tree, c, x, ns, ns);
+            let nodes: Vec3 = (0..4)
+                .map(|q| node_lobe_irradiance(&tree, q, x, ns, ns))
+                .sum();
+            assert!(got.open == Vec3::ZERO, "{k} radii: all map-tested");
+            assert!(
+                (got.shadowed - nodes).abs().max_element() <= 1e-6 * nodes.max_element(),
+                "{k} radii: {got:?} against the level-1 nodes' {nodes:?}"
+            );
+            // Quadrant 0's lobe is its texels' (coherence 0), not its cosine.
+            let cosine = node_irradiance(&tree[0], x, ns, ns);
+            let lobe = node_lobe_irradiance(&tree, 0, x, ns, ns);
+            let flat = lobe_irradiance(
+                centre(0),
+                ways[0].normalize(),
+                0.0,
+                area / 4.0,
+                Vec3::ONE,
+                x,
+                ns,
+                ns,
+            );
+            assert!(
+                (lobe - flat).abs().max_element() <= 1e-6 * flat.max_element() && lobe != cosine,
+                "{k} radii: {lobe:?}, {cosine:?}"
+            );
+        }
+        for k in [8.1f32, 20.0] {
+            let x = at(k);
+            let got = static_vpl_terms(&v, Vec3::ZERO, &tree, c, x, ns, ns);
+            let disk = lobe_irradiance(Vec3::ZERO, Vec3::Y, c, area, Vec3::splat(4.0), x, ns, ns);
+            assert_eq!(got.shadowed, disk, "{k} radii: one disk");
+        }
+        assert_eq!(FAR_FIELD_RATIO, 2.0 * NEAR_FIELD_RATIO);
     }
 
     /// The open share of a finest node's light is 1 in its own near field,
