@@ -530,16 +530,21 @@ impl VplRecord {
 
 #[cfg(test)]
 mod tests {
-    #[test]
-    fn lobe_coherence_of_aligned_and_opposed_nodes() {
-        let node = |n: [f32; 3], f: f32| crate::VplRecord {
+    /// A one-texel node at the origin with normal `n` and flux `f` per
+    /// channel.
+    fn node(n: [f32; 3], f: f32) -> crate::VplRecord {
+        crate::VplRecord {
             position: [0.0; 3],
             area: 1.0,
             normal: n,
             texels: 1,
             flux: [f; 3],
             map: crate::NO_MAP,
-        };
+        }
+    }
+
+    #[test]
+    fn lobe_coherence_of_aligned_and_opposed_nodes() {
         let zero = node([0.0, 1.0, 0.0], 0.0);
         let mut nodes = vec![zero; crate::NODES_PER_VPL];
         // Too few records: one lobe.
@@ -564,14 +569,6 @@ mod tests {
     /// (the 4×4 or 2×2 block under it), not the whole tree's.
     #[test]
     fn node_lobe_coherence_of_the_nodes_under_it() {
-        let node = |n: [f32; 3], f: f32| crate::VplRecord {
-            position: [0.0; 3],
-            area: 1.0,
-            normal: n,
-            texels: 1,
-            flux: [f; 3],
-            map: crate::NO_MAP,
-        };
         let mut nodes = vec![node([0.0, 1.0, 0.0], 1.0); crate::NODES_PER_VPL];
         // Level-3 grid 8×8 from record 20; the right half faces ±x by
         // columns, the bottom-left quarter faces +x.
