@@ -166,7 +166,8 @@ fn vpl_map_distance(i: u32, map: u32, tile: u32, c: vec2<i32>) -> f32 {
 // 1–14% more light than exact rays on real levels (`map_visibility`,
 // docs/method.md "Real levels"). Known issue: a receiver within one
 // footprint of a concave crease is partly shadowed by the tap that sees
-// the crease's other side (as before, somewhat more). A receiver below the
+// the crease's other side (as before, somewhat more). A receiver whose
+// plane has the origin behind it is not map-tested (below). A receiver below the
 // VPL's horizon (lit only by near-field nodes facing it) is looked up on the
 // map's rim: the map holds nothing below its horizon. CPU twin:
 // gibake_eval::transport::map_visibility.
@@ -189,6 +190,15 @@ fn vpl_visibility(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ng: vec3<f32>
     let w = d * (2.83 / n);
     // Height of the map origin above the receiver's plane (> 0 in front).
     let h = -dot(dx, ng);
+    // The origin behind the receiver's plane: what lights x are the VPL's
+    // parts in front of that plane (the transport's cosine leaves the
+    // rest out), and the origin's ray to x passes through x's own surface
+    // (the far side of a ball or a block from a VPL on the ground round
+    // it), so the map cannot tell: no map test (docs/method.md, "Origin
+    // behind the receiver").
+    if (!(h > 0.0)) {
+        return 1.0;
+    }
     let tc = hemi_texel_coords(v.normal, dx / d, n) - vec2<f32>(0.5);
     let i0 = vec2<i32>(floor(tc));
     let f = tc - floor(tc);

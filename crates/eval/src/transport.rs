@@ -451,7 +451,9 @@ impl<'a> TwinVpls<'a> {
                 continue;
             }
             sum.unshadowed += near.total();
-            if rays.visible(self.origins[i], Vec3::from_array(v.normal), x, ng) {
+            if !origin_in_front(self.origins[i], x, ng)
+                || rays.visible(self.origins[i], Vec3::from_array(v.normal), x, ng)
+            {
                 sum.visible += near.total();
                 sum.visible_disk += disk;
             } else {
@@ -460,6 +462,18 @@ impl<'a> TwinVpls<'a> {
         }
         sum
     }
+}
+
+/// Whether a VPL's map origin is in front of the plane of a receiver at `x`
+/// (geometric normal `ng`). Where it is not, the VPL's parts in front of
+/// that plane are what light `x` (the transport's receiver cosine leaves
+/// the rest out), and the origin's ray to `x` passes through `x`'s own
+/// surface — the far side of a ball or a block from a VPL on the ground
+/// round it — so its visibility says nothing: shading skips the map test
+/// there (shade.wgsl `vpl_visibility`; docs/method.md, "Origin behind the
+/// receiver"), and the twin's exact visibility does the same.
+pub fn origin_in_front(origin: Vec3, x: Vec3, ng: Vec3) -> bool {
+    (origin - x).dot(ng) > 0.0
 }
 
 /// An asset's hemisphere maps, for the CPU twin of the shader's lookup
@@ -506,7 +520,9 @@ pub const VPL_MAX_SLOPE: f32 = 10.0;
 /// `origin` — the 2×2 PCF with the receiver-plane test. A receiver below
 /// the VPL's horizon (`normal · (x − origin) < 0`, lit only by near-field
 /// nodes facing it) is looked up on the map's rim, as on the GPU: the map
-/// holds nothing below its horizon (docs/method.md, "Real levels").
+/// holds nothing below its horizon (docs/method.md, "Real levels"). A
+/// receiver whose plane has the origin behind it is not map-tested (1):
+/// see [`origin_in_front`].
 pub fn map_visibility(
     map: &[f32],
     size: u32,
@@ -524,6 +540,9 @@ pub fn map_visibility(
     }
     let w = d * (2.83 / n);
     let h = -dx.dot(ng);
+    if !(h > 0.0) {
+        return 1.0;
+    }
     let tc = hemisphere::texel_coords(normal, dx / d, size) - glam::Vec2::splat(0.5);
     let i0 = tc.floor();
     let f = tc - i0;
