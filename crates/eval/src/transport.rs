@@ -539,10 +539,10 @@ pub fn map_visibility(
         return 1.0;
     }
     let w = d * (2.83 / n);
-    let h = -dx.dot(ng);
-    if !(h > 0.0) {
+    if !origin_in_front(origin, x, ng) {
         return 1.0;
     }
+    let h = -dx.dot(ng);
     let tc = hemisphere::texel_coords(normal, dx / d, size) - glam::Vec2::splat(0.5);
     let i0 = tc.floor();
     let f = tc - i0;
