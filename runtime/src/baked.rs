@@ -179,10 +179,10 @@ impl BakedGpu {
             .vpl_nodes
             .chunks(NODES_PER_VPL)
             .flat_map(|tree| {
+                let lobes = gibake_asset::node_lobe_coherences(tree);
                 tree.iter().enumerate().map(move |(k, n)| {
                     let mut g = gpu_vpl(n);
-                    if n.texels != 0 && k < 4 + 16 {
-                        let c = gibake_asset::node_lobe_coherence(tree, k);
+                    if let Some(&c) = lobes.get(k).filter(|_| n.texels != 0) {
                         g.texels = gibake_gpu::vpl::lobe_fixed(c).max(1);
                     }
                     g

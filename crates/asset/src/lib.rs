@@ -133,6 +133,13 @@ pub fn node_lobe_coherence(nodes: &[VplRecord], k: usize) -> f32 {
     coherence_of(under)
 }
 
+/// [`node_lobe_coherence`] of every level-1 and level-2 node of a tree
+/// `nodes`, in tree order (all 1 for a tree of fewer than
+/// [`NODES_PER_VPL`] records): what shading reads, computed once per VPL.
+pub fn node_lobe_coherences(nodes: &[VplRecord]) -> [f32; 4 + 16] {
+    std::array::from_fn(|k| node_lobe_coherence(nodes, k))
+}
+
 /// `|Σ Φₖ nₖ| / Σ Φₖ` over `nodes` (flux weights the channel sum; nodes
 /// without finite positive flux left out; 1 where none is left).
 fn coherence_of<'a>(nodes: impl IntoIterator<Item = &'a VplRecord>) -> f32 {

@@ -201,9 +201,9 @@ fn main() {
         let nodes: Vec<Vec<gibake_asset::VplRecord>> = (0..cl.vpls.len())
             .map(|i| gibake_bake::near_field::tree_of(&rsm, &cl, i))
             .collect();
-        let lobes: Vec<f32> = nodes
+        let lobes: Vec<gibake_eval::transport::VplLobes> = nodes
             .iter()
-            .map(|t| gibake_asset::lobe_coherence(t))
+            .map(|t| gibake_eval::transport::VplLobes::of_tree(t))
             .collect();
         let px: Vec<[Vec3; 10]> = (0..size * size)
             .into_par_iter()
@@ -278,7 +278,7 @@ fn main() {
                             &rec,
                             centre,
                             &nodes[vi],
-                            lobes[vi],
+                            &lobes[vi],
                             xg,
                             h.shading_normal,
                             h.geometric_normal,

@@ -243,7 +243,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
                             v,
                             o,
                             &[],
-                            twin_vpls.lobes[i],
+                            &twin_vpls.lobes[i],
                             x,
                             ns,
                             ng,

@@ -101,20 +101,50 @@ fn within(x: Vec3, p: Vec3, a: f32, ratio: f32) -> bool {
     (x - p).length_squared() < ratio * ratio * a / std::f32::consts::PI
 }
 
-/// Irradiance at `x` from a level-1 or level-2 near-field node `n` (index
-/// `k` in `tree`) beyond its own near field: its disk with the far-field
-/// lobe at its level-3 nodes' coherence
-/// ([`gibake_asset::node_lobe_coherence`]; none from an empty node;
+/// The far-field lobe coherences shading holds for one static VPL, each
+/// computed once at load (`baked.rs`): its own
+/// ([`gibake_asset::lobe_coherence`]) and its level-1 and level-2 nodes'
+/// ([`gibake_asset::node_lobe_coherences`]). The default (all 1) is
+/// cosine lobes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VplLobes {
+    /// The VPL's, where it is drawn as one disk.
+    pub vpl: f32,
+    /// Its level-1 and level-2 nodes', in tree order.
+    pub nodes: [f32; 4 + 16],
+}
+
+impl Default for VplLobes {
+    fn default() -> Self {
+        VplLobes {
+            vpl: 1.0,
+            nodes: [1.0; 4 + 16],
+        }
+    }
+}
+
+impl VplLobes {
+    /// The coherences of a VPL whose near-field tree is `tree`.
+    pub fn of_tree(tree: &[VplRecord]) -> Self {
+        VplLobes {
+            vpl: gibake_asset::lobe_coherence(tree),
+            nodes: gibake_asset::node_lobe_coherences(tree),
+        }
+    }
+}
+
+/// Irradiance at `x` from a level-1 or level-2 near-field node `n` beyond
+/// its own near field: its disk with the far-field lobe at coherence `c`,
+/// its level-3 nodes' ([`VplLobes::nodes`]; none from an empty node;
 /// shade.wgsl `node_lobe_irradiance`).
-pub fn node_lobe_irradiance(tree: &[VplRecord], k: usize, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 {
-    let n = &tree[k];
+pub fn node_lobe_irradiance(n: &VplRecord, c: f32, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 {
     if n.texels == 0 {
         return Vec3::ZERO;
     }
     lobe_irradiance(
         Vec3::from_array(n.position),
         Vec3::from_array(n.normal),
-        gibake_asset::node_lobe_coherence(tree, k),
+        c,
         n.area,
         Vec3::from_array(n.flux),
         x,
@@ -270,20 +300,20 @@ impl VplTerms {
 /// far-field centre, [`gibake_asset::far_field_centre`], where it has a
 /// tree; else its map origin),
 /// whose near-field tree is `nodes` ([`NODES_PER_VPL`] records; none: one
-/// disk at every distance) and whose far-field lobe coherence is
-/// `coherence` ([`gibake_asset::Asset::lobe_coherences`], computed once
-/// per VPL as the runtime does at load): [`static_vpl_terms`] summed.
+/// disk at every distance) and whose far-field lobes are `lobes`
+/// ([`VplLobes::of_tree`], computed once per VPL as the runtime does at
+/// load): [`static_vpl_terms`] summed.
 #[allow(clippy::too_many_arguments)]
 pub fn static_vpl_irradiance(
     v: &VplRecord,
     origin: Vec3,
     nodes: &[VplRecord],
-    coherence: f32,
+    lobes: &VplLobes,
     x: Vec3,
     ns: Vec3,
     ng: Vec3,
 ) -> Vec3 {
-    static_vpl_terms(v, origin, nodes, coherence, x, ns, ng).total()
+    static_vpl_terms(v, origin, nodes, lobes, x, ns, ng).total()
 }
 
 /// [`static_vpl_irradiance`] split into what the VPL's map shadows and
@@ -293,7 +323,7 @@ pub fn static_vpl_terms(
     v: &VplRecord,
     origin: Vec3,
     nodes: &[VplRecord],
-    coherence: f32,
+    lobes: &VplLobes,
     x: Vec3,
     ns: Vec3,
     ng: Vec3,
@@ -302,7 +332,7 @@ pub fn static_vpl_terms(
     let mut t = VplTerms::default();
     if is_far(x, origin, v.area) || nodes.len() < NODES_PER_VPL {
         let phi = Vec3::from_array(v.flux);
-        t.shadowed = lobe_irradiance(origin, nv, coherence, v.area, phi, x, ns, ng);
+        t.shadowed = lobe_irradiance(origin, nv, lobes.vpl, v.area, phi, x, ns, ng);
         return t;
     }
     for c1 in 0..4 {
@@ -312,7 +342,7 @@ pub fn static_vpl_terms(
             continue;
         }
         if !is_near(x, Vec3::from_array(n1.position), n1.area) {
-            t.shadowed += node_lobe_irradiance(nodes, j1 * 2 + i1, x, ns, ng);
+            t.shadowed += node_lobe_irradiance(n1, lobes.nodes[j1 * 2 + i1], x, ns, ng);
             continue;
         }
         for c2 in 0..4 {
@@ -322,7 +352,8 @@ pub fn static_vpl_terms(
                 continue;
             }
             if !is_near(x, Vec3::from_array(n2.position), n2.area) {
-                t.shadowed += node_lobe_irradiance(nodes, 4 + j2 * 4 + i2, x, ns, ng);
+                let k2 = 4 + j2 * 4 + i2;
+                t.shadowed += node_lobe_irradiance(n2, lobes.nodes[k2], x, ns, ng);
                 continue;
             }
             for c3 in 0..4 {
@@ -356,7 +387,7 @@ pub struct TwinIrradiance {
 
 /// Static VPLs as shading holds them after load (`baked.rs`): each VPL's
 /// record and near-field tree, and, computed once per VPL, its lobe
-/// coherence ([`gibake_asset::lobe_coherence`]), its map origin (where its
+/// coherences ([`VplLobes`]), its map origin (where its
 /// visibility is tested) and its far-field centre
 /// ([`gibake_asset::far_field_centre`], where its transport is drawn from;
 /// its map origin without a full tree).
@@ -365,8 +396,8 @@ pub struct TwinVpls<'a> {
     pub vpls: &'a [VplRecord],
     /// Their near-field trees ([`NODES_PER_VPL`] each, in the same order).
     pub nodes: &'a [VplRecord],
-    /// Per VPL: its far-field lobe coherence.
-    pub lobes: Vec<f32>,
+    /// Per VPL: its far-field lobe coherences.
+    pub lobes: Vec<VplLobes>,
     /// Per VPL: its map origin.
     pub origins: Vec<Vec3>,
     /// Per VPL: its far-field centre.
@@ -395,7 +426,7 @@ impl<'a> TwinVpls<'a> {
             centres: Vec::new(),
         };
         twin.lobes = (0..vpls.len())
-            .map(|i| gibake_asset::lobe_coherence(twin.tree(i)))
+            .map(|i| VplLobes::of_tree(twin.tree(i)))
             .collect();
         twin.centres = (0..vpls.len())
             .map(|i| {
@@ -428,7 +459,7 @@ impl<'a> TwinVpls<'a> {
         ng: Vec3,
     ) -> impl Iterator<Item = (usize, VplTerms)> + '_ {
         self.vpls.iter().enumerate().filter_map(move |(i, v)| {
-            let t = static_vpl_terms(v, self.centres[i], self.tree(i), self.lobes[i], x, ns, ng);
+            let t = static_vpl_terms(v, self.centres[i], self.tree(i), &self.lobes[i], x, ns, ng);
             (t != VplTerms::default()).then_some((i, t))
         })
     }
@@ -444,7 +475,7 @@ impl<'a> TwinVpls<'a> {
         let mut sum = TwinIrradiance::default();
         let (x, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
         for (i, v) in self.vpls.iter().enumerate() {
-            let (centre, c) = (self.centres[i], self.lobes[i]);
+            let (centre, c) = (self.centres[i], &self.lobes[i]);
             let near = static_vpl_terms(v, centre, self.tree(i), c, x, ns, ng);
             let disk = static_vpl_irradiance(v, centre, &[], c, x, ns, ng);
             if near == VplTerms::default() && disk == Vec3::ZERO {
@@ -688,7 +719,8 @@ mod tests {
         }
         assert_eq!(tree.len(), gibake_asset::NODES_PER_VPL);
         let v = rec(Vec3::ZERO, Vec3::Y, area, 4.0, 64);
-        let c = gibake_asset::lobe_coherence(&tree);
+        let lobes = super::VplLobes::of_tree(&tree);
+        let c = lobes.vpl;
         let (ns, dir) = (
             Vec3::new(0.2, -1.0, 0.1).normalize(),
             Vec3::new(0.6, 0.5, 0.62).normalize(),
@@ -696,9 +728,9 @@ mod tests {
         let at = |k: f32| dir * (k * radius);
         for k in [4.5f32, 6.0, 7.9] {
             let x = at(k);
-            let got = static_vpl_terms(&v, Vec3::ZERO, &tree, c, x, ns, ns);
+            let got = static_vpl_terms(&v, Vec3::ZERO, &tree, &lobes, x, ns, ns);
             let nodes: Vec3 = (0..4)
-                .map(|q| node_lobe_irradiance(&tree, q, x, ns, ns))
+                .map(|q| node_lobe_irradiance(&tree[q], lobes.nodes[q], x, ns, ns))
                 .sum();
             assert!(got.open == Vec3::ZERO, "{k} radii: all map-tested");
             assert!(
@@ -707,7 +739,7 @@ mod tests {
             );
             // Quadrant 0's lobe is its texels' (coherence 0), not its cosine.
             let cosine = node_irradiance(&tree[0], x, ns, ns);
-            let lobe = node_lobe_irradiance(&tree, 0, x, ns, ns);
+            let lobe = node_lobe_irradiance(&tree[0], lobes.nodes[0], x, ns, ns);
             let flat = lobe_irradiance(
                 centre(0),
                 ways[0].normalize(),
@@ -725,7 +757,7 @@ mod tests {
         }
         for k in [8.1f32, 20.0] {
             let x = at(k);
-            let got = static_vpl_terms(&v, Vec3::ZERO, &tree, c, x, ns, ns);
+            let got = static_vpl_terms(&v, Vec3::ZERO, &tree, &lobes, x, ns, ns);
             let disk = lobe_irradiance(Vec3::ZERO, Vec3::Y, c, area, Vec3::splat(4.0), x, ns, ns);
             assert_eq!(got.shadowed, disk, "{k} radii: one disk");
         }
