@@ -34,7 +34,10 @@ pub(crate) struct BakedGpu {
     /// [`BakedGpu::vpls`], then their near-field trees (`NODES_PER_VPL`
     /// [`GpuVpl`]s per VPL, in VPL order), then one far-field record per
     /// VPL (its own with `position` its far-field centre,
-    /// `gibake_asset::far_field_centre`) (storage).
+    /// `gibake_asset::far_field_centre`, and its facing shift,
+    /// `gibake_asset::facing`), then its level-1 and level-2 nodes' facing
+    /// shifts (`gibake_asset::FACINGS_PER_VPL − 1` records per VPL)
+    /// (storage).
     pub vpl_buf: wgpu::Buffer,
     /// Baked hemisphere maps, one 2D atlas (one +inf tile when none is stored).
     pub static_maps: wgpu::TextureView,
@@ -189,28 +192,72 @@ impl BakedGpu {
                 })
             })
             .collect();
+        // Each VPL's facing shifts (`gibake_asset::facings`: its own, then
+        // its level-1 and level-2 nodes').
+        let facings: Vec<[gibake_asset::Facing; gibake_asset::FACINGS_PER_VPL]> =
+            (0..asset.vpls.len())
+                .map(|i| {
+                    gibake_asset::facings(
+                        asset
+                            .vpl_nodes
+                            .get(i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL)
+                            .unwrap_or(&[]),
+                    )
+                })
+                .collect();
         // Where each VPL is drawn from afar: its texels' centroid
         // (`gibake_asset::far_field_centre`), else its map origin; the rest
-        // of the record is the VPL's own.
+        // of the record is its own facing shift's F, by columns in
+        // `normal`, `flux` and (`area`, `texels`, `map`) as f32 bits
+        // (shade.wgsl `far_facing`).
         let far: Vec<GpuVpl> = vpls
             .iter()
             .zip(asset.far_field_centres())
-            .map(|(v, c)| GpuVpl {
-                position: c.unwrap_or(v.position),
-                map: NO_MAP,
-                ..*v
+            .zip(&facings)
+            .map(|((v, c), f)| {
+                let [c0, c1, c2] = f[0].cols;
+                GpuVpl {
+                    position: c.unwrap_or(v.position),
+                    area: c2[0],
+                    normal: c0,
+                    texels: c2[1].to_bits(),
+                    flux: c1,
+                    map: c2[2].to_bits(),
+                }
+            })
+            .collect();
+        // The level-1 and level-2 nodes' facing shifts (FACING_NODES per
+        // VPL), F by columns in `position`, `normal` and `flux` (shade.wgsl
+        // `node_facing`).
+        let node_facings: Vec<GpuVpl> = facings
+            .iter()
+            .flat_map(|f| {
+                f[1..].iter().map(|f| GpuVpl {
+                    position: f.cols[0],
+                    area: 0.0,
+                    normal: f.cols[1],
+                    texels: 0,
+                    flux: f.cols[2],
+                    map: NO_MAP,
+                })
             })
             .collect();
         // The VPLs, then their near-field trees (NODES_PER_VPL records per
-        // VPL, as stored), then their far-field records, in one storage
-        // buffer: shading binds four.
-        let records = [vpls.as_slice(), nodes.as_slice(), far.as_slice()].concat();
+        // VPL, as stored), then their far-field records, then their nodes'
+        // facing shifts, in one storage buffer: shading binds four.
+        let records = [
+            vpls.as_slice(),
+            nodes.as_slice(),
+            far.as_slice(),
+            node_facings.as_slice(),
+        ]
+        .concat();
         let vpl_bytes = std::mem::size_of_val(records.as_slice()) as u64;
         let max_binding = device.limits().max_storage_buffer_binding_size;
         if vpl_bytes > max_binding {
             return Err(RuntimeError::DeviceLimit {
                 what: format!(
-                    "the asset's {} VPLs, their near-field nodes and far-field records (bytes in one storage binding; bake fewer VPLs)",
+                    "the asset's {} VPLs, their near-field nodes, far-field and facing records (bytes in one storage binding; bake fewer VPLs)",
                     vpls.len()
                 ),
                 needed: vpl_bytes,
@@ -218,7 +265,7 @@ impl BakedGpu {
             });
         }
         let vpl_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("static VPLs, near-field nodes and far-field records"),
+            label: Some("static VPLs, near-field nodes, far-field and facing records"),
             contents: if records.is_empty() {
                 &[0u8; 48]
             } else {

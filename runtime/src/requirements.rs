@@ -218,12 +218,13 @@ impl Requirements {
         let side = u64::from(cols.max(rows)) * u64::from(s);
         self.need(Limit::Texture2d, "the asset's VPL map atlas", side);
         let atlas = u64::from(cols) * u64::from(rows) * sq(s);
-        // The VPLs, their near-field trees, their far-field records
-        // (baked.rs).
-        let records = (2 * a.vpls.len() + a.vpl_nodes.len()) as u64 * VPL_BYTES;
+        // The VPLs, their near-field trees, their far-field records and
+        // their nodes' facing records (baked.rs).
+        let per_vpl = 1 + gibake_asset::FACINGS_PER_VPL;
+        let records = (per_vpl * a.vpls.len() + a.vpl_nodes.len()) as u64 * VPL_BYTES;
         self.need(
             Limit::StorageBinding,
-            "the asset's VPLs, near-field nodes and far-field records",
+            "the asset's VPLs, near-field nodes, far-field and facing records",
             records,
         );
         let mut upload = 4 * atlas + 4 * sq(a.primary_depth.size) + records;

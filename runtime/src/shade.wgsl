@@ -84,6 +84,11 @@ const FAR_FIELD_RATIO: f32 = 8.0;   // 2 × NEAR_FIELD_RATIO
 const CREASE_LO: f32 = 0.4;
 const CREASE_HI: f32 = 0.6;
 const NODES_PER_VPL: u32 = 84u;
+// Facing-shift records per static VPL after the far-field records: its
+// level-1 and level-2 nodes' (gibake_asset::FACINGS_PER_VPL − 1, the VPL's
+// own being in its far-field record; checked by gibake_eval::transport's
+// constants test).
+const FACING_NODES: u32 = 20u;
 
 fn has(f: u32) -> bool {
     return (params.flags & f) != 0u;
@@ -302,6 +307,39 @@ fn node_lobe_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> v
     return vpl_lobe_irradiance(n.position, n.normal, f32(n.texels) / LOBE_ONE, n.area, n.flux, x, ns, ng);
 }
 
+// Where a cluster drawn at p sends its light to x from: p + F·ω, ω the
+// unit direction from p to x, F its facing shift (gibake_asset::facing:
+// scaled at load so that no shift leaves the cluster; none where not
+// finite). The parts of a cluster that face ω send its light that way: the
+// near side of a crown, a crease's wall rather than its floor
+// (docs/method.md, "Facing shift"). CPU twin:
+// gibake_eval::transport::facing_point.
+fn facing_point(p: vec3<f32>, f: mat3x3<f32>, x: vec3<f32>) -> vec3<f32> {
+    let d = x - p;
+    let l2 = dot(d, d);
+    if (!(l2 > 0.0)) {
+        return p;
+    }
+    let s = f * (d * inverseSqrt(l2));
+    if (!(abs(s.x) <= 3.0e38 && abs(s.y) <= 3.0e38 && abs(s.z) <= 3.0e38)) {
+        return p;
+    }
+    return p + s;
+}
+
+// A static VPL's own facing shift, from its far-field record r (F by
+// columns in normal, flux and area/texels/map as f32 bits: baked.rs).
+fn far_facing(r: Vpl) -> mat3x3<f32> {
+    return mat3x3<f32>(r.normal, r.flux, vec3<f32>(r.area, bitcast<f32>(r.texels), bitcast<f32>(r.map)));
+}
+
+// Static VPL i's level-1 or level-2 node k's facing shift (k: its index in
+// the tree, 0–19), F by columns in position, normal, flux (baked.rs).
+fn node_facing(i: u32, k: u32) -> mat3x3<f32> {
+    let r = vpls[params.n_static * (2u + NODES_PER_VPL) + i * FACING_NODES + k];
+    return mat3x3<f32>(r.position, r.normal, r.flux);
+}
+
 fn node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
     if (n.texels == 0u) {
         return vec3<f32>(0.0);
@@ -439,11 +477,13 @@ fn open_weight(x: vec3<f32>, p: vec3<f32>, a: f32) -> f32 {
 // twin: gibake_eval::transport::static_vpl_terms.
 fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> VplTerms {
     var t = VplTerms(vec3<f32>(0.0), vec3<f32>(0.0));
-    let centre = vpls[params.n_static * (1u + NODES_PER_VPL) + i].position;
+    let far = vpls[params.n_static * (1u + NODES_PER_VPL) + i];
+    let centre = far.position;
     if (!within(x, centre, v.area, FAR_FIELD_RATIO)) {
         // A static VPL's own record carries its lobe coherence in `texels`
         // (gibake_gpu::vpl::GpuVpl::texels), fixed point.
-        t.shadowed = vpl_lobe_irradiance(centre, v.normal, f32(v.texels) / LOBE_ONE, v.area, v.flux, x, ns, ng);
+        let p = facing_point(centre, far_facing(far), x);
+        t.shadowed = vpl_lobe_irradiance(p, v.normal, f32(v.texels) / LOBE_ONE, v.area, v.flux, x, ns, ng);
         return t;
     }
     let base = params.n_static + i * NODES_PER_VPL;   // its tree, after the VPLs
@@ -455,7 +495,9 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
             continue;
         }
         if (!is_near(x, n1.position, n1.area)) {
-            t.shadowed += node_lobe_irradiance(n1, x, ns, ng);
+            var m1 = n1;
+            m1.position = facing_point(n1.position, node_facing(i, j1 * 2u + i1), x);
+            t.shadowed += node_lobe_irradiance(m1, x, ns, ng);
             continue;
         }
         for (var c2 = 0u; c2 < 4u; c2++) {
@@ -466,7 +508,9 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
                 continue;
             }
             if (!is_near(x, n2.position, n2.area)) {
-                t.shadowed += node_lobe_irradiance(n2, x, ns, ng);
+                var m2 = n2;
+                m2.position = facing_point(n2.position, node_facing(i, 4u + j2 * 4u + i2), x);
+                t.shadowed += node_lobe_irradiance(m2, x, ns, ng);
                 continue;
             }
             for (var c3 = 0u; c3 < 4u; c3++) {

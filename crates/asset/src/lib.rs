@@ -140,6 +140,146 @@ pub fn node_lobe_coherences(nodes: &[VplRecord]) -> [f32; 4 + 16] {
     std::array::from_fn(|k| node_lobe_coherence(nodes, k))
 }
 
+/// Where a static VPL, or one of its level-1 and level-2 nodes, sends each
+/// direction's light from, beyond the point it is drawn at: its *facing
+/// shift*. A cluster whose parts face different ways sends its light
+/// towards `ω` mostly from the parts that face `ω` — the near side of a
+/// tree's crown, the wall of a crease rather than its floor — which lie off
+/// its centroid `p̄`, towards `ω` on a convex cluster. Shading draws the
+/// cluster towards a receiver in direction `ω` from `p̄ + F·ω` (shade.wgsl
+/// `facing_point`; docs/method.md, "Facing shift"), with
+/// `F = 2 Σ Φₖ (pₖ − p̄) nₖᵀ / Σ Φₖ` over the level-3 nodes under it (their
+/// centroids `pₖ`, normals `nₖ`, channel-sum flux `Φₖ`): the first-order
+/// model of the emission centroid `Σ Φₖ (nₖ·ω)⁺ pₖ / Σ Φₖ (nₖ·ω)⁺`, exact
+/// for a uniformly lit sphere (`p̄ + ⅔ρω`) and for a right-angled crease of
+/// two equal faces (the facing face's centre), zero for a flat cluster.
+/// `F` is scaled down where needed so that no shift is longer than the
+/// distance from `p̄` of the farthest level-3 node (by its largest singular
+/// value), so shading needs no test. Computed at load from what the asset
+/// stores.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Facing {
+    /// The columns of `F` (`F·ω = Σⱼ cols[j]·ωⱼ`).
+    pub cols: [[f32; 3]; 3],
+}
+
+impl Facing {
+    /// No shift (a flat cluster, a missing tree, or degenerate input).
+    pub const NONE: Facing = Facing {
+        cols: [[0.0; 3]; 3],
+    };
+
+    /// The shift towards unit direction `w`: `F·w` (none where not finite).
+    pub fn shift(&self, w: [f32; 3]) -> [f32; 3] {
+        let mut s = [0f32; 3];
+        for (j, c) in self.cols.iter().enumerate() {
+            for (si, ci) in s.iter_mut().zip(c) {
+                *si += ci * w[j];
+            }
+        }
+        if s.iter().all(|v| v.is_finite()) {
+            s
+        } else {
+            [0.0; 3]
+        }
+    }
+}
+
+/// The largest singular value of the 3×3 matrix with columns `f`
+/// (power iteration on `FᵀF` from the largest column; `f64`).
+fn largest_singular_value(f: &[[f64; 3]; 3]) -> f64 {
+    let dot = |a: &[f64; 3], b: &[f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    // FᵀF[i][j] = colᵢ · colⱼ.
+    let g: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| dot(&f[i], &f[j])));
+    let mut v = [1.0, 1.0, 1.0];
+    let mut lambda = 0.0;
+    for _ in 0..64 {
+        let w: [f64; 3] = std::array::from_fn(|i| dot(&g[i], &v));
+        let n = dot(&w, &w).sqrt();
+        if !(n > 0.0 && n.is_finite()) {
+            break;
+        }
+        lambda = n / dot(&v, &v).sqrt();
+        v = w.map(|x| x / n);
+    }
+    lambda.max(0.0).sqrt()
+}
+
+/// [`Facing`] of a static VPL (`k = None`: all its level-3 nodes) or of its
+/// level-1 or level-2 node `k` (0–3 level 1, 4–19 level 2, each level
+/// row-major: the level-3 nodes under it) in its near-field tree `nodes`;
+/// [`Facing::NONE`] for a tree of fewer than [`NODES_PER_VPL`] records, a
+/// deeper `k`, or nodes without finite positive flux.
+pub fn facing(nodes: &[VplRecord], k: Option<usize>) -> Facing {
+    let side = 1usize << NEAR_FIELD_LEVELS;
+    if nodes.len() < NODES_PER_VPL || k.is_some_and(|k| k >= 4 + 16) {
+        return Facing::NONE;
+    }
+    let deepest = &nodes[NODES_PER_VPL - side * side..NODES_PER_VPL];
+    let under: Vec<&VplRecord> = match k {
+        None => deepest.iter().collect(),
+        Some(k) => {
+            let (i, j, level_side) = if k < 4 {
+                (k % 2, k / 2, 2)
+            } else {
+                ((k - 4) % 4, (k - 4) / 4, 4)
+            };
+            let span = side / level_side;
+            (j * span..(j + 1) * span)
+                .flat_map(|r| deepest[r * side + i * span..r * side + (i + 1) * span].iter())
+                .collect()
+        }
+    };
+    let weight = |n: &VplRecord| {
+        let w = f64::from(n.flux[0]) + f64::from(n.flux[1]) + f64::from(n.flux[2]);
+        (n.texels != 0 && w > 0.0 && w.is_finite()).then_some(w)
+    };
+    let (mut wsum, mut wp) = (0f64, [0f64; 3]);
+    for n in &under {
+        if let Some(w) = weight(n) {
+            wsum += w;
+            for (a, p) in wp.iter_mut().zip(n.position) {
+                *a += w * f64::from(p);
+            }
+        }
+    }
+    if !(wsum > 0.0 && wsum.is_finite()) {
+        return Facing::NONE;
+    }
+    let mean = wp.map(|a| a / wsum);
+    let (mut f, mut reach) = ([[0f64; 3]; 3], 0f64);
+    for n in &under {
+        if let Some(w) = weight(n) {
+            let d: [f64; 3] = std::array::from_fn(|a| f64::from(n.position[a]) - mean[a]);
+            for (col, nj) in f.iter_mut().zip(n.normal) {
+                for (c, di) in col.iter_mut().zip(d) {
+                    *c += 2.0 * w * di * f64::from(nj) / wsum;
+                }
+            }
+            reach = reach.max((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt());
+        }
+    }
+    let sigma = largest_singular_value(&f);
+    let scale = if sigma > reach { reach / sigma } else { 1.0 };
+    let cols = f.map(|c| c.map(|v| (v * scale) as f32));
+    if cols.iter().flatten().all(|v| v.is_finite()) {
+        Facing { cols }
+    } else {
+        Facing::NONE
+    }
+}
+
+/// [`facings`] per VPL: the VPL's own and its 4 + 16 level-1 and level-2
+/// nodes' (shade.wgsl `FACINGS_PER_VPL`, which must match).
+pub const FACINGS_PER_VPL: usize = 1 + 4 + 16;
+
+/// [`facing`] of a VPL and of every level-1 and level-2 node of its tree
+/// `nodes`: the VPL's first, then its nodes' in tree order (what shading
+/// reads, computed once per VPL at load).
+pub fn facings(nodes: &[VplRecord]) -> [Facing; FACINGS_PER_VPL] {
+    std::array::from_fn(|k| facing(nodes, k.checked_sub(1)))
+}
+
 /// `|Σ Φₖ nₖ| / Σ Φₖ` over `nodes` (flux weights the channel sum; nodes
 /// without finite positive flux left out; 1 where none is left).
 fn coherence_of<'a>(nodes: impl IntoIterator<Item = &'a VplRecord>) -> f32 {
@@ -611,6 +751,117 @@ mod tests {
         // Level 3, out of range and short trees: one lobe.
         assert_eq!(c(20), 1.0);
         assert_eq!(crate::node_lobe_coherence(&nodes[..83], 0), 1.0);
+    }
+
+    /// A tree whose 64 level-3 nodes sit at `at(r, c)` facing `n(r, c)`,
+    /// each of flux 1.
+    fn tree_of(
+        at: impl Fn(usize, usize) -> [f32; 3],
+        n: impl Fn(usize, usize) -> [f32; 3],
+    ) -> Vec<crate::VplRecord> {
+        let mut nodes = vec![node([0.0, 1.0, 0.0], 1.0); crate::NODES_PER_VPL];
+        for r in 0..8 {
+            for c in 0..8 {
+                nodes[20 + r * 8 + c] = crate::VplRecord {
+                    position: at(r, c),
+                    ..node(n(r, c), 1.0)
+                };
+            }
+        }
+        nodes
+    }
+
+    fn close(a: [f32; 3], b: [f32; 3], tol: f32) -> bool {
+        a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tol)
+    }
+
+    /// The facing shift: none on a flat cluster; the facing face's centre
+    /// of a right-angled crease of two equal faces; `⅔ρ` towards the
+    /// receiver on a sphere; at most the reach; none without a full tree.
+    #[test]
+    fn facing_shift_of_flat_crease_and_sphere() {
+        let up = [0.0, 1.0, 0.0];
+        let flat = tree_of(|r, c| [c as f32, 0.0, r as f32], |_, _| up);
+        for w in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.6, 0.8, 0.0]] {
+            assert!(close(crate::facing(&flat, None).shift(w), [0.0; 3], 1e-5));
+            assert!(close(
+                crate::facing(&flat, Some(5)).shift(w),
+                [0.0; 3],
+                1e-5
+            ));
+        }
+        // Columns 0–3: a floor (y = 0, facing +y) at x = 0.5 … 3.5;
+        // columns 4–7: a wall (x = 0, facing +x) at y = 0.5 … 3.5.
+        let crease = tree_of(
+            |r, c| {
+                if c < 4 {
+                    [c as f32 + 0.5, 0.0, r as f32]
+                } else {
+                    [0.0, (c - 4) as f32 + 0.5, r as f32]
+                }
+            },
+            |_, c| if c < 4 { up } else { [1.0, 0.0, 0.0] },
+        );
+        let f = crate::facing(&crease, None);
+        let centre = [1.0, 1.0, 3.5];
+        let to = |w: [f32; 3]| {
+            let s = f.shift(w);
+            [centre[0] + s[0], centre[1] + s[1], centre[2] + s[2]]
+        };
+        assert!(
+            close(to([1.0, 0.0, 0.0]), [0.0, 2.0, 3.5], 1e-5),
+            "{:?}",
+            to([1.0, 0.0, 0.0])
+        );
+        assert!(
+            close(to([0.0, 1.0, 0.0]), [2.0, 0.0, 3.5], 1e-5),
+            "{:?}",
+            to([0.0, 1.0, 0.0])
+        );
+        // A unit sphere sampled by 64 Fibonacci points: ⅔ towards w.
+        let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+        let fib = |r: usize, c: usize| {
+            let k = (r * 8 + c) as f32;
+            let y = 1.0 - 2.0 * (k + 0.5) / 64.0;
+            let q = (1.0 - y * y).sqrt();
+            [q * (golden * k).cos(), y, q * (golden * k).sin()]
+        };
+        let sphere = tree_of(fib, fib);
+        let f = crate::facing(&sphere, None);
+        for w in [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.6, 0.8]] {
+            let s = f.shift(w);
+            assert!(
+                close(s, w.map(|v| v * 2.0 / 3.0), 0.03),
+                "{s:?} towards {w:?}"
+            );
+        }
+        // No shift is longer than the farthest level-3 node from the
+        // centroid: two nodes 1 apart facing one way, two facing the other,
+        // would shift by 2 unscaled.
+        let pair = tree_of(
+            |_, c| [if c % 2 == 0 { -0.5 } else { 0.5 }, 0.0, 0.0],
+            |_, c| [if c % 2 == 0 { -1.0 } else { 1.0 }, 0.0, 0.0],
+        );
+        let s = crate::facing(&pair, None).shift([1.0, 0.0, 0.0]);
+        assert!(close(s, [0.5, 0.0, 0.0], 1e-5), "{s:?}");
+        let nan = crate::Facing {
+            cols: [[f32::NAN; 3], [0.0; 3], [0.0; 3]],
+        };
+        assert_eq!(nan.shift([1.0, 0.0, 0.0]), [0.0; 3]);
+        // Short trees, deeper nodes, no flux: no shift.
+        assert_eq!(crate::facing(&sphere[..83], None), crate::Facing::NONE);
+        assert_eq!(crate::facing(&sphere, Some(20)), crate::Facing::NONE);
+        let dark: Vec<_> = sphere
+            .iter()
+            .map(|n| crate::VplRecord {
+                flux: [0.0; 3],
+                ..*n
+            })
+            .collect();
+        assert_eq!(crate::facing(&dark, None), crate::Facing::NONE);
+        let all = crate::facings(&sphere);
+        assert_eq!(all[0], crate::facing(&sphere, None));
+        assert_eq!(all[1 + 6], crate::facing(&sphere, Some(6)));
     }
 
     /// The far-field centre is the level-1 nodes' flux-weighted centroid

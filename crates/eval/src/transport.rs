@@ -3,7 +3,7 @@
 //! and from its near-field tree up close (`gibake_bake::near_field`). Tests
 //! compare the GPU image with sums made from these functions.
 
-use gibake_asset::{NODES_PER_VPL, VplRecord};
+use gibake_asset::{Facing, NODES_PER_VPL, VplRecord};
 use glam::Vec3;
 
 /// A VPL or node is replaced by its children where the receiver is nearer
@@ -101,17 +101,21 @@ fn within(x: Vec3, p: Vec3, a: f32, ratio: f32) -> bool {
     (x - p).length_squared() < ratio * ratio * a / std::f32::consts::PI
 }
 
-/// The far-field lobe coherences shading holds for one static VPL, each
-/// computed once at load (`baked.rs`): its own
+/// What shading holds for one static VPL's far-field disks, each computed
+/// once at load (`baked.rs`): the far-field lobe coherences — its own
 /// ([`gibake_asset::lobe_coherence`]) and its level-1 and level-2 nodes'
-/// ([`gibake_asset::node_lobe_coherences`]). The default (all 1) is
-/// cosine lobes.
+/// ([`gibake_asset::node_lobe_coherences`]) — and the facing shifts of the
+/// same ([`gibake_asset::facings`]). The default (all 1, no shift) is
+/// cosine lobes drawn from the centroids.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VplLobes {
     /// The VPL's, where it is drawn as one disk.
     pub vpl: f32,
     /// Its level-1 and level-2 nodes', in tree order.
     pub nodes: [f32; 4 + 16],
+    /// Facing shifts: the VPL's, then its level-1 and level-2 nodes' in
+    /// tree order.
+    pub facings: [Facing; gibake_asset::FACINGS_PER_VPL],
 }
 
 impl Default for VplLobes {
@@ -119,18 +123,29 @@ impl Default for VplLobes {
         VplLobes {
             vpl: 1.0,
             nodes: [1.0; 4 + 16],
+            facings: [Facing::NONE; gibake_asset::FACINGS_PER_VPL],
         }
     }
 }
 
 impl VplLobes {
-    /// The coherences of a VPL whose near-field tree is `tree`.
+    /// The coherences and facing shifts of a VPL whose near-field tree is
+    /// `tree`.
     pub fn of_tree(tree: &[VplRecord]) -> Self {
         VplLobes {
             vpl: gibake_asset::lobe_coherence(tree),
             nodes: gibake_asset::node_lobe_coherences(tree),
+            facings: gibake_asset::facings(tree),
         }
     }
+}
+
+/// Where a cluster drawn at `p` with facing shift `f` sends its light to a
+/// receiver at `x` from: `p + F·ω`, `ω` the unit direction from `p` to `x`
+/// ([`Facing::shift`]; `p` itself at `x = p`). shade.wgsl `facing_point`.
+pub fn facing_point(p: Vec3, f: &Facing, x: Vec3) -> Vec3 {
+    let w = (x - p).normalize_or_zero();
+    p + Vec3::from_array(f.shift(w.to_array()))
 }
 
 /// Irradiance at `x` from a level-1 or level-2 near-field node `n` beyond
@@ -151,6 +166,14 @@ pub fn node_lobe_irradiance(n: &VplRecord, c: f32, x: Vec3, ns: Vec3, ng: Vec3) 
         ns,
         ng,
     )
+}
+
+/// Near-field node `n` drawn towards `x` from its [`facing_point`].
+fn facing_node(n: &VplRecord, f: &Facing, x: Vec3) -> VplRecord {
+    VplRecord {
+        position: facing_point(Vec3::from_array(n.position), f, x).to_array(),
+        ..*n
+    }
 }
 
 /// Irradiance at `x` from one near-field node `n` drawn as a disk with
@@ -332,7 +355,8 @@ pub fn static_vpl_terms(
     let mut t = VplTerms::default();
     if is_far(x, origin, v.area) || nodes.len() < NODES_PER_VPL {
         let phi = Vec3::from_array(v.flux);
-        t.shadowed = lobe_irradiance(origin, nv, lobes.vpl, v.area, phi, x, ns, ng);
+        let p = facing_point(origin, &lobes.facings[0], x);
+        t.shadowed = lobe_irradiance(p, nv, lobes.vpl, v.area, phi, x, ns, ng);
         return t;
     }
     for c1 in 0..4 {
@@ -342,7 +366,9 @@ pub fn static_vpl_terms(
             continue;
         }
         if !is_near(x, Vec3::from_array(n1.position), n1.area) {
-            t.shadowed += node_lobe_irradiance(n1, lobes.nodes[j1 * 2 + i1], x, ns, ng);
+            let k1 = j1 * 2 + i1;
+            let n = facing_node(n1, &lobes.facings[1 + k1], x);
+            t.shadowed += node_lobe_irradiance(&n, lobes.nodes[k1], x, ns, ng);
             continue;
         }
         for c2 in 0..4 {
@@ -353,7 +379,8 @@ pub fn static_vpl_terms(
             }
             if !is_near(x, Vec3::from_array(n2.position), n2.area) {
                 let k2 = 4 + j2 * 4 + i2;
-                t.shadowed += node_lobe_irradiance(n2, lobes.nodes[k2], x, ns, ng);
+                let n = facing_node(n2, &lobes.facings[1 + k2], x);
+                t.shadowed += node_lobe_irradiance(&n, lobes.nodes[k2], x, ns, ng);
                 continue;
             }
             for c3 in 0..4 {
@@ -658,6 +685,11 @@ mod tests {
         assert_eq!(value("VPL_MAX_SLOPE"), super::VPL_MAX_SLOPE);
         assert_eq!(value("CREASE_LO"), super::CREASE_LO);
         assert_eq!(value("CREASE_HI"), super::CREASE_HI);
+        assert_eq!(
+            value("FACING_NODES") as usize,
+            gibake_asset::FACINGS_PER_VPL - 1
+        );
+        assert_eq!(value("NODES_PER_VPL") as usize, gibake_asset::NODES_PER_VPL);
     }
 
     /// A VPL with a full tree is one disk with its far-field lobe beyond
@@ -758,7 +790,16 @@ mod tests {
         for k in [8.1f32, 20.0] {
             let x = at(k);
             let got = static_vpl_terms(&v, Vec3::ZERO, &tree, &lobes, x, ns, ns);
-            let disk = lobe_irradiance(Vec3::ZERO, Vec3::Y, c, area, Vec3::splat(4.0), x, ns, ns);
+            // Drawn from its facing point: its quadrants face four ways,
+            // so it is off the centre (the level-1 nodes' are not: each
+            // one's level-3 nodes share its centre).
+            let p = super::facing_point(Vec3::ZERO, &lobes.facings[0], x);
+            assert!(
+                p.length() > 1e-3 && p.length() <= 0.05 * 2f32.sqrt() + 1e-6,
+                "{p}"
+            );
+            assert_eq!(lobes.facings[1], gibake_asset::Facing::NONE);
+            let disk = lobe_irradiance(p, Vec3::Y, c, area, Vec3::splat(4.0), x, ns, ns);
             assert_eq!(got.shadowed, disk, "{k} radii: one disk");
         }
         assert_eq!(FAR_FIELD_RATIO, 2.0 * NEAR_FIELD_RATIO);
