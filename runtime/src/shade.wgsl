@@ -321,7 +321,7 @@ fn facing_point(p: vec3<f32>, f: mat3x3<f32>, x: vec3<f32>) -> vec3<f32> {
         return p;
     }
     let s = f * (d * inverseSqrt(l2));
-    if (!(abs(s.x) <= 3.0e38 && abs(s.y) <= 3.0e38 && abs(s.z) <= 3.0e38)) {
+    if (!(abs(s.x) <= 3.40282347e38 && abs(s.y) <= 3.40282347e38 && abs(s.z) <= 3.40282347e38)) {
         return p;
     }
     return p + s;

@@ -185,24 +185,31 @@ impl Facing {
     }
 }
 
-/// The largest singular value of the 3×3 matrix with columns `f`
-/// (power iteration on `FᵀF` from the largest column; `f64`).
+/// The largest singular value of the 3×3 matrix with columns `f`: the
+/// square root of the largest eigenvalue of the symmetric `FᵀF`, in closed
+/// form (the trigonometric solution of its characteristic cubic; `f64`).
 fn largest_singular_value(f: &[[f64; 3]; 3]) -> f64 {
     let dot = |a: &[f64; 3], b: &[f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     // FᵀF[i][j] = colᵢ · colⱼ.
     let g: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| dot(&f[i], &f[j])));
-    let mut v = [1.0, 1.0, 1.0];
-    let mut lambda = 0.0;
-    for _ in 0..64 {
-        let w: [f64; 3] = std::array::from_fn(|i| dot(&g[i], &v));
-        let n = dot(&w, &w).sqrt();
-        if !(n > 0.0 && n.is_finite()) {
-            break;
-        }
-        lambda = n / dot(&v, &v).sqrt();
-        v = w.map(|x| x / n);
-    }
-    lambda.max(0.0).sqrt()
+    let off = g[0][1] * g[0][1] + g[0][2] * g[0][2] + g[1][2] * g[1][2];
+    let largest = if off == 0.0 {
+        g[0][0].max(g[1][1]).max(g[2][2])
+    } else {
+        let q = (g[0][0] + g[1][1] + g[2][2]) / 3.0;
+        let d = [g[0][0] - q, g[1][1] - q, g[2][2] - q];
+        let p = ((d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + 2.0 * off) / 6.0).sqrt();
+        // B = (G − qI)/p; r = det(B)/2 ∈ [−1, 1].
+        let b: [[f64; 3]; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| (g[i][j] - if i == j { q } else { 0.0 }) / p)
+        });
+        let det = b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1])
+            - b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0])
+            + b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0]);
+        let phi = (det / 2.0).clamp(-1.0, 1.0).acos() / 3.0;
+        q + 2.0 * p * phi.cos()
+    };
+    largest.max(0.0).sqrt()
 }
 
 /// [`Facing`] of a static VPL (`k = None`: all its level-3 nodes) or of its
@@ -844,6 +851,16 @@ mod tests {
         );
         let s = crate::facing(&pair, None).shift([1.0, 0.0, 0.0]);
         assert!(close(s, [0.5, 0.0, 0.0], 1e-5), "{s:?}");
+        // The same along (1, −1, 0)/√2, orthogonal to (1, 1, 1): still at
+        // most the reach.
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        let u = [h, -h, 0.0];
+        let diagonal = tree_of(
+            |_, c| u.map(|v| if c % 2 == 0 { -0.5 * v } else { 0.5 * v }),
+            |_, c| u.map(|v| if c % 2 == 0 { -v } else { v }),
+        );
+        let s = crate::facing(&diagonal, None).shift(u);
+        assert!(close(s, u.map(|v| 0.5 * v), 1e-5), "{s:?}");
         let nan = crate::Facing {
             cols: [[f32::NAN; 3], [0.0; 3], [0.0; 3]],
         };
@@ -862,6 +879,20 @@ mod tests {
         let all = crate::facings(&sphere);
         assert_eq!(all[0], crate::facing(&sphere, None));
         assert_eq!(all[1 + 6], crate::facing(&sphere, Some(6)));
+    }
+
+    /// The largest singular value in closed form: a rotated diag(3, 1,
+    /// 0.5), a rank-one matrix orthogonal to (1, 1, 1), zero.
+    #[test]
+    fn largest_singular_value_in_closed_form() {
+        let (c, s) = (0.6f64, 0.8f64);
+        // Columns of R·diag(3, 1, 0.5), R a rotation about z.
+        let f = [[3.0 * c, 3.0 * s, 0.0], [-s, c, 0.0], [0.0, 0.0, 0.5]];
+        assert!((crate::largest_singular_value(&f) - 3.0).abs() < 1e-9);
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let rank1 = [[h * 2.0, -h * 2.0, 0.0], [-h * 2.0, h * 2.0, 0.0], [0.0; 3]];
+        assert!((crate::largest_singular_value(&rank1) - 2.0 * 2f64.sqrt()).abs() < 1e-9);
+        assert_eq!(crate::largest_singular_value(&[[0.0; 3]; 3]), 0.0);
     }
 
     /// The far-field centre is the level-1 nodes' flux-weighted centroid
