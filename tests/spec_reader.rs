@@ -247,8 +247,9 @@ fn reader_refuses_damaged_assets() {
 
     // (file flipped, byte offset, the file the message must name)
     type Damage = (&'static str, fn(usize) -> usize, &'static str);
-    let cases: [Damage; 5] = [
+    let cases: [Damage; 6] = [
         ("vpl_maps.exr", |n| n / 2, "vpl_maps.exr"),
+        ("vpl_coherence.bin", |n| n / 2, "vpl_coherence.bin"),
         ("primary_depth.exr", |n| n - 1, "primary_depth.exr"),
         ("vpls.bin", |_| 3, "vpls.bin"),
         // Inside the payload (the scene name) and in the BLAKE3 trailer.
@@ -271,50 +272,63 @@ fn reader_refuses_damaged_assets() {
 
     // Re-sealed manifests (payload edited, length and BLAKE3 trailer
     // recomputed): what the spec says a reader must refuse or accept.
-    // The bake writes the current minor (4.1: the views, light_map_size and
+    // The bake writes the current minor (4.2: the views, light_map_size and
     // the appended view_rsms end the payload; a one-light asset has no
     // views, so its last three bytes are the view count 0,
-    // light_map_size 0 and the view_rsms count 0).
+    // light_map_size 0 and the view_rsms count 0; 4.2 added a file, not
+    // payload bytes).
     assert_eq!(
         (gibake_asset::FORMAT_MAJOR, gibake_asset::FORMAT_MINOR),
-        (4, 1),
-        "the re-sealed cases below are written for format 4.1"
+        (4, 2),
+        "the re-sealed cases below are written for format 4.2"
     );
-    let reseal_cases: [(&str, &str, Option<&str>); 9] = [
+    let reseal_cases: [(&str, &str, Option<&str>); 10] = [
         // One byte after the last field, same minor: refused.
-        ("payload += b'\\x00'", "1", Some("after the last field")),
-        // The same from a newer minor (4.2): accepted and ignored.
-        ("payload += b'\\x00'", "2", None),
+        ("payload += b'\\x00'", "2", Some("after the last field")),
+        // The same from a newer minor (4.3): accepted and ignored.
+        ("payload += b'\\x00'", "3", None),
         // light_map_size cut off: refused.
         (
             "payload = payload[:-2]",
-            "1",
+            "2",
             Some("payload ends inside light_map_size"),
         ),
-        // The appended view_rsms cut off: refused in 4.1 ...
+        // The appended view_rsms cut off: refused in 4.2 ...
         (
             "payload = payload[:-1]",
-            "1",
+            "2",
             Some("payload ends inside view_rsms length"),
         ),
-        // ... and the same bytes are a whole 4.0 payload: accepted.
-        ("payload = payload[:-1]", "0", None),
+        // ... and the same bytes are a whole 4.0 payload, but one that
+        // lists vpl_coherence.bin (4.2's file): refused, as a format's own
+        // file the counts say is not stored.
+        (
+            "payload = payload[:-1]",
+            "0",
+            Some("vpl_coherence.bin, which the counts say is not stored"),
+        ),
+        // The same under 4.1: refused the same way.
+        (
+            "pass",
+            "1",
+            Some("vpl_coherence.bin, which the counts say is not stored"),
+        ),
         // The lights cut short: refused.
-        ("payload = payload[:-40]", "1", Some("payload ends inside")),
+        ("payload = payload[:-40]", "2", Some("payload ends inside")),
         // A varint marker bincode does not define (254), as the first length.
         (
             "payload = b'\\xfe' + payload[1:]",
-            "1",
+            "2",
             Some("invalid varint marker"),
         ),
         // light_map_size 5 without views: refused.
         (
             "payload = payload[:-2] + b'\\x05\\x00'",
-            "1",
+            "2",
             Some("light_map_size is 5 but there are no views"),
         ),
         // Control: re-sealed unchanged, accepted.
-        ("pass", "1", None),
+        ("pass", "2", None),
     ];
     for (k, (edit, minor, refusal)) in reseal_cases.iter().enumerate() {
         let copy = copy_asset(&asset, work.path(), &format!("reseal{k}.gibake"));

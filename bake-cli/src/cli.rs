@@ -473,6 +473,13 @@ pub struct RenderArgs {
     /// sampling"). Applies at the supersampled resolution.
     #[arg(long, default_value = "auto", value_name = "N|auto", value_parser = interleave_value)]
     pub interleave: u32,
+    /// Near-field descent of the static VPLs, in disk radii (4–32): a
+    /// VPL's tree node is drawn as its children where the pixel is nearer
+    /// than N of its radii. 8 (the default) is the accurate choice; 4 costs
+    /// about 0.6× the shading and is darker next to clusters whose parts
+    /// face different ways (docs/method.md, "Descent ratio").
+    #[arg(long, default_value_t = 8, value_name = "N", value_parser = clap::value_parser!(u32).range(4..=32))]
+    pub near_field_descent: u32,
     /// GPU adapter to use (substring of its name; default: GIBAKE_ADAPTER or the first real GPU).
     #[arg(long)]
     pub adapter: Option<String>,

@@ -6,7 +6,7 @@
 //! static RSM metric plus each texel's share of its VPL's flux (baked; for
 //! partial occlusion).
 
-use gibake_asset::{Asset, NODES_PER_VPL, VplRecord};
+use gibake_asset::{Asset, LEVEL3_NODES, NODES_PER_VPL, VplRecord};
 use gibake_gpu::LightView;
 use gibake_gpu::vpl::{GpuVpl, NO_MAP};
 use glam::Vec3;
@@ -175,17 +175,30 @@ impl BakedGpu {
                 }
             })
             .collect();
-        // A level-1 or level-2 node's `texels` carries its far-field lobe
-        // coherence, from its level-3 nodes (`GpuVpl::texels`); at least 1,
-        // as 0 marks an empty node.
+        // Each VPL's tree with its level-3 normals weighted by their texels'
+        // coherence (`gibake_asset::texel_tree`): the lobes and facing
+        // shifts below are sums over its texels.
+        let texel_trees: Vec<Vec<VplRecord>> =
+            (0..asset.vpls.len()).map(|i| asset.texel_tree(i)).collect();
+        // A node's `texels` carries its lobe coherence (`GpuVpl::texels`; at
+        // least 1, as 0 marks an empty node): a level-1 or level-2 node's
+        // from the texels under it, a level-3 node's its texels' own
+        // (`Asset::vpl_coherence`; 1, its cosine lobe, for an asset without).
         let nodes: Vec<GpuVpl> = asset
             .vpl_nodes
             .chunks(NODES_PER_VPL)
-            .flat_map(|tree| {
-                let lobes = gibake_asset::node_lobe_coherences(tree);
+            .zip(&texel_trees)
+            .enumerate()
+            .flat_map(|(i, (tree, texel_tree))| {
+                let lobes = gibake_asset::node_lobe_coherences(texel_tree);
+                let level3 = asset.level3_coherence(i);
                 tree.iter().enumerate().map(move |(k, n)| {
                     let mut g = gpu_vpl(n);
-                    if let Some(&c) = lobes.get(k).filter(|_| n.texels != 0) {
+                    let c = match k.checked_sub(NODES_PER_VPL - LEVEL3_NODES) {
+                        Some(j) => level3.get(j).copied(),
+                        None => lobes.get(k).copied(),
+                    };
+                    if let Some(c) = c.filter(|_| n.texels != 0) {
                         g.texels = gibake_gpu::vpl::lobe_fixed(c).max(1);
                     }
                     g
@@ -194,17 +207,10 @@ impl BakedGpu {
             .collect();
         // Each VPL's facing shifts (`gibake_asset::facings`: its own, then
         // its level-1 and level-2 nodes').
-        let facings: Vec<[gibake_asset::Facing; gibake_asset::FACINGS_PER_VPL]> =
-            (0..asset.vpls.len())
-                .map(|i| {
-                    gibake_asset::facings(
-                        asset
-                            .vpl_nodes
-                            .get(i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL)
-                            .unwrap_or(&[]),
-                    )
-                })
-                .collect();
+        let facings: Vec<[gibake_asset::Facing; gibake_asset::FACINGS_PER_VPL]> = texel_trees
+            .iter()
+            .map(|t| gibake_asset::facings(t))
+            .collect();
         // Where each VPL is drawn from afar: its texels' centroid
         // (`gibake_asset::far_field_centre`), else its map origin; the rest
         // of the record is its own facing shift's F, by columns in

@@ -221,6 +221,7 @@ pub struct FramePlan {
     passes: PassSet,
     flags: u32,
     cascades: Option<CascadeLayout>,
+    descent: u32,
 }
 
 impl FramePlan {
@@ -343,7 +344,14 @@ impl FramePlan {
             passes,
             flags,
             cascades,
+            descent: settings.near_field_descent,
         })
+    }
+
+    /// The static VPLs' near-field descent in disk radii
+    /// ([`RenderSettings::near_field_descent`]).
+    pub fn near_field_descent(&self) -> u32 {
+        self.descent
     }
 
     /// The mode planned for.

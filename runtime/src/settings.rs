@@ -105,7 +105,21 @@ pub struct RenderSettings {
     /// every object the view sees; for measuring what the split buys
     /// (`gibake bench scaling`, "moving objects far apart").
     pub split_windows: bool,
+    /// The static VPLs' near-field descent, in disk radii `√(A/π)`: a
+    /// level-1 or level-2 node of a VPL's tree is drawn as its four
+    /// children where the receiver is nearer than this many of its radii,
+    /// and the VPL as its level-1 nodes nearer than twice as many of its
+    /// own (docs/method.md, "Descent ratio"). 8 by default; 4, the rule
+    /// before session 19, costs about 0.6× the shade pass and is darker on
+    /// clusters whose parts face different ways (the garden level −7.6%
+    /// against −6.8% red; docs/results.md, "Real levels"). From 4 to 32,
+    /// else [`RuntimeError::InvalidSetting`].
+    pub near_field_descent: u32,
 }
+
+/// [`RenderSettings::near_field_descent`] by default (the CPU twin's
+/// `gibake_eval::transport::DESCENT_RATIO`).
+pub const DEFAULT_NEAR_FIELD_DESCENT: u32 = 8;
 
 impl Default for RenderSettings {
     fn default() -> Self {
@@ -122,6 +136,7 @@ impl Default for RenderSettings {
             cascade_map_size: 0,
             light_culling: true,
             split_windows: true,
+            near_field_descent: DEFAULT_NEAR_FIELD_DESCENT,
         }
     }
 }
@@ -136,6 +151,12 @@ impl RenderSettings {
         with_asset: bool,
     ) -> Result<(), RuntimeError> {
         check_interleave(self.interleave)?;
+        if !(4..=32).contains(&self.near_field_descent) {
+            return Err(RuntimeError::InvalidSetting(format!(
+                "near-field descent {} must be from 4 to 32 disk radii",
+                self.near_field_descent
+            )));
+        }
         crate::view::check_size(device, self.width, self.height, self.interleave)?;
         let limit = device.limits().max_texture_dimension_2d;
         if self.shadow_map_size == 0 {

@@ -72,8 +72,9 @@ pub(crate) struct GpuGiParams {
     pub static_cols: u32,
     /// Number of lights after the first (`other_lights`).
     pub n_other_lights: u32,
-    /// Padding (16-byte struct size).
-    pub _pad: u32,
+    /// The near-field descent in disk radii
+    /// ([`crate::RenderSettings::near_field_descent`]).
+    pub descent: u32,
 }
 
 /// A shading pipeline and its group-1 layout: the one-light variant, or the
@@ -439,7 +440,7 @@ impl ShadeGi {
             n_dynamic: s.moving.dynamic_vpl_slots(),
             static_cols: s.baked.map_or(1, |b| b.static_cols),
             n_other_lights: s.other_lights.map_or(0, |o| o.count),
-            _pad: 0,
+            descent: s.plan.near_field_descent(),
         };
         let params_buf = uniform(device, "shade gi params", &params);
         let group = Self::group(device, shade, s, &params_buf);

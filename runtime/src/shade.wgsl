@@ -35,7 +35,7 @@ struct GiParams {         // GpuGiParams in shade.rs
     n_dynamic: u32,
     static_cols: u32,     // tiles per row of the baked map atlas
     n_other_lights: u32,  // lights after the first (other_lights)
-    _pad1: u32,
+    descent: u32,         // near-field descent in disk radii (RenderSettings::near_field_descent)
 }
 
 const NONE: u32 = 0xffffffffu;
@@ -67,18 +67,17 @@ const VPL_MAX_SLOPE: f32 = 10.0;
 @group(1) @binding(10) var<uniform> light_view: LightView;
 @group(1) @binding(11) var<uniform> params: GiParams;
 
-// Near field (gibake_bake::near_field): a VPL, or a node of its tree, whose
-// receiver is nearer than NEAR_FIELD_RATIO × its disk radius √(A/π) is
-// replaced by its four children, down to level 3 (8×8 nodes). Dimensionless:
-// the descent is the same at every scene scale. Must match
-// gibake_eval::transport::NEAR_FIELD_RATIO.
+// Near field (gibake_bake::near_field): a level-1 or level-2 node of a
+// VPL's tree whose receiver is nearer than params.descent × its disk radius
+// √(A/π) is replaced by its four children, down to level 3 (8×8 nodes), and
+// a VPL by its level-1 nodes nearer than twice that of its own
+// (RenderSettings::near_field_descent, 8 by default; docs/method.md,
+// "Descent ratio"); a level-3 node's own near field, NEAR_FIELD_RATIO of
+// its radii, is where its light skips the map test (open_weight) and the
+// crease kernel applies (near_node_irradiance). Dimensionless: the same at
+// every scene scale. Must match gibake_eval::transport::{NEAR_FIELD_RATIO,
+// DESCENT_RATIO, FAR_FIELD_RATIO} at the default.
 const NEAR_FIELD_RATIO: f32 = 4.0;
-// A static VPL is one disk only beyond FAR_FIELD_RATIO of its radii;
-// nearer, its tree, whose level-1 nodes stand for it between the two: a
-// crown's or a rock's texels send their light from where each part is and
-// the way each faces (docs/method.md, "Node lobes"). Must match
-// gibake_eval::transport::FAR_FIELD_RATIO.
-const FAR_FIELD_RATIO: f32 = 8.0;   // 2 × NEAR_FIELD_RATIO
 // The crease kernel's blend (near_node_irradiance); must match
 // gibake_eval::transport.
 const CREASE_LO: f32 = 0.4;
@@ -235,7 +234,7 @@ fn vpl_irradiance(origin: vec3<f32>, nv: vec3<f32>, a: f32, phi: vec3<f32>, x: v
     return vpl_lobe_irradiance(origin, nv, 1.0, a, phi, x, ns, ng);
 }
 
-// A VPL seen from afar (a static VPL beyond FAR_FIELD_RATIO, a level-1 or
+// A VPL seen from afar (a static VPL beyond twice the descent, a level-1 or
 // level-2 node beyond its own near field, every
 // dynamic VPL): the disk of vpl_irradiance with the lobe far_lobe(c, cosθ_v)/π
 // per unit flux in place of its cosine lobe, c its texels' flux-weighted
@@ -295,6 +294,17 @@ fn is_near(x: vec3<f32>, p: vec3<f32>, a: f32) -> bool {
     return within(x, p, a, NEAR_FIELD_RATIO);
 }
 
+// Whether a level-1 or level-2 node is drawn as its children at x.
+fn descends(x: vec3<f32>, p: vec3<f32>, a: f32) -> bool {
+    return within(x, p, a, f32(params.descent));
+}
+
+// Whether a static VPL is drawn as its tree at x (twice the descent: its
+// level-1 nodes stand for it out there).
+fn in_far_field(x: vec3<f32>, p: vec3<f32>, a: f32) -> bool {
+    return !within(x, p, a, 2.0 * f32(params.descent));
+}
+
 // A level-1 or level-2 node beyond its own near field: its disk with the
 // far-field lobe at its level-3 nodes' coherence, which its record carries
 // in `texels` (fixed point, at least 1; 0: an empty node; baked.rs,
@@ -338,13 +348,6 @@ fn far_facing(r: Vpl) -> mat3x3<f32> {
 fn node_facing(i: u32, k: u32) -> mat3x3<f32> {
     let r = vpls[params.n_static * (2u + NODES_PER_VPL) + i * FACING_NODES + k];
     return mat3x3<f32>(r.position, r.normal, r.flux);
-}
-
-fn node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
-    if (n.texels == 0u) {
-        return vec3<f32>(0.0);
-    }
-    return vpl_irradiance(n.position, n.normal, n.area, n.flux, x, ns, ng);
 }
 
 // Lambert's term of the polygon edge a → b (relative to the receiver):
@@ -422,7 +425,7 @@ fn near_node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> v
     }
     let s = abs(dot(ns, n.normal));
     if (s >= CREASE_HI || !is_near(x, n.position, n.area)) {
-        return vpl_irradiance(n.position, n.normal, n.area, n.flux, x, ns, ng);
+        return node_lobe_irradiance(n, x, ns, ng);
     }
     let half = 0.5 * sqrt(max(n.area, 0.0));
     var e = vec3<f32>(0.0);
@@ -433,7 +436,7 @@ fn near_node_irradiance(n: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> v
     if (s <= CREASE_LO) {
         return e;
     }
-    let disk = vpl_irradiance(n.position, n.normal, n.area, n.flux, x, ns, ng);
+    let disk = node_lobe_irradiance(n, x, ns, ng);
     return mix(e, disk, smoothstep(CREASE_LO, CREASE_HI, s));
 }
 
@@ -458,9 +461,9 @@ struct VplTerms {
 }
 
 // The open share of a finest node's light at x: 1 within the node's own
-// near field (NEAR_FIELD_RATIO of its radii), 0 from twice that (its
-// parent's near-field edge, where the parent's shadowed disk takes over:
-// no seam), smoothstep between. CPU twin:
+// near field (NEAR_FIELD_RATIO of its radii), 0 from twice that, where
+// its own disk is map-tested out to its parent's descent edge (no seam),
+// smoothstep between. CPU twin:
 // gibake_eval::transport::open_weight.
 fn open_weight(x: vec3<f32>, p: vec3<f32>, a: f32) -> f32 {
     let r = NEAR_FIELD_RATIO * sqrt(max(a, 0.0) * INV_PI);
@@ -473,13 +476,13 @@ fn open_weight(x: vec3<f32>, p: vec3<f32>, a: f32) -> f32 {
 
 // Unshadowed irradiance at x from static VPL i (record v): one disk at
 // its far-field centre (its texels' centroid: the record after the trees,
-// baked.rs) beyond FAR_FIELD_RATIO, its near-field tree nearer, as VplTerms. CPU
+// baked.rs) beyond twice the descent, its near-field tree nearer, as VplTerms. CPU
 // twin: gibake_eval::transport::static_vpl_terms.
 fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> VplTerms {
     var t = VplTerms(vec3<f32>(0.0), vec3<f32>(0.0));
     let far = vpls[params.n_static * (1u + NODES_PER_VPL) + i];
     let centre = far.position;
-    if (!within(x, centre, v.area, FAR_FIELD_RATIO)) {
+    if (in_far_field(x, centre, v.area)) {
         // A static VPL's own record carries its lobe coherence in `texels`
         // (gibake_gpu::vpl::GpuVpl::texels), fixed point.
         let p = facing_point(centre, far_facing(far), x);
@@ -494,7 +497,7 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
         if (n1.texels == 0u) {
             continue;
         }
-        if (!is_near(x, n1.position, n1.area)) {
+        if (!descends(x, n1.position, n1.area)) {
             var m1 = n1;
             m1.position = facing_point(n1.position, node_facing(i, j1 * 2u + i1), x);
             t.shadowed += node_lobe_irradiance(m1, x, ns, ng);
@@ -507,7 +510,7 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
             if (n2.texels == 0u) {
                 continue;
             }
-            if (!is_near(x, n2.position, n2.area)) {
+            if (!descends(x, n2.position, n2.area)) {
                 var m2 = n2;
                 m2.position = facing_point(n2.position, node_facing(i, 4u + j2 * 4u + i2), x);
                 t.shadowed += node_lobe_irradiance(m2, x, ns, ng);

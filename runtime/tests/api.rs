@@ -303,6 +303,17 @@ fn bad_settings_and_a_missing_or_foreign_asset_are_errors() {
             .err()
             .expect("interleave 3 accepted"),
     );
+    for descent in [0, 3, 33] {
+        let nf = RenderSettings {
+            near_field_descent: descent,
+            ..settings(8, 8)
+        };
+        let e = Renderer::new(d, q, &f.scene, Some(&f.asset), &nf)
+            .err()
+            .unwrap_or_else(|| panic!("near-field descent {descent} accepted"));
+        assert!(e.to_string().contains("near-field descent"), "{e}");
+        errors.push(e);
+    }
     for e in &errors {
         assert!(matches!(e, RuntimeError::InvalidSetting(_)), "{e}");
     }

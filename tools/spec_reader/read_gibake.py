@@ -12,7 +12,8 @@ another language. It
   light indices, the lights' VPL counts, no RSM with a point light first),
 - checks every listed file's size and BLAKE3 hash,
 - reads `vpls.bin` and `vpl_nodes.bin` and checks their records (ranges, the
-  map layers, the near-field tree's sums),
+  map layers, the near-field tree's sums), and `vpl_coherence.bin` (4.2: the
+  level-3 nodes' texel coherences, in [0, 1], 1 for an empty node),
 - reads the EXR maps (header: single part, scan lines, ZIP, dimensions,
   channels; pixels: no NaN, atlas tiles, RSM `vpl` indices), `light_maps.exr`
   included, and `view_rsms.exr` (4.1: the other lights' views' RSMs, each
@@ -58,7 +59,7 @@ except ImportError as e:  # pragma: no cover - environment problem
 
 MAGIC = b"GIBAKE\x00\x01"
 READER_MAJOR = 4
-READER_MINOR = 1
+READER_MINOR = 2
 MAX_PAYLOAD = 16 * 1024 * 1024
 MAX_MAP_SIZE = 16384
 # Most texels of one map file (an atlas).
@@ -73,6 +74,7 @@ POINT_FACES = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -
 SHARE_ONE = 1 << 24
 RECORD = 48
 NODES_PER_VPL = 84
+LEVEL3_NODES = 64  # level-3 nodes per VPL (the last 64 of its tree)
 VPL_ORIGIN_OFFSET = 0.2
 
 VPL_DTYPE = np.dtype(
@@ -450,6 +452,8 @@ def check_manifest_values(m: dict) -> list[str]:
         if texels > MAX_TEXELS:
             raise AssetError(f"manifest.bin: atlas of {texels} texels exceeds 2^31")
     required = ["vpls.bin", "vpl_nodes.bin", "primary_depth.exr"]
+    if m["minor"] >= 2 and m["vpl_count"] > 0:
+        required.append("vpl_coherence.bin")
     if m["map_count"] > 0:
         required.append("vpl_maps.exr")
     if m["has_dynamic"]:
@@ -468,6 +472,7 @@ def check_manifest_values(m: dict) -> list[str]:
         "rsm.exr",
         "light_maps.exr",
         "view_rsms.exr",
+        "vpl_coherence.bin",
     ]
     names = [f[0] for f in m["files"]]
     for name in names:
@@ -484,7 +489,8 @@ def check_manifest_values(m: dict) -> list[str]:
         if name in own and name not in required:
             raise AssetError(
                 f"manifest.bin: file list holds {name}, which the counts say is not stored "
-                f"(map_count {m['map_count']}, has_dynamic {m['has_dynamic']}, "
+                f"(format {m['major']}.{m['minor']}, vpl_count {m['vpl_count']}, "
+                f"map_count {m['map_count']}, has_dynamic {m['has_dynamic']}, "
                 f"stored light maps {stored_light_maps(m)}, view RSMs {len(m['view_rsms'])})"
             )
     unknown = [n for n in names if n not in required]
@@ -500,6 +506,11 @@ def check_manifest_values(m: dict) -> list[str]:
         raise AssetError(
             f"manifest.bin: vpl_nodes.bin listed as {sizes['vpl_nodes.bin']} bytes, "
             f"expected 48 · 84 · {m['vpl_count']}"
+        )
+    if "vpl_coherence.bin" in sizes and sizes["vpl_coherence.bin"] != 4 * LEVEL3_NODES * m["vpl_count"]:
+        raise AssetError(
+            f"manifest.bin: vpl_coherence.bin listed as {sizes['vpl_coherence.bin']} bytes, "
+            f"expected 4 · 64 · {m['vpl_count']}"
         )
     return names
 
@@ -598,6 +609,37 @@ def check_vpls(vpls: np.ndarray, m: dict) -> None:
         )
     if (vpls["flux"].sum(axis=1) <= 0).any():
         raise AssetError("vpls.bin: a VPL with zero flux (the baker drops those)")
+
+
+def check_coherence(data: bytes | None, nodes: np.ndarray) -> str:
+    """vpl_coherence.bin (4.2): per VPL, LEVEL3_NODES little-endian f32, its
+    level-3 nodes' texel coherences in tree order, each in [0, 1] and 1 for an
+    empty node (texels 0). Absent before 4.2: every node a cosine lobe."""
+    if data is None:
+        return "no vpl_coherence.bin (format before 4.2, or no VPLs): cosine lobes"
+    c = np.frombuffer(data, dtype="<f4")
+    level3 = nodes.reshape(-1, NODES_PER_VPL)[:, NODES_PER_VPL - LEVEL3_NODES :].reshape(-1)
+    if len(c) != len(level3):
+        raise AssetError(
+            f"vpl_coherence.bin: {len(c)} values for {len(level3)} level-3 nodes"
+        )
+    bad = ~((c >= 0) & (c <= 1))
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise AssetError(
+            f"vpl_coherence.bin: VPL {k // LEVEL3_NODES} level-3 node {k % LEVEL3_NODES} "
+            f"has coherence {c[k]}, not in [0, 1]"
+        )
+    empty = (level3["texels"] == 0) & (c != 1)
+    if empty.any():
+        k = int(np.argmax(empty))
+        raise AssetError(
+            f"vpl_coherence.bin: VPL {k // LEVEL3_NODES} level-3 node {k % LEVEL3_NODES} "
+            f"is empty but has coherence {c[k]}, not 1"
+        )
+    lit = c[level3["texels"] != 0]
+    mean = float(lit.mean()) if len(lit) else 1.0
+    return f"vpl_coherence.bin: {len(c)} level-3 coherences, mean {mean:.3f} over lit nodes"
 
 
 def check_nodes(nodes: np.ndarray, vpls: np.ndarray) -> None:
@@ -1281,6 +1323,7 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
     check_vpls(vpls, m)
     ranges = light_vpl_ranges(m)
     check_nodes(nodes, vpls)
+    coherence_note = check_coherence(contents.get("vpl_coherence.bin"), nodes)
     ss = s["shadow_map_size"]
     primary = read_exr(asset, "primary_depth.exr", ss, ss, {"Z": "f32"})["Z"]
     atlas = None
@@ -1377,6 +1420,7 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
         ),
         f"  files (manifest order): {', '.join(names)}; all sizes and BLAKE3 hashes match",
         f"  vpl_nodes.bin: {len(nodes)} nodes, level sums match",
+        f"  {coherence_note}",
         f"  {rsm_note}",
         f"  light view: {lv_note}",
     ]

@@ -9,8 +9,8 @@ use std::path::Path;
 use crate::atlas::{MapAtlas, atlas_grid, pack_tiles, unpack_tile, unused_mismatch};
 use crate::exrio::{self, Kind, Samples};
 use crate::{
-    Asset, AssetError, FORMAT_MAJOR, FORMAT_MINOR, FileEntry, LIGHT_POINT, MAGIC, Manifest, Map,
-    NO_MAP, NODES_PER_VPL, RsmData, SHARE_ONE, VplRecord,
+    Asset, AssetError, FORMAT_MAJOR, FORMAT_MINOR, FileEntry, LEVEL3_NODES, LIGHT_POINT, MAGIC,
+    Manifest, Map, NO_MAP, NODES_PER_VPL, RsmData, SHARE_ONE, VplRecord,
 };
 
 /// The manifest file name.
@@ -31,6 +31,10 @@ pub const FILE_LIGHT_MAPS: &str = "light_maps.exr";
 /// The static RSMs of the views of [`Manifest::view_rsms`] (format 4.1;
 /// only when it is not empty).
 pub const FILE_VIEW_RSMS: &str = "view_rsms.exr";
+/// The level-3 nodes' texel coherences, [`Asset::vpl_coherence`] (format
+/// 4.2; only when there are VPLs): `LEVEL3_NODES` little-endian `f32` per
+/// VPL.
+pub const FILE_VPL_COHERENCE: &str = "vpl_coherence.bin";
 
 /// Size of one [`VplRecord`] in `vpls.bin`.
 pub const VPL_RECORD_BYTES: usize = 48;
@@ -217,8 +221,11 @@ fn is_plain_name(name: &str) -> bool {
 
 /// The files a manifest with these counts must list, in the order they are
 /// written.
-fn required_files(m: &Manifest) -> Vec<&'static str> {
+fn required_files(m: &Manifest, minor: u16) -> Vec<&'static str> {
     let mut v = vec![FILE_VPLS, FILE_VPL_NODES, FILE_PRIMARY_DEPTH];
+    if minor >= 2 && m.vpl_count > 0 {
+        v.push(FILE_VPL_COHERENCE);
+    }
     if m.map_count > 0 {
         v.push(FILE_VPL_MAPS);
     }
@@ -524,7 +531,7 @@ fn validate_manifest(
     if !check_files {
         return Ok(());
     }
-    let required = required_files(m);
+    let required = required_files(m, minor);
     for (i, f) in m.files.iter().enumerate() {
         if m.files[..i].iter().any(|g| g.name == f.name) {
             return bad(format!("file `{}` is listed twice", f.name));
@@ -537,13 +544,15 @@ fn validate_manifest(
             FILE_RSM,
             FILE_LIGHT_MAPS,
             FILE_VIEW_RSMS,
+            FILE_VPL_COHERENCE,
             FILE_MANIFEST,
         ];
         if known.contains(&f.name.as_str()) {
             if !required.contains(&f.name.as_str()) {
                 return bad(format!(
-                    "file `{}` is listed but the counts say it is not stored (map_count {}, has_dynamic {}, stored light maps {}, view RSMs {})",
+                    "file `{}` is listed but the counts say it is not stored (format 4.{minor}, vpl_count {}, map_count {}, has_dynamic {}, stored light maps {}, view RSMs {})",
                     f.name,
+                    m.vpl_count,
                     m.map_count,
                     m.has_dynamic,
                     light_map_count(m),
@@ -574,6 +583,15 @@ fn validate_manifest(
     {
         return bad(format!(
             "`{FILE_VPL_NODES}` is listed with {} bytes but vpl_count {} needs {nodes_size}",
+            f.size, m.vpl_count
+        ));
+    }
+    let coherence_size = m.vpl_count as u64 * 4 * LEVEL3_NODES as u64;
+    if let Some(f) = m.files.iter().find(|f| f.name == FILE_VPL_COHERENCE)
+        && f.size != coherence_size
+    {
+        return bad(format!(
+            "`{FILE_VPL_COHERENCE}` is listed with {} bytes but vpl_count {} needs {coherence_size}",
             f.size, m.vpl_count
         ));
     }
@@ -852,6 +870,43 @@ fn encode_vpls(vpls: &[VplRecord]) -> Vec<u8> {
     out
 }
 
+/// `vpl_coherence.bin` (empty bytes: none, an asset of format 4.1 or
+/// older): [`LEVEL3_NODES`] `f32` per VPL, each in `[0, 1]`, 1 for an empty
+/// node of `nodes` (the listed size was checked against `vpl_count`).
+fn decode_coherence(
+    bytes: &[u8],
+    path: &Path,
+    nodes: &[VplRecord],
+) -> Result<Vec<f32>, AssetError> {
+    let out: Vec<f32> = bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    let level3 = nodes
+        .chunks(NODES_PER_VPL)
+        .flat_map(|t| t.get(NODES_PER_VPL - LEVEL3_NODES..).unwrap_or(&[]));
+    for (k, (&c, n)) in out.iter().zip(level3).enumerate() {
+        let (vpl, node) = (k / LEVEL3_NODES, k % LEVEL3_NODES);
+        if !(0.0..=1.0).contains(&c) {
+            return Err(AssetError::invalid(
+                path,
+                format!("VPL {vpl} level-3 node {node}: coherence {c} is not in [0, 1]"),
+            ));
+        }
+        if n.texels == 0 && c != 1.0 {
+            return Err(AssetError::invalid(
+                path,
+                format!("VPL {vpl} level-3 node {node} is empty but its coherence is {c}, not 1"),
+            ));
+        }
+    }
+    Ok(out)
+}
+
+fn encode_coherence(coherence: &[f32]) -> Vec<u8> {
+    coherence.iter().flat_map(|c| c.to_le_bytes()).collect()
+}
+
 /// The first texel whose flux share is over [`SHARE_ONE`], or not 0
 /// though it belongs to no VPL.
 fn share_problem(share: &[u32], vpl: &[u32]) -> Option<usize> {
@@ -994,6 +1049,11 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
     check_light_vpls(&manifest).map_err(|m| AssetError::invalid(dir.join(FILE_MANIFEST), m))?;
     let path = dir.join(FILE_VPL_NODES);
     let vpl_nodes = decode_vpls(take(FILE_VPL_NODES), &path, 0, Records::Nodes)?;
+    let vpl_coherence = decode_coherence(
+        take(FILE_VPL_COHERENCE),
+        &dir.join(FILE_VPL_COHERENCE),
+        &vpl_nodes,
+    )?;
 
     let path = dir.join(FILE_PRIMARY_DEPTH);
     let n = s.shadow_map_size as usize;
@@ -1052,6 +1112,7 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
         manifest,
         vpls,
         vpl_nodes,
+        vpl_coherence,
         primary_depth,
         vpl_maps,
         rsm,
@@ -1231,6 +1292,14 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
     m.vpl_count = vpl_count;
     m.map_count = map_count;
     m.has_dynamic = asset.rsm.is_some();
+    let coherence = asset.vpl_coherence.len();
+    if coherence != 0 && coherence != asset.vpls.len() * LEVEL3_NODES {
+        return bad(format!(
+            "vpl_coherence holds {coherence} values but {} VPLs need {} (or none)",
+            asset.vpls.len(),
+            asset.vpls.len() * LEVEL3_NODES
+        ));
+    }
     let sm = s.shadow_map_size;
     if asset.primary_depth.size != sm || asset.primary_depth.data.len() != sm as usize * sm as usize
     {
@@ -1449,7 +1518,7 @@ fn write_into(
     hook: Hook<'_>,
 ) -> Result<(), AssetError> {
     let s = manifest.settings.clone();
-    for name in required_files(manifest) {
+    for name in required_files(manifest, FORMAT_MINOR) {
         let path = tmp.join(name);
         hook(name).map_err(|e| AssetError::io(&path, e))?;
         let exr_err =
@@ -1457,6 +1526,12 @@ fn write_into(
         let bytes = match name {
             FILE_VPLS => encode_vpls(&asset.vpls),
             FILE_VPL_NODES => encode_vpls(&asset.vpl_nodes),
+            // None (an asset read from an older format): every node one
+            // cosine lobe, coherence 1.
+            FILE_VPL_COHERENCE if asset.vpl_coherence.is_empty() => {
+                encode_coherence(&vec![1.0; asset.vpls.len() * LEVEL3_NODES])
+            }
+            FILE_VPL_COHERENCE => encode_coherence(&asset.vpl_coherence),
             FILE_PRIMARY_DEPTH => {
                 let n = s.shadow_map_size as usize;
                 let d = asset.primary_depth.data.clone();
@@ -1563,9 +1638,23 @@ pub mod testing {
 
     /// The bytes of `manifest.bin` for `manifest` as a format 4.0 writer
     /// wrote them (minor 0, the payload ends after `light_map_size`; its
-    /// `view_rsms` must be empty): to check that 4.0 assets still load.
+    /// `view_rsms` must be empty; `vpl_coherence.bin`, format 4.2, not
+    /// listed): to check that 4.0 assets still load.
     pub fn manifest_bytes_4_0(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
-        encode_manifest_as(manifest, 0, Path::new(FILE_MANIFEST))
+        encode_manifest_as(&before_4_2(manifest), 0, Path::new(FILE_MANIFEST))
+    }
+
+    /// The bytes of `manifest.bin` for `manifest` as a format 4.1 writer
+    /// wrote them (minor 1; `vpl_coherence.bin`, format 4.2, not listed):
+    /// to check that 4.1 assets still load.
+    pub fn manifest_bytes_4_1(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
+        encode_manifest_as(&before_4_2(manifest), 1, Path::new(FILE_MANIFEST))
+    }
+
+    fn before_4_2(manifest: &Manifest) -> Manifest {
+        let mut m = manifest.clone();
+        m.files.retain(|f| f.name != FILE_VPL_COHERENCE);
+        m
     }
 
     /// Decodes `manifest.bin` bytes (magic, version, length, checksum,

@@ -37,9 +37,9 @@ pub use error::AssetError;
 pub use format::testing;
 pub use format::{
     DEFAULT_MAX_DECODED_BYTES, FILE_LIGHT_MAPS, FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM,
-    FILE_VIEW_RSMS, FILE_VPL_MAPS, FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE, VPL_RECORD_BYTES,
-    check_output, check_scene_hash, check_scene_hash_for, decoded_bytes, load, load_manifest,
-    load_with_limit, verify_files, write,
+    FILE_VIEW_RSMS, FILE_VPL_COHERENCE, FILE_VPL_MAPS, FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE,
+    VPL_RECORD_BYTES, check_output, check_scene_hash, check_scene_hash_for, decoded_bytes, load,
+    load_manifest, load_with_limit, verify_files, write,
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
 pub use shard::{
@@ -55,8 +55,9 @@ pub const MAGIC: [u8; 8] = *b"GIBAKE\0\x01";
 pub const FORMAT_MAJOR: u16 = 4;
 /// Format minor version: additive changes only (4.1: [`Manifest::view_rsms`]
 /// appended to the manifest payload and `view_rsms.exr`; a 4.0 asset reads
-/// with no view RSMs).
-pub const FORMAT_MINOR: u16 = 1;
+/// with no view RSMs. 4.2: `vpl_coherence.bin`, [`Asset::vpl_coherence`];
+/// an older asset reads with none, every level-3 node one cosine lobe).
+pub const FORMAT_MINOR: u16 = 2;
 
 /// One static VPL record. Stored as a little-endian array in `vpls.bin`
 /// (48 bytes each, fields in this order).
@@ -90,6 +91,34 @@ pub const NEAR_FIELD_LEVELS: u32 = 3;
 /// quadtree over the VPL's RSM texel rectangle, level by level, each level
 /// row-major).
 pub const NODES_PER_VPL: usize = 84;
+/// Level-3 (deepest) nodes per VPL: the last 64 of its [`NODES_PER_VPL`],
+/// one coherence each in `vpl_coherence.bin` ([`Asset::vpl_coherence`]).
+pub const LEVEL3_NODES: usize = 64;
+
+/// A near-field tree `nodes` with its level-3 normals scaled by their
+/// texels' coherence `coherence` ([`LEVEL3_NODES`] values in `[0, 1]`,
+/// [`Asset::vpl_coherence`]; missing or shorter: left unit): each level-3
+/// normal becomes the flux-weighted mean of its texels' normals, so that
+/// the sums over level-3 nodes of [`lobe_coherence`],
+/// [`node_lobe_coherences`] and [`facings`] are their sums over the
+/// texels themselves (docs/method.md, "Texel coherence").
+pub fn texel_tree(nodes: &[VplRecord], coherence: &[f32]) -> Vec<VplRecord> {
+    let mut out = nodes.to_vec();
+    if nodes.len() == NODES_PER_VPL && coherence.len() == LEVEL3_NODES {
+        for (n, &c) in out[NODES_PER_VPL - LEVEL3_NODES..]
+            .iter_mut()
+            .zip(coherence)
+        {
+            let c = if c.is_finite() {
+                c.clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+            n.normal = n.normal.map(|v| v * c);
+        }
+    }
+    out
+}
 
 /// How well one cosine lobe stands for a VPL's texels: the flux-weighted
 /// coherence `c = |Σ Φₖ nₖ| / Σ Φₖ` of the deepest level of its near-field
@@ -591,6 +620,13 @@ pub struct Asset {
     /// (`map` is [`NO_MAP`]; a node without lit texels is all zeros but
     /// `map`). See docs/asset-format.md.
     pub vpl_nodes: Vec<VplRecord>,
+    /// Per VPL, its [`LEVEL3_NODES`] level-3 nodes' texel coherence `|Σ w n|
+    /// / Σ w` (texel normals `n`, weights `w` their flux's channel sum; 1
+    /// for an empty node), in tree order: shading draws a level-3 node with
+    /// the far-field lobe at it (docs/method.md, "Texel coherence").
+    /// Empty for an asset of format 4.1 or older (every node a cosine
+    /// lobe). `vpl_coherence.bin`.
+    pub vpl_coherence: Vec<f32>,
     /// Static primary shadow map (metric, shadow_map_size²).
     pub primary_depth: Map,
     /// Hemisphere maps, `map_count` maps of `vpl_map_size²` distances
@@ -616,14 +652,25 @@ impl Asset {
     /// VPL as one disk (1 for a VPL without a full tree).
     pub fn lobe_coherences(&self) -> Vec<f32> {
         (0..self.vpls.len())
-            .map(|i| {
-                let tree = self
-                    .vpl_nodes
-                    .get(i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL)
-                    .unwrap_or(&[]);
-                lobe_coherence(tree)
-            })
+            .map(|i| lobe_coherence(&self.texel_tree(i)))
             .collect()
+    }
+
+    /// VPL `i`'s level-3 coherences (empty where the asset has none).
+    pub fn level3_coherence(&self, i: usize) -> &[f32] {
+        self.vpl_coherence
+            .get(i * LEVEL3_NODES..(i + 1) * LEVEL3_NODES)
+            .unwrap_or(&[])
+    }
+
+    /// VPL `i`'s near-field tree as [`texel_tree`] (empty where it has
+    /// none): what its lobes and facing shifts are computed from.
+    pub fn texel_tree(&self, i: usize) -> Vec<VplRecord> {
+        let tree = self
+            .vpl_nodes
+            .get(i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL)
+            .unwrap_or(&[]);
+        texel_tree(tree, self.level3_coherence(i))
     }
 
     /// Each VPL's far-field centre ([`far_field_centre`] of its near-field
@@ -785,6 +832,40 @@ mod tests {
     /// The facing shift: none on a flat cluster; the facing face's centre
     /// of a right-angled crease of two equal faces; `⅔ρ` towards the
     /// receiver on a sphere; at most the reach; none without a full tree.
+    /// A texel tree scales the level-3 normals by their coherences and
+    /// nothing else; without coherences (or with the wrong count) it is
+    /// the tree as stored.
+    #[test]
+    fn texel_tree_weights_the_level_3_normals() {
+        let n = |k: usize| VplRecord {
+            position: [k as f32, 0.0, 0.0],
+            area: 1.0,
+            normal: [0.0, 1.0, 0.0],
+            texels: 1,
+            flux: [1.0; 3],
+            map: NO_MAP,
+        };
+        let tree: Vec<VplRecord> = (0..NODES_PER_VPL).map(n).collect();
+        let c: Vec<f32> = (0..LEVEL3_NODES).map(|k| k as f32 / 64.0).collect();
+        let t = texel_tree(&tree, &c);
+        assert_eq!(
+            t[..NODES_PER_VPL - LEVEL3_NODES],
+            tree[..NODES_PER_VPL - LEVEL3_NODES]
+        );
+        for k in 0..LEVEL3_NODES {
+            let m = &t[NODES_PER_VPL - LEVEL3_NODES + k];
+            assert_eq!(m.normal, [0.0, k as f32 / 64.0, 0.0]);
+            assert_eq!(m.position, tree[NODES_PER_VPL - LEVEL3_NODES + k].position);
+        }
+        // The level-3 nodes' coherence is then their texels': the mean of
+        // k/64 over k.
+        let want = (0..64).map(|k| k as f32 / 64.0).sum::<f32>() / 64.0;
+        assert!((lobe_coherence(&t) - want).abs() < 1e-6);
+        assert_eq!(lobe_coherence(&tree), 1.0);
+        assert_eq!(texel_tree(&tree, &[]), tree);
+        assert_eq!(texel_tree(&tree, &c[1..]), tree);
+    }
+
     #[test]
     fn facing_shift_of_flat_crease_and_sphere() {
         let up = [0.0, 1.0, 0.0];

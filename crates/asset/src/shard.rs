@@ -21,7 +21,7 @@ use crate::{Asset, AssetError, Manifest, Map, MapAtlas, NO_MAP, RsmData, VplReco
 /// Magic bytes at the start of a part file.
 pub const PART_MAGIC: [u8; 8] = *b"GIBKPART";
 /// Part format version: parts are transient, so any other version is refused.
-pub const PART_VERSION: u16 = 4;
+pub const PART_VERSION: u16 = 5;
 /// Largest shard count accepted.
 pub const MAX_SHARDS: u32 = 4096;
 /// Largest accepted part file (16 GiB).
@@ -102,6 +102,8 @@ struct PartPayload {
     manifest: Manifest,
     vpls: Vec<VplRecord>,
     vpl_nodes: Vec<VplRecord>,
+    /// The level-3 coherences (part version 5).
+    vpl_coherence: Vec<f32>,
     primary_size: u32,
     primary: Vec<f32>,
     rsm: Option<RsmPayload>,
@@ -283,6 +285,7 @@ fn encode_part(part: &ShardPart, path: &Path) -> Result<Vec<u8>, AssetError> {
         manifest: a.manifest.clone(),
         vpls: a.vpls.clone(),
         vpl_nodes: a.vpl_nodes.clone(),
+        vpl_coherence: a.vpl_coherence.clone(),
         primary_size: a.primary_depth.size,
         primary: a.primary_depth.data.clone(),
         rsm: a.rsm.as_ref().map(rsm_payload),
@@ -363,6 +366,7 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
             manifest,
             vpls: p.vpls,
             vpl_nodes: p.vpl_nodes,
+            vpl_coherence: p.vpl_coherence,
             primary_depth: Map {
                 size: p.primary_size,
                 data: p.primary,
@@ -447,6 +451,7 @@ fn front_hash(a: &Asset) -> [u8; 32] {
     let mut h = blake3::Hasher::new();
     h.update(bytemuck::cast_slice(&a.vpls));
     h.update(bytemuck::cast_slice(&a.vpl_nodes));
+    h.update(bytemuck::cast_slice(&a.vpl_coherence));
     h.update(&a.primary_depth.size.to_le_bytes());
     h.update(bytemuck::cast_slice(&a.primary_depth.data));
     h.update(&a.light_maps.tile_size().to_le_bytes());
@@ -711,6 +716,7 @@ mod tests {
                     };
                     3 * crate::NODES_PER_VPL
                 ],
+                vpl_coherence: vec![1.0; 3 * crate::LEVEL3_NODES],
                 primary_depth: Map {
                     size: 2,
                     data: vec![1.0; 4],

@@ -269,6 +269,8 @@ fn hostile_counts_are_refused_without_huge_allocations() {
                 m.vpl_count = u32::MAX;
                 m.files[0].size = u32::MAX as u64 * 48;
                 m.files[1].size = u32::MAX as u64 * 48 * 84;
+                let c = m.files.iter_mut().find(|f| f.name == "vpl_coherence.bin");
+                c.expect("listed").size = u32::MAX as u64 * 4 * 64;
             }),
         ),
         ("map_count", Box::new(|m| m.map_count = m.vpl_count + 1)),
@@ -507,4 +509,59 @@ fn a_finite_value_in_an_unused_atlas_tile_is_refused() {
     );
     replace_signed(&dir, "vpl_maps.exr", &good);
     load(&dir).expect("the original loads again");
+}
+
+#[test]
+fn damaged_level3_coherences_are_named_and_a_4_1_asset_has_none() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut asset = sample_asset(true);
+    // VPL 0's first level-3 node lit, its texels' coherence 0.5.
+    asset.vpl_nodes[NODES_PER_VPL - LEVEL3_NODES] = asset.vpl_nodes[0];
+    asset.vpl_coherence[0] = 0.5;
+    let dir = written(tmp.path(), &asset);
+    assert_eq!(load(&dir).unwrap().vpl_coherence, asset.vpl_coherence);
+    let good = std::fs::read(dir.join(FILE_VPL_COHERENCE)).unwrap();
+    let cases = [
+        (
+            0,
+            1.5f32,
+            "VPL 0 level-3 node 0: coherence 1.5 is not in [0, 1]",
+        ),
+        (0, f32::NAN, "coherence NaN is not in [0, 1]"),
+        (
+            1,
+            0.5,
+            "VPL 0 level-3 node 1 is empty but its coherence is 0.5, not 1",
+        ),
+    ];
+    for (at, v, says) in cases {
+        let mut bytes = good.clone();
+        bytes[4 * at..4 * at + 4].copy_from_slice(&v.to_le_bytes());
+        replace_signed(&dir, FILE_VPL_COHERENCE, &bytes);
+        let msg = expect_err_naming(&dir, FILE_VPL_COHERENCE, says).to_string();
+        assert!(msg.contains(says), "{msg}");
+    }
+    // The writer refuses a count that is neither none nor 64 per VPL.
+    let mut short = asset.clone();
+    short.vpl_coherence.pop();
+    let e = write(&short, &tmp.path().join("short.gibake")).unwrap_err();
+    assert!(e.to_string().contains("vpl_coherence holds"), "{e}");
+    // A 4.1 manifest (which does not list the file) loads with none: every
+    // level-3 node one cosine lobe, its tree as stored.
+    replace_signed(&dir, FILE_VPL_COHERENCE, &good);
+    let m = load_manifest(&dir).unwrap();
+    std::fs::write(
+        dir.join(FILE_MANIFEST),
+        testing::manifest_bytes_4_1(&m).unwrap(),
+    )
+    .unwrap();
+    let old = load(&dir).unwrap();
+    assert!(old.vpl_coherence.is_empty() && old.level3_coherence(0).is_empty());
+    assert_eq!(old.texel_tree(0), old.vpl_nodes[..NODES_PER_VPL].to_vec());
+    // Written again, it is a 4.2 asset with coherence 1 everywhere.
+    let again = tmp.path().join("again.gibake");
+    write(&old, &again).unwrap();
+    let c = load(&again).unwrap().vpl_coherence;
+    assert_eq!(c.len(), old.vpls.len() * LEVEL3_NODES);
+    assert!(c.iter().all(|&c| c == 1.0));
 }

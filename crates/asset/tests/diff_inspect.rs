@@ -348,8 +348,9 @@ fn inspect_reports_counts_sizes_and_statistics() {
         .map(|n| std::fs::metadata(dir.join(n)).unwrap().len())
         .sum();
     assert_eq!(i.total_bytes, on_disk);
-    assert_eq!(i.files.len(), 7);
+    assert_eq!(i.files.len(), 8);
     assert!(i.files.iter().any(|f| f.name == "light_maps.exr"));
+    assert!(i.files.iter().any(|f| f.name == "vpl_coherence.bin"));
     assert_eq!((i.views, i.light_maps_stored), (6, 4));
     assert_eq!(i.files[0].name, "manifest.bin");
     assert_eq!(

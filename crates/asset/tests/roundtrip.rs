@@ -20,6 +20,7 @@ fn round_trip_static_and_dynamic() {
             "light_maps.exr",
             "manifest.bin",
             "primary_depth.exr",
+            "vpl_coherence.bin",
             "vpl_maps.exr",
             "vpl_nodes.bin",
             "vpls.bin",
@@ -55,6 +56,7 @@ fn counts_are_filled_in_from_the_data() {
             "vpls.bin",
             "vpl_nodes.bin",
             "primary_depth.exr",
+            "vpl_coherence.bin",
             "vpl_maps.exr",
             "rsm.exr",
             "light_maps.exr"
@@ -86,6 +88,7 @@ fn nothing_stored_that_is_not_needed() {
         [
             "manifest.bin",
             "primary_depth.exr",
+            "vpl_coherence.bin",
             "vpl_nodes.bin",
             "vpls.bin"
         ]
@@ -103,6 +106,7 @@ fn empty_vpl_set_round_trips() {
     let mut asset = sample_asset(false);
     asset.vpls.clear();
     asset.vpl_nodes.clear();
+    asset.vpl_coherence.clear();
     for l in &mut asset.manifest.lights {
         l.vpls = 0;
     }

@@ -314,6 +314,7 @@ fn stored_light_maps(
 struct Front {
     vpls: Vec<VplRecord>,
     vpl_nodes: Vec<VplRecord>,
+    vpl_coherence: Vec<f32>,
     /// VPLs per light, in light order (the VPLs are in that order).
     per_light: Vec<u32>,
     /// VPLs the clustering made, dropped ones included.
@@ -470,7 +471,7 @@ fn every_light_front(
         .map(|n| n as u32)
         .collect();
     let vpls = every.vpl_records();
-    let vpl_nodes = every.vpl_nodes();
+    let (vpl_nodes, vpl_coherence) = every.vpl_trees();
     // The first light's RSM (one view: a spot or directional light); when
     // its bounce was left out as negligible, rendered for the dynamic merge
     // with no texel of any VPL.
@@ -504,6 +505,7 @@ fn every_light_front(
     Ok(Front {
         vpls,
         vpl_nodes,
+        vpl_coherence,
         per_light,
         made,
         dropped,
@@ -665,13 +667,17 @@ fn bake_with(
         // On the clusters' own surfaces (see Cluster::anchor); near-field
         // trees, one per VPL, from its node's texels.
         let vpls: Vec<VplRecord> = clusters.vpls.iter().map(|c| c.record()).collect();
-        let vpl_nodes: Vec<VplRecord> = (0..clusters.vpls.len())
-            .flat_map(|i| crate::near_field::tree_of(&rsm, &clusters, i))
-            .collect();
+        let (mut vpl_nodes, mut vpl_coherence) = (Vec::new(), Vec::new());
+        for i in 0..clusters.vpls.len() {
+            let (t, k) = crate::near_field::tree_and_coherence_of(&rsm, &clusters, i);
+            vpl_nodes.extend(t);
+            vpl_coherence.extend(k);
+        }
         Front {
             per_light: vec![vpls.len() as u32],
             vpls,
             vpl_nodes,
+            vpl_coherence,
             made: clusters.vpls.len() + dropped,
             dropped,
             threshold: clusters.threshold,
@@ -688,6 +694,7 @@ fn bake_with(
     let Front {
         mut vpls,
         vpl_nodes,
+        vpl_coherence,
         per_light,
         dropped,
         threshold,
@@ -793,6 +800,7 @@ fn bake_with(
         manifest,
         vpls,
         vpl_nodes,
+        vpl_coherence,
         primary_depth: Map {
             size: opts.shadow_map_size,
             data: primary,

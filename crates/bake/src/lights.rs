@@ -86,13 +86,22 @@ impl EveryLight {
     /// The VPLs' near-field trees, in [`EveryLight::vpl_records`]' order
     /// ([`crate::near_field::tree_of`] in each VPL's own map).
     pub fn vpl_nodes(&self) -> Vec<VplRecord> {
-        self.maps
-            .iter()
-            .zip(&self.clusters.maps)
-            .flat_map(|(m, c)| {
-                (0..c.vpls.len()).flat_map(move |i| crate::near_field::tree_of(&m.rsm, c, i))
-            })
-            .collect()
+        self.vpl_trees().0
+    }
+
+    /// [`EveryLight::vpl_nodes`] and the level-3 nodes' texel coherences
+    /// (`gibake_asset::Asset::vpl_coherence`), in the same order
+    /// ([`crate::near_field::tree_and_coherence_of`]).
+    pub fn vpl_trees(&self) -> (Vec<VplRecord>, Vec<f32>) {
+        let (mut nodes, mut coherence) = (Vec::new(), Vec::new());
+        for (m, c) in self.maps.iter().zip(&self.clusters.maps) {
+            for i in 0..c.vpls.len() {
+                let (t, k) = crate::near_field::tree_and_coherence_of(&m.rsm, c, i);
+                nodes.extend(t);
+                coherence.extend(k);
+            }
+        }
+        (nodes, coherence)
     }
 }
 

@@ -77,6 +77,19 @@ impl Sums {
         self.count += o.count;
     }
 
+    /// `|Σ w n| / Σ w` in `[0, 1]`; 1 without texels.
+    fn coherence(&self) -> f32 {
+        if self.count == 0 || !(self.w > 0.0 && self.w.is_finite()) {
+            return 1.0;
+        }
+        let c = self.wn.length() / self.w;
+        if c.is_finite() {
+            c.clamp(0.0, 1.0) as f32
+        } else {
+            1.0
+        }
+    }
+
     fn record(&self) -> VplRecord {
         let empty = VplRecord::EMPTY_NODE;
         if self.count == 0 || !(self.w > 0.0 && self.w.is_finite()) {
@@ -104,7 +117,17 @@ impl Sums {
 /// The near-field tree of VPL `i` of `clusters`: its leaf's rectangle, its
 /// own depth layer's texels ([`vpl_nodes`]).
 pub fn tree_of(rsm: &Rsm, clusters: &Clustering, i: usize) -> Vec<VplRecord> {
-    vpl_nodes(rsm, clusters.rects[i], |t| {
+    tree_and_coherence_of(rsm, clusters, i).0
+}
+
+/// [`tree_of`] and its level-3 nodes' texel coherences
+/// ([`vpl_nodes_and_coherence`]).
+pub fn tree_and_coherence_of(
+    rsm: &Rsm,
+    clusters: &Clustering,
+    i: usize,
+) -> (Vec<VplRecord>, Vec<f32>) {
+    vpl_nodes_and_coherence(rsm, clusters.rects[i], |t| {
         clusters.texel_vpl[t] == i as u32
     })
 }
@@ -116,9 +139,23 @@ pub fn tree_of(rsm: &Rsm, clusters: &Clustering, i: usize) -> Vec<VplRecord> {
 /// (deterministic).
 pub fn vpl_nodes(
     rsm: &Rsm,
-    (x0, x1, y0, y1): (u32, u32, u32, u32),
+    rect: (u32, u32, u32, u32),
     member: impl Fn(usize) -> bool,
 ) -> Vec<VplRecord> {
+    vpl_nodes_and_coherence(rsm, rect, member).0
+}
+
+/// [`vpl_nodes`] and, for each of its [`gibake_asset::LEVEL3_NODES`] level-3 nodes in
+/// tree order, the coherence of its texels' normals `|Σ w n| / Σ w` (`w`
+/// the channel sum of a texel's flux; 1 for an empty node): how far the
+/// node's one normal stands for its texels, which shading uses for the
+/// node's lobe (`gibake_asset::Asset::vpl_coherence`; docs/method.md,
+/// "Texel coherence").
+pub fn vpl_nodes_and_coherence(
+    rsm: &Rsm,
+    (x0, x1, y0, y1): (u32, u32, u32, u32),
+    member: impl Fn(usize) -> bool,
+) -> (Vec<VplRecord>, Vec<f32>) {
     let levels = NEAR_FIELD_LEVELS;
     let side = 1usize << levels;
     let mut leaf = vec![Sums::default(); side * side];
@@ -141,6 +178,17 @@ pub fn vpl_nodes(
             s.count += 1;
         }
     }
+    // 1 for a node stored empty (whatever its sums), as the format asks.
+    let coherence: Vec<f32> = leaf
+        .iter()
+        .map(|s| {
+            if s.record().texels == 0 {
+                1.0
+            } else {
+                s.coherence()
+            }
+        })
+        .collect();
     let mut out = vec![Sums::default().record(); NODES_PER_VPL];
     let mut cur = leaf;
     for l in (1..=levels).rev() {
@@ -159,7 +207,7 @@ pub fn vpl_nodes(
             cur = up;
         }
     }
-    out
+    (out, coherence)
 }
 
 /// Sum of the flux of a VPL's level-`l` nodes (a check: every level holds
@@ -187,5 +235,62 @@ mod tests {
         }
         // A one-texel range goes to the last cell.
         assert_eq!(cell(5, 5, 6, 3), 7);
+    }
+
+    /// Each level-3 node's coherence is its texels' `|Σ w n| / Σ w`: 1 for
+    /// texels facing one way, `cos 45°` for two equal texels 90° apart,
+    /// weighted by flux; 1 for an empty node. Its record keeps the unit
+    /// mean normal.
+    #[test]
+    fn level_3_coherence_of_texels_facing_two_ways() {
+        let view = gibake_gpu::LightView::directional(
+            Vec3::new(0.0, -1.0, 0.0),
+            Vec3::splat(-1.0),
+            Vec3::ONE,
+            16,
+        );
+        let mut rsm = Rsm::empty(16, view);
+        let a = Vec3::new(1.0, 1.0, 0.0).normalize();
+        let b = Vec3::new(-1.0, 1.0, 0.0).normalize();
+        // Rectangle [0, 16)²: level-3 cells of 2×2 texels. Cell (0, 0): two
+        // texels facing a, two facing b; cell (1, 0): all facing a; cell
+        // (2, 0): one bright texel facing a, three dim facing b.
+        let mut lit = |x: usize, y: usize, n: Vec3, f: f32| {
+            let t = y * 16 + x;
+            rsm.metric[t] = 1.0;
+            rsm.position[t] = Vec3::new(x as f32, 0.0, y as f32);
+            rsm.normal[t] = n;
+            rsm.flux[t] = Vec3::splat(f);
+            rsm.area[t] = 1.0;
+        };
+        lit(0, 0, a, 1.0);
+        lit(1, 0, b, 1.0);
+        lit(0, 1, a, 1.0);
+        lit(1, 1, b, 1.0);
+        for (x, y) in [(2, 0), (3, 0), (2, 1), (3, 1)] {
+            lit(x, y, a, 1.0);
+        }
+        lit(4, 0, a, 3.0);
+        lit(5, 0, b, 1.0);
+        lit(4, 1, b, 1.0);
+        lit(5, 1, b, 1.0);
+        let (nodes, c) = vpl_nodes_and_coherence(&rsm, (0, 16, 0, 16), |_| true);
+        assert_eq!(c.len(), gibake_asset::LEVEL3_NODES);
+        assert!(
+            (c[0] - std::f32::consts::FRAC_1_SQRT_2).abs() < 1e-6,
+            "{}",
+            c[0]
+        );
+        assert!((c[1] - 1.0).abs() < 1e-6, "{}", c[1]);
+        // (3a + 3b) / 6: cos 45°, as for two equal texels.
+        assert!(
+            (c[2] - std::f32::consts::FRAC_1_SQRT_2).abs() < 1e-6,
+            "{}",
+            c[2]
+        );
+        assert_eq!(c[3], 1.0, "an empty node");
+        let l3 = &nodes[level_offset(3)..];
+        assert!((Vec3::from_array(l3[0].normal) - Vec3::Y).length() < 1e-6);
+        assert_eq!(l3[3].texels, 0);
     }
 }

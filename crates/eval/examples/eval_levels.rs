@@ -1,4 +1,4 @@
-//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive] [--static-only]`
+//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--near-field-descent N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive] [--static-only]`
 //! Judges the real levels of data/levels/levels.json (all, or those named)
 //! against the CPU reference; prints one line per level and, with --out,
 //! writes reference | full | rsm | error pictures (NAME.png) and the same
@@ -47,6 +47,7 @@ fn main() {
             "--rsm" => s.rsm_size = num(),
             "--map" => s.vpl_map_size = num(),
             "--ssaa" => s.ssaa = num(),
+            "--near-field-descent" => s.near_field_descent = num(),
             "--cascades" => {
                 s.cascades = match it.next().map(String::as_str) {
                     Some("on") => gibake_runtime::Cascades::On,

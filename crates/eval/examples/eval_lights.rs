@@ -6,7 +6,7 @@
 //! against full, FLIP).
 //!
 //! ```text
-//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--look-at EX,EY,EZ,TX,TY,TZ] [--no-light-bounce] [--balls-under-lamps R] [--out DIR] [--no-naive]
+//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--near-field-descent N] [--look-at EX,EY,EZ,TX,TY,TZ] [--no-light-bounce] [--balls-under-lamps R] [--out DIR] [--no-naive]
 //! ```
 //!
 //! `--no-naive` leaves out the `naive` render (every VPL map re-rendered:
@@ -62,6 +62,7 @@ fn main() {
             "--blur" => s.blur = num(),
             "--rsm" => s.rsm_size = num(),
             "--ssaa" => s.ssaa = num(),
+            "--near-field-descent" => s.near_field_descent = num(),
             "--look-at" => {
                 let v: Vec<f32> = it
                     .next()

@@ -198,13 +198,14 @@ fn main() {
             .collect();
         let cam = gibake_reference::View::from_scene(&stat, 0.0).unwrap();
         let per_vpl = std::sync::Mutex::new(vec![0f64; cl.vpls.len()]);
-        let nodes: Vec<Vec<gibake_asset::VplRecord>> = (0..cl.vpls.len())
-            .map(|i| gibake_bake::near_field::tree_of(&rsm, &cl, i))
+        let trees: Vec<(Vec<gibake_asset::VplRecord>, Vec<f32>)> = (0..cl.vpls.len())
+            .map(|i| gibake_bake::near_field::tree_and_coherence_of(&rsm, &cl, i))
             .collect();
-        let lobes: Vec<gibake_eval::transport::VplLobes> = nodes
+        let lobes: Vec<gibake_eval::transport::VplLobes> = trees
             .iter()
-            .map(|t| gibake_eval::transport::VplLobes::of_tree(t))
+            .map(|(t, c)| gibake_eval::transport::VplLobes::of_tree(t, c))
             .collect();
+        let nodes: Vec<Vec<gibake_asset::VplRecord>> = trees.into_iter().map(|t| t.0).collect();
         let px: Vec<[Vec3; 10]> = (0..size * size)
             .into_par_iter()
             .map(|p| {

@@ -74,6 +74,9 @@ pub struct EvalSettings {
     /// turn it off and check naive = full apart with fewer VPLs
     /// ([`levels::naive_against_full`]); the eval tools keep it.
     pub naive: bool,
+    /// The runtime's near-field descent
+    /// ([`RenderSettings::near_field_descent`]).
+    pub near_field_descent: u32,
 }
 
 impl Default for EvalSettings {
@@ -91,6 +94,7 @@ impl Default for EvalSettings {
             cascades: gibake_runtime::Cascades::Auto,
             light_bounce: true,
             naive: true,
+            near_field_descent: RenderSettings::default().near_field_descent,
         }
     }
 }
@@ -259,6 +263,7 @@ pub fn render(
         mode,
         max_dynamic_vpls: s.max_dynamic_vpls,
         cascades: s.cascades,
+        near_field_descent: s.near_field_descent,
         ..Default::default()
     };
     Ok(frame::render_image(

@@ -168,8 +168,8 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
     }
     let bake_seconds = t0.elapsed().as_secs_f64();
     let records = every.vpl_records();
-    let nodes = every.vpl_nodes();
-    let twin_vpls = crate::transport::TwinVpls::new(&records, &nodes);
+    let (nodes, coherence) = every.vpl_trees();
+    let twin_vpls = crate::transport::TwinVpls::new(&records, &nodes, &coherence);
     let per_light = every.vpls_per_light(scene.lights.len());
     let cam = gibake_reference::View::from_scene(scene, 0.0).expect("the scene has a camera");
     // Per pixel: (reference, twin) indirect radiance, and the variance of

@@ -6,20 +6,33 @@
 use gibake_asset::{Facing, NODES_PER_VPL, VplRecord};
 use glam::Vec3;
 
-/// A VPL or node is replaced by its children where the receiver is nearer
-/// than this many disk radii `√(A/π)` (must match `NEAR_FIELD_RATIO` in
-/// shade.wgsl). At 4 radii a disk's point approximation is within a few
-/// per cent; measured in docs/method.md ("Near field").
+/// A finest near-field node's own near field, in its disk radii `√(A/π)`
+/// (must match `NEAR_FIELD_RATIO` in shade.wgsl): nearer than this its
+/// light skips the map test ([`open_weight`]) and a receiver across a
+/// crease from it takes the square's exact form factor
+/// ([`near_node_irradiance`]). At 4 radii a disk's point approximation is
+/// within a few per cent; measured in docs/method.md ("Near field").
 pub const NEAR_FIELD_RATIO: f32 = 4.0;
+
+/// A VPL or a level-1 or level-2 node is replaced by its children where the
+/// receiver is nearer than this many of its disk radii (must match
+/// `DESCENT_RATIO` in shade.wgsl). Twice [`NEAR_FIELD_RATIO`] since
+/// session 19: beyond the disk's own near field, a cluster's parts still
+/// send their light from where each is and the way each faces (the cosine
+/// at the receiver varies across the cluster), which the parent's one
+/// disk misses: on the real levels the error falls on nine of eleven
+/// scenes for about 1.4× the disk evaluations (docs/method.md, "Descent
+/// ratio").
+pub const DESCENT_RATIO: f32 = 2.0 * NEAR_FIELD_RATIO;
 
 /// A static VPL is drawn as one disk only beyond this many of its disk
 /// radii (must match `FAR_FIELD_RATIO` in shade.wgsl); nearer, as its
 /// near-field tree, whose level-1 nodes stand for it between
-/// [`NEAR_FIELD_RATIO`] and this. Twice the near field: a cluster of
+/// [`DESCENT_RATIO`] and this. Twice the descent: a cluster of
 /// texels facing different ways (a crown, a rock) sends its light from
 /// where each part is and the way each faces, which one disk misses there
 /// (docs/method.md, "Node lobes").
-pub const FAR_FIELD_RATIO: f32 = 2.0 * NEAR_FIELD_RATIO;
+pub const FAR_FIELD_RATIO: f32 = 2.0 * DESCENT_RATIO;
 
 /// Irradiance at `x` (shading normal `ns`, geometric `ng`) from a disk-like
 /// emitter at `origin` with normal `nv`, area `a`, flux `phi`:
@@ -90,6 +103,12 @@ pub fn is_near(x: Vec3, p: Vec3, a: f32) -> bool {
     within(x, p, a, NEAR_FIELD_RATIO)
 }
 
+/// Whether a node (or VPL) of area `a` at `p` is drawn as its children at
+/// `x` ([`DESCENT_RATIO`]; shade.wgsl `descends`).
+pub fn descends(x: Vec3, p: Vec3, a: f32) -> bool {
+    within(x, p, a, DESCENT_RATIO)
+}
+
 /// Whether a static VPL of area `a` drawn from `p` is one disk at `x`
 /// (beyond [`FAR_FIELD_RATIO`] radii).
 pub fn is_far(x: Vec3, p: Vec3, a: f32) -> bool {
@@ -116,6 +135,9 @@ pub struct VplLobes {
     /// Facing shifts: the VPL's, then its level-1 and level-2 nodes' in
     /// tree order.
     pub facings: [Facing; gibake_asset::FACINGS_PER_VPL],
+    /// Its level-3 nodes' texel coherences, in tree order
+    /// ([`gibake_asset::Asset::vpl_coherence`]; 1: a cosine lobe).
+    pub level3: [f32; gibake_asset::LEVEL3_NODES],
 }
 
 impl Default for VplLobes {
@@ -124,18 +146,27 @@ impl Default for VplLobes {
             vpl: 1.0,
             nodes: [1.0; 4 + 16],
             facings: [Facing::NONE; gibake_asset::FACINGS_PER_VPL],
+            level3: [1.0; gibake_asset::LEVEL3_NODES],
         }
     }
 }
 
 impl VplLobes {
     /// The coherences and facing shifts of a VPL whose near-field tree is
-    /// `tree`.
-    pub fn of_tree(tree: &[VplRecord]) -> Self {
+    /// `tree` and whose level-3 nodes' texel coherences are `coherence`
+    /// (empty: 1), from its [`gibake_asset::texel_tree`] as `baked.rs`
+    /// computes them at load.
+    pub fn of_tree(tree: &[VplRecord], coherence: &[f32]) -> Self {
+        let texels = gibake_asset::texel_tree(tree, coherence);
+        let mut level3 = [1.0; gibake_asset::LEVEL3_NODES];
+        if coherence.len() == level3.len() {
+            level3.copy_from_slice(coherence);
+        }
         VplLobes {
-            vpl: gibake_asset::lobe_coherence(tree),
-            nodes: gibake_asset::node_lobe_coherences(tree),
-            facings: gibake_asset::facings(tree),
+            vpl: gibake_asset::lobe_coherence(&texels),
+            nodes: gibake_asset::node_lobe_coherences(&texels),
+            facings: gibake_asset::facings(&texels),
+            level3,
         }
     }
 }
@@ -246,21 +277,23 @@ pub fn square_form_factor(c: Vec3, t: Vec3, b: Vec3, n: Vec3) -> f32 {
     sum.abs() * (0.5 / std::f32::consts::PI)
 }
 
-/// Irradiance at `x` from a finest (level-3) near-field node: its disk,
-/// or, where `x` is in its near field, in front of it and across its
-/// normal (`|ns·nv| <` [`CREASE_HI`]), the node as a uniformly emitting
-/// square of its area about its centre with Lambert's exact formula
-/// ([`square_form_factor`]), blended with the disk by a smoothstep
-/// between [`CREASE_LO`] and [`CREASE_HI`] (shade.wgsl
+/// Irradiance at `x` from a finest (level-3) near-field node whose texels
+/// have coherence `c` ([`gibake_asset::Asset::vpl_coherence`]; 1: all
+/// facing its normal): its disk with the far-field lobe at `c`
+/// ([`node_lobe_irradiance`]), or, where `x` is in its near field, in
+/// front of it and across its normal (`|ns·nv| <` [`CREASE_HI`]), the node
+/// as a uniformly emitting square of its area about its centre with
+/// Lambert's exact formula ([`square_form_factor`]), blended with the disk
+/// by a smoothstep between [`CREASE_LO`] and [`CREASE_HI`] (shade.wgsl
 /// `near_node_irradiance`, which says why).
-pub fn near_node_irradiance(n: &VplRecord, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 {
+pub fn near_node_irradiance(n: &VplRecord, c: f32, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 {
     if n.texels == 0 {
         return Vec3::ZERO;
     }
     let (p, nv) = (Vec3::from_array(n.position), Vec3::from_array(n.normal));
     let s = ns.dot(nv).abs();
     if s >= CREASE_HI || !is_near(x, p, n.area) {
-        return node_irradiance(n, x, ns, ng);
+        return node_lobe_irradiance(n, c, x, ns, ng);
     }
     let half = 0.5 * n.area.max(0.0).sqrt();
     let mut e = Vec3::ZERO;
@@ -277,13 +310,17 @@ pub fn near_node_irradiance(n: &VplRecord, x: Vec3, ns: Vec3, ng: Vec3) -> Vec3 
         return e;
     }
     let u = ((s - CREASE_LO) / (CREASE_HI - CREASE_LO)).clamp(0.0, 1.0);
-    e.lerp(node_irradiance(n, x, ns, ng), u * u * (3.0 - 2.0 * u))
+    e.lerp(
+        node_lobe_irradiance(n, c, x, ns, ng),
+        u * u * (3.0 - 2.0 * u),
+    )
 }
 
 /// How much of a finest near-field node's light at `x` skips the map
 /// test: 1 within the node's own near field ([`NEAR_FIELD_RATIO`] of its
-/// radii), 0 from twice that (its parent's near-field edge), smoothstep
-/// between (shade.wgsl `open_weight`).
+/// radii), 0 from twice that (where its own disk, map-tested, goes on to
+/// its parent's [`DESCENT_RATIO`] edge), smoothstep between (shade.wgsl
+/// `open_weight`).
 pub fn open_weight(x: Vec3, p: Vec3, a: f32) -> f32 {
     let r = NEAR_FIELD_RATIO * (a.max(0.0) / std::f32::consts::PI).sqrt();
     let d = (x - p).length();
@@ -365,7 +402,7 @@ pub fn static_vpl_terms(
         if n1.texels == 0 {
             continue;
         }
-        if !is_near(x, Vec3::from_array(n1.position), n1.area) {
+        if !descends(x, Vec3::from_array(n1.position), n1.area) {
             let k1 = j1 * 2 + i1;
             let n = facing_node(n1, &lobes.facings[1 + k1], x);
             t.shadowed += node_lobe_irradiance(&n, lobes.nodes[k1], x, ns, ng);
@@ -377,7 +414,7 @@ pub fn static_vpl_terms(
             if n2.texels == 0 {
                 continue;
             }
-            if !is_near(x, Vec3::from_array(n2.position), n2.area) {
+            if !descends(x, Vec3::from_array(n2.position), n2.area) {
                 let k2 = 4 + j2 * 4 + i2;
                 let n = facing_node(n2, &lobes.facings[1 + k2], x);
                 t.shadowed += node_lobe_irradiance(&n, lobes.nodes[k2], x, ns, ng);
@@ -386,7 +423,7 @@ pub fn static_vpl_terms(
             for c3 in 0..4 {
                 let (i3, j3) = (2 * i2 + c3 % 2, 2 * j2 + c3 / 2);
                 let n3 = &nodes[20 + j3 * 8 + i3];
-                let e3 = near_node_irradiance(n3, x, ns, ng);
+                let e3 = near_node_irradiance(n3, lobes.level3[j3 * 8 + i3], x, ns, ng);
                 let w = open_weight(x, Vec3::from_array(n3.position), n3.area);
                 t.open += e3 * w;
                 t.shadowed += e3 * (1.0 - w);
@@ -423,7 +460,10 @@ pub struct TwinVpls<'a> {
     pub vpls: &'a [VplRecord],
     /// Their near-field trees ([`NODES_PER_VPL`] each, in the same order).
     pub nodes: &'a [VplRecord],
-    /// Per VPL: its far-field lobe coherences.
+    /// Their level-3 nodes' texel coherences
+    /// ([`gibake_asset::LEVEL3_NODES`] each; empty: none, cosine lobes).
+    pub coherence: &'a [f32],
+    /// Per VPL: its lobe coherences and facing shifts.
     pub lobes: Vec<VplLobes>,
     /// Per VPL: its map origin.
     pub origins: Vec<Vec3>,
@@ -432,9 +472,10 @@ pub struct TwinVpls<'a> {
 }
 
 impl<'a> TwinVpls<'a> {
-    /// From VPL records `vpls` and their trees `nodes`: an asset's, or the
-    /// every-light bake's before it is an asset.
-    pub fn new(vpls: &'a [VplRecord], nodes: &'a [VplRecord]) -> Self {
+    /// From VPL records `vpls`, their trees `nodes` and their level-3
+    /// coherences `coherence`: an asset's, or the every-light bake's before
+    /// it is an asset.
+    pub fn new(vpls: &'a [VplRecord], nodes: &'a [VplRecord], coherence: &'a [f32]) -> Self {
         let origins: Vec<Vec3> = vpls
             .iter()
             .map(|v| {
@@ -448,12 +489,18 @@ impl<'a> TwinVpls<'a> {
         let mut twin = TwinVpls {
             vpls,
             nodes,
+            coherence,
             lobes: Vec::new(),
             origins,
             centres: Vec::new(),
         };
         twin.lobes = (0..vpls.len())
-            .map(|i| VplLobes::of_tree(twin.tree(i)))
+            .map(|i| {
+                let c = coherence
+                    .get(i * gibake_asset::LEVEL3_NODES..(i + 1) * gibake_asset::LEVEL3_NODES)
+                    .unwrap_or(&[]);
+                VplLobes::of_tree(twin.tree(i), c)
+            })
             .collect();
         twin.centres = (0..vpls.len())
             .map(|i| {
@@ -466,7 +513,7 @@ impl<'a> TwinVpls<'a> {
 
     /// The static VPLs of `asset`.
     pub fn of_asset(asset: &'a gibake_asset::Asset) -> Self {
-        Self::new(&asset.vpls, &asset.vpl_nodes)
+        Self::new(&asset.vpls, &asset.vpl_nodes, &asset.vpl_coherence)
     }
 
     /// VPL `i`'s near-field tree (empty where the asset has none).
@@ -680,7 +727,12 @@ mod tests {
                 .expect("a number")
         };
         assert_eq!(value("NEAR_FIELD_RATIO"), super::NEAR_FIELD_RATIO);
-        assert_eq!(value("FAR_FIELD_RATIO"), super::FAR_FIELD_RATIO);
+        // The descent is a setting; its default is the twin's.
+        assert_eq!(
+            gibake_runtime::RenderSettings::default().near_field_descent as f32,
+            super::DESCENT_RATIO
+        );
+        assert_eq!(super::FAR_FIELD_RATIO, 2.0 * super::DESCENT_RATIO);
         assert_eq!(value("VPL_DEPTH_BIAS"), super::VPL_DEPTH_BIAS);
         assert_eq!(value("VPL_MAX_SLOPE"), super::VPL_MAX_SLOPE);
         assert_eq!(value("CREASE_LO"), super::CREASE_LO);
@@ -694,12 +746,12 @@ mod tests {
 
     /// A VPL with a full tree is one disk with its far-field lobe beyond
     /// `FAR_FIELD_RATIO` radii, and its four level-1 nodes, each with the
-    /// lobe at its own level-3 nodes' coherence, between `NEAR_FIELD_RATIO`
+    /// lobe at its own level-3 nodes' coherence, between `DESCENT_RATIO`
     /// and that.
     #[test]
     fn a_vpl_is_its_level_1_nodes_out_to_the_far_field() {
         use super::{
-            FAR_FIELD_RATIO, lobe_irradiance, node_irradiance, node_lobe_irradiance,
+            DESCENT_RATIO, FAR_FIELD_RATIO, lobe_irradiance, node_irradiance, node_lobe_irradiance,
             static_vpl_terms,
         };
         let rec = |p: Vec3, n: Vec3, a: f32, f: f32, texels: u32| VplRecord {
@@ -751,14 +803,14 @@ mod tests {
         }
         assert_eq!(tree.len(), gibake_asset::NODES_PER_VPL);
         let v = rec(Vec3::ZERO, Vec3::Y, area, 4.0, 64);
-        let lobes = super::VplLobes::of_tree(&tree);
+        let lobes = super::VplLobes::of_tree(&tree, &[]);
         let c = lobes.vpl;
         let (ns, dir) = (
             Vec3::new(0.2, -1.0, 0.1).normalize(),
             Vec3::new(0.6, 0.5, 0.62).normalize(),
         );
         let at = |k: f32| dir * (k * radius);
-        for k in [4.5f32, 6.0, 7.9] {
+        for k in [8.5f32, 12.0, 15.9] {
             let x = at(k);
             let got = static_vpl_terms(&v, Vec3::ZERO, &tree, &lobes, x, ns, ns);
             let nodes: Vec3 = (0..4)
@@ -787,7 +839,7 @@ mod tests {
                 "{k} radii: {lobe:?}, {cosine:?}"
             );
         }
-        for k in [8.1f32, 20.0] {
+        for k in [16.1f32, 40.0] {
             let x = at(k);
             let got = static_vpl_terms(&v, Vec3::ZERO, &tree, &lobes, x, ns, ns);
             // Drawn from its facing point: its quadrants face four ways,
@@ -802,11 +854,12 @@ mod tests {
             let disk = lobe_irradiance(p, Vec3::Y, c, area, Vec3::splat(4.0), x, ns, ns);
             assert_eq!(got.shadowed, disk, "{k} radii: one disk");
         }
-        assert_eq!(FAR_FIELD_RATIO, 2.0 * NEAR_FIELD_RATIO);
+        assert_eq!(FAR_FIELD_RATIO, 2.0 * DESCENT_RATIO);
+        assert_eq!(DESCENT_RATIO, 2.0 * NEAR_FIELD_RATIO);
     }
 
     /// The open share of a finest node's light is 1 in its own near field,
-    /// 0 from twice that (where the parent's shadowed disk takes over),
+    /// 0 from twice that (where its own disk is map-tested),
     /// continuous and falling between, and 0 for a node without area.
     #[test]
     fn open_weight_fades_from_the_nodes_near_field_to_its_parents() {
@@ -854,7 +907,7 @@ mod tests {
             ] {
                 let n = Vec3::Y;
                 let exact = square_irradiance(s, h, x, n);
-                let kernel = f64::from(near_node_irradiance(&node, x, n, n).x);
+                let kernel = f64::from(near_node_irradiance(&node, 1.0, x, n, n).x);
                 let disk = f64::from(disk_irradiance(p, Vec3::X, s * s, Vec3::ONE, x, n, n).x);
                 assert!(
                     (kernel / exact - 1.0).abs() < 2e-3,
@@ -879,7 +932,7 @@ mod tests {
         let (x, n) = (Vec3::new(0.4, 0.5, 0.1), Vec3::new(-1.0, 0.0, 0.0));
         assert!(n.dot(nv).abs() >= CREASE_HI);
         assert_eq!(
-            near_node_irradiance(&node, x, n, n),
+            near_node_irradiance(&node, 1.0, x, n, n),
             disk_irradiance(p, nv, node.area, Vec3::ONE, x, n, n)
         );
     }
