@@ -1394,6 +1394,7 @@ fn owned_names(dir: &Path) -> Vec<String> {
         FILE_RSM,
         FILE_LIGHT_MAPS,
         FILE_VIEW_RSMS,
+        FILE_VPL_COHERENCE,
     ]
     .iter()
     .map(|s| s.to_string())

@@ -20,9 +20,10 @@ pub const NEAR_FIELD_RATIO: f32 = 4.0;
 /// session 19: beyond the disk's own near field, a cluster's parts still
 /// send their light from where each is and the way each faces (the cosine
 /// at the receiver varies across the cluster), which the parent's one
-/// disk misses: on the real levels the error falls on nine of eleven
-/// scenes for about 1.4× the disk evaluations (docs/method.md, "Descent
-/// ratio").
+/// disk misses: in this twin with exact visibility the error fell on six
+/// of eleven scenes and rose on two (the arena, the cave) for 1.4–1.9× the
+/// disk evaluations (docs/method.md, "Descent ratio"). The runtime's
+/// default (`RenderSettings::near_field_descent`); the twin draws only it.
 pub const DESCENT_RATIO: f32 = 2.0 * NEAR_FIELD_RATIO;
 
 /// A static VPL is drawn as one disk only beyond this many of its disk
