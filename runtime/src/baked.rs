@@ -160,10 +160,14 @@ impl BakedGpu {
         // rather than per pixel and VPL in the shader; a record with no
         // stored map says so; its `texels` carries its far-field lobe
         // coherence, from its own near-field tree (`GpuVpl::texels`).
+        // Each VPL's lobes and facing shifts, from its tree with the
+        // level-3 normals weighted by their texels' coherence
+        // (`gibake_asset::tree_lobes`): sums over its texels.
+        let lobes = asset.tree_lobes();
         let vpls: Vec<GpuVpl> = asset
             .vpls
             .iter()
-            .zip(asset.lobe_coherences())
+            .zip(lobes.iter().map(|l| l.vpl))
             .map(|(v, lobe)| {
                 let n = Vec3::from_array(v.normal);
                 let o = gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
@@ -175,11 +179,6 @@ impl BakedGpu {
                 }
             })
             .collect();
-        // Each VPL's tree with its level-3 normals weighted by their texels'
-        // coherence (`gibake_asset::texel_tree`): the lobes and facing
-        // shifts below are sums over its texels.
-        let texel_trees: Vec<Vec<VplRecord>> =
-            (0..asset.vpls.len()).map(|i| asset.texel_tree(i)).collect();
         // A node's `texels` carries its lobe coherence (`GpuVpl::texels`; at
         // least 1, as 0 marks an empty node): a level-1 or level-2 node's
         // from the texels under it, a level-3 node's its texels' own
@@ -187,11 +186,10 @@ impl BakedGpu {
         let nodes: Vec<GpuVpl> = asset
             .vpl_nodes
             .chunks(NODES_PER_VPL)
-            .zip(&texel_trees)
+            .zip(&lobes)
             .enumerate()
-            .flat_map(|(i, (tree, texel_tree))| {
-                let lobes = gibake_asset::node_lobe_coherences(texel_tree);
-                let level3 = asset.level3_coherence(i);
+            .flat_map(|(i, (tree, lobes))| {
+                let (lobes, level3) = (&lobes.nodes, asset.level3_coherence(i));
                 tree.iter().enumerate().map(move |(k, n)| {
                     let mut g = gpu_vpl(n);
                     let c = match k.checked_sub(NODES_PER_VPL - LEVEL3_NODES) {
@@ -205,12 +203,6 @@ impl BakedGpu {
                 })
             })
             .collect();
-        // Each VPL's facing shifts (`gibake_asset::facings`: its own, then
-        // its level-1 and level-2 nodes').
-        let facings: Vec<[gibake_asset::Facing; gibake_asset::FACINGS_PER_VPL]> = texel_trees
-            .iter()
-            .map(|t| gibake_asset::facings(t))
-            .collect();
         // Where each VPL is drawn from afar: its texels' centroid
         // (`gibake_asset::far_field_centre`), else its map origin; the rest
         // of the record is its own facing shift's F, by columns in
@@ -219,9 +211,9 @@ impl BakedGpu {
         let far: Vec<GpuVpl> = vpls
             .iter()
             .zip(asset.far_field_centres())
-            .zip(&facings)
-            .map(|((v, c), f)| {
-                let [c0, c1, c2] = f[0].cols;
+            .zip(&lobes)
+            .map(|((v, c), l)| {
+                let [c0, c1, c2] = l.facings[0].cols;
                 GpuVpl {
                     position: c.unwrap_or(v.position),
                     area: c2[0],
@@ -235,10 +227,10 @@ impl BakedGpu {
         // The level-1 and level-2 nodes' facing shifts (FACING_NODES per
         // VPL), F by columns in `position`, `normal` and `flux` (shade.wgsl
         // `node_facing`).
-        let node_facings: Vec<GpuVpl> = facings
+        let node_facings: Vec<GpuVpl> = lobes
             .iter()
-            .flat_map(|f| {
-                f[1..].iter().map(|f| GpuVpl {
+            .flat_map(|l| {
+                l.facings[1..].iter().map(|f| GpuVpl {
                     position: f.cols[0],
                     area: 0.0,
                     normal: f.cols[1],

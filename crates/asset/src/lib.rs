@@ -120,6 +120,31 @@ pub fn texel_tree(nodes: &[VplRecord], coherence: &[f32]) -> Vec<VplRecord> {
     out
 }
 
+/// What shading draws a static VPL's far-field disks with: the lobe
+/// coherence of the VPL's one disk ([`lobe_coherence`]) and of its level-1
+/// and level-2 nodes ([`node_lobe_coherences`]), and their facing shifts
+/// ([`facings`]), all from its [`texel_tree`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TreeLobes {
+    /// The VPL's, where it is drawn as one disk.
+    pub vpl: f32,
+    /// Its level-1 and level-2 nodes', in tree order.
+    pub nodes: [f32; 4 + 16],
+    /// Facing shifts: the VPL's, then its level-1 and level-2 nodes'.
+    pub facings: [Facing; FACINGS_PER_VPL],
+}
+
+/// [`TreeLobes`] of a VPL with near-field tree `nodes` and level-3
+/// coherences `coherence` (see [`texel_tree`]).
+pub fn tree_lobes(nodes: &[VplRecord], coherence: &[f32]) -> TreeLobes {
+    let t = texel_tree(nodes, coherence);
+    TreeLobes {
+        vpl: lobe_coherence(&t),
+        nodes: node_lobe_coherences(&t),
+        facings: facings(&t),
+    }
+}
+
 /// How well one cosine lobe stands for a VPL's texels: the flux-weighted
 /// coherence `c = |Σ Φₖ nₖ| / Σ Φₖ` of the deepest level of its near-field
 /// tree `nodes` ([`NODES_PER_VPL`] records; fewer: 1). 1 where every node
@@ -647,13 +672,20 @@ pub struct Asset {
 }
 
 impl Asset {
-    /// Each VPL's far-field lobe coherence ([`lobe_coherence`] of its
-    /// near-field tree), in VPL order: what shading uses where it draws a
-    /// VPL as one disk (1 for a VPL without a full tree).
-    pub fn lobe_coherences(&self) -> Vec<f32> {
+    /// Each VPL's [`TreeLobes`] ([`tree_lobes`] of its near-field tree and
+    /// level-3 coherences), in VPL order: what shading draws its far-field
+    /// disks with, computed once per VPL at load.
+    pub fn tree_lobes(&self) -> Vec<TreeLobes> {
         (0..self.vpls.len())
-            .map(|i| lobe_coherence(&self.texel_tree(i)))
+            .map(|i| tree_lobes(self.tree(i), self.level3_coherence(i)))
             .collect()
+    }
+
+    /// VPL `i`'s near-field tree as stored (empty where it has none).
+    pub fn tree(&self, i: usize) -> &[VplRecord] {
+        self.vpl_nodes
+            .get(i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL)
+            .unwrap_or(&[])
     }
 
     /// VPL `i`'s level-3 coherences (empty where the asset has none).
@@ -666,11 +698,7 @@ impl Asset {
     /// VPL `i`'s near-field tree as [`texel_tree`] (empty where it has
     /// none): what its lobes and facing shifts are computed from.
     pub fn texel_tree(&self, i: usize) -> Vec<VplRecord> {
-        let tree = self
-            .vpl_nodes
-            .get(i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL)
-            .unwrap_or(&[]);
-        texel_tree(tree, self.level3_coherence(i))
+        texel_tree(self.tree(i), self.level3_coherence(i))
     }
 
     /// Each VPL's far-field centre ([`far_field_centre`] of its near-field

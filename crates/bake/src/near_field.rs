@@ -178,17 +178,7 @@ pub fn vpl_nodes_and_coherence(
             s.count += 1;
         }
     }
-    // 1 for a node stored empty (whatever its sums), as the format asks.
-    let coherence: Vec<f32> = leaf
-        .iter()
-        .map(|s| {
-            if s.record().texels == 0 {
-                1.0
-            } else {
-                s.coherence()
-            }
-        })
-        .collect();
+    let mut coherence: Vec<f32> = leaf.iter().map(Sums::coherence).collect();
     let mut out = vec![Sums::default().record(); NODES_PER_VPL];
     let mut cur = leaf;
     for l in (1..=levels).rev() {
@@ -205,6 +195,12 @@ pub fn vpl_nodes_and_coherence(
                 }
             }
             cur = up;
+        }
+    }
+    // 1 for a node stored empty (whatever its sums), as the format asks.
+    for (c, n) in coherence.iter_mut().zip(&out[level_offset(levels)..]) {
+        if n.texels == 0 {
+            *c = 1.0;
         }
     }
     (out, coherence)

@@ -15,19 +15,20 @@ use glam::Vec3;
 pub const NEAR_FIELD_RATIO: f32 = 4.0;
 
 /// A VPL or a level-1 or level-2 node is replaced by its children where the
-/// receiver is nearer than this many of its disk radii (must match
-/// `DESCENT_RATIO` in shade.wgsl). Twice [`NEAR_FIELD_RATIO`] since
+/// receiver is nearer than this many of its disk radii (the runtime's
+/// default `RenderSettings::near_field_descent`, checked by the constants
+/// test below). Twice [`NEAR_FIELD_RATIO`] since
 /// session 19: beyond the disk's own near field, a cluster's parts still
 /// send their light from where each is and the way each faces (the cosine
 /// at the receiver varies across the cluster), which the parent's one
 /// disk misses: in this twin with exact visibility the error fell on six
 /// of eleven scenes and rose on two (the arena, the cave) for 1.4–1.9× the
-/// disk evaluations (docs/method.md, "Descent ratio"). The runtime's
-/// default (`RenderSettings::near_field_descent`); the twin draws only it.
+/// disk evaluations (docs/method.md, "Descent ratio"). The twin draws
+/// only this default.
 pub const DESCENT_RATIO: f32 = 2.0 * NEAR_FIELD_RATIO;
 
 /// A static VPL is drawn as one disk only beyond this many of its disk
-/// radii (must match `FAR_FIELD_RATIO` in shade.wgsl); nearer, as its
+/// radii (twice the descent, shade.wgsl `in_far_field`); nearer, as its
 /// near-field tree, whose level-1 nodes stand for it between
 /// [`DESCENT_RATIO`] and this. Twice the descent: a cluster of
 /// texels facing different ways (a crown, a rock) sends its light from
@@ -155,18 +156,18 @@ impl Default for VplLobes {
 impl VplLobes {
     /// The coherences and facing shifts of a VPL whose near-field tree is
     /// `tree` and whose level-3 nodes' texel coherences are `coherence`
-    /// (empty: 1), from its [`gibake_asset::texel_tree`] as `baked.rs`
-    /// computes them at load.
+    /// (empty: 1): [`gibake_asset::tree_lobes`], as `baked.rs` computes
+    /// them at load.
     pub fn of_tree(tree: &[VplRecord], coherence: &[f32]) -> Self {
-        let texels = gibake_asset::texel_tree(tree, coherence);
+        let l = gibake_asset::tree_lobes(tree, coherence);
         let mut level3 = [1.0; gibake_asset::LEVEL3_NODES];
         if coherence.len() == level3.len() {
             level3.copy_from_slice(coherence);
         }
         VplLobes {
-            vpl: gibake_asset::lobe_coherence(&texels),
-            nodes: gibake_asset::node_lobe_coherences(&texels),
-            facings: gibake_asset::facings(&texels),
+            vpl: l.vpl,
+            nodes: l.nodes,
+            facings: l.facings,
             level3,
         }
     }
@@ -461,9 +462,6 @@ pub struct TwinVpls<'a> {
     pub vpls: &'a [VplRecord],
     /// Their near-field trees ([`NODES_PER_VPL`] each, in the same order).
     pub nodes: &'a [VplRecord],
-    /// Their level-3 nodes' texel coherences
-    /// ([`gibake_asset::LEVEL3_NODES`] each; empty: none, cosine lobes).
-    pub coherence: &'a [f32],
     /// Per VPL: its lobe coherences and facing shifts.
     pub lobes: Vec<VplLobes>,
     /// Per VPL: its map origin.
@@ -490,7 +488,6 @@ impl<'a> TwinVpls<'a> {
         let mut twin = TwinVpls {
             vpls,
             nodes,
-            coherence,
             lobes: Vec::new(),
             origins,
             centres: Vec::new(),
