@@ -1,5 +1,6 @@
 //! [`diff`]: compares two assets under a [`Tolerance`] (settings, scene hash,
-//! light view, VPL sets, every map) and reports what differs
+//! light view, VPL sets, their near-field trees and coherences, every map)
+//! and reports what differs
 //! ([`DiffReport`], `Display` + `Serialize`); [`write_diff_images`] writes
 //! `|A − B|` EXRs of the maps that differ.
 
@@ -146,6 +147,47 @@ pub struct VplDiff {
     pub within_tolerance: bool,
 }
 
+/// Comparison of the matched VPLs' near-field trees (`vpl_nodes.bin`) and
+/// their level-3 nodes' texel coherences (`vpl_coherence.bin`): shading
+/// draws a VPL near a receiver from these, so two bakes whose VPLs agree
+/// but whose trees do not render differently. Node records are held to the
+/// VPL tolerances (position against the scene diagonal, normal, flux and
+/// area); a coherence to `map_rel` (`|a − b| ≤ map_rel · max(|a|, |b|)`).
+/// An asset without coherences (format 4.0, 4.1) counts as all 1, as it
+/// renders.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TreeDiff {
+    /// Whether both assets have a tree for every VPL (else see `note`).
+    pub comparable: bool,
+    /// Matched VPL pairs whose trees were compared.
+    pub pairs: usize,
+    /// Node records compared.
+    pub nodes: u64,
+    /// Node records over tolerance.
+    pub nodes_over: u64,
+    /// Largest position difference of a node, relative to the diagonal.
+    pub max_position_rel: f64,
+    /// Largest normal difference of a node (degrees; nodes with texels).
+    pub max_normal_deg: f64,
+    /// Largest relative flux (or area) difference of a node.
+    pub max_flux_rel: f64,
+    /// Level-3 coherences compared.
+    pub coherences: u64,
+    /// Coherences over tolerance.
+    pub coherences_over: u64,
+    /// Largest absolute coherence difference.
+    pub max_coherence_diff: f64,
+    /// The A index of the VPL with the most nodes and coherences over
+    /// tolerance (`None` when none is).
+    pub worst_vpl: Option<usize>,
+    /// Nodes and coherences over tolerance in that VPL.
+    pub worst_vpl_over: u64,
+    /// Why not comparable, if so.
+    pub note: String,
+    /// Comparable and nothing over tolerance.
+    pub within_tolerance: bool,
+}
+
 /// Comparison of one map (or one RSM channel, or all hemisphere maps).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MapDiff {
@@ -199,6 +241,8 @@ pub struct DiffReport {
     pub light_view: Vec<FieldDiff>,
     /// The VPL sets.
     pub vpls: VplDiff,
+    /// The matched VPLs' near-field trees and coherences.
+    pub trees: TreeDiff,
     /// Every map.
     pub maps: Vec<MapDiff>,
     /// One line per difference that counts; empty when equal.
@@ -540,6 +584,91 @@ fn mismatch(a: Option<usize>, b: Option<usize>, position: [f32; 3]) -> VplMismat
         flux_rel: 0.0,
         area_rel: 0.0,
     }
+}
+
+// ---------------------------------------------------------------- trees
+
+fn compare_trees(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> TreeDiff {
+    let mut d = TreeDiff {
+        comparable: true,
+        pairs: 0,
+        nodes: 0,
+        nodes_over: 0,
+        max_position_rel: 0.0,
+        max_normal_deg: 0.0,
+        max_flux_rel: 0.0,
+        coherences: 0,
+        coherences_over: 0,
+        max_coherence_diff: 0.0,
+        worst_vpl: None,
+        worst_vpl_over: 0,
+        note: String::new(),
+        within_tolerance: true,
+    };
+    let has_trees = |x: &Asset| x.vpl_nodes.len() == x.vpls.len() * crate::NODES_PER_VPL;
+    match (has_trees(a), has_trees(b)) {
+        (true, true) => {}
+        (ta, tb) => {
+            if ta == tb && a.vpl_nodes.is_empty() && b.vpl_nodes.is_empty() {
+                // Neither has trees: nothing to compare, nothing differs.
+                d.note = "neither asset has near-field trees".into();
+                return d;
+            }
+            d.comparable = false;
+            d.within_tolerance = false;
+            let side = |t: bool| {
+                if t {
+                    "a tree per VPL"
+                } else {
+                    "no tree per VPL"
+                }
+            };
+            d.note = format!("A has {}, B {}", side(ta), side(tb));
+            return d;
+        }
+    }
+    // Missing coherences read as 1 (a 4.0 or 4.1 asset renders so).
+    let coherence =
+        |x: &Asset, i: usize, k: usize| x.level3_coherence(i).get(k).copied().unwrap_or(1.0);
+    for &(i, j) in &m.pairs {
+        d.pairs += 1;
+        let mut over = 0u64;
+        for (na, nb) in a.tree(i).iter().zip(b.tree(j)) {
+            d.nodes += 1;
+            let p = dist(pos(na), pos(nb)) / m.diag;
+            let n = if na.texels == 0 && nb.texels == 0 {
+                0.0
+            } else {
+                angle_deg(na.normal, nb.normal)
+            };
+            let f = rel3(na.flux, nb.flux).max(rel(na.area as f64, nb.area as f64));
+            d.max_position_rel = d.max_position_rel.max(p);
+            d.max_normal_deg = d.max_normal_deg.max(n);
+            d.max_flux_rel = d.max_flux_rel.max(f);
+            if p > tol.vpl_position_rel as f64
+                || n > tol.vpl_normal_deg as f64
+                || f > tol.vpl_flux_rel as f64
+            {
+                over += 1;
+            }
+        }
+        d.nodes_over += over;
+        for k in 0..crate::LEVEL3_NODES {
+            let (ca, cb) = (coherence(a, i, k), coherence(b, j, k));
+            d.coherences += 1;
+            let diff = (f64::from(ca) - f64::from(cb)).abs();
+            d.max_coherence_diff = d.max_coherence_diff.max(diff);
+            if diff > f64::from(tol.map_rel) * f64::from(ca.abs().max(cb.abs())) {
+                d.coherences_over += 1;
+                over += 1;
+            }
+        }
+        if over > d.worst_vpl_over {
+            (d.worst_vpl, d.worst_vpl_over) = (Some(i), over);
+        }
+    }
+    d.within_tolerance = d.nodes_over == 0 && d.coherences_over == 0;
+    d
 }
 
 // ---------------------------------------------------------------- maps
@@ -1049,6 +1178,26 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
         ));
     }
 
+    let trees = compare_trees(a, b, &matching, tol);
+    if !trees.comparable {
+        differences.push(format!("near-field trees: not comparable ({})", trees.note));
+    } else if !trees.within_tolerance {
+        let worst = trees.worst_vpl.map_or(String::new(), |i| {
+            format!("; worst VPL A#{i}, {} over", trees.worst_vpl_over)
+        });
+        differences.push(format!(
+            "near-field trees of matched VPLs: {} of {} nodes and {} of {} level-3 coherences over tolerance (max position {:.3e} of the diagonal, normal {:.3}°, flux {:.3e}, coherence {:.3e}{worst})",
+            trees.nodes_over,
+            trees.nodes,
+            trees.coherences_over,
+            trees.coherences,
+            trees.max_position_rel,
+            trees.max_normal_deg,
+            trees.max_flux_rel,
+            trees.max_coherence_diff
+        ));
+    }
+
     let maps = compare_maps(a, b, &matching, tol);
     for m in maps.iter().filter(|m| !m.within_tolerance) {
         if m.comparable {
@@ -1080,6 +1229,7 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
         lights,
         light_view,
         vpls,
+        trees,
         maps,
         differences,
     }
@@ -1194,6 +1344,29 @@ impl fmt::Display for DiffReport {
                 }
                 _ => writeln!(f, "  VPL B#{} at {:?}: no match in A", idx(w.b), w.position)?,
             }
+        }
+        let t = &self.trees;
+        if !t.comparable {
+            writeln!(f, "near-field trees: not comparable: {}", t.note)?;
+        } else if t.pairs > 0 {
+            writeln!(
+                f,
+                "near-field trees: {} nodes of {} matched VPLs, over {}; position max {:.3e}, normal max {:.3}°, flux max {:.3e}; level-3 coherences {}, over {}, max diff {:.3e}  {}",
+                t.nodes,
+                t.pairs,
+                t.nodes_over,
+                t.max_position_rel,
+                t.max_normal_deg,
+                t.max_flux_rel,
+                t.coherences,
+                t.coherences_over,
+                t.max_coherence_diff,
+                if t.within_tolerance {
+                    "ok"
+                } else {
+                    "DIFFERENT"
+                }
+            )?;
         }
         writeln!(f, "maps:")?;
         for m in &self.maps {

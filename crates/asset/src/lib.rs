@@ -30,7 +30,8 @@ mod what;
 
 pub use atlas::{MapAtlas, atlas_grid};
 pub use diff::{
-    DiffReport, FieldDiff, MapDiff, Tolerance, VplDiff, VplMismatch, diff, write_diff_images,
+    DiffReport, FieldDiff, MapDiff, Tolerance, TreeDiff, VplDiff, VplMismatch, diff,
+    write_diff_images,
 };
 pub use error::AssetError;
 #[doc(hidden)]

@@ -27,7 +27,72 @@ fn identical_assets_are_equal() {
             ]
         );
         assert!(r.maps.iter().all(|m| m.over == 0 && m.max_abs == 0.0));
+        let t = &r.trees;
+        assert!(t.comparable && t.within_tolerance, "{r}");
+        assert_eq!(t.pairs, VPLS);
+        assert_eq!(t.nodes, (VPLS * NODES_PER_VPL) as u64);
+        assert_eq!(t.coherences, (VPLS * LEVEL3_NODES) as u64);
     }
+}
+
+#[test]
+fn a_changed_near_field_tree_or_coherence_is_reported() {
+    let a = sample_asset(false);
+    // A level-1 node of VPL 2 with more flux: the VPLs agree, the trees
+    // do not (shading draws that node near a receiver).
+    let mut b = a.clone();
+    b.vpl_nodes[2 * NODES_PER_VPL + 1].flux[0] *= 1.5;
+    let r = diff(&a, &b, &Tolerance::another_gpu());
+    assert!(!r.equal(), "{r}");
+    assert!(r.vpls.within_tolerance, "{r}");
+    assert_eq!((r.trees.nodes_over, r.trees.coherences_over), (1, 0));
+    assert_eq!(r.trees.worst_vpl, Some(2));
+    assert!(
+        r.differences
+            .iter()
+            .any(|d| d.starts_with("near-field trees")),
+        "{r}"
+    );
+    assert!(r.to_string().contains("worst VPL A#2"), "{r}");
+
+    // One level-3 coherence of VPL 4 lower: exact tolerance sees it, and
+    // so does another GPU's at this size.
+    let mut c = a.clone();
+    c.vpl_coherence[4 * LEVEL3_NODES + 63] = 0.5;
+    for tol in [Tolerance::same_machine(), Tolerance::another_gpu()] {
+        let r = diff(&a, &c, &tol);
+        assert!(!r.equal(), "{r}");
+        assert_eq!((r.trees.nodes_over, r.trees.coherences_over), (0, 1));
+        assert_eq!(r.trees.worst_vpl, Some(4));
+        assert!((r.trees.max_coherence_diff - 0.5).abs() < 1e-6, "{r}");
+    }
+    // Within another GPU's 1e-3: equal for it, not for the same machine.
+    let mut e = a.clone();
+    e.vpl_coherence[LEVEL3_NODES] = 1.0 - 1e-5;
+    assert!(diff(&a, &e, &Tolerance::another_gpu()).equal());
+    assert!(!diff(&a, &e, &Tolerance::same_machine()).equal());
+
+    // A 4.1 asset has no coherences and renders with 1: the same as an
+    // asset whose coherences are all 1, not as one with a 0.5.
+    let mut old = a.clone();
+    old.vpl_coherence.clear();
+    assert!(diff(&old, &a, &Tolerance::same_machine()).equal());
+    assert_eq!(
+        diff(&old, &c, &Tolerance::same_machine())
+            .trees
+            .coherences_over,
+        1
+    );
+
+    // No trees in one of them: not comparable, a difference.
+    let mut bare = a.clone();
+    bare.vpl_nodes.clear();
+    let r = diff(&a, &bare, &Tolerance::same_machine());
+    assert!(!r.trees.comparable && !r.equal(), "{r}");
+    assert!(
+        r.to_string().contains("near-field trees: not comparable"),
+        "{r}"
+    );
 }
 
 #[test]
@@ -330,6 +395,7 @@ fn reports_serialise_to_json() {
     assert_eq!(json["vpls"]["over_tolerance"], 1);
     assert_eq!(json["vpls"]["worst"][0]["a"], 2);
     assert_eq!(json["tolerance"]["vpl_normal_deg"], 1.0);
+    assert_eq!(json["trees"]["within_tolerance"], true);
     assert!(!json["differences"].as_array().unwrap().is_empty());
 }
 
