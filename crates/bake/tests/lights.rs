@@ -387,3 +387,29 @@ fn each_view_gets_rsm_texels_by_its_share_of_the_bounce() {
         );
     }
 }
+
+/// A sun's fit that cuts a ground round the level (the Blenvy level: a 94 m
+/// plane round 20 m of objects) warns, naming the ground's mesh and the
+/// share of the width its maps cover; the same level with a bake volume
+/// over all of it, and a point-lit room, do not.
+#[test]
+fn a_ground_cut_by_the_sun_s_fit_is_warned_about() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data/lights/blenvy_start_level/StartLevel.glb");
+    let mut scene = gibake_scene::load(&path, &Default::default()).expect("the Blenvy level");
+    let opts = gibake_bake::BakeOptions::default();
+    let warned = |scene: &Scene| {
+        let view = LightView::for_scene(scene, opts.shadow_map_size);
+        gibake_bake::bake::light_view_warnings(scene, &view, &opts)
+    };
+    let w = warned(&scene);
+    let cut: Vec<&String> = w.iter().filter(|m| m.contains("cut as a ground")).collect();
+    assert_eq!(cut.len(), 1, "{w:?}");
+    assert!(cut[0].contains("cover 30% of the level's width"), "{w:?}");
+    assert!(cut[0].contains("mesh 'Ground/"), "{w:?}");
+    scene.bake_volume = Some(scene.full_bounds());
+    let w = warned(&scene);
+    assert!(w.iter().all(|m| !m.contains("cut as a ground")), "{w:?}");
+    let room = closed_room(0.5, 1.0, point(Vec3::new(0.0, 1.0, 0.0), Vec3::ONE));
+    assert!(warned(&room).is_empty(), "{:?}", warned(&room));
+}

@@ -106,6 +106,16 @@ pub struct LightFit {
     pub left_out: usize,
     /// The first mesh with a triangle left out, for messages.
     pub left_out_mesh: Option<String>,
+    /// Static triangles the extent across the light cuts (partly inside,
+    /// partly outside: a ground plane round the core). Their part outside
+    /// gets no shadow and reflects no VPL light, and the sides of objects
+    /// near the extent's edge lose that part's bounce (module docs).
+    pub clipped: usize,
+    /// The first mesh with a triangle cut, for messages.
+    pub clipped_mesh: Option<String>,
+    /// The wider side across the light of every static surface (what
+    /// [`LightFit::width`] is when nothing is cut).
+    pub full_width: f32,
 }
 
 impl LightFit {
@@ -243,8 +253,8 @@ pub fn fit_light(scene: &Scene, light: &gibake_scene::Light) -> Option<LightFit>
     } else {
         (lo.z.min(mlo.z), hi.z.max(mhi.z))
     };
-    let mut left_out = 0;
-    let mut left_out_mesh = None;
+    let (mut left_out, mut clipped) = (0, 0);
+    let (mut left_out_mesh, mut clipped_mesh) = (None, None);
     if source != FitSource::All {
         let mut k = 0;
         for m in &scene.static_meshes {
@@ -254,6 +264,9 @@ pub fn fit_light(scene: &Scene, light: &gibake_scene::Light) -> Option<LightFit>
                 if thi.x < xy_lo.x || tlo.x > xy_hi.x || thi.y < xy_lo.y || tlo.y > xy_hi.y {
                     left_out += 1;
                     left_out_mesh.get_or_insert_with(|| m.name.clone());
+                } else if tlo.x < xy_lo.x || thi.x > xy_hi.x || tlo.y < xy_lo.y || thi.y > xy_hi.y {
+                    clipped += 1;
+                    clipped_mesh.get_or_insert_with(|| m.name.clone());
                 }
             }
         }
@@ -264,6 +277,9 @@ pub fn fit_light(scene: &Scene, light: &gibake_scene::Light) -> Option<LightFit>
         source,
         left_out,
         left_out_mesh,
+        clipped,
+        clipped_mesh,
+        full_width: (hi.x - lo.x).max(hi.y - lo.y),
     })
 }
 
@@ -371,7 +387,9 @@ mod tests {
             all.width()
         );
         // The plane's two triangles overlap the core: clipped, not left out.
-        assert_eq!(f.left_out, 0);
+        assert_eq!((f.left_out, f.clipped), (0, 2));
+        assert_eq!(f.clipped_mesh.as_deref(), Some("quad -6000..6000"));
+        assert!((f.full_width - all.width()).abs() <= 1e-3 * all.width());
         for s in [1e-3f32, 1e3] {
             let g = fit(&scene(town.clone(), s)).unwrap();
             assert_eq!(g.source, f.source, "scale {s}");
