@@ -121,7 +121,7 @@ fn check(what: &str, v: u32, max: u32) -> Result<(), BakeError> {
 }
 
 /// What a user should know about the light's maps of `scene`: static
-/// triangles the directional fit leaves out (a distant ground plane) or
+/// triangles a directional light's fit (each one's) leaves out (a distant ground plane) or
 /// cuts (a ground round the level: the objects near the view's edge lose
 /// part of their bounce light), and a shadow-map texel coarse against the
 /// level's geometry (wider than half the median edge of the static
@@ -129,32 +129,33 @@ fn check(what: &str, v: u32, max: u32) -> Result<(), BakeError> {
 /// dimensionless tests.
 pub fn light_view_warnings(scene: &Scene, view: &LightView, opts: &BakeOptions) -> Vec<String> {
     let mut out = Vec::new();
-    let fit = gibake_gpu::light_fit::fit(scene);
-    if let Some(f) = &fit
-        && f.source == gibake_gpu::light_fit::FitSource::WithoutOutliers
-        && f.clipped > 0
-    {
-        out.push(format!(
-            "the directional light's maps cover {:.0}% of the level's width across the light ({:.4e} of {:.4e} scene units): {} large triangle(s), first in mesh '{}', are cut as a ground round the level; beyond the cut they reflect no bounce light, and objects standing near the edge of the covered part lose some of theirs (measured: 4% on the Blenvy level's most lit receivers, docs/results.md); give --bake-volume or mark a node with extras {{\"bake_volume\": true}} to choose the covered part",
-            100.0 * f.width() / f.full_width.max(f32::MIN_POSITIVE),
-            f.width(),
-            f.full_width,
-            f.clipped,
-            f.clipped_mesh.as_deref().unwrap_or_default()
-        ));
-    }
-    if let Some(f) = fit
-        && f.left_out > 0
-    {
-        let how = match f.source {
-            gibake_gpu::light_fit::FitSource::BakeVolume => "outside the bake volume",
-            _ => "far outside the rest of the level (outliers such as a distant ground plane)",
+    // Every directional light's own fit (a second sun has its own view).
+    for light in &scene.lights {
+        let Some(f) = gibake_gpu::light_fit::fit_light(scene, light) else {
+            continue;
         };
-        out.push(format!(
-                "{} static triangle(s) lie {how}, first in mesh '{}': the light's shadow map and RSM leave them out (they get unshadowed direct light and bounce none); give --bake-volume or mark a node with extras {{\"bake_volume\": true}} to choose the covered part",
-                f.left_out,
-                f.left_out_mesh.unwrap_or_default()
+        let name = &light.name;
+        if f.source == gibake_gpu::light_fit::FitSource::WithoutOutliers && f.clipped > 0 {
+            out.push(format!(
+                "directional light '{name}': its maps cover {:.0}% of the level's width across the light ({:.4e} of {:.4e} scene units): {} large triangle(s), first in mesh '{}', are cut as a ground round the level; beyond the cut they reflect no bounce light, and objects standing near the edge of the covered part lose some of theirs (measured: 4% on the Blenvy level's most lit receivers, docs/results.md); give --bake-volume or mark a node with extras {{\"bake_volume\": true}} to choose the covered part",
+                100.0 * f.width() / f.full_width.max(f32::MIN_POSITIVE),
+                f.width(),
+                f.full_width,
+                f.clipped,
+                f.clipped_mesh.as_deref().unwrap_or_default()
             ));
+        }
+        if f.left_out > 0 {
+            let how = match f.source {
+                gibake_gpu::light_fit::FitSource::BakeVolume => "outside the bake volume",
+                _ => "far outside the rest of the level (outliers such as a distant ground plane)",
+            };
+            out.push(format!(
+                "directional light '{name}': {} static triangle(s) lie {how}, first in mesh '{}': its shadow map and RSM leave them out (they get unshadowed direct light and bounce none); give --bake-volume or mark a node with extras {{\"bake_volume\": true}} to choose the covered part",
+                f.left_out,
+                f.left_out_mesh.as_deref().unwrap_or_default()
+            ));
+        }
     }
     if view.directional {
         let mut edges: Vec<f32> = Vec::new();

@@ -407,6 +407,20 @@ fn a_ground_cut_by_the_sun_s_fit_is_warned_about() {
     assert_eq!(cut.len(), 1, "{w:?}");
     assert!(cut[0].contains("cover 30% of the level's width"), "{w:?}");
     assert!(cut[0].contains("mesh 'Ground/"), "{w:?}");
+    assert!(cut[0].starts_with("directional light 'Light.001'"), "{w:?}");
+    // A second sun, not the first light: its own fit is judged too.
+    let mut spot_first = scene.clone();
+    spot_first.lights.rotate_left(1);
+    assert_ne!(
+        spot_first.lights[0].kind,
+        gibake_scene::LightKind::Directional
+    );
+    let w2 = warned(&spot_first);
+    assert_eq!(
+        w2.iter().filter(|m| m.contains("cut as a ground")).count(),
+        1,
+        "{w2:?}"
+    );
     scene.bake_volume = Some(scene.full_bounds());
     let w = warned(&scene);
     assert!(w.iter().all(|m| !m.contains("cut as a ground")), "{w:?}");
