@@ -499,6 +499,34 @@ fn angle_deg(a: [f32; 3], b: [f32; 3]) -> f64 {
     dist(cross, [0.0; 3]).atan2(dot).to_degrees()
 }
 
+/// How far apart two VPL or near-field node records are: position
+/// (relative to the scene diagonal), normal (degrees), flux and area
+/// (relative); the VPL tolerances judge all four.
+struct RecordDelta {
+    position: f64,
+    normal: f64,
+    flux: f64,
+    area: f64,
+}
+
+impl RecordDelta {
+    fn of(a: &VplRecord, b: &VplRecord, diag: f64) -> Self {
+        RecordDelta {
+            position: dist(pos(a), pos(b)) / diag,
+            normal: angle_deg(a.normal, b.normal),
+            flux: rel3(a.flux, b.flux),
+            area: rel(a.area as f64, b.area as f64),
+        }
+    }
+
+    fn over(&self, tol: &Tolerance) -> bool {
+        self.position > tol.vpl_position_rel as f64
+            || self.normal > tol.vpl_normal_deg as f64
+            || self.flux > tol.vpl_flux_rel as f64
+            || self.area > tol.vpl_flux_rel as f64
+    }
+}
+
 fn compare_vpls(a: &[VplRecord], b: &[VplRecord], m: &Matching, tol: &Tolerance) -> VplDiff {
     let mut d = VplDiff {
         count_a: a.len(),
@@ -537,10 +565,8 @@ fn compare_vpls(a: &[VplRecord], b: &[VplRecord], m: &Matching, tol: &Tolerance)
     };
     for &(i, j) in &m.pairs {
         let (va, vb) = (&a[i], &b[j]);
-        let p = dist(pos(va), pos(vb)) / m.diag;
-        let n = angle_deg(va.normal, vb.normal);
-        let f = rel3(va.flux, vb.flux);
-        let ar = rel(va.area as f64, vb.area as f64);
+        let delta = RecordDelta::of(va, vb, m.diag);
+        let (p, n, f, ar) = (delta.position, delta.normal, delta.flux, delta.area);
         d.max_position_rel = d.max_position_rel.max(p);
         d.max_normal_deg = d.max_normal_deg.max(n);
         d.max_flux_rel = d.max_flux_rel.max(f);
@@ -549,11 +575,7 @@ fn compare_vpls(a: &[VplRecord], b: &[VplRecord], m: &Matching, tol: &Tolerance)
         if va.texels != vb.texels {
             d.texel_count_differs += 1;
         }
-        let over = p > tol.vpl_position_rel as f64
-            || n > tol.vpl_normal_deg as f64
-            || f > tol.vpl_flux_rel as f64
-            || ar > tol.vpl_flux_rel as f64;
-        if over {
+        if delta.over(tol) {
             d.over_tolerance += 1;
             let s = score(p, tol.vpl_position_rel)
                 .max(score(n, tol.vpl_normal_deg))
@@ -608,12 +630,12 @@ fn compare_trees(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> TreeDif
     let has_trees = |x: &Asset| x.vpl_nodes.len() == x.vpls.len() * crate::NODES_PER_VPL;
     match (has_trees(a), has_trees(b)) {
         (true, true) => {}
+        _ if a.vpl_nodes.is_empty() && b.vpl_nodes.is_empty() => {
+            // Neither has trees: nothing to compare, nothing differs.
+            d.note = "neither asset has near-field trees".into();
+            return d;
+        }
         (ta, tb) => {
-            if ta == tb && a.vpl_nodes.is_empty() && b.vpl_nodes.is_empty() {
-                // Neither has trees: nothing to compare, nothing differs.
-                d.note = "neither asset has near-field trees".into();
-                return d;
-            }
             d.comparable = false;
             d.within_tolerance = false;
             let side = |t: bool| {
@@ -635,20 +657,15 @@ fn compare_trees(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> TreeDif
         let mut over = 0u64;
         for (na, nb) in a.tree(i).iter().zip(b.tree(j)) {
             d.nodes += 1;
-            let p = dist(pos(na), pos(nb)) / m.diag;
-            let n = if na.texels == 0 && nb.texels == 0 {
-                0.0
-            } else {
-                angle_deg(na.normal, nb.normal)
-            };
-            let f = rel3(na.flux, nb.flux).max(rel(na.area as f64, nb.area as f64));
-            d.max_position_rel = d.max_position_rel.max(p);
-            d.max_normal_deg = d.max_normal_deg.max(n);
-            d.max_flux_rel = d.max_flux_rel.max(f);
-            if p > tol.vpl_position_rel as f64
-                || n > tol.vpl_normal_deg as f64
-                || f > tol.vpl_flux_rel as f64
-            {
+            let mut delta = RecordDelta::of(na, nb, m.diag);
+            if na.texels == 0 && nb.texels == 0 {
+                // Two empty nodes: their normals mean nothing.
+                delta.normal = 0.0;
+            }
+            d.max_position_rel = d.max_position_rel.max(delta.position);
+            d.max_normal_deg = d.max_normal_deg.max(delta.normal);
+            d.max_flux_rel = d.max_flux_rel.max(delta.flux.max(delta.area));
+            if delta.over(tol) {
                 over += 1;
             }
         }

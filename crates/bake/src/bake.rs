@@ -121,8 +121,8 @@ fn check(what: &str, v: u32, max: u32) -> Result<(), BakeError> {
 }
 
 /// What a user should know about the light's maps of `scene`: static
-/// triangles a directional light's fit (each one's) leaves out (a distant ground plane) or
-/// cuts (a ground round the level: the objects near the view's edge lose
+/// triangles each directional light's fit leaves out (a distant ground
+/// plane) or cuts (a ground round the level: the objects near the view's edge lose
 /// part of their bounce light), and a shadow-map texel coarse against the
 /// level's geometry (wider than half the median edge of the static
 /// triangles inside the view: shadows will be blurred or leak). All are
@@ -137,7 +137,7 @@ pub fn light_view_warnings(scene: &Scene, view: &LightView, opts: &BakeOptions) 
         let name = &light.name;
         if f.source == gibake_gpu::light_fit::FitSource::WithoutOutliers && f.clipped > 0 {
             out.push(format!(
-                "directional light '{name}': its maps cover {:.0}% of the level's width across the light ({:.4e} of {:.4e} scene units): {} large triangle(s), first in mesh '{}', are cut as a ground round the level; beyond the cut they reflect no bounce light, and objects standing near the edge of the covered part lose some of theirs (measured: 4% on the Blenvy level's most lit receivers, docs/results.md); give --bake-volume or mark a node with extras {{\"bake_volume\": true}} to choose the covered part",
+                "directional light '{name}': its maps cover {:.0}% of the level's width across the light ({:.4e} of {:.4e} scene units): {} large triangle(s), first in mesh '{}', are cut as a ground round the level; beyond the cut they reflect no bounce light, and objects standing near the edge of the covered part lose some of theirs (docs/method.md, section 1 of the bake); give --bake-volume or mark a node with extras {{\"bake_volume\": true}} to choose the covered part",
                 100.0 * f.width() / f.full_width.max(f32::MIN_POSITIVE),
                 f.width(),
                 f.full_width,
