@@ -191,7 +191,7 @@ impl Grid {
                 budgets: vec![64, 250],
                 maps: vec![64],
                 map_sweep_budgets: vec![],
-                full_il: vec![1, 4],
+                full_il: vec![1, 2, 4, 8],
                 other_il: vec![1],
                 naive_max: 64,
                 cpu_spps: vec![16],
