@@ -385,6 +385,7 @@ impl ShadePass {
         view: &wgpu::BindGroup,
         gi: &ShadeGi,
         size: [u32; 2],
+        interleave: u32,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         let pipeline = match (gi.many, self.many.get()) {
@@ -398,8 +399,29 @@ impl ShadePass {
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, view, &[]);
         pass.set_bind_group(1, &gi.group, &[]);
-        pass.dispatch_workgroups(size[0].div_ceil(8), size[1].div_ceil(8), 1);
+        let [x, y] = workgroups(size, interleave);
+        pass.dispatch_workgroups(x, y, 1);
     }
+}
+
+/// Workgroups of the shade pass (8×8 invocations each) for an output of
+/// `size` at `interleave` N. At N = 1 one invocation per pixel in image
+/// order. At N > 1 the grid is deinterleaved: N × N planes, plane (a, b)
+/// holding the pixels (a + N·i, b + N·j) that shade the same VPL subset,
+/// each plane rounded up to whole workgroups, so that no workgroup mixes
+/// subsets (neighbouring invocations then read the same VPLs and take the
+/// same near-field branches instead of N² different ones). Must match
+/// `cs_main` in shade.wgsl.
+pub(crate) fn workgroups(size: [u32; 2], interleave: u32) -> [u32; 2] {
+    let n = interleave.max(1);
+    let groups = |extent: u32| {
+        if n == 1 {
+            extent.div_ceil(8)
+        } else {
+            n * extent.div_ceil(n).div_ceil(8)
+        }
+    };
+    [groups(size[0]), groups(size[1])]
 }
 
 /// The renderer's shading inputs shared by every view: the GI parameters

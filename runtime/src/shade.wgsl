@@ -532,8 +532,17 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
 
 @compute @workgroup_size(8, 8)
 fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    let inside = all(gid.xy < view.size);
-    let px = vec2<i32>(gid.xy);
+    let n = max(view.interleave, 1u);
+    // Interleaved, the grid is deinterleaved (workgroups() in shade.rs): N × N
+    // planes of whole workgroups, plane a = gid / plane holding the pixels
+    // a + N·i that shade the same VPL subset.
+    var p = gid.xy;
+    if (n > 1u) {
+        let plane = ((view.size + vec2<u32>(n - 1u)) / n + vec2<u32>(7u)) / 8u * 8u;
+        p = gid.xy / plane + n * (gid.xy % plane);
+    }
+    let inside = all(p < view.size);
+    let px = vec2<i32>(p);
     var pos = vec4<f32>(0.0);
     if (inside) {
         pos = textureLoad(g_position, px, 0);
@@ -545,9 +554,8 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocat
     if (!inside) {
         return;
     }
-    let n = max(view.interleave, 1u);
     let stride = n * n;
-    let k = (gid.x % n) + n * (gid.y % n);
+    let k = (p.x % n) + n * (p.y % n);
     var direct = vec3<f32>(0.0);
     var e = vec3<f32>(0.0);
     var albedo = vec3<f32>(0.0);

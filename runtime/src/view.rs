@@ -400,6 +400,7 @@ impl View {
             &self.group,
             gi,
             self.params.size,
+            self.params.interleave,
             timer.compute(Pass::Shade, k),
         );
         if let Some(il) = &self.interleave {
