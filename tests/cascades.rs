@@ -5,7 +5,7 @@
 //! cast into the cascades as static ones do; nothing turns NaN at a
 //! grazing sun.
 
-mod common;
+use crate::common;
 
 use gibake_image::Image;
 use gibake_reference::scenes::{cuboid, directional, material, static_scene};

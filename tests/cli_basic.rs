@@ -3,7 +3,7 @@
 //! invariance, and `bake` / `diff` / `inspect` (determinism, settings
 //! changes, JSON output). Images are tiny so each call is fast on lavapipe.
 
-mod common;
+use crate::common;
 
 use common::{Run, run_command};
 

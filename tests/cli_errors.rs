@@ -3,7 +3,7 @@
 //! the offending file (or flag) and what is wrong, never panic, and leave no
 //! output (nor temporary files) behind.
 
-mod common;
+use crate::common;
 
 use common::{Run, TINY_BAKE, TINY_RENDER, run_command};
 

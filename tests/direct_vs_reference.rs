@@ -2,7 +2,7 @@
 //! animation times, the GPU's direct light agrees with the CPU reference's
 //! direct-only path tracing (256 spp): relative MSE ≤ 0.02.
 
-mod common;
+use crate::common;
 
 use gibake_scene::LoadOptions;
 

@@ -14,7 +14,7 @@
 //! the real levels of data/lights/ are `eval_lights`' (docs/results.md,
 //! "Every light").
 
-mod common;
+use crate::common;
 
 use gibake_eval::EvalSettings;
 use gibake_eval::levels::judge_level;

@@ -18,7 +18,7 @@
 //! through (VPL maps), the specular-glossiness wall bounces red; and that
 //! `--json` carries the import's warnings and stderr has no ANSI codes.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -14,7 +14,7 @@
 //! util-linux); scripts/ensure-deps.sh --faults installs strace. A missing
 //! tool fails the test with what to install; it never skips.
 
-mod common;
+use crate::common;
 
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};

@@ -5,7 +5,7 @@
 //! budget, and never touch data the command does not own.
 //! docs/robustness.md lists every case with its bound and measured result.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

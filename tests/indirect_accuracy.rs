@@ -11,7 +11,7 @@
 //! re-renders every VPL map, 90% of a static scene's time at 664 on
 //! lavapipe, and the merge it checks is the same per VPL).
 
-mod common;
+use crate::common;
 
 use gibake_eval::{EvalSettings, IndirectEval, evaluate, evaluate_if_judgeable, random_scene};
 

@@ -8,7 +8,7 @@
 //!
 //! Pixels are classified by CPU ray casts from the same camera.
 
-mod common;
+use crate::common;
 
 use gibake_asset::Asset;
 use gibake_gpu::GpuContext;

@@ -13,7 +13,7 @@
 //! quality` (`tests/bench_small.rs` runs it on a bundled and a random
 //! scene and checks every figure finite).
 
-mod common;
+use crate::common;
 
 use gibake_eval::EvalSettings;
 use gibake_image::{Image, rel_mse};
@@ -212,7 +212,7 @@ fn cli_rejects_an_invalid_interleave() {
 /// Shade time, interleave 1 against 4, side by side in one process:
 /// corner_bunny, 256², 664 VPLs (RSM 512², maps 128²), GPU timestamps,
 /// median of 5 frames after a warm-up, alternating. A measurement, not a
-/// check (`cargo test --release -p gibake --test interleave -- --ignored
+/// check (`cargo test --release -p gibake --test end_to_end interleave:: -- --ignored
 /// --nocapture`).
 #[test]
 #[ignore = "measurement"]

@@ -4,7 +4,7 @@
 //! setting, scene or baker version re-bakes saying why, and a batch with a
 //! broken scene bakes the others and names it.
 
-mod common;
+use crate::common;
 
 use common::{Run, run_command};
 

@@ -7,7 +7,7 @@
 //! (`scripts/slurm/ci-test.sh`). It fails, never skips, when Slurm cannot
 //! be installed or started.
 
-mod common;
+use crate::common;
 
 #[test]
 fn four_shard_bake_on_a_local_slurm_cluster_equals_the_single_bake() {

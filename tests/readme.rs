@@ -6,7 +6,7 @@
 //! exit 1). The benchmarks and `submit.sh` are the only lines not run, each
 //! for a reason below, and the test fails if any other line is left out.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::Command;

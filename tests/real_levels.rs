@@ -13,7 +13,7 @@
 //! (on the same level baked with `common::NAIVE_VPLS` VPLs), every image
 //! finite.
 
-mod common;
+use crate::common;
 
 use gibake_eval::EvalSettings;
 use gibake_eval::levels::{bundled_list, judge_level, read_specs};

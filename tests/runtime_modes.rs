@@ -3,7 +3,7 @@
 //! visibility beats RSM on `occluded`, and moving objects change indirect
 //! shadows and bounce light where they must.
 
-mod common;
+use crate::common;
 
 use gibake_asset::Asset;
 use gibake_bake::cluster::ClusterTarget;

@@ -14,7 +14,7 @@
 //! which this test uses; `GIBAKE_PYTHON` names another interpreter. A missing
 //! interpreter or package fails the test with what to install (never a skip).
 
-mod common;
+use crate::common;
 
 use common::{Run, run_command};
 

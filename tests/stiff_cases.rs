@@ -14,7 +14,7 @@
 //! case also runs the per-frame merge; scenes without moving objects are
 //! judged in tests/indirect_accuracy.rs.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

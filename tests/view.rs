@@ -3,7 +3,7 @@
 //! the missing-display error; `--gpu-report`. Xvfb missing is a failure
 //! that says what to install, never a skip.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

@@ -7,7 +7,7 @@
 //! symmetric under it), with its triangles wound clockwise, and both. The
 //! `full` renders must agree where the ball is.
 
-mod common;
+use crate::common;
 
 use gibake_eval::EvalSettings;
 use gibake_runtime::Mode;

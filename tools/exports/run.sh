@@ -21,7 +21,7 @@
 # and OUT_DIR/refused/: the Draco and AVIF files themselves (gibake refuses
 # them with the command above), and KTX2 ones when KTX-Software is installed.
 # Judge them with:
-#   GIBAKE_EXPORTS=OUT_DIR cargo test --release -p gibake --test exports -- --ignored sweep
+#   GIBAKE_EXPORTS=OUT_DIR cargo test --release -p gibake --test end_to_end exports::sweep -- --ignored
 #
 # Needs gltfpack (Debian: apt-get install gltfpack) and node/npm; glTF
 # Transform (pinned in tools/exports/package.json) is installed under
@@ -70,4 +70,4 @@ for src in data/corner_bunny.glb data/sun.glb data/occluded.glb "$out/foliage.gl
     gt meshopt "$out/refused/$name.gt-draco.glb" "$o.gt-draco-meshopt.glb"
 done
 ls -l "$out" "$out/refused"
-echo "judge: GIBAKE_EXPORTS=$out cargo test --release -p gibake --test exports -- --ignored sweep --nocapture"
+echo "judge: GIBAKE_EXPORTS=$out cargo test --release -p gibake --test end_to_end exports::sweep -- --ignored --nocapture"

@@ -1,7 +1,7 @@
 //! Damaged, truncated, hostile and mismatched assets: every one is a clear
 //! error naming the file, and nothing panics.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -1,6 +1,6 @@
 //! `diff` and `inspect`.
 
-mod common;
+use crate::common;
 
 use common::*;
 use gibake_asset::*;

@@ -2,7 +2,7 @@
 //! `manifest.bin`), only the files the format owns, and a load refuses
 //! non-regular files and maps past its decoding budget.
 
-mod common;
+use crate::common;
 
 use common::*;
 use gibake_asset::*;

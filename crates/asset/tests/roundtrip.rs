@@ -1,6 +1,6 @@
 //! Round trip, determinism and the documented on-disk layout.
 
-mod common;
+use crate::common;
 
 use common::*;
 use gibake_asset::*;

@@ -3,7 +3,7 @@
 //! still read, every refusal naming its file, shards, `diff`, `inspect`, and
 //! the spec reader (`tools/spec_reader/read_gibake.py`) reading them too.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

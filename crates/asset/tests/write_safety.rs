@@ -1,7 +1,7 @@
 //! `write` never destroys what it should not and never leaves a half-written
 //! asset.
 
-mod common;
+use crate::common;
 
 use common::*;
 use gibake_asset::*;

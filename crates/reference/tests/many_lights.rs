@@ -13,7 +13,7 @@
 //! trace exactly the same rays with the same seed. What separates the two is
 //! float rounding only, bounded below.
 
-mod common;
+use crate::common;
 use common::{draw, ortho};
 use gibake_image::{Image, rel_mse};
 use gibake_reference::direct::light_irradiance;

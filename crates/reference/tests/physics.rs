@@ -3,7 +3,7 @@
 //! perpendicular planes against an independent quadrature, scale invariance,
 //! determinism across thread counts, and finite output for extreme inputs.
 
-mod common;
+use crate::common;
 use common::{draw, ortho};
 use std::f64::consts::PI;
 

@@ -1,7 +1,7 @@
 //! Animation sampling through the importer: LINEAR, STEP, CUBICSPLINE, slerp,
 //! per-animation clamping, node matrices decomposed to TRS.
 
-mod common;
+use crate::common;
 
 use common::basic;
 use glam::{Quat, Vec3};

@@ -1,6 +1,6 @@
 //! Bad input: every case is an `Err` naming the file and what is wrong, never a panic.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -4,7 +4,7 @@
 //! against what the file asks for. The images these scenes bake to are
 //! judged in `tests/exports.rs`.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -1,6 +1,6 @@
 //! Valid scenes: light, camera, flattening, dynamic objects, materials, geometry.
 
-mod common;
+use crate::common;
 
 use common::{Builder, basic, png, spot_light};
 use gibake_scene::{LightKind, LoadOptions, Projection};
