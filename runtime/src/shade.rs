@@ -566,4 +566,51 @@ mod tests {
         assert!(!own.contains("const FLAG_"), "shade.wgsl defines a flag");
         assert!(own.contains("FLAG_DIRECT"));
     }
+
+    /// The pixel an invocation shades, as `cs_main` in shade.wgsl computes
+    /// it (the test's twin of the WGSL).
+    fn pixel_of(gid: [u32; 2], size: [u32; 2], n: u32) -> [u32; 2] {
+        if n == 1 {
+            return gid;
+        }
+        let plane = |s: u32| s.div_ceil(n).div_ceil(8) * 8;
+        let p = |g: u32, s: u32| g / plane(s) + n * (g % plane(s));
+        [p(gid[0], size[0]), p(gid[1], size[1])]
+    }
+
+    /// The deinterleaved dispatch shades every pixel exactly once, and at
+    /// N > 1 each 8×8 workgroup shades pixels of one VPL subset only.
+    #[test]
+    fn the_shade_grid_covers_every_pixel_once_one_subset_per_workgroup() {
+        let sizes = [[1, 1], [7, 9], [8, 8], [33, 17], [203, 157], [256, 256]];
+        for size in sizes {
+            for n in [1, 2, 4, 8] {
+                let [gx, gy] = super::workgroups(size, n);
+                let mut seen = vec![0u8; (size[0] * size[1]) as usize];
+                for wy in 0..gy {
+                    for wx in 0..gx {
+                        let mut subsets = std::collections::BTreeSet::new();
+                        for ly in 0..8 {
+                            for lx in 0..8 {
+                                let [x, y] = pixel_of([wx * 8 + lx, wy * 8 + ly], size, n);
+                                if x < size[0] && y < size[1] {
+                                    seen[(y * size[0] + x) as usize] += 1;
+                                    subsets.insert((x % n, y % n));
+                                }
+                            }
+                        }
+                        assert!(
+                            subsets.len() <= 1,
+                            "{size:?} N={n}: a workgroup mixes subsets"
+                        );
+                    }
+                }
+                assert!(
+                    seen.iter().all(|&c| c == 1),
+                    "{size:?} N={n}: a pixel is shaded {} times",
+                    seen.iter().find(|&&c| c != 1).unwrap()
+                );
+            }
+        }
+    }
 }
