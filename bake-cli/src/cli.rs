@@ -443,8 +443,8 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t = CascadesArg::Auto)]
     pub cascades: CascadesArg,
     /// Shade every light at every pixel: turns off the light culling that
-    /// skips, per tile of 8×8 pixels (N apart at --interleave N), the lights after the first whose range or spot
-    /// cone cannot reach it. The image is the same to the bit; this only
+    /// skips, per tile of 8×8 pixels (N apart at --interleave N), the
+    /// lights after the first whose range or spot cone cannot reach it. The image is the same to the bit; this only
     /// measures what culling saves (see `--stats`).
     #[arg(long)]
     pub no_light_culling: bool,

@@ -58,8 +58,8 @@ fn other_visibility(k: u32, p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
 // Light culling (FLAG_CULL_LIGHTS, planned where some light after the
 // first has a range or is a spot): shading's 8×8 workgroup is a tile (8×8
 // neighbouring pixels; at interleave N, 8×8 pixels N apart: shade.rs,
-// workgroups()). Its invocations take the box of the tile's surface points (ordered-bits
-// atomics), then test each light against it (may_reach): a light whose
+// workgroups()). Its invocations take the box of the tile's surface points
+// (ordered-bits atomics), then test each light against it (may_reach): a light whose
 // range ends before the box — its window saturate(1 − (d/range)⁴) is 0 at
 // every pixel of the tile — or a spot whose cone misses it is left out of
 // the tile's mask. Exact: a culled light adds exactly 0 there. Lights past
