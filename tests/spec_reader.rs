@@ -6,8 +6,10 @@
 //! and light-view lookups recomputed), and so is a bake of `data/lamps.glb`
 //! with every light (format 4.0: the views of the lights after the first
 //! and `light_maps.exr`) and one of its two point lights only (a point
-//! light first: every light's views from light 0 on, no RSM). Damaged
-//! copies, and manifests that break the spec's rules, must be refused.
+//! light first: every light's views from light 0 on, no RSM), and a bake of
+//! the Blenvy level whose sun has ring VPLs (format 4.3: outer rings).
+//! Damaged copies, and manifests that break the spec's rules, must be
+//! refused.
 //!
 //! The reader needs python3 with numpy, OpenEXR and blake3:
 //! `scripts/ensure-deps.sh --python` puts them in a venv at `target/pyenv`,
@@ -272,63 +274,86 @@ fn reader_refuses_damaged_assets() {
 
     // Re-sealed manifests (payload edited, length and BLAKE3 trailer
     // recomputed): what the spec says a reader must refuse or accept.
-    // The bake writes the current minor (4.2: the views, light_map_size and
-    // the appended view_rsms end the payload; a one-light asset has no
-    // views, so its last three bytes are the view count 0,
-    // light_map_size 0 and the view_rsms count 0; 4.2 added a file, not
-    // payload bytes).
+    // The bake writes the current minor (4.3: the views, light_map_size,
+    // the appended view_rsms and ring_vpls end the payload; a one-light
+    // asset without rings has no views, so its last four bytes are the view
+    // count 0, light_map_size 0, the view_rsms count 0 and the ring_vpls
+    // count 0; 4.2 added a file, not payload bytes).
     assert_eq!(
         (gibake_asset::FORMAT_MAJOR, gibake_asset::FORMAT_MINOR),
-        (4, 2),
-        "the re-sealed cases below are written for format 4.2"
+        (4, 3),
+        "the re-sealed cases below are written for format 4.3"
     );
-    let reseal_cases: [(&str, &str, Option<&str>); 10] = [
+    let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
+    assert!(
+        m.lights.len() == 1 && m.views.is_empty() && m.ring_vpls.is_empty(),
+        "corner_bunny.glb: one light, no views, no ring VPLs\n{m:#?}"
+    );
+    let reseal_cases: [(&str, &str, Option<&str>); 14] = [
         // One byte after the last field, same minor: refused.
-        ("payload += b'\\x00'", "2", Some("after the last field")),
-        // The same from a newer minor (4.3): accepted and ignored.
-        ("payload += b'\\x00'", "3", None),
+        ("payload += b'\\x00'", "3", Some("after the last field")),
+        // The same from a newer minor (4.4): accepted and ignored.
+        ("payload += b'\\x00'", "4", None),
         // light_map_size cut off: refused.
         (
-            "payload = payload[:-2]",
-            "2",
+            "payload = payload[:-3]",
+            "3",
             Some("payload ends inside light_map_size"),
         ),
-        // The appended view_rsms cut off: refused in 4.2 ...
+        // The appended view_rsms cut off: refused.
         (
-            "payload = payload[:-1]",
-            "2",
+            "payload = payload[:-2]",
+            "3",
             Some("payload ends inside view_rsms length"),
         ),
-        // ... and the same bytes are a whole 4.0 payload, but one that
+        // The appended ring_vpls cut off: refused in 4.3 ...
+        (
+            "payload = payload[:-1]",
+            "3",
+            Some("payload ends inside ring_vpls length"),
+        ),
+        // ... and the same bytes are a whole 4.2 payload (no ring VPLs):
+        // accepted, as a 4.2 asset.
+        ("payload = payload[:-1]", "2", None),
+        // A 4.2 payload with the ring_vpls count after it: a byte after the
+        // last field of its minor, refused.
+        ("pass", "2", Some("after the last field")),
+        // Without view_rsms and ring_vpls a whole 4.0 payload, but one that
         // lists vpl_coherence.bin (4.2's file): refused, as a format's own
         // file the counts say is not stored.
         (
-            "payload = payload[:-1]",
+            "payload = payload[:-2]",
             "0",
             Some("vpl_coherence.bin, which the counts say is not stored"),
         ),
         // The same under 4.1: refused the same way.
         (
-            "pass",
+            "payload = payload[:-1]",
             "1",
             Some("vpl_coherence.bin, which the counts say is not stored"),
         ),
+        // ring_vpls with more entries than lights: refused while decoding.
+        (
+            "payload = payload[:-1] + b'\\x02\\x00\\x00'",
+            "3",
+            Some("ring_vpls holds 2 entries but there are only 1 lights"),
+        ),
         // The lights cut short: refused.
-        ("payload = payload[:-40]", "2", Some("payload ends inside")),
+        ("payload = payload[:-40]", "3", Some("payload ends inside")),
         // A varint marker bincode does not define (254), as the first length.
         (
             "payload = b'\\xfe' + payload[1:]",
-            "2",
+            "3",
             Some("invalid varint marker"),
         ),
         // light_map_size 5 without views: refused.
         (
-            "payload = payload[:-2] + b'\\x05\\x00'",
-            "2",
+            "payload = payload[:-3] + b'\\x05\\x00\\x00'",
+            "3",
             Some("light_map_size is 5 but there are no views"),
         ),
         // Control: re-sealed unchanged, accepted.
-        ("pass", "2", None),
+        ("pass", "3", None),
     ];
     for (k, (edit, minor, refusal)) in reseal_cases.iter().enumerate() {
         let copy = copy_asset(&asset, work.path(), &format!("reseal{k}.gibake"));
@@ -681,4 +706,134 @@ fn reader_accepts_a_point_light_first() {
             );
         }
     }
+}
+
+/// Format 4.3's outer rings: a bake of the Blenvy level
+/// (`data/lights/blenvy_start_level/StartLevel.glb`: a sun whose view cuts
+/// a 94 m ground, and a spot and three point lamps) gives the sun ring VPLs,
+/// the last `ring_vpls[0]` of its range, which lie outside its view. The
+/// reader accepts it (its ring VPLs left out of the light-view check, their
+/// map origins lifted by one texel's radius) and says how many there are;
+/// manifests whose `ring_vpls` break the spec's rules are refused by it and
+/// by the reference reader; and without `ring_vpls` the ring VPLs, taken
+/// for ordinary ones, are found outside the light view.
+#[test]
+fn reader_checks_ring_vpls() {
+    use gibake_asset::{LIGHT_DIRECTIONAL, LIGHT_POINT, Manifest};
+
+    let py = python();
+    let work = tempfile::tempdir().unwrap();
+    let scene = common::data("lights/blenvy_start_level/StartLevel.glb");
+    let asset = bake_with(
+        &scene,
+        work.path(),
+        &[
+            "--vpls",
+            "32",
+            "--rsm-size",
+            "64",
+            "--vpl-map-size",
+            "16",
+            "--shadow-map-size",
+            "128",
+        ],
+    );
+    let loaded = gibake_asset::load(&asset).expect("the reference reader loads the bake");
+    let m = &loaded.manifest;
+    let point = m
+        .lights
+        .iter()
+        .position(|l| l.kind == LIGHT_POINT && l.vpls > 0);
+    assert!(
+        m.lights.len() >= 2
+            && m.lights[0].kind == LIGHT_DIRECTIONAL
+            && m.ring_vpls.len() == m.lights.len()
+            && m.ring_vpls[0] > 0
+            && point.is_some(),
+        "StartLevel.glb: a sun first with ring VPLs, and a point lamp with VPLs\n{m:#?}"
+    );
+    let point = point.unwrap();
+    let rings = m.ring_vpls[0];
+    let r = read(&py, &asset);
+    assert!(
+        r.code == Some(0) && r.stdout.trim_end().ends_with("OK"),
+        "a bake with ring VPLs must pass the reader\n{r}"
+    );
+    let said = format!(
+        "{rings} ring VPLs (outer rings) of light 0 ('{}')",
+        m.lights[0].name
+    );
+    assert!(
+        r.stdout.contains(&said) && r.stdout.contains("ring VPLs outside the light view"),
+        "the summary does not report the sun's ring VPLs (`{said}`)\n{r}"
+    );
+
+    // (name, edit, the reader's message)
+    type Edit = (&'static str, Box<dyn Fn(&mut Manifest)>, String);
+    let edits: [Edit; 4] = [
+        (
+            "more_rings_than_vpls",
+            Box::new(|m| m.ring_vpls[0] = m.lights[0].vpls + 1),
+            format!(
+                "ring_vpls[0] = {} but light 0 ('{}') has only {} VPLs",
+                m.lights[0].vpls + 1,
+                m.lights[0].name,
+                m.lights[0].vpls
+            ),
+        ),
+        (
+            "rings_of_a_point_light",
+            Box::new(move |m| m.ring_vpls[point] = 1),
+            format!(
+                "ring_vpls[{point}] = 1 but light {point} ('{}') is a point light: only a \
+                 directional light has outer rings",
+                m.lights[point].name
+            ),
+        ),
+        (
+            "one_ring_entry_missing",
+            Box::new(|m| {
+                m.ring_vpls.pop();
+            }),
+            format!(
+                "ring_vpls holds {} entries for {} lights (none or one per light)",
+                m.lights.len() - 1,
+                m.lights.len()
+            ),
+        ),
+        (
+            "one_ring_entry_too_many",
+            Box::new(|m| m.ring_vpls.push(0)),
+            format!(
+                "ring_vpls holds {} entries but there are only {} lights",
+                m.lights.len() + 1,
+                m.lights.len()
+            ),
+        ),
+    ];
+    for (name, edit, msg) in &edits {
+        let copy = copy_asset(&asset, work.path(), &format!("{name}.gibake"));
+        edit_manifest(&copy, edit.as_ref());
+        let r = read(&py, &copy);
+        assert!(
+            r.code == Some(1) && r.stderr.contains("manifest.bin") && r.stderr.contains(msg),
+            "{name}: the reader must refuse the edited manifest with `{msg}`\n{r}"
+        );
+        assert!(
+            gibake_asset::load(&copy).is_err(),
+            "{name}: the reference reader accepts what the reader refuses"
+        );
+    }
+
+    // No ring_vpls: valid for `load` (it does not compare VPLs with maps),
+    // but the sun's ring VPLs are then taken to lie on its view's surface.
+    let copy = copy_asset(&asset, work.path(), "rings_forgotten.gibake");
+    edit_manifest(&copy, &|m| m.ring_vpls.clear());
+    let r = read(&py, &copy);
+    assert!(
+        r.code == Some(1)
+            && r.stderr.contains("primary_depth.exr")
+            && r.stderr.contains("projects outside the light view"),
+        "without ring_vpls the ring VPLs must be found outside the light view\n{r}"
+    );
 }

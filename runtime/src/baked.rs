@@ -9,7 +9,6 @@
 use gibake_asset::{Asset, LEVEL3_NODES, NODES_PER_VPL, VplRecord};
 use gibake_gpu::LightView;
 use gibake_gpu::vpl::{GpuVpl, NO_MAP};
-use glam::Vec3;
 use wgpu::util::DeviceExt;
 
 use crate::RuntimeError;
@@ -163,14 +162,17 @@ impl BakedGpu {
         // Each VPL's lobes and facing shifts, from its tree with the
         // level-3 normals weighted by their texels' coherence
         // (`gibake_asset::tree_lobes`): sums over its texels.
+        // A VPL on a light's outer rings is lifted by one texel's radius
+        // (`Manifest::ring_vpls`, `hemisphere::record_origin`).
         let lobes = asset.tree_lobes();
+        let ring = m.ring_flags();
         let vpls: Vec<GpuVpl> = asset
             .vpls
             .iter()
             .zip(lobes.iter().map(|l| l.vpl))
-            .map(|(v, lobe)| {
-                let n = Vec3::from_array(v.normal);
-                let o = gibake_gpu::hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
+            .zip(&ring)
+            .map(|((v, lobe), &ring)| {
+                let o = gibake_gpu::hemisphere::record_origin(v, ring);
                 GpuVpl {
                     position: o.to_array(),
                     map: if v.map < m.map_count { v.map } else { NO_MAP },

@@ -18,6 +18,12 @@ another language. It
   channels; pixels: no NaN, atlas tiles, RSM `vpl` indices), `light_maps.exr`
   included, and `view_rsms.exr` (4.1: the other lights' views' RSMs, each
   naming only its own light's VPLs),
+- reads `ring_vpls` (4.3: per light, how many of its VPLs, the last of its
+  range, lie on a directional light's outer rings, outside its view): one
+  entry per light or none, each at most the light's VPLs, non-zero only for
+  a directional light; ring VPLs are left out of the light-view, RSM and
+  light-map surface checks (no RSM texel may name them) and their hemisphere
+  maps' origins are lifted by one texel's radius,
 - checks the RSM against the first light's VPLs (texel counts, flux shares
   adding up to each VPL, each position at its texel nearest to the
   flux-weighted centroid),
@@ -59,7 +65,7 @@ except ImportError as e:  # pragma: no cover - environment problem
 
 MAGIC = b"GIBAKE\x00\x01"
 READER_MAJOR = 4
-READER_MINOR = 2
+READER_MINOR = 3
 MAX_PAYLOAD = 16 * 1024 * 1024
 MAX_MAP_SIZE = 16384
 # Most texels of one map file (an atlas).
@@ -277,18 +283,22 @@ def read_manifest(asset: str) -> dict:
         )
     m["views"] = views
     m["light_map_size"] = d.u32("light_map_size")
-    # 4.1 appends view_rsms (Vec<u32>: the views whose RSM view_rsms.exr
-    # stores); a 4.0 payload ends before it (no view RSMs).
-    view_rsms = []
-    if minor >= 1:
-        n = d.u64("view_rsms length")
-        if n > len(views):
+    def appended(field: str, most: int, of: str) -> list[int]:
+        # A Vec<u32> a minor appends: its count bounded before reading on.
+        n = d.u64(f"{field} length")
+        if n > most:
             raise AssetError(
-                f"manifest.bin: view_rsms holds {n} entries but there are only "
-                f"{len(views)} views"
+                f"manifest.bin: {field} holds {n} entries but there are only {most} {of}"
             )
-        view_rsms = [d.u32(f"view_rsms[{k}]") for k in range(n)]
-    m["view_rsms"] = view_rsms
+        return [d.u32(f"{field}[{k}]") for k in range(n)]
+
+    # 4.1 appends view_rsms (Vec<u32>: the views whose RSM view_rsms.exr
+    # stores); a 4.0 payload ends before it (no view RSMs). 4.3 appends
+    # ring_vpls (Vec<u32>: per light, how many of its VPLs, the last ones of
+    # its range, lie on its outer rings); a 4.2 or older payload ends before
+    # it (no ring VPLs).
+    m["view_rsms"] = appended("view_rsms", len(views), "views") if minor >= 1 else []
+    m["ring_vpls"] = appended("ring_vpls", len(lights), "lights") if minor >= 3 else []
     extra = length - d.pos
     if extra and minor <= READER_MINOR:
         raise AssetError(
@@ -412,6 +422,44 @@ def check_view_rsm_list(m: dict) -> None:
             )
 
 
+def check_ring_vpl_list(m: dict) -> None:
+    """ring_vpls (4.3): empty, or one entry per light; entry k at most
+    lights[k].vpls, and 0 unless lights[k] is directional."""
+    lights, rings = m["lights"], m["ring_vpls"]
+    if rings and len(rings) != len(lights):
+        raise AssetError(
+            f"manifest.bin: ring_vpls holds {len(rings)} entries for {len(lights)} lights "
+            "(none or one per light)"
+        )
+    for k, (light, ring) in enumerate(zip(lights, rings)):
+        if ring > light["vpls"]:
+            raise AssetError(
+                f"manifest.bin: ring_vpls[{k}] = {ring} but light {k} ('{light['name']}') "
+                f"has only {light['vpls']} VPLs"
+            )
+        if ring > 0 and light["kind"] != 0:
+            raise AssetError(
+                f"manifest.bin: ring_vpls[{k}] = {ring} but light {k} ('{light['name']}') "
+                f"is a {kind_name(light)} light: only a directional light has outer rings"
+            )
+
+
+def ring_counts(m: dict) -> list[int]:
+    """Per light (or the one primary light without light records): how many
+    of its VPLs, the last ones of its range, are ring VPLs."""
+    n = max(len(m["lights"]), 1)
+    return m["ring_vpls"] if m["ring_vpls"] else [0] * n
+
+
+def ring_mask(m: dict, ranges: list[tuple[int, int]]) -> np.ndarray:
+    """Per VPL record: whether it is a ring VPL (the last ring_vpls[k] of
+    light k's range)."""
+    out = np.zeros(m["vpl_count"], dtype=bool)
+    for (lo, hi), ring in zip(ranges, ring_counts(m)):
+        out[hi - ring : hi] = True
+    return out
+
+
 def check_manifest_values(m: dict) -> list[str]:
     s, lv = m["settings"], m["light_view"]
     for k in ("rsm_size", "vpl_map_size", "shadow_map_size"):
@@ -442,6 +490,7 @@ def check_manifest_values(m: dict) -> list[str]:
             )
     check_views(m)
     check_view_rsm_list(m)
+    check_ring_vpl_list(m)
     if m["map_count"] > m["vpl_count"]:
         raise AssetError(
             f"manifest.bin: map_count {m['map_count']} > vpl_count {m['vpl_count']}"
@@ -894,14 +943,33 @@ def neighbourhood(img: np.ndarray, xy: np.ndarray, op) -> np.ndarray:
     return out
 
 
-def check_light_view(m: dict, vpls: np.ndarray, primary: np.ndarray) -> str:
+def check_light_view(
+    m: dict, vpls: np.ndarray, primary: np.ndarray, rings: int = 0
+) -> str:
     """VPLs sit on lit surfaces: the primary shadow map sees them (`vpls`:
     the first light's, a spot or directional light: with a point light
     first, light_view is an unused face and its VPLs lie on its views' maps,
-    checked by check_light_maps)."""
+    checked by check_light_maps). Its last `rings` VPLs (4.3: ring_vpls[0])
+    lie on its outer rings, outside the light view: they are not on the
+    primary map, and none may project inside it (a texel's margin allowed
+    at its edge)."""
     lv, size = m["light_view"], primary.shape[0]
+    ring_note = ""
+    if rings:
+        rp = vpls["position"][len(vpls) - rings :].astype(np.float64)
+        rtc, rw = lv_texel_coords(lv, rp, size)
+        within = (rw > 0) & (rtc >= 1).all(axis=1) & (rtc < size - 1).all(axis=1)
+        if within.any():
+            j = int(np.argmax(within))
+            raise AssetError(
+                f"primary_depth.exr: VPL {len(vpls) - rings + j} is a ring VPL of the first "
+                f"light (outer rings, outside the light view) but projects inside it "
+                f"(texel {rtc[j].tolist()})"
+            )
+        vpls = vpls[: len(vpls) - rings]
+        ring_note = f" ({rings} ring VPLs outside the light view)"
     if len(vpls) == 0:
-        return "no VPLs of the first light"
+        return "no VPLs of the first light" + ring_note
     p = vpls["position"].astype(np.float64)
     tc, w = lv_texel_coords(lv, p, size)
     inside = (w > 0) & (tc >= 0).all(axis=1) & (tc < size).all(axis=1)
@@ -923,10 +991,13 @@ def check_light_view(m: dict, vpls: np.ndarray, primary: np.ndarray) -> str:
             f"primary_depth.exr: VPL {i} at light-view metric {metric[i]:.4f} but the shadow "
             f"map holds {lo[i]:.4f}..{hi[i]:.4f} around texel {xy[i].tolist()}"
         )
-    return f"{len(vpls)} VPL positions of the first light on the primary shadow map's surface"
+    return (
+        f"{len(vpls)} VPL positions of the first light on the primary shadow map's surface"
+        + ring_note
+    )
 
 
-def check_rsm_vpls(m: dict, vpls: np.ndarray, rsm: dict) -> str:
+def check_rsm_vpls(m: dict, vpls: np.ndarray, rsm: dict, rings: int = 0) -> str:
     """The RSM's `vpl` and `share` channels against vpls.bin: each VPL's
     `texels` is the number of RSM texels clustered into it, their flux
     shares add up to the whole VPL (2^24, up to each share's rounding), a
@@ -935,11 +1006,22 @@ def check_rsm_vpls(m: dict, vpls: np.ndarray, rsm: dict) -> str:
     are the weights: each is the texel's flux over the VPL's). The RSM is
     the first light's (a spot or directional light: a point light first
     stores no RSM): `vpls` are its VPLs (the first `lights[0].vpls`
-    records), and no texel names another light's."""
+    records), and no texel names another light's. Its last `rings` VPLs
+    (4.3: ring_vpls[0]) lie on its outer rings, outside the light view: no
+    texel names them, and the checks above are of the others."""
     lv = m["light_view"]
     size = rsm["Z"].shape[0]
     idx = rsm["vpl"].ravel()
     share = rsm["share"].ravel().astype(np.int64)
+    ring = (idx != NO_MAP) & (idx < len(vpls)) & (idx >= len(vpls) - rings)
+    if ring.any():
+        t = int(np.argmax(ring))
+        raise AssetError(
+            f"rsm.exr: texel {t} names VPL {int(idx[t])}, one of the first light's "
+            f"{rings} ring VPLs (outer rings, outside the light view: none of their "
+            "texels is in rsm.exr)"
+        )
+    vpls = vpls[: len(vpls) - rings]
     other = (idx != NO_MAP) & (idx >= len(vpls))
     if other.any():
         t = int(np.argmax(other))
@@ -993,20 +1075,28 @@ def check_rsm_vpls(m: dict, vpls: np.ndarray, rsm: dict) -> str:
             )
     return (
         f"{len(vpls)} VPLs: texel counts, flux shares and positions match their "
-        "RSM texels"
+        "RSM texels" + (f" ({rings} ring VPLs have none)" if rings else "")
     )
 
 
-def check_view_rsms(asset: str, m: dict, ranges: list[tuple[int, int]]) -> str:
+def check_view_rsms(
+    asset: str,
+    m: dict,
+    ranges: list[tuple[int, int]],
+    rings: np.ndarray | None = None,
+) -> str:
     """view_rsms.exr (4.1): the atlas (layout of vpl_maps.exr) of the RSMs of
     the views view_rsms lists, tile k the RSM of views[view_rsms[k]], each
     rsm_size², channels Z (f32), share (u32), vpl (u32). Unused tiles hold
     Z +inf, share 0, vpl 0xFFFFFFFF; in each tile no NaN, every vpl names a
     VPL of the view's own light (its range of vpls.bin) or is 0xFFFFFFFF,
-    every share is at most 2^24, and 0 where vpl is 0xFFFFFFFF."""
+    every share is at most 2^24, and 0 where vpl is 0xFFFFFFFF; no texel names
+    a ring VPL (4.3: `rings`, per VPL; they lie outside the views)."""
     rsms = m["view_rsms"]
     if not rsms:
         return "no view_rsms.exr (no view stores an RSM)"
+    if rings is None:
+        rings = ring_mask(m, ranges)
     rs = m["settings"]["rsm_size"]
     cols, rows = atlas_grid(len(rsms))
     ch = read_exr(
@@ -1039,6 +1129,14 @@ def check_view_rsms(asset: str, m: dict, ranges: list[tuple[int, int]]) -> str:
                 f"view_rsms.exr: {who} texel ({x}, {y}) names VPL {int(idx[y, x])}, not "
                 f"one of its light's VPLs {lo}..{hi}"
             )
+        named = idx[idx != NO_MAP]
+        if rings[named].any():
+            v = int(named[np.argmax(rings[named])])
+            y, x = (int(c) for c in np.argwhere(idx == v)[0])
+            raise AssetError(
+                f"view_rsms.exr: {who} texel ({x}, {y}) names VPL {v}, a ring VPL (outer "
+                "rings, outside the view: none of its texels is in view_rsms.exr)"
+            )
         bad = (share > SHARE_ONE) | ((idx == NO_MAP) & (share != 0))
         if bad.any():
             y, x = (int(c) for c in np.argwhere(bad)[0])
@@ -1065,7 +1163,9 @@ def check_light_maps(
     spot's view from its position along its direction, perspective; a
     directional light's orthographic along its direction), the atlas holds
     the stored maps (unused tiles +inf, each stored map a surface), and each
-    such light's VPLs lie on the surface of the map of one of its views."""
+    such light's VPLs lie on the surface of the map of one of its views
+    (but its ring VPLs, 4.3: the last ring_vpls[i] of a directional light's
+    range, which lie on its outer rings, outside its view)."""
     views, size, lights = m["views"], m["light_map_size"], m["lights"]
     if lights and (lights[0]["kind"] == 0) != m["light_view"]["directional"]:
         raise AssetError(
@@ -1129,9 +1229,12 @@ def check_light_maps(
     # Each viewed light's VPLs on its maps' surfaces (lights[0]'s too when
     # it is a point light: it has no primary map): the view that holds a
     # VPL most centrally (a point light's face of the VPL's direction).
-    checked = 0
+    checked = skipped = 0
+    rings = ring_counts(m)
     for i in range(first, len(lights)):
         lo_i, hi_i = ranges[i]
+        hi_i -= rings[i]
+        skipped += rings[i]
         if hi_i == lo_i:
             continue
         p = vpls["position"][lo_i:hi_i].astype(np.float64)
@@ -1192,6 +1295,7 @@ def check_light_maps(
             checked += int(sel.sum())
     lines.append(
         f"{checked} VPLs of {who} on their views' map surfaces"
+        + (f" ({skipped} ring VPLs outside their views not checked)" if skipped else "")
     )
     return lines
 
@@ -1202,13 +1306,19 @@ def check_hemi_maps(
     atlas: np.ndarray | None,
     primary: np.ndarray,
     show: int | None,
+    rings: np.ndarray | None = None,
 ) -> list[str]:
-    """Recomputes each stored hemisphere map's lookups against the primary shadow map."""
+    """Recomputes each stored hemisphere map's lookups against the primary
+    shadow map. A map's origin is O = P + n·0.2·sqrt(max(A, 0)/π) with the
+    VPL's area A, or for a ring VPL (4.3, `rings` per VPL) one of its
+    texels' area A / max(texels, 1)."""
     s = m["settings"]["vpl_map_size"]
     lv = m["light_view"]
     lines = []
     if atlas is None:
         return ["no hemisphere maps stored"]
+    if rings is None:
+        rings = ring_mask(m, light_vpl_ranges(m))
     cols, rows = atlas_grid(m["map_count"])
     for k in range(m["map_count"], cols * rows):
         col, row = k % cols, k // cols
@@ -1236,8 +1346,11 @@ def check_hemi_maps(
                 f"vpl_maps.exr: VPL {i}'s map (tile {k}) sees no surface; it must be NO_MAP"
             )
         n = rec["normal"].astype(np.float64)
+        area = float(rec["area"])
+        if rings[i]:
+            area /= max(int(rec["texels"]), 1)
         origin = rec["position"].astype(np.float64) + n * VPL_ORIGIN_OFFSET * math.sqrt(
-            max(float(rec["area"]), 0.0) / math.pi
+            max(area, 0.0) / math.pi
         )
         # (a) Surface points the light sees, in the VPL's hemisphere: its map
         # must hold a surface at most that far along their direction.
@@ -1280,7 +1393,7 @@ def check_hemi_maps(
             show = i
             centre = hemi_texel_coords(n, n[None, :], s)[0]
             lines.append(
-                f"VPL {i}: map tile {k} at atlas column {col}, row {row} "
+                f"VPL {i}{' (ring VPL)' if rings[i] else ''}: map tile {k} at atlas column {col}, row {row} "
                 f"(texels x {col * s}..{(col + 1) * s}, y {row * s}..{(row + 1) * s}); "
                 f"origin {np.round(origin, 4).tolist()}, normal {np.round(n, 4).tolist()}; "
                 f"normal direction -> texel {np.floor(centre).astype(int).tolist()} = "
@@ -1345,6 +1458,8 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
     # (check_light_maps) and light_view / primary_depth.exr hold one unused
     # face.
     first = vpls[ranges[0][0] : ranges[0][1]]
+    rings = ring_mask(m, ranges)
+    first_rings = ring_counts(m)[0]
     point_first = first_viewed_light(m) == 0
     rsm_note = (
         "no rsm.exr (lights[0] is a point light: no primary RSM)"
@@ -1372,7 +1487,7 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
             )
         rsm_note = (
             f"rsm.exr {rs}²: {int(np.isfinite(rsm['Z']).sum())} surface texels; "
-            + check_rsm_vpls(m, first, rsm)
+            + check_rsm_vpls(m, first, rsm, first_rings)
         )
     if show_vpl is not None and not 0 <= show_vpl < len(vpls):
         raise AssetError(f"--vpl {show_vpl}: the asset has {len(vpls)} VPLs")
@@ -1384,10 +1499,10 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
             "face; its VPLs are checked on its views' maps"
         )
     else:
-        lv_note = check_light_view(m, first, primary)
+        lv_note = check_light_view(m, first, primary, first_rings)
     others = check_light_maps(m, vpls, ranges, light_atlas)
-    others.append(check_view_rsms(asset, m, ranges))
-    hemi = check_hemi_maps(m, vpls, atlas, primary, show_vpl)
+    others.append(check_view_rsms(asset, m, ranges, rings))
+    hemi = check_hemi_maps(m, vpls, atlas, primary, show_vpl, rings)
     p = m["provenance"]
     out = [
         f"{asset}: gibake asset {m['major']}.{m['minor']}, manifest payload {m['payload_len']} bytes",
@@ -1418,6 +1533,14 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
                 or "none recorded"
             )
         ),
+    ]
+    out += [
+        f"  {r} ring VPLs (outer rings) of light {k} ('{m['lights'][k]['name']}'), the last "
+        "of its range: outside its view, their map origins one texel's radius up"
+        for k, r in enumerate(m["ring_vpls"])
+        if r
+    ]
+    out += [
         f"  files (manifest order): {', '.join(names)}; all sizes and BLAKE3 hashes match",
         f"  vpl_nodes.bin: {len(nodes)} nodes, level sums match",
         f"  {coherence_note}",

@@ -89,6 +89,16 @@ fn encode_manifest_as(manifest: &Manifest, minor: u16, path: &Path) -> Result<Ve
             "cannot encode the manifest: format 4.0 has no view_rsms",
         ));
     }
+    if minor >= 3 {
+        let appended =
+            bincode::encode_to_vec(&manifest.ring_vpls, bincode_config()).map_err(cannot)?;
+        payload.extend_from_slice(&appended);
+    } else if !manifest.ring_vpls.is_empty() {
+        return Err(AssetError::invalid(
+            path,
+            format!("cannot encode the manifest: format 4.{minor} has no ring_vpls"),
+        ));
+    }
     let mut out = Vec::with_capacity(HEADER_BYTES + payload.len() + TRAILER_BYTES);
     out.extend_from_slice(&MAGIC);
     out.extend_from_slice(&FORMAT_MAJOR.to_le_bytes());
@@ -141,21 +151,24 @@ fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetEr
         bincode::serde::decode_from_slice(payload, bincode_config())
             .map_err(|e| bad(format!("damaged manifest payload: {e}")))?;
     if minor >= 1 {
-        // 4.1 appends `view_rsms` (a Vec<u32>) after the serde fields. Its
-        // count is read and bounded by the views first, so a hostile count
-        // allocates nothing.
-        let rest = &payload[used..];
-        let (count, _): (u64, usize) = bincode::decode_from_slice(rest, bincode_config())
-            .map_err(|e| bad(format!("damaged manifest payload: view_rsms: {e}")))?;
-        if count > manifest.views.len() as u64 {
-            return Err(bad(format!(
-                "damaged manifest payload: view_rsms holds {count} entries but there are only {} views",
-                manifest.views.len()
-            )));
-        }
-        let (view_rsms, n): (Vec<u32>, usize) = bincode::decode_from_slice(rest, bincode_config())
-            .map_err(|e| bad(format!("damaged manifest payload: view_rsms: {e}")))?;
-        manifest.view_rsms = view_rsms;
+        // 4.1 appends `view_rsms` (a Vec<u32>) after the serde fields, at
+        // most one per view.
+        let (v, n) = decode_appended(&payload[used..], "view_rsms", manifest.views.len(), "views")
+            .map_err(bad)?;
+        manifest.view_rsms = v;
+        used += n;
+    }
+    if minor >= 3 {
+        // 4.3 appends `ring_vpls` (a Vec<u32>) after it, at most one per
+        // light.
+        let (v, n) = decode_appended(
+            &payload[used..],
+            "ring_vpls",
+            manifest.lights.len(),
+            "lights",
+        )
+        .map_err(bad)?;
+        manifest.ring_vpls = v;
         used += n;
     }
     if used != payload.len() && !is_newer_minor(minor) {
@@ -165,6 +178,28 @@ fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetEr
         )));
     }
     Ok((manifest, minor))
+}
+
+/// Decodes a `Vec<u32>` a minor appended to the manifest payload (`field`,
+/// at most `max` entries, one per `of`) at the start of `rest`: the count is
+/// read and bounded first, so a hostile count allocates nothing. The
+/// vector and the bytes it used.
+fn decode_appended(
+    rest: &[u8],
+    field: &str,
+    max: usize,
+    of: &str,
+) -> Result<(Vec<u32>, usize), String> {
+    let damaged =
+        |e: bincode::error::DecodeError| format!("damaged manifest payload: {field}: {e}");
+    let (count, _): (u64, usize) =
+        bincode::decode_from_slice(rest, bincode_config()).map_err(damaged)?;
+    if count > max as u64 {
+        return Err(format!(
+            "damaged manifest payload: {field} holds {count} entries but there are only {max} {of}"
+        ));
+    }
+    bincode::decode_from_slice(rest, bincode_config()).map_err(damaged)
 }
 
 /// Reads a whole file, refusing files larger than `max` bytes (before reading).
@@ -599,7 +634,9 @@ fn validate_manifest(
 }
 
 /// Whether the lights' VPL counts add up to `vpl_count` (checked once the
-/// VPL records are read, so that a hostile count is named by its file).
+/// VPL records are read, so that a hostile count is named by its file),
+/// and `ring_vpls` fits them: empty or one entry per light, each at most
+/// the light's VPLs, and only a directional light's non-zero.
 fn check_light_vpls(m: &Manifest) -> Result<(), String> {
     let sum: u64 = m.lights.iter().map(|l| l.vpls as u64).sum();
     if !m.lights.is_empty() && sum != m.vpl_count as u64 {
@@ -607,6 +644,27 @@ fn check_light_vpls(m: &Manifest) -> Result<(), String> {
             "the lights' VPL counts add up to {sum} but vpl_count is {}",
             m.vpl_count
         ));
+    }
+    if !m.ring_vpls.is_empty() && m.ring_vpls.len() != m.lights.len() {
+        return Err(format!(
+            "ring_vpls holds {} entries for {} lights (none or one per light)",
+            m.ring_vpls.len(),
+            m.lights.len()
+        ));
+    }
+    for (k, (light, &ring)) in m.lights.iter().zip(&m.ring_vpls).enumerate() {
+        if ring > light.vpls {
+            return Err(format!(
+                "ring_vpls[{k}] = {ring} but light {k} has only {} VPLs",
+                light.vpls
+            ));
+        }
+        if ring > 0 && light.kind != crate::LIGHT_DIRECTIONAL {
+            return Err(format!(
+                "ring_vpls[{k}] = {ring} but light {k} is a {} light: only a directional light has outer rings",
+                light.kind_name()
+            ));
+        }
     }
     Ok(())
 }
@@ -1650,6 +1708,13 @@ pub mod testing {
     /// to check that 4.1 assets still load.
     pub fn manifest_bytes_4_1(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
         encode_manifest_as(&before_4_2(manifest), 1, Path::new(FILE_MANIFEST))
+    }
+
+    /// The bytes of `manifest.bin` for `manifest` as a format 4.2 writer
+    /// wrote them (minor 2, the payload ends after `view_rsms`; its
+    /// `ring_vpls` must be empty): to check that 4.2 assets still load.
+    pub fn manifest_bytes_4_2(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
+        encode_manifest_as(manifest, 2, Path::new(FILE_MANIFEST))
     }
 
     fn before_4_2(manifest: &Manifest) -> Manifest {

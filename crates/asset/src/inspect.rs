@@ -118,6 +118,9 @@ pub struct Inspection {
     pub static_scene_hash: String,
     /// The primary lights baked.
     pub lights: Vec<crate::LightRecord>,
+    /// Per light, its VPLs on its outer rings (format 4.3; empty when none
+    /// has any: [`crate::Manifest::ring_vpls`]).
+    pub ring_vpls: Vec<u32>,
     /// Shadow-map views of the lights after the first (a point light's six
     /// faces, a spot's or sun's one).
     pub views: usize,
@@ -203,6 +206,7 @@ pub fn inspect(asset: &Asset) -> Inspection {
             .map(|b| format!("{b:02x}"))
             .collect(),
         lights: m.lights.clone(),
+        ring_vpls: m.ring_vpls.clone(),
         views: m.views.len(),
         light_maps_stored: m.views.iter().filter(|v| v.tile != NO_MAP).count(),
         light_map_size: m.light_map_size,
@@ -314,8 +318,12 @@ impl fmt::Display for Inspection {
             "  light view: {} at ({}, {}, {}) toward ({}, {}, {})",
             self.light, o[0], o[1], o[2], d[0], d[1], d[2]
         )?;
-        for l in &self.lights {
+        for (k, l) in self.lights.iter().enumerate() {
             let (p, d, c) = (l.position, l.direction, l.color);
+            let ring = match self.ring_vpls.get(k) {
+                Some(&r) if r > 0 => format!(" ({r} on its outer rings)"),
+                _ => String::new(),
+            };
             let cone = if l.kind == crate::LIGHT_SPOT {
                 format!(", cone {}–{} rad", l.inner_cone, l.outer_cone)
             } else {
@@ -328,7 +336,7 @@ impl fmt::Display for Inspection {
             };
             writeln!(
                 f,
-                "  light '{}': {} at ({}, {}, {}) toward ({}, {}, {}), colour × intensity ({}, {}, {}){cone}{range}; {} VPLs",
+                "  light '{}': {} at ({}, {}, {}) toward ({}, {}, {}), colour × intensity ({}, {}, {}){cone}{range}; {} VPLs{ring}",
                 l.name,
                 l.kind_name(),
                 p[0],

@@ -57,8 +57,10 @@ pub const FORMAT_MAJOR: u16 = 4;
 /// Format minor version: additive changes only (4.1: [`Manifest::view_rsms`]
 /// appended to the manifest payload and `view_rsms.exr`; a 4.0 asset reads
 /// with no view RSMs. 4.2: `vpl_coherence.bin`, [`Asset::vpl_coherence`];
-/// an older asset reads with none, every level-3 node one cosine lobe).
-pub const FORMAT_MINOR: u16 = 2;
+/// an older asset reads with none, every level-3 node one cosine lobe.
+/// 4.3: [`Manifest::ring_vpls`] appended after `view_rsms`; an older asset
+/// reads with no ring VPLs).
+pub const FORMAT_MINOR: u16 = 3;
 
 /// One static VPL record. Stored as a little-endian array in `vpls.bin`
 /// (48 bytes each, fields in this order).
@@ -84,6 +86,23 @@ pub struct VplRecord {
 
 /// [`VplRecord::map`] of a VPL whose map is not stored.
 pub const NO_MAP: u32 = u32::MAX;
+
+impl VplRecord {
+    /// The area whose disk radius sets how far the VPL's map origin is
+    /// lifted off its surface (`gibake_gpu::hemisphere::vpl_origin`): its
+    /// own area, or one of its texels' (`area / texels`) for a VPL on a
+    /// light's outer rings ([`Manifest::ring_vpls`]): a ring VPL is a wide
+    /// patch of flat ground, and lifted by its own radius (tens of metres
+    /// on a town's outer ground) its origin would see over the houses its
+    /// texels cannot (docs/method.md, "Outer rings").
+    pub fn map_origin_area(&self, ring: bool) -> f32 {
+        if ring {
+            self.area / self.texels.max(1) as f32
+        } else {
+            self.area
+        }
+    }
+}
 
 /// Levels of each VPL's near-field tree in `vpl_nodes.bin` (below the VPL
 /// itself, which is level 0).
@@ -511,6 +530,35 @@ pub struct Manifest {
     /// serde fields (see `format.rs`), hence skipped here.
     #[serde(skip)]
     pub view_rsms: Vec<u32>,
+    /// Format 4.3, appended after [`Manifest::view_rsms`] (an older
+    /// manifest ends before it: empty, no ring VPLs): per light, in light
+    /// order, how many of its VPLs — the last ones of its range — lie on
+    /// its **outer rings**, the ground beyond a directional light's fitted
+    /// view (docs/method.md, "Outer rings"). Their map origin is lifted by
+    /// one of their texels' radius instead of their own
+    /// ([`VplRecord::map_origin_area`]). Empty when no light has any; else
+    /// one entry per light, each at most its `vpls`, non-zero only for a
+    /// directional light. Encoded by hand (see `format.rs`).
+    #[serde(skip)]
+    pub ring_vpls: Vec<u32>,
+}
+
+impl Manifest {
+    /// Per VPL record: whether it lies on its light's outer rings
+    /// ([`Manifest::ring_vpls`]); `vpl_count` entries.
+    pub fn ring_flags(&self) -> Vec<bool> {
+        let mut out = vec![false; self.vpl_count as usize];
+        let mut start = 0usize;
+        for (light, ring) in self.lights.iter().zip(&self.ring_vpls) {
+            let end = start + light.vpls as usize;
+            let first_ring = end.saturating_sub(*ring as usize).max(start);
+            for f in out.iter_mut().take(end).skip(first_ring) {
+                *f = true;
+            }
+            start = end;
+        }
+        out
+    }
 }
 
 /// One shadow-map view of a light other than the first (format 4.0).

@@ -691,6 +691,7 @@ mod tests {
             views: Vec::new(),
             light_map_size: 0,
             view_rsms: Vec::new(),
+            ring_vpls: Vec::new(),
         };
         let rec = VplRecord {
             position: [0.0; 3],

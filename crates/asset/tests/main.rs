@@ -8,6 +8,7 @@ mod corruption;
 mod diff_inspect;
 mod fuzz_regressions;
 mod owned_files;
+mod ring_vpls;
 mod roundtrip;
 mod view_rsms;
 mod write_safety;

@@ -80,14 +80,14 @@ fn view_rsms_round_trip_in_the_documented_layout() {
         .collect();
     assert_eq!(names.last(), Some(&FILE_VIEW_RSMS));
     // The manifest payload ends with the appended vector: count 3, then
-    // the indices (one-byte varints).
+    // the indices (one-byte varints); then (4.3) no ring VPLs (`00`).
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
     assert_eq!(
         u16::from_le_bytes([bytes[10], bytes[11]]),
         gibake_asset::FORMAT_MINOR
     );
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    assert_eq!(&bytes[20 + len - 4..20 + len], &[3, 1, 4, 5]);
+    assert_eq!(&bytes[20 + len - 5..20 + len], &[3, 1, 4, 5, 0]);
     // The atlas, read back as the spec lays it out.
     let (w, h, z, share, vpl) = atlas_of(&asset.view_rsms);
     assert_eq!((w, h), (2 * RSM as usize, 2 * RSM as usize));
@@ -189,18 +189,14 @@ fn bad_view_rsm_lists_are_refused_naming_the_manifest() {
             );
         }
     }
-    // A hostile count (2^40 entries) is refused before any allocation.
+    // A hostile count (2^40 entries) is refused before any allocation
+    // (the payload ends with view_rsms, 4 bytes, then ring_vpls, 1).
     let (dir, _) = fresh(tmp.path(), "huge.gibake");
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    let mut p = bytes[20..20 + len - 4].to_vec();
-    p.push(253);
-    p.extend_from_slice(&(1u64 << 40).to_le_bytes());
-    let mut out = bytes[..20].to_vec();
-    out[12..20].copy_from_slice(&(p.len() as u64).to_le_bytes());
-    out.extend_from_slice(&p);
-    let h = *blake3::hash(&out).as_bytes();
-    out.extend_from_slice(&h);
+    let mut tail = vec![253];
+    tail.extend_from_slice(&(1u64 << 40).to_le_bytes());
+    let out = with_payload_tail(&bytes, len - 5, &tail);
     std::fs::write(dir.join(FILE_MANIFEST), &out).unwrap();
     let msg = load_manifest(&dir).unwrap_err().to_string();
     assert!(
@@ -208,12 +204,7 @@ fn bad_view_rsm_lists_are_refused_naming_the_manifest() {
         "{msg}"
     );
     // Cut inside the vector: damaged.
-    let mut out = bytes[..20].to_vec();
-    let p = &bytes[20..20 + len - 1];
-    out[12..20].copy_from_slice(&(p.len() as u64).to_le_bytes());
-    out.extend_from_slice(p);
-    let h = *blake3::hash(&out).as_bytes();
-    out.extend_from_slice(&h);
+    let out = with_payload_tail(&bytes, len - 2, &[]);
     std::fs::write(dir.join(FILE_MANIFEST), &out).unwrap();
     let msg = load_manifest(&dir).unwrap_err().to_string();
     assert!(

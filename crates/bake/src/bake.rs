@@ -136,8 +136,20 @@ pub fn light_view_warnings(scene: &Scene, view: &LightView, opts: &BakeOptions) 
         };
         let name = &light.name;
         if f.source == gibake_gpu::light_fit::FitSource::WithoutOutliers && f.clipped > 0 {
+            let beyond = match f.rings() {
+                0 => "beyond the cut they reflect no bounce light, and objects standing near the edge of the covered part lose some of theirs".to_string(),
+                r => format!(
+                    "beyond the cut they get no shadow; their bounce light comes from {r} outer ring(s) of the ground, {}× the covered width{}",
+                    1u32 << r,
+                    if !f.rings_cover_all() {
+                        " (the ground beyond reflects none)"
+                    } else {
+                        ""
+                    }
+                ),
+            };
             out.push(format!(
-                "directional light '{name}': its maps cover {:.0}% of the level's width across the light ({:.4e} of {:.4e} scene units): {} large triangle(s), first in mesh '{}', are cut as a ground round the level; beyond the cut they reflect no bounce light, and objects standing near the edge of the covered part lose some of theirs (docs/method.md, section 1 of the bake); give --bake-volume or mark a node with extras {{\"bake_volume\": true}} to choose the covered part",
+                "directional light '{name}': its maps cover {:.0}% of the level's width across the light ({:.4e} of {:.4e} scene units): {} large triangle(s), first in mesh '{}', are cut as a ground round the level; {beyond} (docs/method.md, section 1 of the bake and \"Outer rings\"); give --bake-volume or mark a node with extras {{\"bake_volume\": true}} to choose the covered part",
                 100.0 * f.width() / f.full_width.max(f32::MIN_POSITIVE),
                 f.width(),
                 f.full_width,
@@ -334,6 +346,9 @@ struct Front {
     vpl_coherence: Vec<f32>,
     /// VPLs per light, in light order (the VPLs are in that order).
     per_light: Vec<u32>,
+    /// Per light, its VPLs on its outer rings (the last of its VPLs);
+    /// empty when none has any (`Manifest::ring_vpls`).
+    ring_vpls: Vec<u32>,
     /// VPLs the clustering made, dropped ones included.
     made: usize,
     dropped: usize,
@@ -349,10 +364,25 @@ struct Front {
     view_rsms: Vec<(u32, RsmData)>,
 }
 
+/// Per VPL (in light order, `per_light` each): whether it lies on its
+/// light's outer rings (the last `ring_vpls[k]` of light `k`'s).
+fn ring_flags(per_light: &[u32], ring_vpls: &[u32]) -> Vec<bool> {
+    let mut out = Vec::new();
+    for (k, &n) in per_light.iter().enumerate() {
+        let ring = ring_vpls.get(k).copied().unwrap_or(0).min(n);
+        out.extend(std::iter::repeat_n(false, (n - ring) as usize));
+        out.extend(std::iter::repeat_n(true, ring as usize));
+    }
+    out
+}
+
 /// Whether `scene` takes the bake of every light ([`crate::lights`]):
-/// several lights, or a point light (its six faces).
+/// several lights, a point light (its six faces), or a sun with outer
+/// rings ([`crate::rings`]: more maps than its one view).
 pub(crate) fn bakes_every_light(scene: &Scene) -> bool {
-    scene.lights.len() > 1 || light_maps::first_viewed_light(scene) == 0
+    scene.lights.len() > 1
+        || light_maps::first_viewed_light(scene) == 0
+        || crate::rings::any_rings(scene)
 }
 
 /// The views (indices into the manifest's `views`: every view of
@@ -418,7 +448,7 @@ fn moving_view_rsms(
             let kept = every
                 .maps
                 .iter()
-                .position(|m| m.light == k && m.face == face);
+                .position(|m| m.light == k && m.face == face && m.ring == 0);
             let data = |rsm: &crate::rsm::Rsm, texel_vpl: Vec<u32>| {
                 let flux: Vec<[f32; 3]> = rsm.flux.iter().map(|f| f.to_array()).collect();
                 RsmData::from_flux(
@@ -492,7 +522,8 @@ fn every_light_front(
     // The first light's RSM (one view: a spot or directional light); when
     // its bounce was left out as negligible, rendered for the dynamic merge
     // with no texel of any VPL.
-    let first = every.maps.iter().position(|m| m.light == 0);
+    let first = every.maps.iter().position(|m| m.light == 0 && m.ring == 0);
+    let ring_vpls = every.ring_vpls_per_light(scene.lights.len());
     let made = vpls.len() + every.dropped_vpls;
     let threshold = every.clusters.threshold;
     let dropped = every.dropped_vpls;
@@ -524,6 +555,7 @@ fn every_light_front(
         vpl_nodes,
         vpl_coherence,
         per_light,
+        ring_vpls,
         made,
         dropped,
         threshold,
@@ -677,7 +709,7 @@ fn bake_with(
             0
         } else {
             let reaching = clusters.reaching_flux(&rsm);
-            clusters.retain(|i, c| reach.keeps(c, reaching[i]))
+            clusters.retain(|i, c| reach.keeps(c, reaching[i], false))
         };
         progress.end();
         lap("clustering", &mut stages);
@@ -692,6 +724,7 @@ fn bake_with(
         }
         Front {
             per_light: vec![vpls.len() as u32],
+            ring_vpls: Vec::new(),
             vpls,
             vpl_nodes,
             vpl_coherence,
@@ -713,6 +746,7 @@ fn bake_with(
         vpl_nodes,
         vpl_coherence,
         per_light,
+        ring_vpls,
         dropped,
         threshold,
         texel_vpl,
@@ -735,9 +769,14 @@ fn bake_with(
         None => 0..vpls.len(),
     };
     progress.begin("VPL maps", range.len() as u64);
-    let each = crate::vplmap::render_each_vpl_map(&rays, &vpls[range], opts.vpl_map_size, &|| {
-        progress.advance(1)
-    });
+    let rings = ring_flags(&per_light, &ring_vpls);
+    let each = crate::vplmap::render_each_vpl_map(
+        &rays,
+        &vpls[range.clone()],
+        &rings[range],
+        opts.vpl_map_size,
+        &|| progress.advance(1),
+    );
     let (maps, shard_maps) = match shard {
         Some(_) => (MapAtlas::empty(opts.vpl_map_size), each),
         None => {
@@ -812,6 +851,7 @@ fn bake_with(
         views,
         light_map_size,
         view_rsms: view_rsm_views,
+        ring_vpls,
     };
     let asset = Asset {
         manifest,

@@ -38,6 +38,9 @@ pub struct LightMap {
     /// Which of the light's views ([`LightView::of_light`]'s order: a point
     /// light's faces +X, −X, +Y, −Y, +Z, −Z).
     pub face: usize,
+    /// 0 for the view itself; `j ≥ 1` for its outer ring `j`
+    /// ([`crate::rings`]: `view` is then the ring's).
+    pub ring: u32,
     /// The view at the primary shadow map's resolution (the runtime's).
     pub view: LightView,
     /// The RSM, at the view's planned resolution ([`ViewPlan`]: the bake's
@@ -70,6 +73,32 @@ impl EveryLight {
             n[m.light] += c.vpls.len();
         }
         n
+    }
+
+    /// VPLs per light on its outer rings (index = light; the last ones of
+    /// the light's VPLs, [`gibake_asset::Manifest::ring_vpls`]); empty when
+    /// no light has any.
+    pub fn ring_vpls_per_light(&self, lights: usize) -> Vec<u32> {
+        let mut n = vec![0; lights];
+        for (m, c) in self.maps.iter().zip(&self.clusters.maps) {
+            if m.ring > 0 {
+                n[m.light] += c.vpls.len() as u32;
+            }
+        }
+        if n.iter().all(|&k| k == 0) {
+            n.clear();
+        }
+        n
+    }
+
+    /// Per VPL of [`EveryLight::vpl_records`]: whether it lies on an outer
+    /// ring.
+    pub fn ring_flags(&self) -> Vec<bool> {
+        self.maps
+            .iter()
+            .zip(&self.clusters.maps)
+            .flat_map(|(m, c)| std::iter::repeat_n(m.ring > 0, c.vpls.len()))
+            .collect()
     }
 
     /// The VPL records of every map, in map order (no hemisphere maps yet:
@@ -144,22 +173,48 @@ pub fn every_light_planned(
 ) -> EveryLight {
     let mut maps = Vec::new();
     let mut unlit_views = 0;
-    for (((k, face, view), size), probe) in plan.views.into_iter().zip(plan.sizes).zip(plan.probes)
+    for ((((k, face, view), size), probe), rings) in plan
+        .views
+        .into_iter()
+        .zip(plan.sizes)
+        .zip(plan.probes)
+        .zip(plan.rings)
     {
         let light = &scene.lights[k];
         let rsm = match probe {
             Some(rsm) if rsm.size == size => rsm,
             _ => render_rsm(reach.rays, light, &view.resized(size), Some(reach)),
         };
+        // A sun whose view cut a ground: its outer rings after the view
+        // (its VPLs stay consecutive, the rings' last).
+        let rings = match crate::rings::ring_fit(scene, light).filter(|_| rings > 0) {
+            Some(fit) => crate::rings::ring_rsms(reach, light, &fit, rsm.size, view.size),
+            None => Vec::new(),
+        };
         if rsm.flux.iter().any(|f| f.max_element() > 0.0) {
             maps.push(LightMap {
                 light: k,
                 face,
+                ring: 0,
                 view,
                 rsm,
             });
         } else {
             unlit_views += 1;
+        }
+        for (j, rsm) in rings.into_iter().enumerate() {
+            if rsm.flux.iter().any(|f| f.max_element() > 0.0) {
+                let view = rsm.view.resized(view.size);
+                maps.push(LightMap {
+                    light: k,
+                    face,
+                    ring: j as u32 + 1,
+                    view,
+                    rsm,
+                });
+            } else {
+                unlit_views += 1;
+            }
         }
     }
     let refs: Vec<&Rsm> = maps.iter().map(|m| &m.rsm).collect();
@@ -185,10 +240,16 @@ pub fn every_light_planned(
             clusters.maps.retain(|_| *k.next().expect("one per map"));
         }
     }
+    // A ring VPL is seen from its texel nearest the view (crate::rings).
+    for (c, m) in clusters.maps.iter_mut().zip(&maps) {
+        if m.ring > 0 {
+            crate::rings::anchor_near_centre(&m.rsm, c);
+        }
+    }
     let mut dropped_vpls = 0;
     for (c, m) in clusters.maps.iter_mut().zip(&maps) {
         let reaching = c.reaching_flux(&m.rsm);
-        dropped_vpls += c.retain(|i, v| reach.keeps(v, reaching[i]));
+        dropped_vpls += c.retain(|i, v| reach.keeps(v, reaching[i], m.ring > 0));
     }
     EveryLight {
         maps,
@@ -236,6 +297,9 @@ pub struct ViewPlan {
     /// Each view's probe RSM where it is the view's RSM (its resolution
     /// is the probe's).
     probes: Vec<Option<Rsm>>,
+    /// Each view's outer rings ([`crate::rings`]), each at the view's
+    /// resolution.
+    rings: Vec<u32>,
 }
 
 impl ViewPlan {
@@ -243,12 +307,14 @@ impl ViewPlan {
     pub fn new(scene: &Scene, reach: &Reach<'_, '_>, rsm_size: u32, shadow_map_size: u32) -> Self {
         let views = all_views(scene, shadow_map_size);
         let full = full_size_views(scene, shadow_map_size, &views);
+        let rings = view_rings(scene, &views);
         let probe_size = MIN_VIEW_RSM_SIZE.min(rsm_size);
         if probe_size == rsm_size || full.iter().all(|f| *f) {
             return ViewPlan {
                 sizes: vec![rsm_size; views.len()],
                 probes: views.iter().map(|_| None).collect(),
                 views,
+                rings,
             };
         }
         let probes: Vec<Rsm> = views
@@ -290,6 +356,7 @@ impl ViewPlan {
             views,
             sizes,
             probes,
+            rings,
         }
     }
 
@@ -298,11 +365,13 @@ impl ViewPlan {
         &self.sizes
     }
 
-    /// The RSM texels of every view together (what the bake holds).
+    /// The RSM texels of every view and outer ring together (what the
+    /// bake holds; a ring has its view's resolution).
     pub fn texels(&self) -> u64 {
         self.sizes
             .iter()
-            .map(|&s| u64::from(s) * u64::from(s))
+            .zip(&self.rings)
+            .map(|(&s, &r)| u64::from(s) * u64::from(s) * (1 + u64::from(r)))
             .sum()
     }
 
@@ -313,18 +382,30 @@ impl ViewPlan {
         let views = all_views(scene, shadow_map_size);
         let full = full_size_views(scene, shadow_map_size, &views);
         let probe = u64::from(MIN_VIEW_RSM_SIZE.min(rsm_size));
+        let rings = view_rings(scene, &views);
         let texels = full
             .iter()
-            .map(|&f| {
-                if f {
+            .zip(&rings)
+            .map(|(&f, &r)| {
+                let one = if f {
                     u64::from(rsm_size).pow(2)
                 } else {
                     probe * probe
-                }
+                };
+                one * (1 + u64::from(r))
             })
             .sum();
         (views.len() as u64, texels)
     }
+}
+
+/// Each view's outer rings ([`crate::rings`]): a directional light's one
+/// view may have some, every other none.
+fn view_rings(scene: &Scene, views: &[(usize, usize, LightView)]) -> Vec<u32> {
+    views
+        .iter()
+        .map(|(k, _, _)| crate::rings::ring_fit(scene, &scene.lights[*k]).map_or(0, |f| f.rings()))
+        .collect()
 }
 
 /// (light, face, view) of every view of `scene`'s lights, in light order.

@@ -103,8 +103,11 @@ impl Reach<'_, '_> {
 
     /// Whether the VPL of cluster `c` sees anything: [`Reach::sees_anything`]
     /// from its map origin ([`hemisphere::vpl_origin`] of its anchor).
-    pub fn sees_cluster(&self, c: &crate::cluster::Cluster) -> bool {
-        self.sees_anything(hemisphere::vpl_origin(c.anchor, c.normal, c.area), c.normal)
+    /// `ring`: the cluster lies on an outer ring, its origin one texel's
+    /// radius off its surface ([`gibake_asset::VplRecord::map_origin_area`]).
+    pub fn sees_cluster(&self, c: &crate::cluster::Cluster, ring: bool) -> bool {
+        let origin = hemisphere::record_origin(&c.record(), ring);
+        self.sees_anything(origin, c.normal)
     }
 
     /// Whether the bakes keep the VPL of cluster `c`, whose texels'
@@ -118,8 +121,8 @@ impl Reach<'_, '_> {
     /// VPLs: `lights_twin … --split`); every texel's own
     /// [`RAYS_PER_TEXEL`] rays ([`texel_reach`](Self::texel_reach)) are
     /// thousands per VPL, from the surface itself.
-    pub fn keeps(&self, c: &crate::cluster::Cluster, reaching: f64) -> bool {
-        reaching > 0.0 || self.sees_cluster(c)
+    pub fn keeps(&self, c: &crate::cluster::Cluster, reaching: f64, ring: bool) -> bool {
+        reaching > 0.0 || self.sees_cluster(c, ring)
     }
 
     /// Whether a VPL at `origin` (its map origin, off its surface) with

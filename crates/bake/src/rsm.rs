@@ -89,6 +89,19 @@ pub fn render_rsm(
     view: &LightView,
     reach: Option<&Reach<'_, '_>>,
 ) -> Rsm {
+    render_rsm_masked(rays, light, view, reach, &|_, _| false)
+}
+
+/// [`render_rsm`] with the texels `(x, y)` for which `masked` holds left
+/// empty (no surface, no ray cast): an outer ring's part that the next
+/// smaller view covers ([`crate::rings`]).
+pub fn render_rsm_masked(
+    rays: &RayScene<'_>,
+    light: &Light,
+    view: &LightView,
+    reach: Option<&Reach<'_, '_>>,
+    masked: &(dyn Fn(u32, u32) -> bool + Sync),
+) -> Rsm {
     let size = view.size;
     let n = (size * size) as usize;
     let rows: Vec<Vec<TexelSample>> = (0..size)
@@ -97,7 +110,12 @@ pub fn render_rsm(
             (0..size)
                 .map(|x| {
                     let (o, d) = view.texel_ray(x, y);
-                    let Some(hit) = rays.intersect(o, d, f32::INFINITY) else {
+                    let hit = if masked(x, y) {
+                        None
+                    } else {
+                        rays.intersect(o, d, f32::INFINITY)
+                    };
+                    let Some(hit) = hit else {
                         return (f32::INFINITY, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0, 0.0);
                     };
                     let p = hit.position;

@@ -10,36 +10,28 @@ use gibake_raycast::RayScene;
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// Renders the maps of `vpls` (`size²` distances each, +inf = no surface).
-/// A map that sees no surface at all is not stored: its VPL gets
-/// [`NO_MAP`](gibake_asset::NO_MAP). Returns the stored maps as the atlas
-/// (`None` if it cannot be held in memory); sets `vpl.map`.
-/// `progress` is called once per finished VPL.
-pub fn render_vpl_maps(
-    rays: &RayScene<'_>,
-    vpls: &mut [VplRecord],
-    size: u32,
-    progress: &(dyn Fn() + Sync),
-) -> Option<gibake_asset::MapAtlas> {
-    let maps = render_each_vpl_map(rays, vpls, size, progress);
-    gibake_asset::assign_map_tiles(vpls, size, maps)
-}
-
-/// The map of every VPL of `vpls`, in order: `None` for a map that sees no
-/// surface (it is not stored). Each map depends only on its own VPL and the
-/// static geometry, so any subset (a shard) renders exactly the maps the
-/// whole bake renders. `progress` is called once per finished VPL.
+/// The map of every VPL of `vpls`, in order (`size²` distances each, +inf
+/// = no surface): `None` for a map that sees no surface (it is not stored;
+/// [`gibake_asset::assign_map_tiles`] gives its VPL
+/// [`NO_MAP`](gibake_asset::NO_MAP)). `ring[i]`: whether VPL `i` lies on an
+/// outer ring (its map origin, [`hemisphere::record_origin`]). Each map
+/// depends only on its own VPL and the static geometry, so any subset (a
+/// shard) renders exactly the maps the whole bake renders. `progress` is
+/// called once per finished VPL.
 pub fn render_each_vpl_map(
     rays: &RayScene<'_>,
     vpls: &[VplRecord],
+    ring: &[bool],
     size: u32,
     progress: &(dyn Fn() + Sync),
 ) -> Vec<Option<Vec<f32>>> {
+    assert_eq!(vpls.len(), ring.len(), "one ring flag per VPL");
     let texels = (size * size) as usize;
     vpls.par_iter()
-        .map(|v| {
+        .zip(ring)
+        .map(|(v, &ring)| {
             let n = Vec3::from_array(v.normal);
-            let origin = hemisphere::vpl_origin(Vec3::from_array(v.position), n, v.area);
+            let origin = hemisphere::record_origin(v, ring);
             let origin = rays.offset_point(origin, n);
             let mut map = Vec::with_capacity(texels);
             let mut any = false;

@@ -283,7 +283,7 @@ fn vpl_flux_sums_to_the_rsm_reflected_power() {
         // The bake drops the VPLs whose light reaches nothing: the asset
         // carries the flux of the others.
         let reaching = clusters.reaching_flux(&rsm);
-        clusters.retain(|i, c| reach.keeps(c, reaching[i]));
+        clusters.retain(|i, c| reach.keeps(c, reaching[i], false));
         let kept_total: f64 = clusters
             .vpls
             .iter()

@@ -282,3 +282,75 @@ fn many_lights_over_the_memory_budget_are_refused_before_their_rsms() {
         Ok(_) => panic!("the planned RSMs were baked over the budget"),
     }
 }
+
+/// A sun whose view cuts a ground (the Blenvy level, its sun alone) is baked
+/// with outer rings (format 4.3): the manifest names the ring VPLs (the
+/// last of the light's), they lie outside the light view, and each stored
+/// map is the one cast from one texel's radius above the VPL's position
+/// (`hemisphere::record_origin`). The bake is deterministic.
+#[test]
+fn a_sun_over_a_cut_ground_is_baked_with_ring_vpls() {
+    let ctx = gpu();
+    let path = Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../data/lights/blenvy_start_level/StartLevel.glb"
+    ));
+    let mut scene = gibake_scene::load(path, &LoadOptions::default()).expect("the Blenvy level");
+    scene.lights.retain(|l| l.kind == LightKind::Directional);
+    let opts = options();
+    let a = bake(&ctx, &scene, &opts, &NoProgress, "test")
+        .expect("bake")
+        .asset;
+    let m = &a.manifest;
+    assert_eq!(m.lights.len(), 1);
+    let ring = m.ring_vpls.first().copied().unwrap_or(0) as usize;
+    assert!(
+        ring > 0 && ring < a.vpls.len(),
+        "{:?} of {}",
+        m.ring_vpls,
+        a.vpls.len()
+    );
+    let flags = m.ring_flags();
+    assert_eq!(flags.iter().filter(|f| **f).count(), ring);
+    assert!(flags[a.vpls.len() - ring..].iter().all(|f| *f));
+    // Outside the light view's square; the others inside.
+    let view = gibake_gpu::LightView::from_record(&m.light_view, opts.shadow_map_size);
+    for (v, &f) in a.vpls.iter().zip(&flags) {
+        let c = view
+            .texel_coords(glam::Vec3::from_array(v.position))
+            .expect("orthographic");
+        let s = opts.shadow_map_size as f32;
+        let inside = c.x >= 0.0 && c.y >= 0.0 && c.x < s && c.y < s;
+        assert_eq!(inside, !f, "VPL at {:?}", v.position);
+    }
+    // A ring VPL's stored map is cast from one texel's radius up.
+    let stat = gibake_bake::static_only(&scene);
+    let rays = gibake_raycast::RayScene::build(&stat, 0.0);
+    let last = a.vpls.len() - 1;
+    let lone = gibake_bake::vplmap::render_each_vpl_map(
+        &rays,
+        &a.vpls[last..],
+        &[true],
+        opts.vpl_map_size,
+        &|| {},
+    );
+    let stored = a.vpl_maps.map(a.vpls[last].map);
+    assert!(stored.is_some(), "the last ring VPL stores a map");
+    assert_eq!(lone[0], stored, "the ring VPL's map");
+    let lifted = gibake_bake::vplmap::render_each_vpl_map(
+        &rays,
+        &a.vpls[last..],
+        &[false],
+        opts.vpl_map_size,
+        &|| {},
+    );
+    assert_ne!(
+        lifted[0], stored,
+        "a ring VPL is not lifted by its whole radius"
+    );
+    // Deterministic.
+    let again = bake(&ctx, &scene, &opts, &NoProgress, "test")
+        .expect("bake")
+        .asset;
+    assert_eq!(again, a);
+}

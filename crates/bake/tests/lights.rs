@@ -408,6 +408,12 @@ fn a_ground_cut_by_the_sun_s_fit_is_warned_about() {
     assert!(cut[0].contains("cover 30% of the level's width"), "{w:?}");
     assert!(cut[0].contains("mesh 'Ground/"), "{w:?}");
     assert!(cut[0].starts_with("directional light 'Light.001'"), "{w:?}");
+    // Its bounce light beyond the cut is kept by outer rings (two: the
+    // 94 m ground is 3.3 times the covered width).
+    assert!(
+        cut[0].contains("comes from 2 outer ring(s) of the ground, 4× the covered width ("),
+        "{w:?}"
+    );
     // A second sun, not the first light: its own fit is judged too.
     let mut spot_first = scene.clone();
     spot_first.lights.rotate_left(1);
@@ -426,4 +432,97 @@ fn a_ground_cut_by_the_sun_s_fit_is_warned_about() {
     assert!(w.iter().all(|m| !m.contains("cut as a ground")), "{w:?}");
     let room = closed_room(0.5, 1.0, point(Vec3::new(0.0, 1.0, 0.0), Vec3::ONE));
     assert!(warned(&room).is_empty(), "{:?}", warned(&room));
+}
+
+/// The Blenvy level's sun alone: its fitted view cuts the 94 m ground.
+fn blenvy_sun() -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data/lights/blenvy_start_level/StartLevel.glb");
+    let mut scene = gibake_scene::load(&path, &Default::default()).expect("the Blenvy level");
+    scene
+        .lights
+        .retain(|l| l.kind == gibake_scene::LightKind::Directional);
+    assert_eq!(scene.lights.len(), 1);
+    scene
+}
+
+/// Outer rings (docs/method.md, "Outer rings"): a sun whose view cut a
+/// ground gets ring RSMs after its view, each lit texel outside the next
+/// smaller square and inside its own, the rings' VPLs last of the light's
+/// and anchored at their texel nearest the ring's centre; with a bake
+/// volume over the whole level nothing is cut and there is no ring.
+#[test]
+fn a_cut_ground_gets_outer_rings_each_point_in_one_map() {
+    let scene = blenvy_sun();
+    let front = every(&scene, 128, ClusterTarget::Count(200));
+    let rings: Vec<u32> = front.maps.iter().map(|m| m.ring).collect();
+    // The view, then its rings (two cover the ground; the second's light
+    // may be left out as negligible).
+    assert!(
+        rings.len() >= 2 && rings.iter().enumerate().all(|(i, &r)| r == i as u32),
+        "{rings:?}"
+    );
+    for w in front.maps.windows(2) {
+        let (inner, outer) = (&w[0].rsm, &w[1].rsm);
+        // Twice as wide texels, same resolution.
+        assert_eq!(inner.size, outer.size);
+        let r = outer.view.texel_scale / inner.view.texel_scale;
+        assert!((r - 2.0).abs() < 1e-4, "{r}");
+        let in_square = |view: &LightView, p: Vec3| {
+            let c = view.texel_coords(p).expect("orthographic");
+            let s = view.size as f32;
+            c.x >= 0.0 && c.y >= 0.0 && c.x < s && c.y < s
+        };
+        let mut lit = 0;
+        for (i, f) in outer.flux.iter().enumerate() {
+            if f.max_element() > 0.0 {
+                lit += 1;
+                let p = outer.position[i];
+                assert!(in_square(&outer.view, p));
+                assert!(
+                    !in_square(&inner.view, p),
+                    "ring texel {i} at {p} is in the smaller square"
+                );
+            }
+        }
+        assert!(lit > 0, "ring {} reflects light", w[1].ring);
+    }
+    // The rings' VPLs come last, flagged, anchored at their inner edge.
+    let flags = front.ring_flags();
+    let per_map: Vec<usize> = front.clusters.maps.iter().map(|c| c.vpls.len()).collect();
+    assert_eq!(flags.len(), per_map.iter().sum::<usize>());
+    assert!(flags[..per_map[0]].iter().all(|f| !f));
+    assert!(flags[per_map[0]..].iter().all(|f| *f));
+    assert_eq!(
+        front.ring_vpls_per_light(1),
+        vec![per_map[1..].iter().sum::<usize>() as u32]
+    );
+    assert!(per_map[1] > 0, "the first ring holds VPLs");
+    for (m, c) in front.maps.iter().zip(&front.clusters.maps).skip(1) {
+        let n = m.rsm.size as f32;
+        let off = |t: usize| {
+            let (x, y) = (
+                (t as u32 % m.rsm.size) as f32 + 0.5,
+                (t as u32 / m.rsm.size) as f32 + 0.5,
+            );
+            (x - 0.5 * n).abs().max((y - 0.5 * n).abs())
+        };
+        for (i, v) in c.vpls.iter().enumerate() {
+            let texels: Vec<usize> = (0..c.texel_vpl.len())
+                .filter(|&t| c.texel_vpl[t] == i as u32)
+                .collect();
+            let nearest = texels.iter().map(|&t| off(t)).fold(f32::INFINITY, f32::min);
+            let at = texels
+                .iter()
+                .find(|&&t| m.rsm.position[t] == v.anchor)
+                .expect("the anchor is one of its texels");
+            assert_eq!(off(*at), nearest, "ring VPL {i}");
+        }
+    }
+    // Nothing cut: no ring.
+    let mut whole = scene.clone();
+    whole.bake_volume = Some(whole.full_bounds());
+    let none = every(&whole, 128, ClusterTarget::Count(200));
+    assert!(none.maps.iter().all(|m| m.ring == 0));
+    assert!(none.ring_vpls_per_light(1).is_empty());
 }

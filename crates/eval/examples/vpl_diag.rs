@@ -109,7 +109,7 @@ fn main() {
         let rsm = render_rsm(&rays, scene.light(), &view, Some(&reach));
         let mut cl = cluster(&rsm, ClusterTarget::Count(vpls));
         let reaching = cl.reaching_flux(&rsm);
-        cl.retain(|i, c| reach.keeps(c, reaching[i]));
+        cl.retain(|i, c| reach.keeps(c, reaching[i], false));
         // Texels per VPL with flux weights.
         let mut members: Vec<Vec<(usize, f32)>> = vec![Vec::new(); cl.vpls.len()];
         for (t, &v) in cl.texel_vpl.iter().enumerate() {

@@ -162,14 +162,15 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
         every.dropped_vpls = 0;
         for (c, m) in maps.iter_mut().zip(&every.maps) {
             let reaching = c.reaching_flux(&m.rsm);
-            every.dropped_vpls += c.retain(|i, v| reach.keeps(v, reaching[i]));
+            every.dropped_vpls += c.retain(|i, v| reach.keeps(v, reaching[i], m.ring > 0));
         }
         every.clusters.maps = maps;
     }
     let bake_seconds = t0.elapsed().as_secs_f64();
     let records = every.vpl_records();
     let (nodes, coherence) = every.vpl_trees();
-    let twin_vpls = crate::transport::TwinVpls::new(&records, &nodes, &coherence);
+    let ring = every.ring_flags();
+    let twin_vpls = crate::transport::TwinVpls::new(&records, &ring, &nodes, &coherence);
     let per_light = every.vpls_per_light(scene.lights.len());
     let cam = gibake_reference::View::from_scene(scene, 0.0).expect("the scene has a camera");
     // Per pixel: (reference, twin) indirect radiance, and the variance of

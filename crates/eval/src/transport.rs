@@ -474,16 +474,19 @@ impl<'a> TwinVpls<'a> {
     /// From VPL records `vpls`, their trees `nodes` and their level-3
     /// coherences `coherence`: an asset's, or the every-light bake's before
     /// it is an asset.
-    pub fn new(vpls: &'a [VplRecord], nodes: &'a [VplRecord], coherence: &'a [f32]) -> Self {
+    /// `ring[i]`: whether VPL `i` lies on an outer ring (its map origin,
+    /// `gibake_gpu::hemisphere::record_origin`).
+    pub fn new(
+        vpls: &'a [VplRecord],
+        ring: &[bool],
+        nodes: &'a [VplRecord],
+        coherence: &'a [f32],
+    ) -> Self {
+        assert_eq!(vpls.len(), ring.len(), "one ring flag per VPL");
         let origins: Vec<Vec3> = vpls
             .iter()
-            .map(|v| {
-                gibake_gpu::hemisphere::vpl_origin(
-                    Vec3::from_array(v.position),
-                    Vec3::from_array(v.normal),
-                    v.area,
-                )
-            })
+            .zip(ring)
+            .map(|(v, &ring)| gibake_gpu::hemisphere::record_origin(v, ring))
             .collect();
         let mut twin = TwinVpls {
             vpls,
@@ -511,7 +514,12 @@ impl<'a> TwinVpls<'a> {
 
     /// The static VPLs of `asset`.
     pub fn of_asset(asset: &'a gibake_asset::Asset) -> Self {
-        Self::new(&asset.vpls, &asset.vpl_nodes, &asset.vpl_coherence)
+        Self::new(
+            &asset.vpls,
+            &asset.manifest.ring_flags(),
+            &asset.vpl_nodes,
+            &asset.vpl_coherence,
+        )
     }
 
     /// VPL `i`'s near-field tree (empty where the asset has none).

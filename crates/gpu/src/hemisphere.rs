@@ -41,6 +41,19 @@ pub fn vpl_origin(position: Vec3, normal: Vec3, area: f32) -> Vec3 {
     position + normal * (VPL_ORIGIN_OFFSET * (area.max(0.0) / std::f32::consts::PI).sqrt())
 }
 
+/// Where the map of VPL record `v` is centred: [`vpl_origin`] lifted by
+/// its own disk's radius, or by one texel's for a VPL on a light's outer
+/// rings (`ring`, [`gibake_asset::Manifest::ring_vpls`];
+/// [`gibake_asset::VplRecord::map_origin_area`]). The one rule the bake's
+/// maps, the runtime and the CPU twin share.
+pub fn record_origin(v: &gibake_asset::VplRecord, ring: bool) -> Vec3 {
+    vpl_origin(
+        Vec3::from_array(v.position),
+        Vec3::from_array(v.normal),
+        v.map_origin_area(ring),
+    )
+}
+
 /// World direction through the centre of texel `(x, y)` of a `size²` map
 /// around normal `n`.
 pub fn texel_direction(n: Vec3, x: u32, y: u32, size: u32) -> Vec3 {

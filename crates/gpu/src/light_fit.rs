@@ -81,6 +81,13 @@ pub const GROUND_COS: f32 = 0.985;
 /// its size.
 pub const OUTLIER_MARGIN: f32 = 0.25;
 
+/// At most this many outer rings ([`LightFit::rings`]): ring `j` is `2^j`
+/// times the view's width, so four cover a ground 16 times the view. Beyond
+/// that a ground sends an object's side (height `h`) about `1.3 h / R` of
+/// its light from beyond `R`: under 2% of an object as tall as a sixteenth
+/// of the view is wide.
+pub const MAX_RINGS: u32 = 4;
+
 /// Where the view's extent across the light came from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum FitSource {
@@ -116,12 +123,75 @@ pub struct LightFit {
     /// The wider side across the light of every static surface (what
     /// [`LightFit::width`] is when nothing is cut).
     pub full_width: f32,
+    /// Light-space `x, y` extent of every static surface (`z` unused).
+    pub full_lo: Vec3,
+    /// See [`LightFit::full_lo`].
+    pub full_hi: Vec3,
+    /// Whether what the extent cuts is a ground (the large triangles all
+    /// parallel, [`GROUND_COS`]) rather than other outliers.
+    pub ground: bool,
 }
 
 impl LightFit {
     /// The world-space width of the wider side across the light.
     pub fn width(&self) -> f32 {
         (self.hi.x - self.lo.x).max(self.hi.y - self.lo.y)
+    }
+
+    /// How many **outer rings** the cut ground gets (docs/method.md, "Outer
+    /// rings"): none unless the extent cut a ground ([`LightFit::ground`],
+    /// [`FitSource::WithoutOutliers`], a triangle clipped), else the fewest
+    /// doublings of the view's square ([`LightFit::ring_box`]) that cover
+    /// every static surface across the light, at most [`MAX_RINGS`].
+    /// Outliers that are not a ground (a skybox, walls far away) get none:
+    /// a ring's texels are taken to lie on flat ground (their VPLs' map
+    /// origins sit one texel above it).
+    pub fn rings(&self) -> u32 {
+        self.rings_needed().min(MAX_RINGS)
+    }
+
+    /// Whether [`LightFit::rings`] cover every static surface across the
+    /// light (false when [`MAX_RINGS`] stopped them short).
+    pub fn rings_cover_all(&self) -> bool {
+        self.rings_needed() <= MAX_RINGS
+    }
+
+    /// [`LightFit::rings`] without the [`MAX_RINGS`] cap (at most 31).
+    fn rings_needed(&self) -> u32 {
+        if self.source != FitSource::WithoutOutliers || !self.ground || self.clipped == 0 {
+            return 0;
+        }
+        let c = (self.lo + self.hi) * 0.5;
+        let half = 0.5 * self.width();
+        let need = [
+            c.x - self.full_lo.x,
+            self.full_hi.x - c.x,
+            c.y - self.full_lo.y,
+            self.full_hi.y - c.y,
+        ]
+        .into_iter()
+        .fold(0.0f32, f32::max);
+        let mut rings = 0;
+        while rings < 31 && half * (1u32 << rings) as f32 * 1.02 < need {
+            rings += 1;
+        }
+        rings
+    }
+
+    /// The light-space box of ring `ring`'s view (0: the view's own square
+    /// extent): the square `2^ring` times the wider side of
+    /// [`LightFit::lo`]..[`LightFit::hi`], about its centre, with the same
+    /// depth range. [`crate::LightView::directional`] of it is `2^ring`
+    /// times the view's width, its texels aligned with the view's, so each
+    /// ring's texels tile the part of its square that the next smaller one
+    /// leaves out.
+    pub fn ring_box(&self, ring: u32) -> (Vec3, Vec3) {
+        let c = (self.lo + self.hi) * 0.5;
+        let h = 0.5 * self.width() * (1u32 << ring.min(31)) as f32;
+        (
+            Vec3::new(c.x - h, c.y - h, self.lo.z),
+            Vec3::new(c.x + h, c.y + h, self.hi.z),
+        )
     }
 }
 
@@ -209,6 +279,7 @@ pub fn fit_light(scene: &Scene, light: &gibake_scene::Light) -> Option<LightFit>
         }
     }
     // Across the light: the volume, or the static extent without outliers.
+    let mut ground = false;
     let (mut xy_lo, mut xy_hi, source) = if let Some(v) = &scene.bake_volume {
         let (mut vlo, mut vhi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         for c in box_corners(v) {
@@ -230,8 +301,9 @@ pub fn fit_light(scene: &Scene, light: &gibake_scene::Light) -> Option<LightFit>
         }
         let core = chi - clo;
         let beyond = |ratio: f32| full.x > ratio * core.x || full.y > ratio * core.y;
-        let outliers = clo.is_finite()
-            && (beyond(OUTLIER_RATIO) || (beyond(GROUND_RATIO) && is_ground(&large)));
+        ground = is_ground(&large);
+        let outliers =
+            clo.is_finite() && (beyond(OUTLIER_RATIO) || (beyond(GROUND_RATIO) && ground));
         if outliers {
             let m = core.max(Vec3::splat(core.x.max(core.y))) * OUTLIER_MARGIN;
             (
@@ -280,6 +352,9 @@ pub fn fit_light(scene: &Scene, light: &gibake_scene::Light) -> Option<LightFit>
         clipped,
         clipped_mesh,
         full_width: (hi.x - lo.x).max(hi.y - lo.y),
+        full_lo: lo,
+        full_hi: hi,
+        ground,
     })
 }
 
@@ -469,6 +544,49 @@ mod tests {
         let f = fit(&scene(walls, 1.0)).unwrap();
         assert_eq!(f.source, FitSource::All, "a room's walls were cut");
         assert_eq!(f.left_out, 0);
+    }
+
+    #[test]
+    fn a_cut_ground_gets_outer_rings_and_nothing_else_does() {
+        // 16× a town's core: four rings (16× the view) cover its ground.
+        let mut town = detail(60.0, 12, 0.0);
+        town.push(quad(-960.0, 960.0, -960.0, 960.0, -0.5));
+        for s in [1e-3f32, 1.0, 1e3] {
+            let f = fit(&scene(town.clone(), s)).unwrap();
+            assert!(f.ground, "scale {s}");
+            assert_eq!((f.rings(), f.rings_cover_all()), (4, true), "scale {s}");
+            // Ring j is 2^j times the view's square, about its centre, and
+            // its view's texels are 2^j times as wide.
+            let view = |(lo, hi): (Vec3, Vec3)| {
+                crate::LightView::directional(Vec3::new(0.3, -1.0, 0.2).normalize(), lo, hi, 512)
+            };
+            let v0 = view(f.ring_box(0));
+            for j in 1..=4u32 {
+                let (lo, hi) = f.ring_box(j);
+                assert!(((hi.x - lo.x) / f.width() - (1u32 << j) as f32).abs() < 1e-5);
+                assert!(
+                    ((lo + hi) * 0.5 - (f.lo + f.hi) * 0.5).truncate().length()
+                        <= 1e-5 * f.width() * 16.0
+                );
+                let r = view((lo, hi)).texel_scale / v0.texel_scale;
+                assert!((r - (1u32 << j) as f32).abs() < 1e-4, "ring {j}: {r}");
+            }
+        }
+        // 100×: four rings do not reach the ground's edge.
+        let mut wide = detail(60.0, 12, 0.0);
+        wide.push(quad(-6000.0, 6000.0, -6000.0, 6000.0, -0.5));
+        let f = fit(&scene(wide, 1.0)).unwrap();
+        assert_eq!((f.rings(), f.rings_cover_all()), (MAX_RINGS, false));
+        // Nothing cut, or outliers that are not a ground: no ring.
+        let mut yard = detail(60.0, 12, 0.0);
+        yard.push(quad(-300.0, 300.0, -300.0, 300.0, -0.5));
+        assert_eq!(fit(&scene(yard, 1.0)).unwrap().rings(), 0);
+        let mut far_walls = room(5000.0);
+        far_walls.extend(detail(60.0, 12, 0.0));
+        let f = fit(&scene(far_walls, 1.0)).unwrap();
+        assert_eq!(f.source, FitSource::WithoutOutliers);
+        assert!(!f.ground);
+        assert_eq!(f.rings(), 0);
     }
 
     #[test]

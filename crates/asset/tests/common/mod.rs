@@ -206,6 +206,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
                 .collect(),
             light_map_size: LIGHT_MAP,
             view_rsms: Vec::new(),
+            ring_vpls: Vec::new(),
         },
         vpl_coherence: vec![1.0; vpls.len() * gibake_asset::LEVEL3_NODES],
         vpls,
@@ -314,4 +315,18 @@ pub fn replace_signed(dir: &Path, name: &str, bytes: &[u8]) {
         e.size = bytes.len() as u64;
         e.blake3 = *blake3::hash(bytes).as_bytes();
     });
+}
+
+/// `manifest.bin` bytes `bytes` with the payload cut to its first `keep`
+/// bytes and `tail` appended (length and checksum recomputed): to reach the
+/// decoder of what a minor appends.
+pub fn with_payload_tail(bytes: &[u8], keep: usize, tail: &[u8]) -> Vec<u8> {
+    let mut out = bytes[..20].to_vec();
+    let mut p = bytes[20..20 + keep].to_vec();
+    p.extend_from_slice(tail);
+    out[12..20].copy_from_slice(&(p.len() as u64).to_le_bytes());
+    out.extend_from_slice(&p);
+    let h = *blake3::hash(&out).as_bytes();
+    out.extend_from_slice(&h);
+    out
 }
