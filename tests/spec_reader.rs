@@ -419,19 +419,22 @@ fn edit_manifest(asset: &Path, edit: &dyn Fn(&mut gibake_asset::Manifest)) {
     std::fs::write(path, bytes).unwrap();
 }
 
+/// The small settings of the multi-light test bakes.
+const SMALL: [&str; 8] = [
+    "--vpls",
+    "32",
+    "--rsm-size",
+    "64",
+    "--vpl-map-size",
+    "16",
+    "--shadow-map-size",
+    "128",
+];
+
 /// The test bake of `data/lamps.glb` with every light (the small settings
 /// of [`reader_checks_every_lights_views_and_maps`]), `extra` flags added.
 fn bake_lamps(dir: &Path, extra: &[&str]) -> PathBuf {
-    let mut flags = vec![
-        "--vpls",
-        "32",
-        "--rsm-size",
-        "64",
-        "--vpl-map-size",
-        "16",
-        "--shadow-map-size",
-        "128",
-    ];
+    let mut flags = SMALL.to_vec();
     flags.extend_from_slice(extra);
     bake_with(&common::data("lamps.glb"), dir, &flags)
 }
@@ -724,20 +727,7 @@ fn reader_checks_ring_vpls() {
     let py = python();
     let work = tempfile::tempdir().unwrap();
     let scene = common::data("lights/blenvy_start_level/StartLevel.glb");
-    let asset = bake_with(
-        &scene,
-        work.path(),
-        &[
-            "--vpls",
-            "32",
-            "--rsm-size",
-            "64",
-            "--vpl-map-size",
-            "16",
-            "--shadow-map-size",
-            "128",
-        ],
-    );
+    let asset = bake_with(&scene, work.path(), &SMALL);
     let loaded = gibake_asset::load(&asset).expect("the reference reader loads the bake");
     let m = &loaded.manifest;
     let point = m
