@@ -526,3 +526,62 @@ fn a_cut_ground_gets_outer_rings_each_point_in_one_map() {
     assert!(none.maps.iter().all(|m| m.ring == 0));
     assert!(none.ring_vpls_per_light(1).is_empty());
 }
+
+/// The outer rings are scale-invariant: the Blenvy sun's level in
+/// millimetres or kilometres gets the same rings and the same VPLs per map,
+/// each carrying the same share of the light, and each ring VPL at the
+/// same (scaled) place. (A view VPL's anchor, its texel nearest its
+/// centroid, may move by a texel between scales where two texels tie to
+/// rounding; its flux does not.)
+#[test]
+fn outer_rings_are_scale_invariant() {
+    let base = blenvy_sun();
+    let scaled = |s: f32| {
+        let mut scene = base.clone();
+        for m in &mut scene.static_meshes {
+            for p in &mut m.positions {
+                *p *= s;
+            }
+        }
+        for l in &mut scene.lights {
+            l.position *= s;
+        }
+        scene
+    };
+    let e1 = every(&base, 128, ClusterTarget::Count(200));
+    let n1: Vec<usize> = e1.clusters.maps.iter().map(|c| c.vpls.len()).collect();
+    let v1 = e1.vpl_records();
+    let t1: f64 = v1.iter().map(|v| f64::from(v.flux[1])).sum();
+    for s in [1e-3f32, 1e3] {
+        let e = every(&scaled(s), 128, ClusterTarget::Count(200));
+        let rings: Vec<u32> = e.maps.iter().map(|m| m.ring).collect();
+        assert_eq!(
+            rings,
+            e1.maps.iter().map(|m| m.ring).collect::<Vec<_>>(),
+            "×{s}"
+        );
+        let n: Vec<usize> = e.clusters.maps.iter().map(|c| c.vpls.len()).collect();
+        assert_eq!(n, n1, "×{s}: VPLs per map");
+        let v = e.vpl_records();
+        let t: f64 = v.iter().map(|v| f64::from(v.flux[1])).sum();
+        let ring = e1.ring_flags();
+        for (i, (a, b)) in v.iter().zip(&v1).enumerate() {
+            let (fa, fb) = (f64::from(a.flux[1]) / t, f64::from(b.flux[1]) / t1);
+            assert!(
+                (fa - fb).abs() <= 1e-3 * fb.max(1e-6),
+                "×{s}: {fa} against {fb}"
+            );
+            if !ring[i] {
+                continue;
+            }
+            let (pa, pb) = (
+                Vec3::from_array(a.position),
+                Vec3::from_array(b.position) * s,
+            );
+            assert!(
+                (pa - pb).length() <= 1e-3 * s * 100.0,
+                "×{s}: ring VPL {i} at {pa} against {pb}"
+            );
+        }
+    }
+}
