@@ -547,18 +547,25 @@ impl Manifest {
     /// Per VPL record: whether it lies on its light's outer rings
     /// ([`Manifest::ring_vpls`]); `vpl_count` entries.
     pub fn ring_flags(&self) -> Vec<bool> {
-        let mut out = vec![false; self.vpl_count as usize];
-        let mut start = 0usize;
-        for (light, ring) in self.lights.iter().zip(&self.ring_vpls) {
-            let end = start + light.vpls as usize;
-            let first_ring = end.saturating_sub(*ring as usize).max(start);
-            for f in out.iter_mut().take(end).skip(first_ring) {
-                *f = true;
-            }
-            start = end;
-        }
+        let per_light: Vec<u32> = self.lights.iter().map(|l| l.vpls).collect();
+        let mut out = ring_flags(&per_light, &self.ring_vpls);
+        out.resize(self.vpl_count as usize, false);
         out
     }
+}
+
+/// Per VPL, in light order (`per_light[k]` VPLs each): whether it lies on
+/// its light's outer rings, the last `ring_vpls[k]` of light `k`'s
+/// ([`Manifest::ring_vpls`]; a missing entry is 0, an entry over the
+/// light's count is clamped to it).
+pub fn ring_flags(per_light: &[u32], ring_vpls: &[u32]) -> Vec<bool> {
+    let mut out = Vec::new();
+    for (k, &n) in per_light.iter().enumerate() {
+        let ring = ring_vpls.get(k).copied().unwrap_or(0).min(n);
+        out.extend(std::iter::repeat_n(false, (n - ring) as usize));
+        out.extend(std::iter::repeat_n(true, ring as usize));
+    }
+    out
 }
 
 /// One shadow-map view of a light other than the first (format 4.0).

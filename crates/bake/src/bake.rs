@@ -364,18 +364,6 @@ struct Front {
     view_rsms: Vec<(u32, RsmData)>,
 }
 
-/// Per VPL (in light order, `per_light` each): whether it lies on its
-/// light's outer rings (the last `ring_vpls[k]` of light `k`'s).
-fn ring_flags(per_light: &[u32], ring_vpls: &[u32]) -> Vec<bool> {
-    let mut out = Vec::new();
-    for (k, &n) in per_light.iter().enumerate() {
-        let ring = ring_vpls.get(k).copied().unwrap_or(0).min(n);
-        out.extend(std::iter::repeat_n(false, (n - ring) as usize));
-        out.extend(std::iter::repeat_n(true, ring as usize));
-    }
-    out
-}
-
 /// Whether `scene` takes the bake of every light ([`crate::lights`]):
 /// several lights, a point light (its six faces), or a sun with outer
 /// rings ([`crate::rings`]: more maps than its one view).
@@ -769,7 +757,7 @@ fn bake_with(
         None => 0..vpls.len(),
     };
     progress.begin("VPL maps", range.len() as u64);
-    let rings = ring_flags(&per_light, &ring_vpls);
+    let rings = gibake_asset::ring_flags(&per_light, &ring_vpls);
     let each = crate::vplmap::render_each_vpl_map(
         &rays,
         &vpls[range.clone()],

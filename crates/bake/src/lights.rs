@@ -21,6 +21,7 @@
 
 use gibake_asset::VplRecord;
 use gibake_gpu::LightView;
+use gibake_gpu::light_fit::LightFit;
 use gibake_scene::Scene;
 
 use crate::cluster::{Cluster, ClusterTarget, JointClustering, cluster_joint};
@@ -187,7 +188,7 @@ pub fn every_light_planned(
         };
         // A sun whose view cut a ground: its outer rings after the view
         // (its VPLs stay consecutive, the rings' last).
-        let rings = match crate::rings::ring_fit(scene, light).filter(|_| rings > 0) {
+        let rings = match rings {
             Some(fit) => crate::rings::ring_rsms(reach, light, &fit, rsm.size, view.size),
             None => Vec::new(),
         };
@@ -297,9 +298,9 @@ pub struct ViewPlan {
     /// Each view's probe RSM where it is the view's RSM (its resolution
     /// is the probe's).
     probes: Vec<Option<Rsm>>,
-    /// Each view's outer rings ([`crate::rings`]), each at the view's
-    /// resolution.
-    rings: Vec<u32>,
+    /// Each view's fit when it has outer rings ([`crate::rings::ring_fit`]),
+    /// each ring at the view's resolution.
+    rings: Vec<Option<LightFit>>,
 }
 
 impl ViewPlan {
@@ -371,7 +372,7 @@ impl ViewPlan {
         self.sizes
             .iter()
             .zip(&self.rings)
-            .map(|(&s, &r)| u64::from(s) * u64::from(s) * (1 + u64::from(r)))
+            .map(|(&s, r)| u64::from(s) * u64::from(s) * (1 + u64::from(ring_count(r))))
             .sum()
     }
 
@@ -386,26 +387,31 @@ impl ViewPlan {
         let texels = full
             .iter()
             .zip(&rings)
-            .map(|(&f, &r)| {
+            .map(|(&f, r)| {
                 let one = if f {
                     u64::from(rsm_size).pow(2)
                 } else {
                     probe * probe
                 };
-                one * (1 + u64::from(r))
+                one * (1 + u64::from(ring_count(r)))
             })
             .sum();
         (views.len() as u64, texels)
     }
 }
 
-/// Each view's outer rings ([`crate::rings`]): a directional light's one
-/// view may have some, every other none.
-fn view_rings(scene: &Scene, views: &[(usize, usize, LightView)]) -> Vec<u32> {
+/// Each view's fit when it has outer rings ([`crate::rings::ring_fit`]): a
+/// directional light's one view may, every other has none.
+fn view_rings(scene: &Scene, views: &[(usize, usize, LightView)]) -> Vec<Option<LightFit>> {
     views
         .iter()
-        .map(|(k, _, _)| crate::rings::ring_fit(scene, &scene.lights[*k]).map_or(0, |f| f.rings()))
+        .map(|(k, _, _)| crate::rings::ring_fit(scene, &scene.lights[*k]))
         .collect()
+}
+
+/// How many outer rings a view of [`view_rings`] has.
+fn ring_count(fit: &Option<LightFit>) -> u32 {
+    fit.as_ref().map_or(0, LightFit::rings)
 }
 
 /// (light, face, view) of every view of `scene`'s lights, in light order.
