@@ -673,10 +673,7 @@ fn bake_with(
     // surface (static geometry or where moving objects can be); quadtree
     // clustering; a VPL whose hemisphere sees nothing carries light to
     // nothing and is dropped (crate::reach).
-    let reach = Reach {
-        rays: &rays,
-        moving: scene.dynamic_swept_bounds(),
-    };
+    let reach = Reach::new(&rays, scene.dynamic_swept_bounds());
     // Several lights, or a point light (its six faces): one budget over
     // every view.
     let front = if every {

@@ -266,10 +266,7 @@ fn vpl_flux_sums_to_the_rsm_reflected_power() {
         let stat = static_only(scene);
         let rays = RayScene::build(&stat, 0.0);
         let view = LightView::for_scene(scene, opts.shadow_map_size).resized(opts.rsm_size);
-        let reach = Reach {
-            rays: &rays,
-            moving: scene.dynamic_swept_bounds(),
-        };
+        let reach = Reach::new(&rays, scene.dynamic_swept_bounds());
         let rsm = render_rsm(&rays, scene.light(), &view, Some(&reach));
         let texel_total: f64 = rsm.flux.iter().map(|f| flux_sum(f.to_array())).sum();
         assert!(texel_total > 0.0, "{name}: the RSM reflects nothing");

@@ -251,10 +251,7 @@ fn many_lights_over_the_memory_budget_are_refused_before_their_rsms() {
     // The plan's own texels: more than the fewest, far fewer than 385
     // full-size RSMs.
     let rays = gibake_raycast::RayScene::build(&scene, 0.0);
-    let reach = gibake_bake::reach::Reach {
-        rays: &rays,
-        moving: gibake_scene::Aabb::EMPTY,
-    };
+    let reach = gibake_bake::reach::Reach::new(&rays, gibake_scene::Aabb::EMPTY);
     let planned = ViewPlan::new(&scene, &reach, 512, opts.shadow_map_size).texels();
     assert!(
         planned > least.1 && planned < 385 * 512 * 512 / 8,

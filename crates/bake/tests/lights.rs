@@ -185,10 +185,7 @@ fn joint_count_meets_the_budget_and_follows_the_light() {
 /// the static geometry.
 fn every(scene: &Scene, rsm: u32, target: ClusterTarget) -> gibake_bake::lights::EveryLight {
     let rays = RayScene::build(scene, 0.0);
-    let reach = Reach {
-        rays: &rays,
-        moving: gibake_scene::Aabb::EMPTY,
-    };
+    let reach = Reach::new(&rays, gibake_scene::Aabb::EMPTY);
     every_light(scene, &reach, rsm, 2 * rsm, target)
 }
 
@@ -348,10 +345,7 @@ fn each_view_gets_rsm_texels_by_its_share_of_the_bounce() {
         let mut scene = closed_room(0.6, 1.0, lead.clone());
         scene.lights.push(second);
         let rays = RayScene::build(&scene, 0.0);
-        let reach = Reach {
-            rays: &rays,
-            moving: gibake_scene::Aabb::EMPTY,
-        };
+        let reach = Reach::new(&rays, gibake_scene::Aabb::EMPTY);
         let plan = ViewPlan::new(&scene, &reach, 512, 512);
         let least = ViewPlan::least_texels(&scene, 512, 512);
         (plan.sizes().to_vec(), plan.texels(), least)

@@ -8,4 +8,5 @@ mod bake_lights;
 mod cluster;
 mod lights;
 mod method_revision;
+mod reach;
 mod uptodate;

@@ -101,10 +101,7 @@ fn main() {
         }
         let stat = gibake_bake::static_only(&scene);
         let rays = RayScene::build(&stat, 0.0);
-        let reach = Reach {
-            rays: &rays,
-            moving: scene.dynamic_swept_bounds(),
-        };
+        let reach = Reach::new(&rays, scene.dynamic_swept_bounds());
         let view = LightView::for_scene(&scene, 2048).resized(512);
         let rsm = render_rsm(&rays, scene.light(), &view, Some(&reach));
         let mut cl = cluster(&rsm, ClusterTarget::Count(vpls));

@@ -132,10 +132,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
     } = *j;
     let stat = gibake_bake::static_only(scene);
     let rays = RayScene::build(&stat, 0.0);
-    let reach = Reach {
-        rays: &rays,
-        moving: scene.dynamic_swept_bounds(),
-    };
+    let reach = Reach::new(&rays, scene.dynamic_swept_bounds());
     let t0 = std::time::Instant::now();
     let mut every = every_light_with(
         scene,
