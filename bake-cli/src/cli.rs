@@ -282,8 +282,12 @@ pub struct BakeArgs {
     /// `gibake merge` joins the N parts into the single bake's bytes.
     #[arg(long, value_name = "K/N", value_parser = parse_shard, conflicts_with = "out_dir")]
     pub shard: Option<(u32, u32)>,
-    /// Number of VPLs to make (the result has N ± 2%), 1 to 1048576.
-    /// Default 256 unless --threshold is given.
+    /// The VPL budget, 1 to 1048576: about N VPLs whose light reaches a
+    /// surface by their texels' rays (N ± 2%). VPLs whose texels' rays all
+    /// miss but whose origin still sees something (far ground round small
+    /// objects, a level's outer rings) are kept on top of it: up to 9% more
+    /// on the bundled levels (docs/method.md, bake section 3). Default 256
+    /// unless --threshold is given.
     #[arg(long, value_name = "N", conflicts_with = "threshold",
           value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
     pub vpls: Option<u32>,
