@@ -286,8 +286,9 @@ pub struct BakeArgs {
     /// surface by their texels' rays (N ± 2%). VPLs whose texels' rays all
     /// miss but whose origin still sees something (far ground round small
     /// objects, a level's outer rings) are kept on top of it: up to 9% more
-    /// on the bundled levels (docs/method.md, bake section 3). Default 256
-    /// unless --threshold is given.
+    /// on the bundled levels (docs/method.md, bake section 3); the bake
+    /// prints how many (`--json`: vpls_beyond_budget). Default 256 unless
+    /// --threshold is given.
     #[arg(long, value_name = "N", conflicts_with = "threshold",
           value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
     pub vpls: Option<u32>,

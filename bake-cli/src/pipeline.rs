@@ -154,6 +154,10 @@ struct Baked {
     maps: u32,
     /// VPLs dropped because their hemisphere sees nothing.
     dropped: usize,
+    /// The `--vpls` budget asked for (`None`: `--threshold`).
+    budget: Option<u32>,
+    /// Kept VPLs the budget does not count (`BakeOutput::beyond_budget_vpls`).
+    beyond_budget: usize,
     threshold: f32,
     has_dynamic: bool,
     stages: Vec<(String, f64)>,
@@ -179,6 +183,7 @@ impl Outcome {
             j["vpls"] = json!(b.vpls);
             j["maps_stored"] = json!(b.maps);
             j["vpls_dropped"] = json!(b.dropped);
+            j["vpls_beyond_budget"] = json!(b.beyond_budget);
             j["threshold"] = json!(b.threshold);
             j["has_dynamic"] = json!(b.has_dynamic);
             j["stages"] = json!(
@@ -201,10 +206,17 @@ impl Outcome {
             (Some(b), reasons) => {
                 let why = reasons.clone().unwrap_or_default().join("; ");
                 eprintln!(
-                    "baked {}: {} VPLs ({} maps stored{}), threshold {:.3e}; reason: {why}",
+                    "baked {}: {} VPLs ({} maps stored{}{}), threshold {:.3e}; reason: {why}",
                     asset.display(),
                     b.vpls,
                     b.maps,
+                    match b.budget {
+                        Some(n) if b.beyond_budget > 0 => format!(
+                            "; {} of them beyond --vpls {n}: their texels' rays miss, but they see something and are kept",
+                            b.beyond_budget
+                        ),
+                        _ => String::new(),
+                    },
                     if b.dropped > 0 {
                         format!("; {} more dropped: their light reaches nothing", b.dropped)
                     } else {
@@ -303,6 +315,11 @@ fn bake_stale(
             vpls: m.vpl_count,
             maps: o.asset.stored_map_count() as u32,
             dropped: o.dropped_vpls,
+            budget: match opts.target {
+                gibake_bake::cluster::ClusterTarget::Count(n) => Some(n),
+                gibake_bake::cluster::ClusterTarget::Threshold(_) => None,
+            },
+            beyond_budget: o.beyond_budget_vpls,
             threshold: m.settings.threshold,
             has_dynamic: m.has_dynamic,
             stages,

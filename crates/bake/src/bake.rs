@@ -106,6 +106,12 @@ pub struct BakeOutput {
     /// VPLs the clustering made but dropped because their hemisphere sees
     /// no surface and no moving object (they carry light to nothing).
     pub dropped_vpls: usize,
+    /// Kept VPLs whose texels' rays all miss but whose origin sees
+    /// something ([`crate::reach`]): the clustering's `Count(n)` budget
+    /// does not count them, so they come on top of `n` (the Blenvy level:
+    /// 722 VPLs at `--vpls 664`, 61 of them these). Counted the same way
+    /// under `ClusterTarget::Threshold`, which has no budget.
+    pub beyond_budget_vpls: usize,
     /// What the bake warns about (also logged): geometry the light's maps
     /// leave out, texels coarse against the level.
     pub warnings: Vec<String>,
@@ -352,6 +358,8 @@ struct Front {
     /// VPLs the clustering made, dropped ones included.
     made: usize,
     dropped: usize,
+    /// Kept VPLs outside a `--vpls` budget ([`BakeOutput::beyond_budget_vpls`]).
+    beyond_budget: usize,
     threshold: f32,
     /// Per texel of `rsm`, its VPL (an index into `vpls`) or `NO_VPL`.
     texel_vpl: Vec<u32>,
@@ -515,6 +523,7 @@ fn every_light_front(
     let made = vpls.len() + every.dropped_vpls;
     let threshold = every.clusters.threshold;
     let dropped = every.dropped_vpls;
+    let beyond_budget = every.beyond_budget_vpls;
     let view_rsms = moving_view_rsms(scene, reach, &every, opts);
     let point_first = matches!(scene.light().kind, gibake_scene::LightKind::Point);
     let (rsm, texel_vpl) = match first {
@@ -546,6 +555,7 @@ fn every_light_front(
         ring_vpls,
         made,
         dropped,
+        beyond_budget,
         threshold,
         texel_vpl,
         rsm,
@@ -690,12 +700,18 @@ fn bake_with(
         lap("rsm", &mut stages);
         progress.begin("clustering", 0);
         let mut clusters = cluster(&rsm, opts.target);
-        let dropped = if clusters.vpls.is_empty() {
-            0
-        } else {
+        let (mut dropped, mut beyond_budget) = (0, 0);
+        if !clusters.vpls.is_empty() {
             let reaching = clusters.reaching_flux(&rsm);
-            clusters.retain(|i, c| reach.keeps(c, reaching[i], false))
-        };
+            // The budget counts a VPL by its reaching flux unless nothing
+            // reaches anything (crate::cluster, "Budget").
+            let by_reach = reaching.iter().any(|r| *r > 0.0);
+            dropped = clusters.retain(|i, c| {
+                let keep = reach.keeps(c, reaching[i], false);
+                beyond_budget += usize::from(keep && by_reach && reaching[i] <= 0.0);
+                keep
+            });
+        }
         progress.end();
         lap("clustering", &mut stages);
         // On the clusters' own surfaces (see Cluster::anchor); near-field
@@ -715,6 +731,7 @@ fn bake_with(
             vpl_coherence,
             made: clusters.vpls.len() + dropped,
             dropped,
+            beyond_budget,
             threshold: clusters.threshold,
             texel_vpl: clusters.texel_vpl,
             rsm: Some(rsm),
@@ -733,6 +750,7 @@ fn bake_with(
         per_light,
         ring_vpls,
         dropped,
+        beyond_budget,
         threshold,
         texel_vpl,
         rsm,
@@ -857,6 +875,7 @@ fn bake_with(
             asset,
             stages,
             dropped_vpls: dropped,
+            beyond_budget_vpls: beyond_budget,
             warnings,
         },
         shard_maps,

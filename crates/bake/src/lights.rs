@@ -64,6 +64,10 @@ pub struct EveryLight {
     pub negligible_views: usize,
     /// VPLs removed because their hemisphere sees nothing.
     pub dropped_vpls: usize,
+    /// Kept VPLs whose texels' rays all miss ([`crate::reach`]'s probe saw
+    /// something from their origin): they do not count against a
+    /// `ClusterTarget::Count` budget, so they come on top of it.
+    pub beyond_budget_vpls: usize,
 }
 
 impl EveryLight {
@@ -247,10 +251,22 @@ pub fn every_light_planned(
             crate::rings::anchor_near_centre(&m.rsm, c);
         }
     }
-    let mut dropped_vpls = 0;
-    for (c, m) in clusters.maps.iter_mut().zip(&maps) {
-        let reaching = c.reaching_flux(&m.rsm);
-        dropped_vpls += c.retain(|i, v| reach.keeps(v, reaching[i], m.ring > 0));
+    let reachings: Vec<Vec<f64>> = clusters
+        .maps
+        .iter()
+        .zip(&maps)
+        .map(|(c, m)| c.reaching_flux(&m.rsm))
+        .collect();
+    // The budget counts a VPL by its reaching flux unless nothing reaches
+    // anything (crate::cluster::cluster_joint).
+    let by_reach = reachings.iter().flatten().any(|r| *r > 0.0);
+    let (mut dropped_vpls, mut beyond_budget_vpls) = (0, 0);
+    for ((c, m), reaching) in clusters.maps.iter_mut().zip(&maps).zip(&reachings) {
+        dropped_vpls += c.retain(|i, v| {
+            let keep = reach.keeps(v, reaching[i], m.ring > 0);
+            beyond_budget_vpls += usize::from(keep && by_reach && reaching[i] <= 0.0);
+            keep
+        });
     }
     EveryLight {
         maps,
@@ -258,6 +274,7 @@ pub fn every_light_planned(
         unlit_views,
         negligible_views,
         dropped_vpls,
+        beyond_budget_vpls,
     }
 }
 

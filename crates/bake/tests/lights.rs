@@ -579,3 +579,27 @@ fn outer_rings_are_scale_invariant() {
         }
     }
 }
+
+/// The reach probe's aimed rays (`gibake_bake::reach`, "Aimed rays") keep
+/// VPLs of the Blenvy sun whose texels' rays all miss the level's small
+/// objects but whose origin sees them; the budget does not count those,
+/// so they come on top of it, and the VPLs it does count are the number
+/// asked for (± 2%). None of them is dropped as blind.
+#[test]
+fn vpls_kept_by_aimed_rays_come_on_top_of_the_budget() {
+    let scene = blenvy_sun();
+    let n = 400;
+    let front = every(&scene, 256, ClusterTarget::Count(n));
+    let total = front.clusters.vpl_count();
+    let beyond = front.beyond_budget_vpls;
+    assert_eq!(
+        front.dropped_vpls, 0,
+        "VPLs dropped as blind on a level whose every ground patch sees its objects"
+    );
+    assert!(beyond > 0, "no VPL beyond the budget ({total} VPLs)");
+    let counted = total - beyond;
+    assert!(
+        counted.abs_diff(n as usize) * 50 <= n as usize,
+        "{counted} VPLs counted against a budget of {n} ({total} in all, {beyond} beyond it)"
+    );
+}
