@@ -60,7 +60,9 @@ pub const PROBE_SIZE: u32 = 16;
 pub const MAX_AIMED_MESHES: usize = 512;
 
 /// What reflected light can reach: the static geometry (through `rays`) and
-/// the moving objects' swept bounds (empty box: none).
+/// the moving objects' swept bounds (empty box: none). Made by
+/// [`Reach::new`], which derives the aimed rays' targets from both: change
+/// neither afterwards.
 pub struct Reach<'a, 's> {
     /// The static geometry.
     pub rays: &'a RayScene<'s>,
