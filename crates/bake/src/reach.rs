@@ -7,12 +7,12 @@
 //! hemisphere is mostly sky, while the light that matters bounces off a
 //! small sunlit patch inside. Two measurements steer the VPL budget there:
 //!
-//! - [`texel_reach`]: per RSM texel, the fraction of `RAYS_PER_TEXEL`
+//! - [`texel_reach`](Reach::texel_reach): per RSM texel, the fraction of `RAYS_PER_TEXEL`
 //!   cosine-distributed rays about its normal that hit something. The
 //!   clustering spends its budget by each node's *reaching* flux
 //!   `Σ flux · reach` instead of its flux (cluster.rs, "VPLs where the light
 //!   goes").
-//! - [`sees_anything`]: whether a VPL's hemisphere, probed with the map
+//! - [`sees_anything`](Reach::sees_anything): whether a VPL's hemisphere, probed with the map
 //!   projection at `PROBE_SIZE²` directions from its map origin, sees any
 //!   static surface or the moving objects' swept bounds. A VPL that sees
 //!   nothing carries light to nothing and is dropped before its map, its
@@ -46,10 +46,10 @@ use gibake_raycast::RayScene;
 use gibake_scene::Aabb;
 use glam::Vec3;
 
-/// Rays per RSM texel for [`texel_reach`] (2 × 2 strata).
+/// Rays per RSM texel for [`texel_reach`](Reach::texel_reach) (2 × 2 strata).
 pub const RAYS_PER_TEXEL: u32 = 4;
 
-/// Directions per axis of a VPL's [`sees_anything`] probe (the hemisphere
+/// Directions per axis of a VPL's [`sees_anything`](Reach::sees_anything) probe (the hemisphere
 /// map's projection at this size: 256 directions, texel centres).
 pub const PROBE_SIZE: u32 = 16;
 
@@ -203,7 +203,7 @@ impl<'a, 's> Reach<'a, 's> {
     /// the texels of VPLs it dropped carried 1.9% of the light the Blenvy
     /// sun's texels send to the camera's receivers (3.2% of a lamp's at 166
     /// VPLs: `lights_twin … --split`); every texel's own
-    /// [`RAYS_PER_TEXEL`] rays ([`texel_reach`](Self::texel_reach)) are
+    /// [`RAYS_PER_TEXEL`] rays ([`texel_reach`](Reach::texel_reach)(Self::texel_reach)) are
     /// thousands per VPL, from the surface itself.
     pub fn keeps(&self, c: &crate::cluster::Cluster, reaching: f64, ring: bool) -> bool {
         reaching > 0.0 || self.sees_cluster(c, ring)
