@@ -203,7 +203,7 @@ impl<'a, 's> Reach<'a, 's> {
     /// the texels of VPLs it dropped carried 1.9% of the light the Blenvy
     /// sun's texels send to the camera's receivers (3.2% of a lamp's at 166
     /// VPLs: `lights_twin … --split`); every texel's own
-    /// [`RAYS_PER_TEXEL`] rays ([`texel_reach`](Reach::texel_reach)(Self::texel_reach)) are
+    /// [`RAYS_PER_TEXEL`] rays ([`texel_reach`](Self::texel_reach)) are
     /// thousands per VPL, from the surface itself.
     pub fn keeps(&self, c: &crate::cluster::Cluster, reaching: f64, ring: bool) -> bool {
         reaching > 0.0 || self.sees_cluster(c, ring)
