@@ -700,18 +700,16 @@ fn bake_with(
         lap("rsm", &mut stages);
         progress.begin("clustering", 0);
         let mut clusters = cluster(&rsm, opts.target);
-        let (mut dropped, mut beyond_budget) = (0, 0);
-        if !clusters.vpls.is_empty() {
+        let crate::reach::Retained {
+            dropped,
+            beyond_budget,
+        } = if clusters.vpls.is_empty() {
+            Default::default()
+        } else {
             let reaching = clusters.reaching_flux(&rsm);
-            // The budget counts a VPL by its reaching flux unless nothing
-            // reaches anything (crate::cluster, "Budget").
             let by_reach = reaching.iter().any(|r| *r > 0.0);
-            dropped = clusters.retain(|i, c| {
-                let keep = reach.keeps(c, reaching[i], false);
-                beyond_budget += usize::from(keep && by_reach && reaching[i] <= 0.0);
-                keep
-            });
-        }
+            reach.retain(&mut clusters, &reaching, false, by_reach)
+        };
         progress.end();
         lap("clustering", &mut stages);
         // On the clusters' own surfaces (see Cluster::anchor); near-field

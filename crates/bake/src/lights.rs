@@ -262,11 +262,9 @@ pub fn every_light_planned(
     let by_reach = reachings.iter().flatten().any(|r| *r > 0.0);
     let (mut dropped_vpls, mut beyond_budget_vpls) = (0, 0);
     for ((c, m), reaching) in clusters.maps.iter_mut().zip(&maps).zip(&reachings) {
-        dropped_vpls += c.retain(|i, v| {
-            let keep = reach.keeps(v, reaching[i], m.ring > 0);
-            beyond_budget_vpls += usize::from(keep && by_reach && reaching[i] <= 0.0);
-            keep
-        });
+        let r = reach.retain(c, reaching, m.ring > 0, by_reach);
+        dropped_vpls += r.dropped;
+        beyond_budget_vpls += r.beyond_budget;
     }
     EveryLight {
         maps,

@@ -115,6 +115,16 @@ pub fn aim_targets(rays: &RayScene<'_>, moving: Aabb) -> Vec<Vec3> {
     out
 }
 
+/// What [`Reach::retain`] did to a clustering.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Retained {
+    /// VPLs dropped because they see nothing.
+    pub dropped: usize,
+    /// Kept VPLs a `Count` budget did not count (their texels' rays all
+    /// miss; their origin sees something).
+    pub beyond_budget: usize,
+}
+
 /// SplitMix64 finaliser (seeds the per-texel jitter).
 fn mix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -207,6 +217,31 @@ impl<'a, 's> Reach<'a, 's> {
     /// thousands per VPL, from the surface itself.
     pub fn keeps(&self, c: &crate::cluster::Cluster, reaching: f64, ring: bool) -> bool {
         reaching > 0.0 || self.sees_cluster(c, ring)
+    }
+
+    /// Drops the VPLs of `clusters` that [`Reach::keeps`] does not keep
+    /// (`reaching`: each one's reaching flux, `ring`: they lie on an outer
+    /// ring), and counts the kept ones a `Count` budget left out: those
+    /// whose light reaches nothing by their texels' rays, where the budget
+    /// counted VPLs by reaching flux (`by_reach`: something in the maps
+    /// clustered together reaches a surface; crate::cluster, "Budget").
+    pub fn retain(
+        &self,
+        clusters: &mut crate::cluster::Clustering,
+        reaching: &[f64],
+        ring: bool,
+        by_reach: bool,
+    ) -> Retained {
+        let mut beyond_budget = 0;
+        let dropped = clusters.retain(|i, c| {
+            let keep = self.keeps(c, reaching[i], ring);
+            beyond_budget += usize::from(keep && by_reach && reaching[i] <= 0.0);
+            keep
+        });
+        Retained {
+            dropped,
+            beyond_budget,
+        }
     }
 
     /// Whether a VPL at `origin` (its map origin, off its surface) with
