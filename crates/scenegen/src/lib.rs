@@ -17,6 +17,9 @@
 //! - [`lamps`]: a room lit by a ceiling spot with a glTF `range` and two
 //!   point lamps (one with a range), static blocks, three moving balls.
 //!
+//! And [`skylight_gallery`], a level built to break the VPL budget of
+//! method revisions before 6, made in memory for the tests (not bundled).
+//!
 //! Seeded random scenes: [`random()`] (one spot or directional light) and
 //! [`random_lights()`] (1–8 lights of all three kinds, interiors and
 //! exteriors).
@@ -31,6 +34,7 @@
 //! (`Params::default()`) to `OUT_DIR` (default `data/`).
 
 mod corner_bunny;
+mod gallery;
 pub mod geom;
 pub mod gltf;
 pub mod inspect;
@@ -140,6 +144,13 @@ pub fn sun(p: &Params) -> Vec<u8> {
 /// blocks, three balls on LINEAR loops; all three lamps are primary lights.
 pub fn lamps(p: &Params) -> Vec<u8> {
     lamps::build(p)
+}
+
+/// A level built to break a VPL budget, not bundled: a hall whose roof has
+/// an opening, on a wide ground (outer rings), a sun through the opening,
+/// two moving balls (issue 49; `crates/scenegen/src/gallery.rs`).
+pub fn skylight_gallery(p: &Params) -> Vec<u8> {
+    gallery::build(p)
 }
 
 /// Every bundled scene with exactly one primary light (a spot or a
