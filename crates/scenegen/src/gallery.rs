@@ -16,10 +16,13 @@ use crate::geom;
 use crate::gltf::Builder;
 use crate::{Params, loop_times};
 
+/// A static box: name, min and max corners, albedo.
+type StaticBox = (&'static str, [f64; 3], [f64; 3], [f32; 3]);
+
 pub(crate) fn build(p: &Params) -> Vec<u8> {
     let mut b = Builder::new(p.s(), "motion");
     let wall = [0.7, 0.7, 0.7];
-    let boxes: [(&str, [f64; 3], [f64; 3], [f32; 3]); 12] = [
+    let boxes: [StaticBox; 12] = [
         ("floor", [-12.0, -0.3, -8.0], [12.0, 0.0, 8.0], wall),
         ("wall_n", [-12.0, 0.0, -8.3], [12.0, 6.0, -8.0], wall),
         ("wall_s", [-12.0, 0.0, 8.0], [12.0, 6.0, 8.3], wall),
