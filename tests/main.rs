@@ -7,6 +7,7 @@
 
 mod bench_quick;
 mod bench_small;
+mod budget;
 mod cascades;
 mod cli_basic;
 mod cli_errors;

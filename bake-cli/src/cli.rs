@@ -282,12 +282,12 @@ pub struct BakeArgs {
     /// `gibake merge` joins the N parts into the single bake's bytes.
     #[arg(long, value_name = "K/N", value_parser = parse_shard, conflicts_with = "out_dir")]
     pub shard: Option<(u32, u32)>,
-    /// The VPL budget, 1 to 1048576: about N VPLs whose light reaches a
-    /// surface by their texels' rays (N ± 2%). VPLs whose texels' rays all
-    /// miss but whose origin still sees something (far ground round small
-    /// objects, a level's outer rings) are kept on top of it: up to 9% more
-    /// on the bundled levels (docs/method.md, bake section 3); the bake
-    /// prints how many (`--json`: vpls_beyond_budget). Default 256 unless
+    /// The VPL budget, 1 to 1048576: the asset holds N VPLs (± 2%), every
+    /// one of them a VPL whose light reaches a surface (by its texels' rays
+    /// or, for far ground round small objects, by rays from its origin);
+    /// fewer only when the level's reaching light cannot be split that
+    /// finely (the bake says so). More VPLs: more accurate indirect light,
+    /// a costlier frame (docs/method.md, bake section 3). Default 256 unless
     /// --threshold is given.
     #[arg(long, value_name = "N", conflicts_with = "threshold",
           value_parser = clap::value_parser!(u32).range(1..=1 << 20))]

@@ -15,9 +15,9 @@ use gibake_gpu::{GpuContext, LightView, readback};
 use gibake_raycast::RayScene;
 use gibake_scene::Scene;
 
-use crate::cluster::{ClusterTarget, NO_VPL, cluster};
+use crate::cluster::{Cluster, ClusterTarget, NO_VPL, cluster_keeping};
 use crate::reach::Reach;
-use crate::rsm::render_rsm;
+use crate::rsm::{Rsm, render_rsm};
 
 /// What to bake.
 #[derive(Clone, Debug, PartialEq)]
@@ -106,12 +106,6 @@ pub struct BakeOutput {
     /// VPLs the clustering made but dropped because their hemisphere sees
     /// no surface and no moving object (they carry light to nothing).
     pub dropped_vpls: usize,
-    /// Kept VPLs whose texels' rays all miss but whose origin sees
-    /// something ([`crate::reach`]): the clustering's `Count(n)` budget
-    /// does not count them, so they come on top of `n` (the Blenvy level:
-    /// 722 VPLs at `--vpls 664`, 61 of them these). Counted the same way
-    /// under `ClusterTarget::Threshold`, which has no budget.
-    pub beyond_budget_vpls: usize,
     /// What the bake warns about (also logged): geometry the light's maps
     /// leave out, texels coarse against the level.
     pub warnings: Vec<String>,
@@ -358,8 +352,6 @@ struct Front {
     /// VPLs the clustering made, dropped ones included.
     made: usize,
     dropped: usize,
-    /// Kept VPLs outside a `--vpls` budget ([`BakeOutput::beyond_budget_vpls`]).
-    beyond_budget: usize,
     threshold: f32,
     /// Per texel of `rsm`, its VPL (an index into `vpls`) or `NO_VPL`.
     texel_vpl: Vec<u32>,
@@ -523,7 +515,6 @@ fn every_light_front(
     let made = vpls.len() + every.dropped_vpls;
     let threshold = every.clusters.threshold;
     let dropped = every.dropped_vpls;
-    let beyond_budget = every.beyond_budget_vpls;
     let view_rsms = moving_view_rsms(scene, reach, &every, opts);
     let point_first = matches!(scene.light().kind, gibake_scene::LightKind::Point);
     let (rsm, texel_vpl) = match first {
@@ -555,7 +546,6 @@ fn every_light_front(
         ring_vpls,
         made,
         dropped,
-        beyond_budget,
         threshold,
         texel_vpl,
         rsm,
@@ -699,16 +689,16 @@ fn bake_with(
         progress.end();
         lap("rsm", &mut stages);
         progress.begin("clustering", 0);
-        let mut clusters = cluster(&rsm, opts.target);
-        let crate::reach::Retained {
-            dropped,
-            beyond_budget,
-        } = if clusters.vpls.is_empty() {
-            Default::default()
+        // A `Count` budget counts exactly the VPLs the bake keeps.
+        let keep = |_: usize, _: &Rsm, _: &[usize], c: &Cluster, reaching: f64| {
+            reach.keeps(c, reaching, false)
+        };
+        let mut clusters = cluster_keeping(&rsm, opts.target, &keep);
+        let dropped = if clusters.vpls.is_empty() {
+            0
         } else {
             let reaching = clusters.reaching_flux(&rsm);
-            let by_reach = reaching.iter().any(|r| *r > 0.0);
-            reach.retain(&mut clusters, &reaching, false, by_reach)
+            reach.retain(&mut clusters, &reaching, false)
         };
         progress.end();
         lap("clustering", &mut stages);
@@ -729,7 +719,6 @@ fn bake_with(
             vpl_coherence,
             made: clusters.vpls.len() + dropped,
             dropped,
-            beyond_budget,
             threshold: clusters.threshold,
             texel_vpl: clusters.texel_vpl,
             rsm: Some(rsm),
@@ -748,7 +737,6 @@ fn bake_with(
         per_light,
         ring_vpls,
         dropped,
-        beyond_budget,
         threshold,
         texel_vpl,
         rsm,
@@ -873,7 +861,6 @@ fn bake_with(
             asset,
             stages,
             dropped_vpls: dropped,
-            beyond_budget_vpls: beyond_budget,
             warnings,
         },
         shard_maps,

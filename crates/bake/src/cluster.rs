@@ -151,30 +151,50 @@
 //! Each node gets the *capped* score `e(node) = min(S(node), e(parent))`
 //! (`e(root) = S(root)`). A node splits under `Threshold(t)` iff it and all
 //! its ancestors score `≥ t`, i.e. iff `e(node) ≥ t`: thresholding is
-//! exactly "split all nodes with `e ≥ t`". `Count(n)` keeps a max-heap of
-//! splittable leaves keyed by `e` (ties: shallower node first, then the
-//! smaller Morton code of its grid cell), so nodes are split in
-//! non-increasing `e`. It pops the top leaf while fewer than `n` leaves
-//! *count* — have lit texels whose light reaches something (`sum_reaching >
-//! 0`; any lit texel when nothing in the map reaches anything) — except
-//! that a split that would overshoot `n` by at least as much as the current
-//! count falls short is not made (a split adds at most three VPLs, so the
-//! count is within one of `n`). Leaves with lit texels whose light reaches
-//! nothing are still emitted (the bake's probe drops them), but they do not
-//! take a useful VPL's place in the budget, and a node none of whose light
-//! reaches anything is never split, in either mode (its score is `None`):
-//! none of its descendants could count, and on a town whose ground faces
-//! the sky splitting them made ~120 k VPLs the probe kept. If the map has
-//! fewer than `n` lit texels, every lit texel becomes a VPL.
+//! exactly "split all nodes with `e ≥ t`". `Count(n)` keeps one max-heap of
+//! the splittable leaves of **every map clustered together** keyed by `e`
+//! (ties: shallower node first, then the earlier map, then the smaller
+//! Morton code of its grid cell), so nodes are split in non-increasing `e`.
+//! It pops the top leaf while fewer than `n` VPLs are **kept**, except that
+//! a split that would overshoot `n` by at least as much as the current
+//! count falls short is not made: the count ends within a split's change
+//! of `n` (one to three VPLs, more only where a split adds depth layers).
+//!
+//! *Kept* is the bake's own rule, given as a [`Keep`]: a leaf makes one VPL
+//! per depth layer (below), and the bake keeps a VPL whose light reaches a
+//! surface by its texels' rays, or whose origin's rays see something
+//! (`gibake_bake::reach::Reach::keeps`). Each node's kept VPLs as a leaf
+//! are counted once, when it first becomes a candidate, so a split's change
+//! is exact and the asset holds the VPLs the budget counted. Leaves whose
+//! VPLs the bake drops are still emitted (the bake drops them), but they
+//! take no useful VPL's place, and a node none of whose light reaches
+//! anything is never split, in either mode (its score is `None`): on a
+//! town whose ground faces the sky splitting them made ~120 k VPLs.
+//!
+//! Until method revision 6 the budget counted the leaves whose texels'
+//! light reaches something, reran the refinement for a target moved by the
+//! depth layers' miss, and joint budgets bisected on the threshold instead
+//! of refining. Three things broke it on levels the project had not seen
+//! (issue 49): the VPLs kept by their origin's rays alone (far ground,
+//! outer rings) came on top of the budget — 1175 VPLs at `--vpls 664` on a
+//! hall under a skylight on a wide ground (`gibake_scenegen::skylight_gallery`),
+//! 722 on the Blenvy level; a threshold cannot cut inside a run of equal
+//! scores (flat, evenly lit floors and walls: every node of a level alike),
+//! so the bisection jumped a whole level of nodes — a gallery under an
+//! open skylight baked 10 / 230 / 80 / 183 VPLs for `--vpls` 64 / 128 /
+//! 200 / 256; and the count of depth layers beyond the leaves was an
+//! estimate (the city at `--vpls 64`: 42). The greedy refinement over every
+//! map with exact kept counts has none of the three.
 //!
 //! The reported [`Clustering::threshold`] reproduces the result with
-//! `Threshold(t)`: if the refinement stopped at the end of a run of equal
-//! `e`, any `t` in `(e_next, e_last]` does (`e_next` the largest unsplit
+//! `Threshold(t)` when the refinement stopped at the end of a run of equal
+//! `e`: any `t` in `(e_next, e_last]` does (`e_next` the largest unsplit
 //! `e`), and the reported `t` is the geometric middle of that gap, so that
 //! a score moved by rounding (the same scene in other units) still falls
 //! on the same side; if it stopped inside a run, `t` is in the gap above
-//! or below the run, whichever gives the count nearer to the one returned.
-//! With no split, it is above the largest unsplit `e` (`+∞` if none).
+//! or below the run, whichever gives the count nearer to the one returned
+//! (no threshold gives a count inside a run). With no split, it is above
+//! the largest unsplit `e` (`+∞` if none).
 //!
 //! # Depth layers
 //!
@@ -186,10 +206,8 @@
 //! only a step between surfaces larger than the leaf is wide cuts it: a
 //! roof's edge and the floor seen through its opening. Layers are in
 //! increasing metric and share the leaf's rectangle in
-//! [`Clustering::rects`]; a leaf of one layer sums exactly as before. The
-//! layers beyond the first that count are added to the budget: `Count(n)`
-//! reruns the refinement for a leaf target moved by the miss until the
-//! total is within one of `n` (at most six runs; the closest is kept).
+//! [`Clustering::rects`]; a leaf of one layer sums exactly as before. A
+//! budget counts every kept layer (above).
 //! [`cluster_cut`] (the dynamic VPLs' GPU twin) stays one VPL per leaf.
 //!
 //! # Slot order and [`cluster_cut`] (the GPU twin)
@@ -217,14 +235,13 @@
 
 mod pyramid;
 
-use rayon::prelude::*;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 use glam::Vec3;
 
 use crate::rsm::Rsm;
-use pyramid::{Moments, Node, Pyramid, is_lit, morton, texel_weight, vec3};
+use pyramid::{Node, Pyramid, is_lit, morton, texel_weight, vec3};
 
 /// One VPL made from a quadtree node.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -337,8 +354,37 @@ pub enum ClusterTarget {
     Count(u32),
 }
 
-/// Clusters `rsm` into VPLs (see the module docs for the rule).
+/// Whether the bake keeps a would-be VPL; a `Count` budget counts exactly
+/// the VPLs it keeps ("Budget" in the module docs).
+/// `keep(map, rsm, texels, cluster, reaching)`: `map` is the index of its
+/// RSM among those clustered together, `texels` its lit texels (row-major),
+/// `cluster` the VPL they make and `reaching` their reaching flux
+/// `Σ (r + g + b) · reach` (each texel's product in `f32`, summed in `f64`,
+/// as [`Clustering::reaching_flux`]). The bake's rule is
+/// `gibake_bake::reach::Reach::keeps` (its light reaches something by its
+/// texels' rays, or its origin sees something); [`cluster`] and
+/// [`cluster_joint`] keep a VPL whose light reaches something (any lit one
+/// when nothing in the maps reaches anything).
+pub type Keep<'a> = dyn Fn(usize, &Rsm, &[usize], &Cluster, f64) -> bool + Sync + 'a;
+
+/// Clusters `rsm` into VPLs (see the module docs for the rule); a `Count`
+/// budget counts the VPLs whose light reaches something.
 pub fn cluster(rsm: &Rsm, target: ClusterTarget) -> Clustering {
+    single(cluster_joint(&[rsm], target))
+}
+
+/// [`cluster`], with a `Count` budget counting the VPLs `keep` keeps.
+pub fn cluster_keeping(rsm: &Rsm, target: ClusterTarget, keep: &Keep<'_>) -> Clustering {
+    single(cluster_joint_keeping(&[rsm], target, keep))
+}
+
+/// The one map of a joint clustering of one map.
+fn single(mut joint: JointClustering) -> Clustering {
+    joint.maps.pop().expect("one clustering per map")
+}
+
+/// Panics unless every array of `rsm` holds `size²` texels.
+fn check_arrays(rsm: &Rsm) {
     let texels = (rsm.size as usize) * (rsm.size as usize);
     assert!(
         rsm.metric.len() == texels
@@ -348,33 +394,6 @@ pub fn cluster(rsm: &Rsm, target: ClusterTarget) -> Clustering {
             && rsm.area.len() == texels,
         "RSM arrays must hold size² texels"
     );
-    if rsm.size == 0 {
-        let threshold = match target {
-            ClusterTarget::Threshold(t) => t,
-            ClusterTarget::Count(_) => f32::INFINITY,
-        };
-        return Clustering {
-            vpls: Vec::new(),
-            texel_vpl: Vec::new(),
-            rects: Vec::new(),
-            threshold,
-        };
-    }
-    let pyramid = Pyramid::new(rsm);
-    match target {
-        ClusterTarget::Threshold(t) => {
-            let (vpls, texel_vpl, rects, _, _) = emit(rsm, &pyramid, |node| {
-                pyramid.score(rsm, node).is_some_and(|s| s >= t)
-            });
-            Clustering {
-                vpls,
-                texel_vpl,
-                rects,
-                threshold: t,
-            }
-        }
-        ClusterTarget::Count(n) => cluster_count(rsm, &pyramid, n),
-    }
 }
 
 /// Walks the quadtree depth-first, descending where `split` says so, and
@@ -383,8 +402,6 @@ fn emit(rsm: &Rsm, pyramid: &Pyramid, split: impl Fn(Node) -> bool) -> Emitted {
     let mut vpls = Vec::new();
     let mut rects = Vec::new();
     let mut texel_vpl = vec![NO_VPL; rsm.metric.len()];
-    let mut extra = 0u64;
-    let mut counted = 0u64;
     let texel_level = pyramid.texel_level();
     let mut stack = vec![pyramid.root()];
     let mut kids = Vec::with_capacity(4);
@@ -397,11 +414,7 @@ fn emit(rsm: &Rsm, pyramid: &Pyramid, split: impl Fn(Node) -> bool) -> Emitted {
             continue;
         }
         let rect = pyramid.rect(node);
-        let layers = leaf_layers(rsm, rect);
-        let (c, e) = leaf_budget(rsm, pyramid, node, &layers);
-        counted += c;
-        extra += e;
-        for layer in layers {
+        for layer in leaf_layers(rsm, rect) {
             let Some(vpl) = cluster_of(rsm, &layer) else {
                 continue;
             };
@@ -413,80 +426,23 @@ fn emit(rsm: &Rsm, pyramid: &Pyramid, split: impl Fn(Node) -> bool) -> Emitted {
             rects.push(rect);
         }
     }
-    (vpls, texel_vpl, rects, extra, counted)
+    (vpls, texel_vpl, rects)
 }
 
-/// What leaf `node` (its depth layers `layers`, [`leaf_layers`]) counts
-/// against a VPL budget: `(1 if the leaf counts ([`Pyramid::counts`]) else
-/// 0, how many more of its layers count than that)`.
-fn leaf_budget(rsm: &Rsm, pyramid: &Pyramid, node: Node, layers: &[Vec<usize>]) -> (u64, u64) {
-    let leaf_counts = pyramid.counts(&pyramid.moments(rsm, node));
-    let mut extra = 0;
-    if layers.len() > 1 {
-        // Layers beyond the first that count against a budget as the
-        // leaf itself would (pyramid::counts).
-        let counting = layers
-            .iter()
-            .filter(|l| {
-                let m = l
-                    .iter()
-                    .fold(Moments::default(), |m, &i| m.merge(Moments::texel(rsm, i)));
-                pyramid.counts(&m)
-            })
-            .count() as u64;
-        extra = counting.saturating_sub(u64::from(leaf_counts));
-    }
-    (u64::from(leaf_counts), extra)
-}
+/// VPLs, texel → VPL, each VPL's node rectangle.
+type Emitted = (Vec<Cluster>, Vec<u32>, Vec<(u32, u32, u32, u32)>);
 
-/// How many VPLs the cut of `pyramid` at threshold `t` counts against a
-/// budget: [`emit`]'s `counted + extra` with the same splits, without
-/// making a VPL. `memo` holds each node's [`leaf_budget`] sum once
-/// computed (`u32::MAX`: not yet), indexed level by level, row-major within
-/// a level; it starts empty and is sized on first use. Each node's layers
-/// are sorted at most once over a whole bisection instead of once per
-/// probe.
-fn count_cut(rsm: &Rsm, pyramid: &Pyramid, t: f32, memo: &mut Vec<u32>) -> u64 {
-    let texel_level = pyramid.texel_level();
-    let offsets: Vec<usize> = (0..=texel_level)
-        .scan(0usize, |acc, l| {
-            let o = *acc;
-            *acc += (pyramid.cells(l) as usize).pow(2);
-            Some(o)
+/// The reaching flux of a set of lit texels: `Σ (r + g + b) · reach`, as
+/// [`Clustering::reaching_flux`] sums it.
+fn reaching_of(rsm: &Rsm, texels: &[usize]) -> f64 {
+    texels
+        .iter()
+        .map(|&t| {
+            let f = rsm.flux[t];
+            f64::from((f.x + f.y + f.z) * rsm.reach.get(t).copied().unwrap_or(1.0))
         })
-        .collect();
-    if memo.is_empty() {
-        let total = offsets[texel_level as usize] + (pyramid.cells(texel_level) as usize).pow(2);
-        memo.resize(total, u32::MAX);
-    }
-    let mut count = 0u64;
-    let mut stack = vec![pyramid.root()];
-    while let Some(node) = stack.pop() {
-        if node.level < texel_level && pyramid.score(rsm, node).is_some_and(|s| s >= t) {
-            stack.extend(pyramid.children(node));
-            continue;
-        }
-        if node.level == texel_level {
-            // One texel: one layer at most, nothing to sort.
-            count += u64::from(pyramid.counts(&pyramid.moments(rsm, node)));
-            continue;
-        }
-        let slot =
-            offsets[node.level as usize] + (node.iy * pyramid.cells(node.level) + node.ix) as usize;
-        if memo[slot] == u32::MAX {
-            let layers = leaf_layers(rsm, pyramid.rect(node));
-            let (c, e) = leaf_budget(rsm, pyramid, node, &layers);
-            memo[slot] = u32::try_from(c + e).unwrap_or(u32::MAX - 1);
-        }
-        count += u64::from(memo[slot]);
-    }
-    count
+        .sum()
 }
-
-/// VPLs, texel → VPL, each VPL's node rectangle, how many more VPLs than
-/// leaves count against a budget (a leaf's second and later layers), and
-/// how many leaves count.
-type Emitted = (Vec<Cluster>, Vec<u32>, Vec<(u32, u32, u32, u32)>, u64, u64);
 
 /// A depth gap splits a leaf where it exceeds this many texel footprints
 /// (and the leaf's own width): a continuous surface's metric changes by at
@@ -635,6 +591,8 @@ struct Entry {
     /// Capped score `min(score, e(parent))`.
     e: f32,
     node: Node,
+    /// Index of its map among those clustered together.
+    map: u32,
     morton: u64,
 }
 
@@ -653,59 +611,69 @@ impl PartialOrd for Entry {
 }
 
 impl Ord for Entry {
-    /// Larger `e` first, then shallower, then smaller Morton code.
+    /// Larger `e` first, then shallower, then the earlier map, then the
+    /// smaller Morton code.
     fn cmp(&self, o: &Self) -> Ordering {
         self.e
             .total_cmp(&o.e)
             .then(o.node.level.cmp(&self.node.level))
+            .then(o.map.cmp(&self.map))
             .then(o.morton.cmp(&self.morton))
     }
 }
 
-/// State of the greedy refinement.
-struct Greedy<'a> {
+/// One map of a refinement: its pyramid, which nodes are split, and how
+/// many kept VPLs each node makes as a leaf (memoised).
+struct MapCut<'a> {
     rsm: &'a Rsm,
-    pyramid: &'a Pyramid,
+    pyramid: Pyramid,
     /// `split[level][iy * m + ix]` for levels above the texels.
     split: Vec<Vec<bool>>,
-    heap: BinaryHeap<Entry>,
-    /// Leaves with lit texels (= VPLs).
-    count: u64,
+    /// Per node, level by level, row-major within a level: the VPLs it
+    /// makes as a leaf that `keep` keeps (`u32::MAX`: not yet known).
+    kept: Vec<u32>,
+    /// Where each level starts in `kept`.
+    offsets: Vec<usize>,
 }
 
-impl Greedy<'_> {
-    fn moments(&self, node: Node) -> Moments {
-        self.pyramid.moments(self.rsm, node)
-    }
-
-    fn push(&mut self, node: Node, parent_e: f32) {
-        if let Some(s) = self.pyramid.score(self.rsm, node) {
-            self.heap.push(Entry {
-                e: s.min(parent_e),
-                node,
-                morton: morton(node.ix, node.iy),
-            });
+impl<'a> MapCut<'a> {
+    fn new(rsm: &'a Rsm, pyramid: Pyramid) -> Self {
+        let texel_level = pyramid.texel_level();
+        let split = (0..texel_level)
+            .map(|level| vec![false; (pyramid.cells(level) as usize).pow(2)])
+            .collect();
+        let mut offsets = Vec::with_capacity(texel_level as usize + 1);
+        let mut total = 0usize;
+        for level in 0..=texel_level {
+            offsets.push(total);
+            total += (pyramid.cells(level) as usize).pow(2);
+        }
+        MapCut {
+            rsm,
+            pyramid,
+            split,
+            kept: vec![u32::MAX; total],
+            offsets,
         }
     }
 
-    /// Change in VPL count if `node` is split.
-    fn delta(&self, node: Node) -> i64 {
-        let kids = self
-            .pyramid
-            .children(node)
-            .filter(|&c| self.pyramid.counts(&self.moments(c)))
-            .count() as i64;
-        kids - i64::from(self.pyramid.counts(&self.moments(node)))
-    }
-
-    fn split(&mut self, entry: Entry) {
-        let node = entry.node;
-        let m = self.pyramid.cells(node.level) as usize;
-        self.split[node.level as usize][node.iy as usize * m + node.ix as usize] = true;
-        self.count = self.count.wrapping_add_signed(self.delta(node));
-        for child in self.pyramid.children(node) {
-            self.push(child, entry.e);
+    /// The VPLs `node` makes as a leaf (one per depth layer) that `keep`
+    /// keeps (`map`: this map's index).
+    fn kept(&mut self, map: usize, node: Node, keep: &Keep<'_>) -> u32 {
+        let slot = self.offsets[node.level as usize]
+            + (node.iy * self.pyramid.cells(node.level) + node.ix) as usize;
+        if self.kept[slot] == u32::MAX {
+            let rsm = self.rsm;
+            let n = leaf_layers(rsm, self.pyramid.rect(node))
+                .iter()
+                .filter(|layer| {
+                    cluster_of(rsm, layer)
+                        .is_some_and(|c| keep(map, rsm, layer, &c, reaching_of(rsm, layer)))
+                })
+                .count();
+            self.kept[slot] = u32::try_from(n).unwrap_or(u32::MAX - 1);
         }
+        self.kept[slot]
     }
 
     fn is_split(&self, node: Node) -> bool {
@@ -714,130 +682,64 @@ impl Greedy<'_> {
     }
 }
 
-/// A refinement, the capped score of its last run of splits, of the run
-/// before it, and the count where the last run began ([`refine`]).
-type Refined<'a> = (Greedy<'a>, Option<f32>, Option<f32>, u64);
-
-/// Splits in non-increasing capped score until `n` leaves count (or the
-/// next split would overshoot more than stopping undershoots).
-fn refine<'a>(rsm: &'a Rsm, pyramid: &'a Pyramid, n: u64) -> Refined<'a> {
-    let split = (0..pyramid.texel_level())
-        .map(|level| {
-            let m = pyramid.cells(level) as usize;
-            vec![false; m * m]
-        })
-        .collect();
-    let mut g = Greedy {
-        rsm,
-        pyramid,
-        split,
-        heap: BinaryHeap::new(),
-        count: u64::from(pyramid.counts(&pyramid.moments(rsm, pyramid.root()))),
-    };
-    g.push(pyramid.root(), f32::INFINITY);
-
-    let mut last_e: Option<f32> = None;
-    // The capped score of the run before the current one.
-    let mut prev_e: Option<f32> = None;
-    let mut group_start = g.count;
-    while g.count < n {
-        let Some(&top) = g.heap.peek() else { break };
-        let after = g.count.saturating_add_signed(g.delta(top.node));
-        if after > n && after - n >= n - g.count {
-            break;
-        }
-        g.heap.pop();
-        if last_e != Some(top.e) {
-            prev_e = last_e;
-            last_e = Some(top.e);
-            group_start = g.count;
-        }
-        g.split(top);
-    }
-    (g, last_e, prev_e, group_start)
+/// The greedy refinement of a `Count` budget over every map at once
+/// (module docs, "Budget"): frontier nodes by capped score, kept VPLs
+/// counted exactly.
+struct Refinement<'a, 'k> {
+    maps: Vec<MapCut<'a>>,
+    heap: BinaryHeap<Entry>,
+    /// Kept VPLs of the current leaves.
+    count: u64,
+    keep: &'k Keep<'k>,
 }
 
-/// `ClusterTarget::Count(n)`: greedy refinement (see the module docs).
-/// Depth layers ([`leaf_layers`]) add VPLs beyond the leaves the
-/// refinement counts, so it is rerun for a leaf target moved by the miss
-/// (at most five more times) until the VPLs that count are within one of
-/// `n`; the closest run is kept.
-fn cluster_count(rsm: &Rsm, pyramid: &Pyramid, n: u32) -> Clustering {
-    let n = u64::from(n);
-    let run = |target: u64| -> (u64, u64, Refined<'_>, Emitted) {
-        let refined = refine(rsm, pyramid, target);
-        let emitted = emit(rsm, pyramid, |node| refined.0.is_split(node));
-        let total = refined.0.count + emitted.3;
-        (total.abs_diff(n), total, refined, emitted)
-    };
-    let mut target = n;
-    let mut best = run(target);
-    let mut total = best.1;
-    for _ in 0..5 {
-        if best.0 <= 1 {
-            break;
-        }
-        let next = if total > n {
-            target.saturating_sub(total - n).max(1)
-        } else {
-            target + (n - total)
+impl<'a, 'k> Refinement<'a, 'k> {
+    fn new(maps: Vec<MapCut<'a>>, keep: &'k Keep<'k>) -> Self {
+        let mut r = Refinement {
+            maps,
+            heap: BinaryHeap::new(),
+            count: 0,
+            keep,
         };
-        if next == target {
-            break;
+        for k in 0..r.maps.len() {
+            let root = r.maps[k].pyramid.root();
+            r.count += u64::from(r.maps[k].kept(k, root, keep));
+            r.push(k, root, f32::INFINITY);
         }
-        target = next;
-        let this = run(target);
-        total = this.1;
-        if this.0 < best.0 {
-            best = this;
+        r
+    }
+
+    fn push(&mut self, map: usize, node: Node, parent_e: f32) {
+        let m = &self.maps[map];
+        if let Some(s) = m.pyramid.score(m.rsm, node) {
+            self.heap.push(Entry {
+                e: s.min(parent_e),
+                node,
+                map: map as u32,
+                morton: morton(node.ix, node.iy),
+            });
         }
     }
-    let (_, _, (mut g, last_e, prev_e, group_start), (vpls, texel_vpl, rects, _, _)) = best;
-    let result = g.count;
 
-    // Any threshold in the gap between two consecutive capped scores splits
-    // the same nodes; the geometric middle of the gap keeps that true when a
-    // score moves by rounding (the same scene in other units).
-    let middle = |hi: f32, lo: f32| -> f32 {
-        let m = if lo > 0.0 {
-            (f64::from(hi) * f64::from(lo)).sqrt() as f32
-        } else {
-            hi * 0.5
-        };
-        if m > lo && m <= hi { m } else { hi }
-    };
-    let threshold = match last_e {
-        None => g
-            .heap
-            .peek()
-            .map_or(f32::INFINITY, |top| top.e.next_up().max(top.e * 2.0)),
-        Some(e) => {
-            // Finish the run of equal e: Threshold(t ≤ e) splits it whole;
-            // a t above e stops before it.
-            while let Some(&top) = g.heap.peek() {
-                if top.e < e {
-                    break;
-                }
-                g.heap.pop();
-                g.split(top);
-            }
-            let with_run = g.count;
-            if with_run.abs_diff(result) <= group_start.abs_diff(result) {
-                let next = g.heap.peek().map_or(0.0, |top| top.e);
-                middle(e, next)
-            } else {
-                match prev_e {
-                    Some(p) => middle(p, e).max(e.next_up()),
-                    None => e.next_up().max(e * 2.0),
-                }
-            }
+    /// Change in kept VPLs if `entry`'s node is split.
+    fn delta(&mut self, entry: Entry) -> i64 {
+        let (k, keep) = (entry.map as usize, self.keep);
+        let map = &mut self.maps[k];
+        let kids: Vec<Node> = map.pyramid.children(entry.node).collect();
+        let after: i64 = kids.iter().map(|&c| i64::from(map.kept(k, c, keep))).sum();
+        after - i64::from(map.kept(k, entry.node, keep))
+    }
+
+    fn split(&mut self, entry: Entry, delta: i64) {
+        let (k, node) = (entry.map as usize, entry.node);
+        let map = &mut self.maps[k];
+        let m = map.pyramid.cells(node.level) as usize;
+        map.split[node.level as usize][node.iy as usize * m + node.ix as usize] = true;
+        self.count = self.count.saturating_add_signed(delta);
+        let kids: Vec<Node> = map.pyramid.children(node).collect();
+        for child in kids {
+            self.push(k, child, entry.e);
         }
-    };
-    Clustering {
-        vpls,
-        texel_vpl,
-        rects,
-        threshold,
     }
 }
 
@@ -863,12 +765,36 @@ impl JointClustering {
 /// threshold spends one budget where the light is, across lights, by the
 /// same rule as within one map (module docs; a light whose bounce is a
 /// millionth of the others' gets its root node and no splits).
-/// `Threshold(t)` cuts every map at `t`; `Count(n)` finds the threshold by
-/// bisection on the `f32` scores (the VPL count is non-increasing in `t`),
-/// taking the one whose count is nearest `n`. With one map,
-/// `Threshold(t)` gives exactly [`cluster`]'s clustering; `Count(n)` may
-/// differ from [`cluster`]'s greedy refinement by a few VPLs.
+/// `Threshold(t)` cuts every map at `t`; `Count(n)` is the greedy
+/// refinement of the module docs over every map at once. A `Count` budget
+/// counts the VPLs whose light reaches something ([`Keep`]); with one map
+/// this is [`cluster`].
 pub fn cluster_joint(rsms: &[&Rsm], target: ClusterTarget) -> JointClustering {
+    for r in rsms {
+        check_arrays(r);
+    }
+    // As the pyramids weigh: by the reaching flux if any lit texel's light
+    // reaches a surface.
+    let by_reach = rsms
+        .iter()
+        .any(|r| (0..r.metric.len()).any(|i| is_lit(r, i) && reaching_of(r, &[i]) > 0.0));
+    let keep = move |_: usize, _: &Rsm, _: &[usize], _: &Cluster, reaching: f64| {
+        reaching > 0.0 || !by_reach
+    };
+    cluster_joint_keeping(rsms, target, &keep)
+}
+
+/// [`cluster_joint`], with a `Count` budget counting the VPLs `keep` keeps
+/// (`keep`'s map index is into `rsms`). Every VPL the clustering makes is
+/// returned; the caller drops those `keep` does not keep.
+pub fn cluster_joint_keeping(
+    rsms: &[&Rsm],
+    target: ClusterTarget,
+    keep: &Keep<'_>,
+) -> JointClustering {
+    for r in rsms {
+        check_arrays(r);
+    }
     let live: Vec<(usize, Pyramid)> = rsms
         .iter()
         .enumerate()
@@ -890,83 +816,127 @@ pub fn cluster_joint(rsms: &[&Rsm], target: ClusterTarget) -> JointClustering {
             (i, p)
         })
         .collect();
-    let cut = |t: f32| -> (Vec<Emitted>, u64) {
-        let mut counted = 0u64;
-        let out: Vec<Emitted> = live
-            .iter()
-            .map(|(i, p)| {
-                let rsm = rsms[*i];
-                let e = emit(rsm, p, |node| p.score(rsm, node).is_some_and(|s| s >= t));
-                counted += e.3 + e.4;
-                e
-            })
-            .collect();
-        (out, counted)
+    let empty = |threshold: f32| Clustering {
+        vpls: Vec::new(),
+        texel_vpl: Vec::new(),
+        rects: Vec::new(),
+        threshold,
     };
+    let mut out: Vec<Option<Emitted>> = vec![None; rsms.len()];
     let threshold = match target {
-        ClusterTarget::Threshold(t) => t,
+        ClusterTarget::Threshold(t) => {
+            for (i, p) in &live {
+                let rsm = rsms[*i];
+                out[*i] = Some(emit(rsm, p, |node| {
+                    p.score(rsm, node).is_some_and(|s| s >= t)
+                }));
+            }
+            t
+        }
         ClusterTarget::Count(n) => {
-            let n = u64::from(n);
-            // Non-negative f32s order as their bit patterns: bisect the
-            // bits between 0 (split all) and +∞ (split none).
-            // Probes count without making VPLs, each map's leaf counts
-            // memoised across probes (count_cut); maps in parallel.
-            let mut memos: Vec<Vec<u32>> = vec![Vec::new(); live.len()];
-            let mut count_at = |bits: u32| -> u64 {
-                let t = f32::from_bits(bits);
-                live.par_iter()
-                    .zip(memos.par_iter_mut())
-                    .map(|((i, p), memo)| count_cut(rsms[*i], p, t, memo))
-                    .sum()
+            let index: Vec<usize> = live.iter().map(|(i, _)| *i).collect();
+            // The keep rule sees each map by its index into `rsms`.
+            let keep_live = |k: usize, rsm: &Rsm, texels: &[usize], c: &Cluster, r: f64| {
+                keep(index[k], rsm, texels, c, r)
             };
-            let (mut lo, mut hi) = (0u32, f32::INFINITY.to_bits());
-            let mut c_lo = count_at(lo);
-            let mut c_hi = c_lo;
-            if c_lo > n {
-                c_hi = count_at(hi);
-                while hi - lo > 1 {
-                    let mid = lo + (hi - lo) / 2;
-                    let c = count_at(mid);
-                    if c > n {
-                        (lo, c_lo) = (mid, c);
-                    } else {
-                        (hi, c_hi) = (mid, c);
-                    }
-                }
-            } else {
-                hi = lo;
+            let maps = live
+                .into_iter()
+                .map(|(i, p)| MapCut::new(rsms[i], p))
+                .collect();
+            let (r, threshold) = refine_count(maps, u64::from(n), &keep_live);
+            for (k, e) in r.into_iter().enumerate() {
+                out[index[k]] = Some(e);
             }
-            // count(lo) > n ≥ count(hi): the nearer of the two.
-            if lo != hi && c_lo.abs_diff(n) < c_hi.abs_diff(n) {
-                f32::from_bits(lo)
-            } else {
-                f32::from_bits(hi)
-            }
+            threshold
         }
     };
-    let (emitted, _) = cut(threshold);
-    let mut emitted = emitted.into_iter();
-    let maps = rsms
-        .iter()
-        .map(|r| {
-            if r.size == 0 {
-                return Clustering {
-                    vpls: Vec::new(),
-                    texel_vpl: Vec::new(),
-                    rects: Vec::new(),
-                    threshold,
-                };
-            }
-            let (vpls, texel_vpl, rects, _, _) = emitted.next().expect("one per live map");
-            Clustering {
+    let maps = out
+        .into_iter()
+        .map(|e| match e {
+            Some((vpls, texel_vpl, rects)) => Clustering {
                 vpls,
                 texel_vpl,
                 rects,
                 threshold,
-            }
+            },
+            None => empty(threshold),
         })
         .collect();
     JointClustering { maps, threshold }
+}
+
+/// `ClusterTarget::Count(n)` over `maps`: splits in non-increasing capped
+/// score until `n` VPLs are kept (or the next split would overshoot by more
+/// than stopping undershoots); each map's VPLs, and the threshold that
+/// reproduces the cut (module docs, "Budget").
+fn refine_count(maps: Vec<MapCut<'_>>, n: u64, keep: &Keep<'_>) -> (Vec<Emitted>, f32) {
+    let mut r = Refinement::new(maps, keep);
+    let mut last_e: Option<f32> = None;
+    // The capped score of the run before the current one.
+    let mut prev_e: Option<f32> = None;
+    let mut group_start = r.count;
+    while r.count < n {
+        let Some(&top) = r.heap.peek() else { break };
+        let delta = r.delta(top);
+        let after = r.count.saturating_add_signed(delta);
+        if after > n && after - n >= n - r.count {
+            break;
+        }
+        r.heap.pop();
+        if last_e != Some(top.e) {
+            prev_e = last_e;
+            last_e = Some(top.e);
+            group_start = r.count;
+        }
+        r.split(top, delta);
+    }
+    let result = r.count;
+    let emitted: Vec<Emitted> = r
+        .maps
+        .iter()
+        .map(|m| emit(m.rsm, &m.pyramid, |node| m.is_split(node)))
+        .collect();
+
+    // Any threshold in the gap between two consecutive capped scores splits
+    // the same nodes; the geometric middle of the gap keeps that true when a
+    // score moves by rounding (the same scene in other units).
+    let middle = |hi: f32, lo: f32| -> f32 {
+        let m = if lo > 0.0 {
+            (f64::from(hi) * f64::from(lo)).sqrt() as f32
+        } else {
+            hi * 0.5
+        };
+        if m > lo && m <= hi { m } else { hi }
+    };
+    let threshold = match last_e {
+        None => r
+            .heap
+            .peek()
+            .map_or(f32::INFINITY, |top| top.e.next_up().max(top.e * 2.0)),
+        Some(e) => {
+            // Finish the run of equal e: Threshold(t ≤ e) splits it whole;
+            // a t above e stops before it.
+            while let Some(&top) = r.heap.peek() {
+                if top.e < e {
+                    break;
+                }
+                r.heap.pop();
+                let delta = r.delta(top);
+                r.split(top, delta);
+            }
+            let with_run = r.count;
+            if with_run.abs_diff(result) <= group_start.abs_diff(result) {
+                let next = r.heap.peek().map_or(0.0, |top| top.e);
+                middle(e, next)
+            } else {
+                match prev_e {
+                    Some(p) => middle(p, e).max(e.next_up()),
+                    None => e.next_up().max(e * 2.0),
+                }
+            }
+        }
+    };
+    (emitted, threshold)
 }
 
 /// The slot of `node` in a power-of-two quadtree: `(4^level − 1)/3 +

@@ -24,7 +24,7 @@ use gibake_gpu::LightView;
 use gibake_gpu::light_fit::LightFit;
 use gibake_scene::Scene;
 
-use crate::cluster::{Cluster, ClusterTarget, JointClustering, cluster_joint};
+use crate::cluster::{Cluster, ClusterTarget, JointClustering, cluster_joint_keeping};
 use crate::reach::Reach;
 
 /// A view whose reaching flux is under this fraction of an average VPL's
@@ -64,10 +64,6 @@ pub struct EveryLight {
     pub negligible_views: usize,
     /// VPLs removed because their hemisphere sees nothing.
     pub dropped_vpls: usize,
-    /// Kept VPLs whose texels' rays all miss ([`crate::reach`]'s probe saw
-    /// something from their origin): they do not count against a
-    /// `ClusterTarget::Count` budget, so they come on top of it.
-    pub beyond_budget_vpls: usize,
 }
 
 impl EveryLight {
@@ -222,22 +218,37 @@ pub fn every_light_planned(
             }
         }
     }
-    let refs: Vec<&Rsm> = maps.iter().map(|m| &m.rsm).collect();
-    let mut clusters = cluster_joint(&refs, target);
+    // Views of negligible light keep no VPL (module docs): under a
+    // `Count(n)` budget judged before the clustering against n VPLs, so that
+    // the budget goes to the views that keep theirs; under a threshold,
+    // after it, against the VPLs it made.
     let mut negligible_views = 0;
-    if leave_out_negligible && !maps.is_empty() {
-        // The light each view bounces onto a surface (its flux if nothing
-        // anywhere reaches one), against an average VPL's share.
-        let per: Vec<(f64, f64)> = maps.iter().map(|m| reaching_and_flux(&m.rsm)).collect();
-        let (tr, tf) = per.iter().fold((0.0, 0.0), |(a, b), (r, f)| (a + r, b + f));
-        let by_reach = tr > 0.0;
-        let total = if by_reach { tr } else { tf };
-        let n = clusters.vpl_count().max(1) as f64;
-        let keep: Vec<bool> = per
-            .iter()
-            .map(|&(r, f)| (if by_reach { r } else { f }) >= NEGLIGIBLE_VPL_FRACTION * total / n)
-            .collect();
-        if keep.iter().any(|k| !k) {
+    if let (true, ClusterTarget::Count(n)) = (leave_out_negligible, target) {
+        let keep = significant_views(&maps, f64::from(n.max(1)));
+        negligible_views = keep.iter().filter(|k| !**k).count();
+        let mut k = keep.iter();
+        maps.retain(|_| *k.next().expect("one per map"));
+    }
+    // What the bake keeps of a VPL (crate::reach: its light reaches
+    // something, or its origin sees something; a ring VPL seen from its
+    // inner edge, crate::rings): a `Count` budget counts exactly those.
+    let ring: Vec<bool> = maps.iter().map(|m| m.ring > 0).collect();
+    let keep = |k: usize, rsm: &Rsm, texels: &[usize], c: &Cluster, reaching: f64| {
+        let mut c = *c;
+        if ring[k]
+            && let Some(t) = crate::rings::anchor_texel(rsm, texels)
+        {
+            c.anchor = rsm.position[t];
+        }
+        reach.keeps(&c, reaching, ring[k])
+    };
+    let refs: Vec<&Rsm> = maps.iter().map(|m| &m.rsm).collect();
+    let mut clusters = cluster_joint_keeping(&refs, target, &keep);
+    if let (true, ClusterTarget::Threshold(_)) = (leave_out_negligible, target)
+        && !maps.is_empty()
+    {
+        let keep = significant_views(&maps, clusters.vpl_count().max(1) as f64);
+        if keep.iter().any(|k| !*k) {
             negligible_views = keep.iter().filter(|k| !**k).count();
             let mut k = keep.iter();
             maps.retain(|_| *k.next().expect("one per map"));
@@ -251,20 +262,10 @@ pub fn every_light_planned(
             crate::rings::anchor_near_centre(&m.rsm, c);
         }
     }
-    let reachings: Vec<Vec<f64>> = clusters
-        .maps
-        .iter()
-        .zip(&maps)
-        .map(|(c, m)| c.reaching_flux(&m.rsm))
-        .collect();
-    // The budget counts a VPL by its reaching flux unless nothing reaches
-    // anything (crate::cluster::cluster_joint).
-    let by_reach = reachings.iter().flatten().any(|r| *r > 0.0);
-    let (mut dropped_vpls, mut beyond_budget_vpls) = (0, 0);
-    for ((c, m), reaching) in clusters.maps.iter_mut().zip(&maps).zip(&reachings) {
-        let r = reach.retain(c, reaching, m.ring > 0, by_reach);
-        dropped_vpls += r.dropped;
-        beyond_budget_vpls += r.beyond_budget;
+    let mut dropped_vpls = 0;
+    for (c, m) in clusters.maps.iter_mut().zip(&maps) {
+        let reaching = c.reaching_flux(&m.rsm);
+        dropped_vpls += reach.retain(c, &reaching, m.ring > 0);
     }
     EveryLight {
         maps,
@@ -272,8 +273,20 @@ pub fn every_light_planned(
         unlit_views,
         negligible_views,
         dropped_vpls,
-        beyond_budget_vpls,
     }
+}
+
+/// Per map, whether its view keeps VPLs: its reaching light (its flux if
+/// nothing in any map reaches a surface) is at least
+/// [`NEGLIGIBLE_VPL_FRACTION`] of an average VPL's, the total over `n`.
+fn significant_views(maps: &[LightMap], n: f64) -> Vec<bool> {
+    let per: Vec<(f64, f64)> = maps.iter().map(|m| reaching_and_flux(&m.rsm)).collect();
+    let (tr, tf) = per.iter().fold((0.0, 0.0), |(a, b), (r, f)| (a + r, b + f));
+    let by_reach = tr > 0.0;
+    let total = if by_reach { tr } else { tf };
+    per.iter()
+        .map(|&(r, f)| (if by_reach { r } else { f }) >= NEGLIGIBLE_VPL_FRACTION * total / n)
+        .collect()
 }
 
 /// A view's RSM is at least this many texels wide ([`ViewPlan`]), and

@@ -18,6 +18,10 @@
 //!   nothing carries light to nothing and is dropped before its map, its
 //!   near-field tree and its runtime cost exist.
 //!
+//! Together they are [`Reach::keeps`], the bake's rule for which VPLs it
+//! keeps, and a `--vpls N` budget counts exactly the VPLs it keeps
+//! ([`crate::cluster::Keep`]; cluster.rs, "Budget").
+//!
 //! **Aimed rays.** Uniform directions miss what subtends less than one of
 //! them: from far ground beyond a sun's view (a light's outer rings,
 //! crates/bake/src/rings.rs) the level's objects are a few metres tall
@@ -113,16 +117,6 @@ pub fn aim_targets(rays: &RayScene<'_>, moving: Aabb) -> Vec<Vec3> {
         }
     }
     out
-}
-
-/// What [`Reach::retain`] did to a clustering.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Retained {
-    /// VPLs dropped because they see nothing.
-    pub dropped: usize,
-    /// Kept VPLs a `Count` budget did not count (their texels' rays all
-    /// miss; their origin sees something).
-    pub beyond_budget: usize,
 }
 
 /// SplitMix64 finaliser (seeds the per-texel jitter).
@@ -221,27 +215,15 @@ impl<'a, 's> Reach<'a, 's> {
 
     /// Drops the VPLs of `clusters` that [`Reach::keeps`] does not keep
     /// (`reaching`: each one's reaching flux, `ring`: they lie on an outer
-    /// ring), and counts the kept ones a `Count` budget left out: those
-    /// whose light reaches nothing by their texels' rays, where the budget
-    /// counted VPLs by reaching flux (`by_reach`: something in the maps
-    /// clustered together reaches a surface; crate::cluster, "Budget").
+    /// ring) and returns how many. A `Count` budget counted exactly the
+    /// kept ones ([`crate::cluster::Keep`]).
     pub fn retain(
         &self,
         clusters: &mut crate::cluster::Clustering,
         reaching: &[f64],
         ring: bool,
-        by_reach: bool,
-    ) -> Retained {
-        let mut beyond_budget = 0;
-        let dropped = clusters.retain(|i, c| {
-            let keep = self.keeps(c, reaching[i], ring);
-            beyond_budget += usize::from(keep && by_reach && reaching[i] <= 0.0);
-            keep
-        });
-        Retained {
-            dropped,
-            beyond_budget,
-        }
+    ) -> usize {
+        clusters.retain(|i, c| self.keeps(c, reaching[i], ring))
     }
 
     /// Whether a VPL at `origin` (its map origin, off its surface) with

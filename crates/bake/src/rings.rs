@@ -78,32 +78,41 @@ pub fn inside_smaller(x: u32, y: u32, size: u32) -> bool {
 }
 
 /// Moves each VPL of a ring's clustering to its lit texel nearest the
-/// ring's centre (the largest of the two texel offsets from the centre
-/// smallest; the first in row-major order on a tie): its inner edge, where
-/// the light its texels send the view's receivers mostly comes from, and
-/// where its map sees from (module docs). The flux, normal, area and
-/// near-field tree stay its texels'.
+/// ring's centre ([`anchor_texel`]): its inner edge, where the light its
+/// texels send the view's receivers mostly comes from, and where its map
+/// sees from (module docs). The flux, normal, area and near-field tree
+/// stay its texels'.
 pub fn anchor_near_centre(rsm: &Rsm, clustering: &mut Clustering) {
-    let n = rsm.size as f32;
-    let mut best = vec![(f32::INFINITY, usize::MAX); clustering.vpls.len()];
+    let mut texels = vec![Vec::new(); clustering.vpls.len()];
     for (t, &v) in clustering.texel_vpl.iter().enumerate() {
-        if v == NO_VPL {
-            continue;
+        if v != NO_VPL {
+            texels[v as usize].push(t);
         }
+    }
+    for (v, texels) in clustering.vpls.iter_mut().zip(&texels) {
+        if let Some(t) = anchor_texel(rsm, texels) {
+            v.anchor = rsm.position[t];
+        }
+    }
+}
+
+/// Of a ring VPL's lit `texels` (row-major), the one nearest the ring's
+/// centre: the largest of its two texel offsets from the centre smallest,
+/// the first on a tie. `None` for no texel.
+pub fn anchor_texel(rsm: &Rsm, texels: &[usize]) -> Option<usize> {
+    let n = rsm.size as f32;
+    let mut best = (f32::INFINITY, None);
+    for &t in texels {
         let (x, y) = (
             (t as u32 % rsm.size) as f32 + 0.5,
             (t as u32 / rsm.size) as f32 + 0.5,
         );
         let d = (x - 0.5 * n).abs().max((y - 0.5 * n).abs());
-        if d < best[v as usize].0 {
-            best[v as usize] = (d, t);
+        if d < best.0 {
+            best = (d, Some(t));
         }
     }
-    for (v, (_, t)) in clustering.vpls.iter_mut().zip(best) {
-        if let Some(p) = rsm.position.get(t) {
-            v.anchor = *p;
-        }
-    }
+    best.1.filter(|&t| t < rsm.position.len())
 }
 
 /// The RSMs of the outer rings of `light` (fitted as `fit`), ring 1 first,

@@ -108,11 +108,6 @@ impl Moments {
         }
     }
 
-    /// Whether the node holds a lit texel (so, as a leaf, yields a VPL).
-    pub fn has_flux(&self) -> bool {
-        self.lit > 0
-    }
-
     /// The node's split score, or `None` if it can never be split (a single
     /// texel, no lit texel, or — under `by_reach` — no lit texel whose light
     /// reaches anything: none of its descendants could count, so splitting
@@ -292,14 +287,6 @@ impl Pyramid {
     pub fn score(&self, rsm: &Rsm, node: Node) -> Option<f32> {
         self.moments(rsm, node)
             .score(self.score_width, self.total_flux, self.by_reach)
-    }
-
-    /// Whether a leaf with these moments counts against a VPL budget: it has
-    /// lit texels and, when the map's light reaches anything, some of its
-    /// own does (a leaf whose light reaches nothing is dropped after the
-    /// clustering, so it must not take a useful VPL's place).
-    pub fn counts(&self, m: &Moments) -> bool {
-        m.has_flux() && (!self.by_reach || m.sum_reaching > 0.0)
     }
 
     /// Number of columns (= rows) of the grid at `level`.
