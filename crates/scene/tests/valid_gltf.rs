@@ -163,7 +163,9 @@ fn zero_texture_coordinates_and_normals_without_buffer_view() {
     // Zero normals are recomputed (facing +Y), with the usual warning.
     assert!(f.normals.iter().all(|n| (*n - Vec3::Y).length() < 1e-6));
     assert!(
-        s.warnings.iter().any(|w| w.contains("zero or non-finite normals")),
+        s.warnings
+            .iter()
+            .any(|w| w.contains("zero or non-finite normals")),
         "{:?}",
         s.warnings
     );
@@ -180,7 +182,11 @@ fn a_used_accessor_of_zeros_gives_degenerate_triangles_not_an_error() {
     let m = b.mesh_raw("Zeros", json!({ "attributes": { "POSITION": p } }));
     b.root_mesh_node("ZerosNode", m);
     let s = b.load().unwrap();
-    assert!(s.static_meshes.iter().all(|m| m.name != "ZerosNode/Zeros/0"));
+    assert!(
+        s.static_meshes
+            .iter()
+            .all(|m| m.name != "ZerosNode/Zeros/0")
+    );
     assert!(
         s.warnings
             .iter()
@@ -259,7 +265,11 @@ fn hostile_sparse_accessors_and_accessors_without_buffer_view_are_errors() {
         (
             "a non-finite sparse value",
             Box::new(|b, p| {
-                p["sparse"] = sparse(b, &[1, 2, 3], &[[1.0, 0.0, 0.0], [f32::NAN, 1.0, 0.0], [0.0, 1.0, 0.0]])
+                p["sparse"] = sparse(
+                    b,
+                    &[1, 2, 3],
+                    &[[1.0, 0.0, 0.0], [f32::NAN, 1.0, 0.0], [0.0, 1.0, 0.0]],
+                )
             }),
             &["vertex 2 is not finite"],
         ),
@@ -425,8 +435,10 @@ fn enum_values_gltf_does_not_define_matter_only_where_used() {
         .unwrap()
         .push(json!({ "type": "area" }));
     let t = b.floats(&[0.0, 1.0], "SCALAR");
-    b.animation(json!({ "samplers": [ { "input": t, "output": t, "interpolation": "BEZIER" } ],
-                        "channels": [] }));
+    b.animation(
+        json!({ "samplers": [ { "input": t, "output": t, "interpolation": "BEZIER" } ],
+                        "channels": [] }),
+    );
     let s = b.load().unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.camera.as_ref().unwrap().name, "Cam");
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
@@ -435,7 +447,9 @@ fn enum_values_gltf_does_not_define_matter_only_where_used() {
     // used), a material's alphaMode is OPAQUE with a warning, a primitive
     // mode is skipped, an interpolation cannot be sampled.
     let mut b = basic();
-    let c = b.camera(json!({ "name": "Fish", "type": "fisheye", "perspective": { "yfov": 1.0, "znear": 0.1 } }));
+    let c = b.camera(
+        json!({ "name": "Fish", "type": "fisheye", "perspective": { "yfov": 1.0, "znear": 0.1 } }),
+    );
     let n = b.node(json!({ "name": "FishNode", "camera": c }));
     b.json["scenes"][0]["nodes"]
         .as_array_mut()
@@ -491,7 +505,10 @@ fn glb_chunks_of_unknown_type_are_ignored() {
     let after_bin = with_chunks(b.glb(), &[(b"XTRA", b"abcd")]);
     let mut no_bin = Builder::new();
     no_bin.json = b.json_with_data_uri();
-    let no_bin = with_chunks(no_bin.glb(), &[(b"XTRA", b"abcd"), (b"\x01\x02\x03\x04", b"")]);
+    let no_bin = with_chunks(
+        no_bin.glb(),
+        &[(b"XTRA", b"abcd"), (b"\x01\x02\x03\x04", b"")],
+    );
     for bytes in [after_bin, no_bin] {
         let s = gibake_scene::load_from_slice(&bytes, Path::new("x.glb"), &LoadOptions::default())
             .unwrap_or_else(|e| panic!("{e}"));
@@ -524,7 +541,10 @@ fn gltf_rules_the_validator_shares_stay_errors() {
         ),
         (
             |j| {
-                j["cameras"][0].as_object_mut().unwrap().remove("perspective");
+                j["cameras"][0]
+                    .as_object_mut()
+                    .unwrap()
+                    .remove("perspective");
             },
             "cameras[0]: Missing data",
         ),
@@ -715,11 +735,15 @@ fn fixtures() -> Vec<(&'static str, Vec<u8>)> {
     ));
 
     let mut b = basic();
-    wall(&mut b, |b, p| p["sparse"] = sparse(b, &[1, 3, 2], &WALL[1..]));
+    wall(&mut b, |b, p| {
+        p["sparse"] = sparse(b, &[1, 3, 2], &WALL[1..])
+    });
     out.push(("invalid-sparse-indices-not-increasing.gltf", text(&b)));
 
     let mut b = basic();
-    wall(&mut b, |b, p| p["sparse"] = sparse(b, &[1, 2, 7], &WALL[1..]));
+    wall(&mut b, |b, p| {
+        p["sparse"] = sparse(b, &[1, 2, 7], &WALL[1..])
+    });
     out.push(("invalid-sparse-index-out-of-range.gltf", text(&b)));
 
     let mut b = basic();
@@ -774,8 +798,9 @@ fn fixtures_are_current() {
     let dir = data_dir().join("gltf-rules");
     let made = fixtures();
     for (name, bytes) in &made {
-        let committed = std::fs::read(dir.join(name))
-            .unwrap_or_else(|e| panic!("data/gltf-rules/{name}: {e} (run the ignored test write_fixtures)"));
+        let committed = std::fs::read(dir.join(name)).unwrap_or_else(|e| {
+            panic!("data/gltf-rules/{name}: {e} (run the ignored test write_fixtures)")
+        });
         assert!(
             committed == *bytes,
             "data/gltf-rules/{name} differs from what the test makes: run \
