@@ -1,5 +1,6 @@
-//! File-level checks before the `gltf` crate parses and validates: the GLB
-//! container header, required extensions and extension-named texture
+//! File-level checks around the parse: the GLB container (header and
+//! chunks, split here rather than by the `gltf` crate), then, before the
+//! document is validated, required extensions and extension-named texture
 //! sources, and the indices gltf-json's validation would use without a
 //! bounds check.
 
@@ -10,7 +11,7 @@ use gltf::json;
 use super::extensions;
 use crate::SceneError;
 
-/// Checks made before the `gltf` crate validates the document: required
+/// Checks made before the document is validated (`validation.rs`): required
 /// extensions we cannot honour (a clear "not supported" instead of a generic
 /// validation error; the ones we apply or can ignore are removed so
 /// validation accepts them), `EXT_texture_webp` sources, and POSITION
