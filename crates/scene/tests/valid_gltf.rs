@@ -333,6 +333,18 @@ fn integral_numbers_written_as_floats_are_integers() {
     assert!(text.contains("\"count\":4.0"), "{text}");
     let s = load_json(&j).unwrap();
     assert_eq!(s.static_meshes, before.static_meshes);
+    // Extras survive the relaxed parse: a moving object stays one.
+    let mut moving = j.clone();
+    moving["nodes"][0]["extras"] = json!({ "dynamic": true });
+    let q = json!({ "name": "GroundNode", "mesh": 0, "translation": [0.0, -1.0, 0.0] });
+    moving["nodes"].as_array_mut().unwrap().push(q);
+    moving["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!(3));
+    let s = load_json(&moving).unwrap();
+    assert_eq!(s.dynamic_objects.len(), 1);
+    assert_eq!(s.dynamic_objects[0].name, "FloorNode");
     // A fraction where an integer belongs stays an error (without its
     // line and column when other numbers needed the relaxed parse).
     j["accessors"][0]["count"] = json!(4.5);
