@@ -12,7 +12,7 @@
 //!   4.0` is 4), a scene without `nodes` has none, and an animation channel
 //!   without a target node (one an extension such as
 //!   `KHR_animation_pointer` targets) is marked, to be ignored. A file the
-//!   typed parse reads is imported exactly as before.
+//!   typed parse reads is parsed exactly as before.
 //! - [`validate`]: gltf-json's own checks (indices in range, POSITION
 //!   bounds, camera and spot-light objects, byte strides, attribute names,
 //!   ...), less the ones that are not glTF 2.0's errors: an accessor
