@@ -1,4 +1,5 @@
-//! Hostile and unusual input, end to end (issue 11): every case is built by
+//! Hostile and unusual input, end to end (issue 11; valid glTF the `gltf`
+//! crate refused, issue 49 item 5): every case is built by
 //! the test itself in a temporary directory, run through the `gibake`
 //! binary, and must exit with the contract's code (2 with one message naming
 //! the file and the limit or rule), never panic, never hang, stay within its
@@ -651,6 +652,127 @@ fn asset_maps_are_decoded_only_within_the_budget() {
     let r = run(&[&"--max-memory", &"64K", &"inspect", &asset]);
     assert_bad(&r, &["a.gibake", "--max-memory"]);
     assert_ok(&run(&[&"--max-memory", &"64M", &"inspect", &asset]));
+}
+
+// ------------------------------------------------------------ valid glTF the gltf crate refused
+
+/// [`base_scene`] with a wall on node `wall` (local corners (0,0,0),
+/// (2,0,0), (2,2,0), (0,2,0), moved to z = −1, x ≥ −1) whose data lives in
+/// buffer 1: its POSITION written out (`sparse` false), or (`sparse` true)
+/// an accessor without `bufferView` — zeros — with corners 1–3 substituted
+/// by `sparse_indices`, and beside it an accessor of zeros nothing uses
+/// (issue 49: "accessors[4].bufferView: Missing data").
+fn walled_scene(sparse: bool, sparse_indices: [u16; 3]) -> Value {
+    let corners = [
+        [0.0f32, 0.0, 0.0],
+        [2.0, 0.0, 0.0],
+        [2.0, 2.0, 0.0],
+        [0.0, 2.0, 0.0],
+    ];
+    let f32s =
+        |v: &[[f32; 3]]| -> Vec<u8> { v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect() };
+    let mut bin = Vec::new();
+    for i in [0u32, 1, 2, 0, 2, 3] {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    let mut v = base_scene();
+    let views = v["bufferViews"].as_array_mut().unwrap();
+    views.push(json!({"buffer": 1, "byteOffset": 0, "byteLength": 24}));
+    let position = if sparse {
+        let ioff = bin.len();
+        for i in sparse_indices {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+        bin.extend_from_slice(&[0, 0]);
+        let voff = bin.len();
+        bin.extend_from_slice(&f32s(&corners[1..]));
+        views.push(json!({"buffer": 1, "byteOffset": ioff, "byteLength": 6}));
+        views.push(json!({"buffer": 1, "byteOffset": voff, "byteLength": 36}));
+        json!({"componentType": 5126, "count": 4, "type": "VEC3",
+               "min": [0, 0, 0], "max": [2, 2, 0],
+               "sparse": {"count": 3,
+                          "indices": {"bufferView": 4, "componentType": 5123},
+                          "values": {"bufferView": 5}}})
+    } else {
+        let off = bin.len();
+        bin.extend_from_slice(&f32s(&corners));
+        views.push(json!({"buffer": 1, "byteOffset": off, "byteLength": 48}));
+        json!({"bufferView": 4, "componentType": 5126, "count": 4, "type": "VEC3",
+               "min": [0, 0, 0], "max": [2, 2, 0]})
+    };
+    let accessors = v["accessors"].as_array_mut().unwrap();
+    accessors.push(json!({"bufferView": 3, "componentType": 5125, "count": 6, "type": "SCALAR"}));
+    accessors.push(position);
+    if sparse {
+        accessors.push(json!({"componentType": 5126, "count": 4, "type": "VEC3"}));
+    }
+    v["buffers"].as_array_mut().unwrap().push(json!({
+        "byteLength": bin.len(),
+        "uri": format!("data:application/octet-stream;base64,{}", base64(&bin))
+    }));
+    v["meshes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"name": "wall",
+        "primitives": [{"attributes": {"POSITION": 4}, "indices": 3, "material": 0}]}));
+    v["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"name": "wall", "mesh": 1, "translation": [-1, 0, -1]}));
+    v["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!(3));
+    v
+}
+
+/// The static-scene hash `gibake inspect --json` reports for `asset`.
+fn static_hash(asset: &Path) -> String {
+    let r = run(&[&"inspect", &asset, &"--json"]);
+    assert_ok(&r);
+    let j: Value = serde_json::from_str(&r.stdout).expect("inspect --json");
+    j["static_scene_hash"]
+        .as_str()
+        .expect("static_scene_hash")
+        .to_string()
+}
+
+/// Issue 49, item 5: a level with accessors without `bufferView` (an
+/// unused one; a wall made of zeros and a sparse substitution) bakes, and
+/// its static scene is the one of the same level written out plainly; a
+/// hostile sparse accessor is exit 2 with nothing written.
+#[test]
+fn a_level_with_accessors_without_a_buffer_view_bakes() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut hashes = Vec::new();
+    for (name, v) in [
+        ("floor", base_scene()),
+        ("plain", walled_scene(false, [1, 2, 3])),
+        ("sparse", walled_scene(true, [1, 2, 3])),
+    ] {
+        let sub = dir.path().join(name);
+        std::fs::create_dir(&sub).expect("mkdir");
+        let scene = write_json(&sub, "level.gltf", &v);
+        let asset = sub.join("level.gibake");
+        let r = bake_tiny(&scene, &asset);
+        assert_ok(&r);
+        hashes.push(static_hash(&asset));
+    }
+    assert_eq!(hashes[1], hashes[2], "zeros + sparse must be the wall");
+    assert_ne!(hashes[0], hashes[1], "the wall must be in the bake");
+
+    let scene = write_json(dir.path(), "bad.gltf", &walled_scene(true, [1, 3, 2]));
+    let out = dir.path().join("bad.gibake");
+    let r = bake_tiny(&scene, &out);
+    assert_bad(
+        &r,
+        &[
+            "bad.gltf",
+            "accessor 4",
+            "sparse indices must strictly increase",
+        ],
+    );
+    assert!(!out.exists());
 }
 
 // ------------------------------------------------------------ flags

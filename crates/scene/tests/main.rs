@@ -9,3 +9,4 @@ mod common;
 mod extensions;
 mod fuzz_regressions;
 mod import;
+mod valid_gltf;

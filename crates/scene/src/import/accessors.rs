@@ -2,6 +2,12 @@
 //! URIs), slices buffer views, and reads accessors (strided, normalised,
 //! sparse) into tightly packed values, charging every element read against
 //! the import's element budget.
+//!
+//! An accessor without `bufferView` is zeros (glTF 2.0), materialised up to
+//! [`MAX_SYNTHETIC_ACCESSOR_BYTES`]; a `sparse` substitution applies on top
+//! of either kind. Its indices must lie in range and strictly increase,
+//! and its indices and values fit their buffer views; the rules that need
+//! no data (its count, no byteStride) are `validation.rs`'s.
 
 use glam::{Vec2, Vec3};
 use gltf::json;
@@ -282,9 +288,9 @@ impl<'a> Ctx<'a> {
         if let Some(sparse) = &acc.sparse {
             let sc = usize::try_from(sparse.count.0)
                 .map_err(|_| format!("{label}: sparse count is too large"))?;
-            if sc > count {
+            if sc == 0 || sc > count {
                 return Err(format!(
-                    "{label}: sparse count {sc} exceeds the accessor count {count}"
+                    "{label}: sparse count {sc} must be between 1 and the accessor count {count}"
                 ));
             }
             let ityp = match sparse.indices.component_type {
@@ -315,6 +321,7 @@ impl<'a> Ctx<'a> {
                     "{label}: sparse indices or values do not fit in their bufferViews"
                 ));
             }
+            let mut previous: Option<usize> = None;
             for k in 0..sc {
                 let p = ioff + k * isize;
                 let target = match ityp {
@@ -335,6 +342,16 @@ impl<'a> Ctx<'a> {
                         "{label}: sparse index {target} is out of range (count {count})"
                     ));
                 }
+                // glTF 2.0: the indices strictly increase (so no element is
+                // substituted twice and the order of writes cannot matter).
+                if let Some(prev) = previous
+                    && target <= prev
+                {
+                    return Err(format!(
+                        "{label}: sparse indices must strictly increase, but index {k} is {target} after {prev}"
+                    ));
+                }
+                previous = Some(target);
                 let src = voff + k * elem;
                 bytes[target * elem..(target + 1) * elem].copy_from_slice(&vview[src..src + elem]);
             }

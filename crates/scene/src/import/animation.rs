@@ -1,5 +1,8 @@
 //! Animation channels: reads glTF animation samplers (times, values,
 //! interpolation) into the [`Channel`]s the scene's `Animator` samples.
+//! Channels that target no node or a path glTF 2.0 does not define (what
+//! an extension such as `KHR_animation_pointer` animates) are ignored with
+//! one warning per animation.
 
 use glam::{Vec3, Vec4};
 use gltf::json;
@@ -19,8 +22,18 @@ impl<'a> Ctx<'a> {
                 None => format!("animation #{ai}"),
             };
             let mut warned_weights = false;
+            let mut foreign = Vec::new();
             for (ci, ch) in anim.channels.iter().enumerate() {
                 let what = format!("{aname} channel {ci}");
+                // A channel without a target node, or with a path glTF 2.0
+                // does not define, animates what an extension names (e.g.
+                // KHR_animation_pointer's "pointer"): ignored.
+                if self.nodeless_channels.contains(&(ai, ci))
+                    || matches!(ch.target.path, Checked::Invalid)
+                {
+                    foreign.push(ci.to_string());
+                    continue;
+                }
                 let path = match ch.target.path {
                     Checked::Valid(json::animation::Property::Translation) => {
                         ChannelPath::Translation
@@ -34,9 +47,7 @@ impl<'a> Ctx<'a> {
                         }
                         continue;
                     }
-                    Checked::Invalid => {
-                        return Err(self.invalid(format!("{what}: invalid target path")));
-                    }
+                    Checked::Invalid => continue,
                 };
                 let node = ch.target.node.value();
                 if node >= root.nodes.len() {
@@ -55,7 +66,10 @@ impl<'a> Ctx<'a> {
                         Interpolation::CubicSpline
                     }
                     Checked::Invalid => {
-                        return Err(self.invalid(format!("{what}: invalid interpolation")));
+                        return Err(self.not_supported(format!(
+                            "{what}: sampler {} has an interpolation glTF 2.0 does not define (LINEAR, STEP, CUBICSPLINE)",
+                            ch.sampler.value()
+                        )));
                     }
                 };
                 let (times, n) = self
@@ -109,6 +123,16 @@ impl<'a> Ctx<'a> {
                     values,
                     animation: ai,
                 });
+            }
+            if !foreign.is_empty() {
+                let n = foreign.len();
+                let mut list = foreign[..n.min(8)].join(", ");
+                if n > 8 {
+                    list.push_str(&format!(", … ({n} in all)"));
+                }
+                self.warn(format!(
+                    "{aname}: channel(s) {list} ignored: no target node, or a target path other than translation, rotation, scale and weights (an extension's, such as KHR_animation_pointer)"
+                ));
             }
         }
         Ok(out)

@@ -1,5 +1,5 @@
-//! Cameras: picks the scene's camera node (the first in traversal order) and
-//! reads its projection.
+//! Cameras: picks the scene's camera node (the first in traversal order
+//! whose type is perspective or orthographic) and reads its projection.
 
 use gltf::json;
 use gltf::json::validation::Checked;
@@ -12,16 +12,41 @@ impl<'a> Ctx<'a> {
     /// The camera `choice` asks for: the first camera node, one by name, or
     /// a look-at camera (a fixed node appended to `animator`).
     pub(super) fn camera(
-        &self,
+        &mut self,
         order: &[usize],
         choice: &CameraChoice,
         animator: &mut Animator,
     ) -> Result<Option<Camera>, SceneError> {
         let root = self.root;
+        // A camera whose type glTF 2.0 does not define (the validator
+        // warns) is passed over by the first-camera choice.
+        let unknown_type = |c: usize| {
+            root.cameras
+                .get(c)
+                .is_some_and(|c| matches!(c.type_, Checked::Invalid))
+        };
         let found = match choice {
-            CameraChoice::First => order
-                .iter()
-                .find_map(|&v| root.nodes[v].camera.map(|c| (v, c.value()))),
+            CameraChoice::First => {
+                let mut passed = Vec::new();
+                let found = order.iter().find_map(|&v| {
+                    let c = root.nodes[v].camera?.value();
+                    if unknown_type(c) {
+                        passed.push(c);
+                        return None;
+                    }
+                    Some((v, c))
+                });
+                for c in passed {
+                    let name = root.cameras[c]
+                        .name
+                        .clone()
+                        .unwrap_or_else(|| format!("camera #{c}"));
+                    self.warn(format!(
+                        "camera '{name}' ignored: its type is neither perspective nor orthographic"
+                    ));
+                }
+                found
+            }
             CameraChoice::Named(want) => {
                 let with_camera = || {
                     order
@@ -140,7 +165,9 @@ impl<'a> Ctx<'a> {
                     zfar: o.zfar,
                 }
             }
-            Checked::Invalid => return Err(bad("invalid type")),
+            Checked::Invalid => {
+                return Err(bad("its type is neither perspective nor orthographic"));
+            }
         };
         Ok(Some(Camera {
             name,

@@ -1,6 +1,6 @@
 //! glTF extensions: which ones the importer applies, what it says about the
-//! others, and the file-level fix-ups they need before the `gltf` crate
-//! validates the document.
+//! others, and the file-level fix-ups they need before the document is
+//! validated.
 //!
 //! - [`APPLIED`] lists the extensions whose data changes what is imported.
 //!   Every other extension the file uses (listed in `extensionsUsed` or
@@ -96,8 +96,9 @@ pub(super) fn check_required(root: &mut json::Root, path: &Path) -> Result<(), S
 
 /// A primitive compressed with `KHR_draco_mesh_compression` whose
 /// accessors hold no uncompressed fallback (it is not required, yet only
-/// the Draco data exists): refused with the conversion command, before the
-/// `gltf` crate's validation refuses it for "missing data".
+/// the Draco data exists): refused with the conversion command. (Accessors
+/// without `bufferView` are otherwise valid glTF, read as zeros; here
+/// they would give a mesh of zeros in place of the compressed one.)
 pub(super) fn check_draco_fallback(root: &json::Root, path: &Path) -> Result<(), SceneError> {
     let ext = "KHR_draco_mesh_compression";
     for (mi, mesh) in root.meshes.iter().enumerate() {

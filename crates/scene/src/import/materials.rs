@@ -128,6 +128,11 @@ impl<'a> Ctx<'a> {
                 };
                 // Once per glTF material (it may give two scene materials).
                 if table.warned.insert(Some(mi)) {
+                    if matches!(m.alpha_mode, Checked::Invalid) {
+                        self.warn(format!(
+                            "material '{name}': its alphaMode is not one glTF 2.0 defines (OPAQUE, MASK, BLEND); drawn OPAQUE"
+                        ));
+                    }
                     if matches!(
                         m.alpha_mode,
                         Checked::Valid(json::material::AlphaMode::Blend)

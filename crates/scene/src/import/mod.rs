@@ -1,14 +1,20 @@
 //! glTF → [`Scene`].
 //!
-//! The file is parsed and validated by the `gltf` crate; everything after that
-//! (buffer loading, accessor reading, hierarchy checks) is done here with
-//! checked arithmetic, so that malformed input gives a [`SceneError`] naming
+//! The file is parsed by gltf-json and validated with its checks, less the
+//! ones that are stricter than glTF 2.0 ([`validation`]); everything after
+//! that (buffer loading, accessor reading, hierarchy checks) is done here
+//! with checked arithmetic, so that malformed input gives a [`SceneError`] naming
 //! the file and never a panic. As a last line of defence the whole import runs
 //! under `catch_unwind`.
 //!
 //! The stages, in the order [`load`] runs them, one submodule each:
-//! - [`precheck`]: the GLB header and what gltf-json's validation would
-//!   choke on (required extensions, unchecked indices);
+//! - [`precheck`]: the GLB container (its chunks) and what gltf-json's
+//!   validation would choke on (required extensions, unchecked indices);
+//! - [`validation`]: the parse and the validation, where glTF 2.0 allows
+//!   what gltf-json refuses (accessors without `bufferView`, integral
+//!   numbers written as `4.0`, scenes without nodes, channels without a
+//!   target node, enum values glTF does not define) and the rules of
+//!   sparse accessors gltf-json leaves out;
 //! - [`extensions`]: which glTF extensions are applied, warnings naming
 //!   the others and what carries them, and the conversion command for the
 //!   compressions gibake does not decode;
@@ -43,6 +49,7 @@ mod precheck;
 mod texture_transform;
 mod textures;
 mod uri;
+mod validation;
 
 use std::cell::Cell;
 use std::collections::HashMap;
@@ -58,7 +65,7 @@ use crate::mesh::{compute_normals, drop_degenerate};
 use crate::overrides::{CameraChoice, Sun, glob_match};
 use crate::{Aabb, DynamicObject, Material, Mesh, Scene, SceneError, Texture};
 use nodes::{extras_dynamic, extras_flag};
-use precheck::{check_glb_header, precheck};
+use precheck::{precheck, split_glb};
 
 /// Options for [`load`].
 #[derive(Clone, Debug, Default)]
@@ -123,19 +130,19 @@ pub fn load_from_slice(
 /// The whole import, stage by stage (see the module docs); runs under
 /// [`load_from_slice`]'s `catch_unwind`.
 fn import(bytes: &[u8], path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
-    let bytes = check_glb_header(bytes, path)?;
-    let gltf_err = |source| SceneError::Gltf {
-        path: path.to_path_buf(),
-        source,
-    };
+    let container = split_glb(bytes, path)?;
     // Parse, run our own checks on what the gltf crate's validation would
-    // choke on (or reject for the wrong reason), then validate.
-    let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_err)?;
-    let gltf::Gltf { document, blob } = gltf;
-    let mut root = document.into_json();
+    // choke on (or reject for the wrong reason), then validate with the
+    // rules of glTF 2.0 where gltf-json's are stricter (`validation`).
+    let (mut root, relaxed) =
+        validation::parse(container.json).map_err(|source| SceneError::Gltf {
+            path: path.to_path_buf(),
+            source,
+        })?;
     let extension_warnings = extensions::unapplied_warnings(&root);
     precheck(&mut root, path)?;
-    let document = gltf::Document::from_json(root).map_err(gltf_err)?;
+    validation::validate(&root, &relaxed, path)?;
+    let document = gltf::Document::from_json_without_validation(root);
     let base = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
@@ -151,11 +158,12 @@ fn import(bytes: &[u8], path: &Path, options: &LoadOptions) -> Result<Scene, Sce
         limits: &options.limits,
         elements_read: Cell::new(0),
         texels_decoded: Cell::new(0),
+        nodeless_channels: relaxed.nodeless_channels,
     };
     for w in extension_warnings {
         ctx.warn(w);
     }
-    ctx.load_buffers(blob)?;
+    ctx.load_buffers(container.bin.map(<[u8]>::to_vec))?;
     ctx.decode_meshopt_views()?;
     ctx.build(options)
 }
@@ -187,6 +195,9 @@ struct Ctx<'a> {
     elements_read: Cell<u64>,
     /// Texels decoded so far (against `limits.max_texels`).
     texels_decoded: Cell<u64>,
+    /// Animation channels `(animation, channel)` without a target node
+    /// (`validation::Relaxed`): ignored.
+    nodeless_channels: std::collections::HashSet<(usize, usize)>,
 }
 
 /// Degenerate triangles dropped so far (one warning for all of them).
