@@ -450,16 +450,32 @@ fn reaching_of(rsm: &Rsm, texels: &[usize]) -> f64 {
 /// area clamp, cos ≥ 0.05), so only a step between two surfaces does.
 const LAYER_GAP_FOOTPRINTS: f64 = 20.0;
 
-/// The lit texels of a leaf rectangle, split into **depth layers**: sorted
-/// by metric, a new layer starts wherever consecutive metrics differ by
-/// more than `max(LAYER_GAP_FOOTPRINTS · F, width · F)` (`F` the leaf's
-/// mean texel footprint, `width` its longer side in texels). A leaf that
-/// holds a roof's edge and the floor 12 m below it through the roof's
-/// opening becomes two VPLs: one visibility point cannot stand for both,
-/// and a point on the roof, whose hemisphere is the sky, carried the
-/// floor's light nowhere (the arena: docs/method.md, "Real levels").
-/// Layers are in increasing metric; texels within one in row-major order
-/// (so a leaf of one layer sums exactly as before). Empty: no lit texel.
+/// The lit texels of a leaf rectangle, split into **depth layers**. Its
+/// texels first fall into *surfaces*: 4-connected pieces whose neighbours'
+/// metrics differ by at most `gap = max(LAYER_GAP_FOOTPRINTS, width) · F`
+/// (`F` the leaf's mean texel footprint, `width` its longer side in
+/// texels): a continuous surface changes its metric by at most
+/// `LAYER_GAP_FOOTPRINTS · F` from one texel to the next, so only a step
+/// between surfaces larger than the leaf is wide separates two. The
+/// surfaces, sorted by their mean metric, then start a new layer wherever
+/// two consecutive means differ by more than `gap`: pieces of one depth
+/// (leaves of a crown, two floor patches) stay one VPL, and surfaces a step
+/// apart become two. A leaf that holds a roof's edge and the floor 12 m
+/// below it through the roof's opening becomes two VPLs: one visibility
+/// point cannot stand for both, and a point on the roof, whose hemisphere
+/// is the sky, carried the floor's light nowhere (the arena:
+/// docs/method.md, "Real levels").
+///
+/// Until method revision 6 the texels' own metrics were sorted and cut at
+/// gaps over `gap`: a sloped roof's metrics in a wide leaf (a sun 70° up,
+/// a 3 m leaf: 1.6 m of spread) closed the gap to the floor seen through
+/// its holes, and the roof's light, merged with the floor patch's, was
+/// drawn from a centroid inside the roof slab onto the ceiling below
+/// (docs/method.md, bake section 3, "Depth layers").
+///
+/// Layers are in increasing mean metric; texels within one in row-major
+/// order (so a leaf of one layer sums exactly as before). Empty: no lit
+/// texel.
 fn leaf_layers(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Vec<Vec<usize>> {
     let mut lit = Vec::new();
     for y in y0..y1 {
@@ -487,22 +503,66 @@ fn leaf_layers(rsm: &Rsm, (x0, x1, y0, y1): (u32, u32, u32, u32)) -> Vec<Vec<usi
     if !(gap.is_finite() && gap > 0.0) {
         return vec![lit];
     }
-    let mut by_metric = lit.clone();
-    by_metric.sort_by(|&a, &b| rsm.metric[a].total_cmp(&rsm.metric[b]).then(a.cmp(&b)));
-    let mut layers = Vec::new();
-    let mut start = 0;
-    for k in 1..=by_metric.len() {
-        let split = k == by_metric.len()
-            || f64::from(rsm.metric[by_metric[k]]) - f64::from(rsm.metric[by_metric[k - 1]]) > gap;
-        if split {
-            let mut layer = by_metric[start..k].to_vec();
-            layer.sort_unstable();
-            layers.push(layer);
-            start = k;
+    // Surfaces: flood fill over 4-neighbours whose metrics are within `gap`,
+    // seeded in row-major order.
+    let (w, h) = ((x1 - x0) as usize, (y1 - y0) as usize);
+    let local = |i: usize| {
+        let (x, y) = (i as u32 % rsm.size, i as u32 / rsm.size);
+        (y - y0) as usize * w + (x - x0) as usize
+    };
+    let mut surface = vec![u32::MAX; w * h];
+    let mut surfaces: Vec<(f64, Vec<usize>)> = Vec::new();
+    let mut stack = Vec::new();
+    for &seed in &lit {
+        if surface[local(seed)] != u32::MAX {
+            continue;
         }
+        let id = surfaces.len() as u32;
+        surface[local(seed)] = id;
+        stack.push(seed);
+        let (mut sum, mut texels) = (0.0f64, Vec::new());
+        while let Some(i) = stack.pop() {
+            texels.push(i);
+            let m = f64::from(rsm.metric[i]);
+            sum += m;
+            let (x, y) = (i as u32 % rsm.size, i as u32 / rsm.size);
+            let neighbours = [
+                (x > x0).then(|| i - 1),
+                (x + 1 < x1).then(|| i + 1),
+                (y > y0).then(|| i - rsm.size as usize),
+                (y + 1 < y1).then(|| i + rsm.size as usize),
+            ];
+            for j in neighbours.into_iter().flatten() {
+                if surface[local(j)] == u32::MAX
+                    && is_lit(rsm, j)
+                    && (f64::from(rsm.metric[j]) - m).abs() <= gap
+                {
+                    surface[local(j)] = id;
+                    stack.push(j);
+                }
+            }
+        }
+        surfaces.push((sum / texels.len() as f64, texels));
+    }
+    if surfaces.len() == 1 {
+        return vec![lit];
+    }
+    // Stable: surfaces of equal mean keep their seeds' row-major order.
+    surfaces.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut layers: Vec<Vec<usize>> = Vec::new();
+    let mut last = f64::NAN;
+    for (mean, texels) in surfaces {
+        match layers.last_mut() {
+            Some(layer) if mean - last <= gap => layer.extend(texels),
+            _ => layers.push(texels),
+        }
+        last = mean;
     }
     if layers.len() == 1 {
         return vec![lit];
+    }
+    for layer in &mut layers {
+        layer.sort_unstable();
     }
     layers
 }

@@ -271,7 +271,13 @@ fn vpl_flux_sums_to_the_rsm_reflected_power() {
         let texel_total: f64 = rsm.flux.iter().map(|f| flux_sum(f.to_array())).sum();
         assert!(texel_total > 0.0, "{name}: the RSM reflects nothing");
 
-        let mut clusters = cluster(&rsm, opts.target);
+        // As the bake clusters: a budget counts the VPLs it keeps.
+        let keep = |_: usize,
+                    _: &gibake_bake::rsm::Rsm,
+                    _: &[usize],
+                    c: &gibake_bake::cluster::Cluster,
+                    reaching: f64| reach.keeps(c, reaching, false);
+        let mut clusters = gibake_bake::cluster::cluster_keeping(&rsm, opts.target, &keep);
         let cluster_total: f64 = clusters
             .vpls
             .iter()

@@ -488,6 +488,46 @@ fn cluster_a_leaf_over_two_depth_layers_is_one_vpl_per_layer() {
     assert_eq!(count(&coarse), 1);
 }
 
+/// A floor seen through a roof's opening is a layer of its own even where
+/// the sun's slant spreads the roof's metrics across the leaf: a sun 35°
+/// from straight down, a roof 4 above the floor with a 0.5 square
+/// opening, the whole map one leaf. The step between the roof's edge and
+/// the floor beside it (4.9 along the light) is wider than the leaf (4.3),
+/// so they are two surfaces; sorted together, the roof's metrics (2.0 of
+/// spread) reach within 3.6 of the floor's and the rule before method
+/// revision 6 made them one VPL, drawn from inside the roof onto the
+/// ceiling below it (docs/method.md, bake section 3).
+#[test]
+fn a_floor_seen_through_a_roof_opening_is_its_own_layer() {
+    let bounds = Aabb {
+        min: Vec3::new(-1.0, 0.0, -1.0),
+        max: Vec3::new(1.0, 4.0, 1.0),
+    };
+    let light = sun(Vec3::new(-0.4, -0.82, 0.4));
+    let rsm = build_rsm(&light, &bounds, 64, |_, _, o, dir| {
+        let roof = plane(o, dir, DVec3::Y, 4.0)?;
+        let p = o + dir * roof;
+        let (t, y) = if p.x.abs() < 0.25 && p.z.abs() < 0.25 {
+            (plane(o, dir, DVec3::Y, 0.0)?, 0.0)
+        } else {
+            (roof, 4.0)
+        };
+        Some(Hit {
+            t,
+            normal: DVec3::Y,
+            albedo: Vec3::splat(0.5 + 0.1 * y as f32),
+        })
+    });
+    let c = cluster(&rsm, ClusterTarget::Threshold(f32::INFINITY));
+    check_consistency(&rsm, &c);
+    let heights: Vec<f32> = c.vpls.iter().map(|v| v.position.y).collect();
+    assert_eq!(heights.len(), 2, "VPLs at heights {heights:?}");
+    assert!(
+        heights[0] > 3.9 && heights[1] < 0.1,
+        "VPLs at heights {heights:?}: the roof's then the floor's"
+    );
+}
+
 #[test]
 fn cluster_count_hits_the_budget() {
     let rsm = corner_rsm(512);

@@ -1,5 +1,6 @@
-//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--near-field-descent N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive] [--static-only]`
-//! Judges the real levels of data/levels/levels.json (all, or those named)
+//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--near-field-descent N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive] [--static-only] [--list LEVELS.json]`
+//! Judges the real levels of data/levels/levels.json, or of `--list`'s file
+//! (its levels' files relative to it; all, or those named)
 //! against the CPU reference; prints one line per level and, with --out,
 //! writes reference | full | rsm | error pictures (NAME.png) and the same
 //! for the indirect light alone (NAME_indirect.png); --markdown ends with
@@ -31,6 +32,7 @@ fn main() {
     let mut out = None;
     let mut markdown = false;
     let mut static_only = false;
+    let mut list = gibake_eval::levels::bundled_list();
     let mut rows = Vec::new();
     while let Some(a) = it.next() {
         let mut num = || {
@@ -60,10 +62,10 @@ fn main() {
             "--no-naive" => s.naive = false,
             "--static-only" => static_only = true,
             "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
+            "--list" => list = std::path::PathBuf::from(it.next().expect("a levels.json")),
             _ => names.push(a.clone()),
         }
     }
-    let list = gibake_eval::levels::bundled_list();
     let dir = list.parent().unwrap().to_path_buf();
     let specs = gibake_eval::levels::read_specs(&list).unwrap();
     // A name that is no level (a second `--vpls` value, a typo) is an
