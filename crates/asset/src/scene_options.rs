@@ -125,10 +125,10 @@ pub struct Resolution {
 /// `Display`: plain words; [`OptionsConflict::flags_message`]: a tool's.
 #[derive(Clone, Debug, PartialEq)]
 pub struct OptionsConflict {
-    /// What the asset records.
-    pub recorded: SceneOptions,
+    /// What the asset records (boxed: errors stay small).
+    pub recorded: Box<SceneOptions>,
     /// What was given.
-    pub given: SceneOptions,
+    pub given: Box<SceneOptions>,
     /// The kinds given that differ from the record.
     pub differ: Vec<SceneOption>,
 }
@@ -368,8 +368,8 @@ impl SceneOptions {
             Ok(Resolution { options, applied })
         } else {
             Err(OptionsConflict {
-                recorded,
-                given,
+                recorded: Box::new(recorded),
+                given: Box::new(given),
                 differ,
             })
         }

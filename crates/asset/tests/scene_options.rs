@@ -152,7 +152,8 @@ fn a_4_3_manifest_loads_with_nothing_recorded() {
 #[test]
 fn bad_values_and_damaged_bytes_are_refused_naming_the_manifest() {
     let tmp = tempfile::tempdir().unwrap();
-    let cases: [(&str, fn(&mut SceneOptions)); 4] = [
+    type Case = (&'static str, fn(&mut SceneOptions));
+    let cases: [Case; 4] = [
         ("scene_options: sun elevation 0 is not in (0, 90]", |o| {
             o.sun.as_mut().unwrap().elevation_deg = 0.0
         }),
