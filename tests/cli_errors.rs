@@ -1002,8 +1002,10 @@ fn diff_images_dir_with_damaged_asset_writes_nothing() {
 }
 
 /// An asset baked with every light, rendered with `--light spot_lamp` (the
-/// scene then has one light): one clear message naming both light sets and
-/// the flag, exit 2, nothing written.
+/// scene then has one light): one clear message naming the bake's flags
+/// (none) and the ones given, exit 2, nothing written; an asset of format
+/// 4.3 (no flags recorded) is refused by its light count, naming both
+/// light sets and the flag.
 #[test]
 fn render_with_other_lights_than_the_bake_is_refused() {
     let dir = tempfile::tempdir().unwrap();
@@ -1025,6 +1027,36 @@ fn render_with_other_lights_than_the_bake_is_refused() {
     assert_eq!(r.code, Some(0), "{}", r.stderr);
     let out = tempfile::tempdir().unwrap();
     let png = out.path().join("f.png");
+    let r = gibake!(
+        "render",
+        common::data("lamps.glb"),
+        "--light",
+        "spot_lamp",
+        "--bake",
+        &asset,
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "-o",
+        &png
+    );
+    assert_bad(
+        &r,
+        &[
+            "lamps.gibake was baked with none of --sun, --dynamic, --light",
+            "but `render` was given --light spot_lamp (--light differs)",
+        ],
+    );
+    assert_empty(out.path(), &r);
+    // The same asset as format 4.3 wrote it: nothing recorded to compare.
+    let mut m = gibake_asset::load_manifest(&asset).unwrap();
+    m.scene_options = None;
+    std::fs::write(
+        asset.join(gibake_asset::FILE_MANIFEST),
+        gibake_asset::testing::manifest_bytes_4_3(&m).unwrap(),
+    )
+    .unwrap();
     let r = gibake!(
         "render",
         common::data("lamps.glb"),

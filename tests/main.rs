@@ -5,6 +5,7 @@
 //! accuracy test no longer leaves a core idle). Run one file's tests with
 //! `cargo test --release -p gibake --test end_to_end real_levels::`.
 
+mod bake_flags;
 mod bench_quick;
 mod bench_small;
 mod budget;

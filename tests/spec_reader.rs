@@ -7,9 +7,9 @@
 //! with every light (format 4.0: the views of the lights after the first
 //! and `light_maps.exr`) and one of its two point lights only (a point
 //! light first: every light's views from light 0 on, no RSM), and a bake of
-//! the Blenvy level whose sun has ring VPLs (format 4.3: outer rings).
-//! Damaged copies, and manifests that break the spec's rules, must be
-//! refused.
+//! the Blenvy level whose sun has ring VPLs (format 4.3: outer rings), and
+//! a bake given every scene flag (format 4.4: the scene options). Damaged
+//! copies, and manifests that break the spec's rules, must be refused.
 //!
 //! The reader needs python3 with numpy, OpenEXR and blake3:
 //! `scripts/ensure-deps.sh --python` puts them in a venv at `target/pyenv`,
@@ -274,86 +274,124 @@ fn reader_refuses_damaged_assets() {
 
     // Re-sealed manifests (payload edited, length and BLAKE3 trailer
     // recomputed): what the spec says a reader must refuse or accept.
-    // The bake writes the current minor (4.3: the views, light_map_size,
-    // the appended view_rsms and ring_vpls end the payload; a one-light
-    // asset without rings has no views, so its last four bytes are the view
-    // count 0, light_map_size 0, the view_rsms count 0 and the ring_vpls
-    // count 0; 4.2 added a file, not payload bytes).
+    // The bake writes the current minor (4.4: the views, light_map_size,
+    // the appended view_rsms, ring_vpls and scene_options end the payload;
+    // a one-light asset without rings baked with no scene flag has no
+    // views, so its last nine bytes are the view count 0, light_map_size
+    // 0, the view_rsms count 0, the ring_vpls count 0 and the scene
+    // options `01 00 00 00 00 00`: recorded, none given; 4.2 added a file,
+    // not payload bytes).
     assert_eq!(
         (gibake_asset::FORMAT_MAJOR, gibake_asset::FORMAT_MINOR),
-        (4, 3),
-        "the re-sealed cases below are written for format 4.3"
+        (4, 4),
+        "the re-sealed cases below are written for format 4.4"
     );
     let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
     assert!(
-        m.lights.len() == 1 && m.views.is_empty() && m.ring_vpls.is_empty(),
-        "corner_bunny.glb: one light, no views, no ring VPLs\n{m:#?}"
+        m.lights.len() == 1
+            && m.views.is_empty()
+            && m.ring_vpls.is_empty()
+            && m.scene_options == Some(Default::default()),
+        "corner_bunny.glb: one light, no views, no ring VPLs, no scene flags\n{m:#?}"
     );
-    let reseal_cases: [(&str, &str, Option<&str>); 14] = [
+    let bytes = std::fs::read(asset.join(gibake_asset::FILE_MANIFEST)).unwrap();
+    assert!(bytes[..bytes.len() - 32].ends_with(&[0, 0, 0, 0, 1, 0, 0, 0, 0, 0]));
+    let reseal_cases: [(&str, &str, Option<&str>); 20] = [
         // One byte after the last field, same minor: refused.
-        ("payload += b'\\x00'", "3", Some("after the last field")),
-        // The same from a newer minor (4.4): accepted and ignored.
-        ("payload += b'\\x00'", "4", None),
+        ("payload += b'\\x00'", "4", Some("after the last field")),
+        // The same from a newer minor (4.5): accepted and ignored.
+        ("payload += b'\\x00'", "5", None),
         // light_map_size cut off: refused.
         (
-            "payload = payload[:-3]",
-            "3",
+            "payload = payload[:-9]",
+            "4",
             Some("payload ends inside light_map_size"),
         ),
         // The appended view_rsms cut off: refused.
         (
-            "payload = payload[:-2]",
-            "3",
+            "payload = payload[:-8]",
+            "4",
             Some("payload ends inside view_rsms length"),
         ),
-        // The appended ring_vpls cut off: refused in 4.3 ...
+        // The appended ring_vpls cut off: refused.
         (
-            "payload = payload[:-1]",
-            "3",
+            "payload = payload[:-7]",
+            "4",
             Some("payload ends inside ring_vpls length"),
         ),
-        // ... and the same bytes are a whole 4.2 payload (no ring VPLs):
-        // accepted, as a 4.2 asset.
-        ("payload = payload[:-1]", "2", None),
-        // A 4.2 payload with the ring_vpls count after it: a byte after the
-        // last field of its minor, refused.
-        ("pass", "2", Some("after the last field")),
-        // Without view_rsms and ring_vpls a whole 4.0 payload, but one that
-        // lists vpl_coherence.bin (4.2's file): refused, as a format's own
-        // file the counts say is not stored.
+        // The appended scene_options cut off: refused in 4.4 ...
         (
-            "payload = payload[:-2]",
+            "payload = payload[:-6]",
+            "4",
+            Some("payload ends inside scene_options tag"),
+        ),
+        (
+            "payload = payload[:-1]",
+            "4",
+            Some("payload ends inside scene_options.max_texture_size tag"),
+        ),
+        // ... and the same bytes are a whole 4.3 payload (nothing
+        // recorded): accepted, as a 4.3 asset.
+        ("payload = payload[:-6]", "3", None),
+        // A 4.3 payload with the scene options after it: bytes after the
+        // last field of its minor, refused.
+        ("pass", "3", Some("after the last field")),
+        // Without them and ring_vpls a whole 4.2 payload: accepted.
+        ("payload = payload[:-7]", "2", None),
+        // Without view_rsms too a whole 4.0 payload, but one that lists
+        // vpl_coherence.bin (4.2's file): refused, as a format's own file
+        // the counts say is not stored.
+        (
+            "payload = payload[:-8]",
             "0",
             Some("vpl_coherence.bin, which the counts say is not stored"),
         ),
         // The same under 4.1: refused the same way.
         (
-            "payload = payload[:-1]",
+            "payload = payload[:-7]",
             "1",
             Some("vpl_coherence.bin, which the counts say is not stored"),
         ),
         // ring_vpls with more entries than lights: refused while decoding.
         (
-            "payload = payload[:-1] + b'\\x02\\x00\\x00'",
-            "3",
+            "payload = payload[:-7] + b'\\x02\\x00\\x00' + payload[-6:]",
+            "4",
             Some("ring_vpls holds 2 entries but there are only 1 lights"),
         ),
+        // scene_options with an Option tag bincode does not define.
+        (
+            "payload = payload[:-6] + b'\\x02'",
+            "4",
+            Some("scene_options: invalid Option tag 2"),
+        ),
+        // A sun on the horizon (elevation 0): refused.
+        (
+            "payload = payload[:-6] + b'\\x01\\x01' + struct.pack('<6f', 10, 0, 1, 1, 1, 1) + b'\\x00\\x00\\x00\\x00'",
+            "4",
+            Some("scene_options: sun elevation 0.0 is not in (0, 90]"),
+        ),
+        // A bake volume whose minimum is not below its maximum: refused.
+        (
+            "payload = payload[:-6] + b'\\x01\\x00\\x00\\x00\\x01' + struct.pack('<6f', 0, 0, 0, 1, 0, 1) + b'\\x00'",
+            "4",
+            Some("scene_options: bake volume"),
+        ),
         // The lights cut short: refused.
-        ("payload = payload[:-40]", "3", Some("payload ends inside")),
+        ("payload = payload[:-46]", "4", Some("payload ends inside")),
         // A varint marker bincode does not define (254), as the first length.
         (
             "payload = b'\\xfe' + payload[1:]",
-            "3",
+            "4",
             Some("invalid varint marker"),
         ),
         // light_map_size 5 without views: refused.
         (
-            "payload = payload[:-3] + b'\\x05\\x00\\x00'",
-            "3",
+            "payload = payload[:-9] + b'\\x05\\x00\\x00' + payload[-6:]",
+            "4",
             Some("light_map_size is 5 but there are no views"),
         ),
         // Control: re-sealed unchanged, accepted.
-        ("pass", "3", None),
+        ("pass", "4", None),
     ];
     for (k, (edit, minor, refusal)) in reseal_cases.iter().enumerate() {
         let copy = copy_asset(&asset, work.path(), &format!("reseal{k}.gibake"));
@@ -825,5 +863,57 @@ fn reader_checks_ring_vpls() {
             && r.stderr.contains("primary_depth.exr")
             && r.stderr.contains("projects outside the light view"),
         "without ring_vpls the ring VPLs must be found outside the light view\n{r}"
+    );
+}
+
+/// Format 4.4's scene options: a bake given every scene flag is read, its
+/// options printed as the same flags `gibake inspect` prints; the same
+/// asset with a 4.3 manifest (nothing recorded) is read too.
+#[test]
+fn reader_reads_the_scene_options() {
+    let py = python();
+    let work = tempfile::tempdir().unwrap();
+    let mut flags = common::TINY_BAKE.to_vec();
+    flags.extend([
+        "--sun=-10,45.5",
+        "--sun-irradiance",
+        "2.5",
+        "--sun-color",
+        "1,0.9,0.8",
+        "--dynamic",
+        "hidden_panel_*",
+        "--dynamic",
+        "ball_0?",
+        "--bake-volume=-3,-1,-3,3,3,3",
+        "--max-texture-size",
+        "1024",
+    ]);
+    let asset = bake_with(&common::data("occluded.glb"), work.path(), &flags);
+    let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
+    let o = m.scene_options.clone().expect("the bake records its flags");
+    assert_eq!(
+        o.flags(),
+        "--sun=-10,45.5 --sun-irradiance 2.5 --sun-color 1,0.9,0.8 --dynamic 'ball_0?' \
+         --dynamic 'hidden_panel_*' --bake-volume=-3,-1,-3,3,3,3 --max-texture-size 1024"
+    );
+    let r = read(&py, &asset);
+    assert!(
+        r.code == Some(0)
+            && r.stdout
+                .contains(&format!("  scene flags: {}\n", o.flags())),
+        "the reader does not print the scene flags `{}`\n{r}",
+        o.flags()
+    );
+    // The same asset as a 4.3 writer wrote it: nothing recorded.
+    let mut old = m.clone();
+    old.scene_options = None;
+    let bytes = gibake_asset::testing::manifest_bytes_4_3(&old).unwrap();
+    std::fs::write(asset.join(gibake_asset::FILE_MANIFEST), bytes).unwrap();
+    let r = read(&py, &asset);
+    assert!(
+        r.code == Some(0)
+            && r.stdout.contains("gibake asset 4.3")
+            && r.stdout.contains("  scene flags: not recorded"),
+        "a 4.3 asset must be read with no scene flags\n{r}"
     );
 }

@@ -35,8 +35,9 @@ pub struct SceneArgs {
     /// the scene (directional, spot and point, glTF ranges honoured), each
     /// with its shadow maps and its share of one VPL budget. The first
     /// directional light leads, else the first spot: its maps are the
-    /// full-size primary ones (cascades for a sun). Give `bake` and
-    /// `render` the same --light flags (the asset records its lights).
+    /// full-size primary ones (cascades for a sun). `render` and `view`
+    /// take the bake's --light flags (recorded in the asset) when given
+    /// none, and refuse others.
     #[arg(long = "light", value_name = "NAME")]
     pub lights: Vec<String>,
     /// Once needed for every light; every light is now the default. Still
@@ -68,15 +69,20 @@ impl SceneArgs {
     }
 }
 
-/// Additions to a level as exported, without editing the file. Both change
-/// what is baked (the static-scene hash), so `bake` and `render` must be
-/// given the same ones.
+/// Additions to a level as exported, without editing the file. They change
+/// what is baked (the static-scene hash): `bake` records them in the asset
+/// (with --light and --max-texture-size), and `render` and `view` apply the
+/// asset's when given none of a kind; ones given must equal the asset's.
+/// `reference` takes no asset: give it the bake's (`gibake inspect` shows
+/// them).
 #[derive(Args, Debug, Clone, Default)]
 pub struct LevelArgs {
     /// Add a directional primary light (for a level exported without one; it
     /// replaces the file's lights): azimuth and elevation in degrees.
     /// Azimuth turns clockwise seen from above (+Y) from −Z: 0 puts the sun
     /// toward −Z, 90 toward +X; elevation is above the XZ plane, in (0, 90].
+    /// `bake` records it (with its irradiance and colour): `render` and
+    /// `view` apply the bake's when given no --sun.
     #[arg(long, value_name = "AZIMUTH,ELEVATION", value_parser = parse_sun, allow_hyphen_values = true)]
     pub sun: Option<(f32, f32)>,
     /// Irradiance of the --sun on a surface facing it, W/m².
@@ -88,13 +94,15 @@ pub struct LevelArgs {
     /// Mark nodes as moving objects by name (repeatable; glob: `*` any run,
     /// `?` one character): a matching node and its children leave the
     /// static scene and are drawn per frame. A pattern matching no node is
-    /// an error.
+    /// an error. `bake` records the patterns: `render` and `view` apply the
+    /// bake's when given no --dynamic.
     #[arg(long, value_name = "PATTERN")]
     pub dynamic: Vec<String>,
     /// The part of the level a directional light's shadow map and RSM cover
     /// (world box; replaces a node marked `extras: {"bake_volume": true}`).
     /// Default: the static geometry without outliers such as a distant
-    /// ground plane (docs/method.md, "Light views").
+    /// ground plane (docs/method.md, "Light views"). Recorded by `bake`, as
+    /// --sun is.
     #[arg(long, value_name = "MINX,MINY,MINZ,MAXX,MAXY,MAXZ", value_parser = parse_box, allow_hyphen_values = true)]
     pub bake_volume: Option<[f32; 6]>,
 }
@@ -217,7 +225,10 @@ pub enum Command {
     /// asset when it is re-baked. `--frames N --screenshot F.png` runs
     /// headless (still in a window); `--gpu-report` needs no window.
     View(ViewArgs),
-    /// Render the independent CPU reference (path tracer, direct + one bounce).
+    /// Render the independent CPU reference (path tracer, direct + one
+    /// bounce). It reads no asset: give it the scene flags the bake was
+    /// given (--sun, --dynamic, --light, --bake-volume; `gibake inspect
+    /// ASSET` prints them).
     Reference(ReferenceArgs),
     /// Compare two baked assets: exit 0 equal (within tolerance), 1 different, 2 bad input.
     Diff(DiffArgs),
@@ -248,8 +259,9 @@ pub struct BakeArgs {
     /// the scene (directional, spot and point, glTF ranges honoured), each
     /// with its shadow maps and its share of one VPL budget. The first
     /// directional light leads, else the first spot: its maps are the
-    /// full-size primary ones (cascades for a sun). Give `bake` and
-    /// `render` the same --light flags (the asset records its lights).
+    /// full-size primary ones (cascades for a sun). Recorded in the asset
+    /// with --sun, --dynamic, --bake-volume and --max-texture-size: `render`
+    /// and `view` apply them when given none.
     #[arg(long = "light", value_name = "NAME")]
     pub lights: Vec<String>,
     /// Once needed for every light; every light is now the default. Still
@@ -402,7 +414,10 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub scene: SceneArgs,
     /// The baked asset (needed by every mode but `direct`, which renders its
-    /// own static shadow map without one).
+    /// own static shadow map without one). Its recorded scene flags
+    /// (--sun, --dynamic, --light, --bake-volume, --max-texture-size) are
+    /// applied when given none of a kind, with a line saying so; flags
+    /// given that differ from them are refused (exit 2).
     #[arg(long, value_name = "OUT.gibake")]
     pub bake: Option<PathBuf>,
     /// Animation time in seconds (each animation is clamped to its range).
@@ -497,7 +512,8 @@ pub struct ViewArgs {
     #[command(flatten)]
     pub scene: SceneArgs,
     /// The baked asset, watched for hot reload (needed by every mode but
-    /// `direct`).
+    /// `direct`). Its recorded scene flags are applied as by `render`; a
+    /// re-bake with other flags reloads the level with them.
     #[arg(long, value_name = "OUT.gibake")]
     pub bake: Option<PathBuf>,
     /// Animation time of the first frame, seconds.
@@ -553,7 +569,8 @@ pub struct ViewArgs {
 /// `gibake reference`.
 #[derive(Args, Debug)]
 pub struct ReferenceArgs {
-    /// Scene.
+    /// Scene. It reads no asset: to judge a bake, give the scene flags the
+    /// bake was given (`gibake inspect ASSET`: "scene flags").
     #[command(flatten)]
     pub scene: SceneArgs,
     /// Animation time in seconds.

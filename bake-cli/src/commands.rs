@@ -22,6 +22,48 @@ pub(crate) fn load_scene(a: &SceneArgs) -> anyhow::Result<Scene> {
     Ok(scene)
 }
 
+/// The level of `render` and `view` (`command`), for the asset `bake`
+/// (its directory and the asset) when there is one: loaded with the
+/// asset's recorded scene flags (`--sun`, `--dynamic`, `--light`,
+/// `--bake-volume`, `--max-texture-size`; format 4.4) wherever `a` gives
+/// none of their kind, with one line saying which; refused (exit 2) when
+/// `a` gives some that differ, naming both; then checked against the
+/// asset's lights and static-scene hash.
+pub(crate) fn load_level(
+    a: &SceneArgs,
+    bake: Option<(&Path, &gibake_asset::Asset)>,
+    command: &str,
+) -> anyhow::Result<Scene> {
+    let Some((dir, asset)) = bake else {
+        return load_scene(a);
+    };
+    let (options, r) = gibake_runtime::load_options_for(asset, &a.load_options())
+        .map_err(|c| anyhow::anyhow!(c.flags_message(&dir.display().to_string(), command)))?;
+    if !r.applied.is_empty() {
+        eprintln!(
+            "applying the bake's {} (recorded in {})",
+            r.applied.flags(),
+            dir.display()
+        );
+    }
+    let scene = gibake_scene::load(&a.scene, &options)?;
+    let baked = &asset.manifest.lights;
+    if !baked.is_empty() && baked.len() != scene.lights.len() {
+        let names = |v: Vec<&str>| v.join(", ");
+        bail!(
+            "{} was baked with {} light(s) ({}) but the scene is loaded with {} ({}): give `bake` and `{command}` the same --light flags, or re-bake",
+            dir.display(),
+            baked.len(),
+            names(baked.iter().map(|l| l.name.as_str()).collect()),
+            scene.lights.len(),
+            names(scene.lights.iter().map(|l| l.name.as_str()).collect())
+        );
+    }
+    let hash = gibake_scene::static_scene_hash(&scene);
+    gibake_asset::check_scene_hash_for(dir, &asset.manifest, &hash, &a.scene, Some(&r.options))?;
+    Ok(scene)
+}
+
 pub(crate) fn check_size(width: u32, height: u32) -> anyhow::Result<()> {
     for (flag, v) in [("--width", width), ("--height", height)] {
         if v == 0 || v > 16384 {
@@ -133,23 +175,8 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
             a.scene.scene.display()
         ),
     };
-    let scene = load_scene(&a.scene)?;
-    if let (Some(dir), Some(asset)) = (&a.bake, &asset) {
-        let baked = &asset.manifest.lights;
-        if !baked.is_empty() && baked.len() != scene.lights.len() {
-            let names = |v: Vec<&str>| v.join(", ");
-            bail!(
-                "{} was baked with {} light(s) ({}) but the scene is loaded with {} ({}): give `bake` and `render` the same --light flags, or re-bake",
-                dir.display(),
-                baked.len(),
-                names(baked.iter().map(|l| l.name.as_str()).collect()),
-                scene.lights.len(),
-                names(scene.lights.iter().map(|l| l.name.as_str()).collect())
-            );
-        }
-        let hash = gibake_scene::static_scene_hash(&scene);
-        gibake_asset::check_scene_hash_for(dir, &asset.manifest, &hash, &a.scene.scene)?;
-    }
+    let bake = a.bake.as_deref().zip(asset.as_ref());
+    let scene = load_level(&a.scene, bake, "render")?;
     let ctx = GpuContext::new(&GpuOptions {
         adapter: a.adapter.clone(),
     })?;

@@ -43,13 +43,15 @@ pub fn run(a: DemoArgs) -> anyhow::Result<ExitCode> {
         bar: std::sync::Mutex::new(None),
         quiet: false,
     };
-    let out = gibake_bake::bake(
+    let mut out = gibake_bake::bake(
         &ctx,
         &scene,
         &opts,
         &progress,
         &gibake_bake::baker_version(),
     )?;
+    // The bundled scene as it is: no scene flags.
+    out.asset.manifest.scene_options = Some(Default::default());
     let asset_dir = a.output.join("corner_bunny.gibake");
     gibake_asset::write(&out.asset, &asset_dir)?;
     let bake_s = t.elapsed().as_secs_f64();

@@ -21,7 +21,9 @@ pub struct LimitArgs {
     #[arg(long, value_name = "N", default_value_t = 1 << 26)]
     pub max_texels: u64,
     /// Largest texture side kept; larger textures are downscaled with a
-    /// warning (the GPU's own limit applies on top).
+    /// warning (the GPU's own limit applies on top). A downscaled texture
+    /// changes the static scene: `bake` records a value other than the
+    /// default, and `render` and `view` apply it when given the default.
     #[arg(long, value_name = "N", default_value_t = 8192,
           value_parser = clap::value_parser!(u32).range(1..=65536))]
     pub max_texture_size: u32,

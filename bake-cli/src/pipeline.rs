@@ -15,6 +15,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
+use gibake_asset::SceneOptions;
 use gibake_bake::{BakeOptions, BakeProgress, Freshness, Shard};
 use gibake_gpu::{GpuContext, GpuOptions};
 use gibake_scene::Scene;
@@ -38,6 +39,26 @@ pub fn baker_version() -> String {
         .ok()
         .filter(|v| !v.is_empty())
         .unwrap_or_else(gibake_bake::baker_version)
+}
+
+/// The scene arguments of `scene` in a bake with `a`'s flags.
+fn scene_args(a: &BakeArgs, scene: &Path) -> SceneArgs {
+    SceneArgs {
+        scene: scene.to_path_buf(),
+        lights: a.lights.clone(),
+        all_lights: a.all_lights,
+        level: a.level.clone(),
+        camera: Default::default(),
+        limits: a.limits.clone(),
+    }
+}
+
+/// The scene options a bake with `a`'s flags records in its asset
+/// (`--sun`, `--dynamic`, `--light`, `--bake-volume`,
+/// `--max-texture-size`: format 4.4, `Manifest::scene_options`), so that
+/// `render`, `view` and the runtime load the level the same way.
+fn recorded(a: &BakeArgs) -> SceneOptions {
+    gibake_runtime::scene_options::scene_options_of(&scene_args(a, Path::new("")).load_options())
 }
 
 fn options(a: &BakeArgs) -> BakeOptions {
@@ -81,26 +102,28 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
     // waits, then finds it up to date.
     let _lock = crate::guard::lock_output(&output)?;
     let opts = options(&a);
+    let flags = recorded(&a);
     let total = Instant::now();
-    let scene = load_scene(&SceneArgs {
-        scene: scene_path.clone(),
-        lights: a.lights.clone(),
-        all_lights: a.all_lights,
-        level: a.level.clone(),
-        camera: Default::default(),
-        limits: a.limits.clone(),
-    })?;
+    let scene = load_scene(&scene_args(&a, scene_path))?;
     let load_s = total.elapsed().as_secs_f64();
     let gpu = GpuOptions {
         adapter: a.adapter.clone(),
     };
     if let Some((index, count)) = a.shard {
         let ctx = GpuContext::new(&gpu)?;
-        return shard(&a, &ctx, &scene, &output, Shard { index, count }, load_s);
+        return shard(
+            &a,
+            &ctx,
+            &scene,
+            &output,
+            Shard { index, count },
+            load_s,
+            &flags,
+        );
     }
     // The up-to-date check needs only the adapter's identity, not a device.
     let record = GpuContext::adapter_record(&gpu)?;
-    let (freshness, check_s) = decide(&output, &scene, &opts, a.force, &record);
+    let (freshness, check_s) = decide(&output, &scene, &opts, &flags, a.force, &record);
     let o = match freshness {
         Freshness::UpToDate => Outcome {
             reasons: None,
@@ -118,7 +141,7 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
                 check_s,
                 load_s,
             };
-            bake_stale(&ctx, &scene, &output, &opts, stale, &progress)?
+            bake_stale(&ctx, &scene, &output, &opts, &flags, stale, &progress)?
         }
     };
     let total_s = total.elapsed().as_secs_f64();
@@ -196,7 +219,7 @@ impl Outcome {
     fn print(&self, asset: &Path) {
         match (&self.baked, &self.reasons) {
             (None, _) => eprintln!(
-                "{}: up to date (same static-scene hash, settings, baker version and adapter); left untouched (checked in {:.3} s)",
+                "{}: up to date (same static-scene hash, scene flags, settings, baker version and adapter); left untouched (checked in {:.3} s)",
                 asset.display(),
                 self.check_s
             ),
@@ -235,11 +258,14 @@ impl Outcome {
     }
 }
 
-/// Whether `out` needs a (re-)bake, and how long deciding took.
+/// Whether `out` needs a (re-)bake, and how long deciding took: the bake
+/// library's check ([`gibake_bake::check_up_to_date`]), and whether the
+/// asset records the scene options `flags` ([`flags_change`]).
 fn decide(
     out: &Path,
     scene: &Scene,
     opts: &BakeOptions,
+    flags: &SceneOptions,
     force: bool,
     adapter: &gibake_gpu::AdapterRecord,
 ) -> (Freshness, f64) {
@@ -247,9 +273,41 @@ fn decide(
     let freshness = if force {
         Freshness::Stale(vec!["--force".into()])
     } else {
-        gibake_bake::check_up_to_date(out, scene, opts, adapter, &baker_version())
+        let change = flags_change(out, flags);
+        match gibake_bake::check_up_to_date(out, scene, opts, adapter, &baker_version()) {
+            Freshness::UpToDate => match change {
+                Some(why) => Freshness::Stale(vec![why]),
+                None => Freshness::UpToDate,
+            },
+            Freshness::Stale(mut reasons) => {
+                reasons.extend(change);
+                Freshness::Stale(reasons)
+            }
+        }
     };
     (freshness, check.elapsed().as_secs_f64())
+}
+
+/// Why the asset at `out` does not record the scene options `flags` a
+/// bake now records (`None`: it does, or there is no readable asset, which
+/// the bake library's check reports). An asset of format 4.3 or older
+/// records none: baked without any it stays up to date (there is nothing
+/// to apply), baked with some it is re-baked to record them.
+fn flags_change(out: &Path, flags: &SceneOptions) -> Option<String> {
+    let m = gibake_asset::load_manifest(out).ok()?;
+    match &m.scene_options {
+        Some(was) if was.same(flags) => None,
+        None if flags.is_empty() => None,
+        None => Some(format!(
+            "the asset does not record its scene flags (format 4.3 or older): re-baked to record {}",
+            flags.flags()
+        )),
+        Some(was) => Some(format!(
+            "scene flags changed ({} → {}; the asset records them)",
+            was.flags_or_none(),
+            flags.flags_or_none()
+        )),
+    }
 }
 
 /// A decision to bake: why, and the times so far.
@@ -260,16 +318,18 @@ struct Stale {
 }
 
 /// Bakes `scene` into `out` unless the asset there is up to date.
+#[allow(clippy::too_many_arguments)]
 fn bake_one(
     ctx: &GpuContext,
     scene: &Scene,
     out: &Path,
     opts: &BakeOptions,
+    flags: &SceneOptions,
     force: bool,
     progress: &dyn BakeProgress,
     load_s: f64,
 ) -> anyhow::Result<Outcome> {
-    match decide(out, scene, opts, force, &ctx.record) {
+    match decide(out, scene, opts, flags, force, &ctx.record) {
         (Freshness::UpToDate, check_s) => Ok(Outcome {
             reasons: None,
             check_s,
@@ -281,17 +341,19 @@ fn bake_one(
                 check_s,
                 load_s,
             };
-            bake_stale(ctx, scene, out, opts, stale, progress)
+            bake_stale(ctx, scene, out, opts, flags, stale, progress)
         }
     }
 }
 
-/// Bakes `scene` into `out` (the decision to bake was `stale`).
+/// Bakes `scene` into `out` (the decision to bake was `stale`), recording
+/// the scene options `flags` it was loaded with.
 fn bake_stale(
     ctx: &GpuContext,
     scene: &Scene,
     out: &Path,
     opts: &BakeOptions,
+    flags: &SceneOptions,
     stale: Stale,
     progress: &dyn BakeProgress,
 ) -> anyhow::Result<Outcome> {
@@ -301,8 +363,9 @@ fn bake_stale(
         check_s,
         load_s,
     } = stale;
-    let o = gibake_bake::bake(ctx, scene, opts, progress, &version)
+    let mut o = gibake_bake::bake(ctx, scene, opts, progress, &version)
         .with_context(|| format!("baking {}", scene.source.display()))?;
+    o.asset.manifest.scene_options = Some(flags.clone());
     let w = Instant::now();
     gibake_asset::write(&o.asset, out)?;
     let write_s = w.elapsed().as_secs_f64();
@@ -329,7 +392,8 @@ fn bake_stale(
     })
 }
 
-/// `bake SCENE -o PART --shard K/N`.
+/// `bake SCENE -o PART --shard K/N` (its part records the scene options
+/// `flags`, as the single bake's asset does).
 fn shard(
     a: &BakeArgs,
     ctx: &GpuContext,
@@ -337,14 +401,17 @@ fn shard(
     output: &Path,
     shard: Shard,
     load_s: f64,
+    flags: &SceneOptions,
 ) -> anyhow::Result<ExitCode> {
     let progress = BarProgress {
         bar: Mutex::new(None),
         quiet: a.json,
     };
     let t = Instant::now();
-    let o = gibake_bake::bake_shard(ctx, scene, &options(a), shard, &progress, &baker_version())
-        .with_context(|| format!("baking {}", scene.source.display()))?;
+    let mut o =
+        gibake_bake::bake_shard(ctx, scene, &options(a), shard, &progress, &baker_version())
+            .with_context(|| format!("baking {}", scene.source.display()))?;
+    o.part.front.manifest.scene_options = Some(flags.clone());
     gibake_asset::write_part(&o.part, output)?;
     let seconds = t.elapsed().as_secs_f64() + load_s;
     let vpls = o.part.front.vpls.len();
@@ -448,6 +515,7 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
         crate::guard::check_asset_output("--out-dir", out)?;
     }
     let opts = options(a);
+    let flags = recorded(a);
     let total = Instant::now();
     let ctx = GpuContext::new(&GpuOptions {
         adapter: a.adapter.clone(),
@@ -468,18 +536,11 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
         let t = Instant::now();
         let mut warnings = Vec::new();
         let r = (|| {
-            let scene = load_scene(&SceneArgs {
-                scene: scene_path.clone(),
-                lights: a.lights.clone(),
-                all_lights: a.all_lights,
-                level: a.level.clone(),
-                camera: Default::default(),
-                limits: a.limits.clone(),
-            })?;
+            let scene = load_scene(&scene_args(a, scene_path))?;
             warnings.clone_from(&scene.warnings);
             let load_s = t.elapsed().as_secs_f64();
             let _lock = crate::guard::lock_output(out)?;
-            bake_one(&ctx, &scene, out, &opts, a.force, &progress, load_s)
+            bake_one(&ctx, &scene, out, &opts, &flags, a.force, &progress, load_s)
         })();
         progress.end();
         let seconds = t.elapsed().as_secs_f64();

@@ -9,7 +9,7 @@ use std::process::ExitCode;
 use anyhow::{Context, bail};
 
 use crate::cli::ViewArgs;
-use crate::commands::{check_size, check_time, load_scene, mode_name, mode_of};
+use crate::commands::{check_size, check_time, load_level, mode_name, mode_of};
 
 pub(crate) fn view(a: ViewArgs) -> anyhow::Result<ExitCode> {
     check_size(a.width, a.height)?;
@@ -49,11 +49,8 @@ pub(crate) fn view(a: ViewArgs) -> anyhow::Result<ExitCode> {
             a.scene.scene.display()
         ),
     };
-    let scene = load_scene(&a.scene)?;
-    if let (Some(dir), Some(asset)) = (&a.bake, &asset) {
-        let hash = gibake_scene::static_scene_hash(&scene);
-        gibake_asset::check_scene_hash_for(dir, &asset.manifest, &hash, &a.scene.scene)?;
-    }
+    let bake = a.bake.as_deref().zip(asset.as_ref());
+    let scene = load_level(&a.scene, bake, "view")?;
     let settings = gibake_runtime::RenderSettings {
         width: a.width,
         height: a.height,
@@ -78,6 +75,10 @@ pub(crate) fn view(a: ViewArgs) -> anyhow::Result<ExitCode> {
     }
     let shot = gibake_viewer::run(gibake_viewer::ViewOptions {
         scene,
+        reimport: Some(gibake_viewer::Reimport {
+            path: a.scene.scene.clone(),
+            options: a.scene.load_options(),
+        }),
         asset,
         asset_dir: a.bake.clone(),
         max_decoded_bytes: crate::limits::memory(),

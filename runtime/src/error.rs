@@ -1,6 +1,6 @@
 //! The runtime's errors: none of them is a panic.
 
-use crate::{AssetError, GpuError, NoCamera, ObjectHandle, ViewId};
+use crate::{AssetError, GpuError, NoCamera, ObjectHandle, OptionsConflict, SceneError, ViewId};
 
 /// Runtime errors. None of them is a panic; the messages name no command
 /// line (a tool adds its own wording).
@@ -16,6 +16,13 @@ pub enum RuntimeError {
     /// The asset does not fit the scene.
     #[error(transparent)]
     Asset(#[from] AssetError),
+    /// The scene file cannot be loaded ([`crate::load_scene_for`]).
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// Scene options given for loading a level differ from the ones its
+    /// asset was baked with ([`crate::load_scene_for`]).
+    #[error(transparent)]
+    SceneOptions(#[from] OptionsConflict),
     /// A bad setting (zero size, unknown interleave factor, ...).
     #[error("invalid render setting: {0}")]
     InvalidSetting(String),

@@ -4,8 +4,9 @@
 //! # fn frame(device: &wgpu::Device, queue: &wgpu::Queue) -> Result<(), Box<dyn std::error::Error>> {
 //! use gibake_runtime::{CameraMatrices, FrameInput, RenderSettings, Renderer, glam::Mat4};
 //!
-//! let scene = gibake_runtime::load_scene(std::path::Path::new("level.glb"), &Default::default())?;
 //! let asset = gibake_runtime::load_asset(std::path::Path::new("level.gibake"))?;
+//! // The level as baked: with the asset's `--sun`, `--dynamic`, ... applied.
+//! let scene = gibake_runtime::load_scene_for(std::path::Path::new("level.glb"), &asset, &Default::default())?;
 //! let mut renderer = Renderer::new(device, queue, &scene, Some(&asset), &RenderSettings::default())?;
 //! let door = renderer.object("door").ok_or("no door")?;
 //!
@@ -24,7 +25,10 @@
 //! `direct` mode) one baked [`Asset`], on the caller's `wgpu::Device`. The
 //! scene is plain data an engine can fill from its own meshes; with the
 //! default `gltf` feature [`load_scene`] reads one from a glTF file (its
-//! camera, if any, is not needed: the camera comes with each frame). Moving
+//! camera, if any, is not needed: the camera comes with each frame), and
+//! [`load_scene_for`] reads it with the scene options its asset was baked
+//! with ([`Asset::scene_options`]: a sun added, moving objects marked by
+//! name, ...; [`scene_options`]). Moving
 //! objects are addressed by [`ObjectHandle`] ([`Renderer::object`] looks one
 //! up by name). Per frame, [`Renderer::prepare`] does every upload and
 //! growth and returns typed errors ([`RuntimeError`]); [`Renderer::record`]
@@ -66,6 +70,7 @@ mod moving;
 mod other_lights;
 mod plan;
 mod requirements;
+pub mod scene_options;
 mod settings;
 mod shade;
 mod stats;
@@ -80,7 +85,10 @@ pub use error::RuntimeError;
 pub use frame::{FrameInput, ObjectHandle, scene_transforms};
 pub use gbuffer::GBUFFER_FORMATS;
 pub use gbuffer_depth::{DepthGBuffer, NormalEncoding};
-pub use gibake_asset::{Asset, AssetError, load as load_asset};
+pub use gibake_asset::{
+    Asset, AssetError, OptionsConflict, Resolution, SceneOption, SceneOptions, SunOption,
+    load as load_asset,
+};
 pub use gibake_gpu::GpuError;
 pub use gibake_image::Image;
 pub use gibake_scene::{
@@ -92,6 +100,8 @@ pub use gibake_scene::{LoadOptions, load as load_scene};
 pub use light::LightInfo;
 pub use plan::{FramePlan, Pass, PassSet, ShadeFlag};
 pub use requirements::Requirements;
+#[cfg(feature = "gltf")]
+pub use scene_options::{load_options_for, load_scene_for};
 pub use settings::{Cascades, Mode, RenderSettings};
 pub use stats::{FRAMES_IN_FLIGHT, FrameStats, Timing};
 pub use view::{OutputTarget, ViewId};

@@ -5,3 +5,4 @@
 
 mod api;
 mod game;
+mod scene_options;

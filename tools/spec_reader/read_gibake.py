@@ -18,6 +18,9 @@ another language. It
   channels; pixels: no NaN, atlas tiles, RSM `vpl` indices), `light_maps.exr`
   included, and `view_rsms.exr` (4.1: the other lights' views' RSMs, each
   naming only its own light's VPLs),
+- reads `scene_options` (4.4: the `--sun`, `--dynamic`, `--light`,
+  `--bake-volume` and `--max-texture-size` the bake applied; `None`: not
+  recorded) and checks their values, printing them as the bake's flags,
 - reads `ring_vpls` (4.3: per light, how many of its VPLs, the last of its
   range, lie on a directional light's outer rings, outside its view): one
   entry per light or none, each at most the light's VPLs, non-zero only for
@@ -47,6 +50,7 @@ them into `target/pyenv`.
 from __future__ import annotations
 
 import argparse
+import decimal
 import math
 import os
 import struct
@@ -65,7 +69,7 @@ except ImportError as e:  # pragma: no cover - environment problem
 
 MAGIC = b"GIBAKE\x00\x01"
 READER_MAJOR = 4
-READER_MINOR = 3
+READER_MINOR = 4
 MAX_PAYLOAD = 16 * 1024 * 1024
 MAX_MAP_SIZE = 16384
 # Most texels of one map file (an atlas).
@@ -180,6 +184,111 @@ def read_light_view(d: Decoder, what: str) -> dict:
     lv["texel_scale"] = d.f32(f"{what}.texel_scale")
     lv["texel_area"] = d.f32(f"{what}.texel_area")
     return lv
+
+
+def read_scene_options(d: Decoder) -> dict | None:
+    """An Option<SceneOptions> (docs/asset-format.md, `scene_options`)."""
+    if not d.option("scene_options"):
+        return None
+    o: dict = {}
+    o["sun"] = None
+    if d.option("scene_options.sun"):
+        o["sun"] = {
+            "azimuth_deg": d.f32("scene_options.sun.azimuth_deg"),
+            "elevation_deg": d.f32("scene_options.sun.elevation_deg"),
+            "irradiance": d.f32("scene_options.sun.irradiance"),
+            "color": d.f32s(3, "scene_options.sun.color"),
+        }
+    for field in ("dynamic", "lights"):
+        n = d.u64(f"scene_options.{field} length")
+        o[field] = [d.string(f"scene_options.{field}[{k}]") for k in range(n)]
+    o["bake_volume"] = (
+        d.f32s(6, "scene_options.bake_volume")
+        if d.option("scene_options.bake_volume")
+        else None
+    )
+    o["max_texture_size"] = (
+        d.u32("scene_options.max_texture_size")
+        if d.option("scene_options.max_texture_size")
+        else None
+    )
+    return o
+
+
+def check_scene_options(o: dict | None) -> None:
+    """scene_options (4.4): the values the bake's flags allow."""
+    if o is None:
+        return
+    sun = o["sun"]
+    if sun is not None:
+        if not math.isfinite(sun["azimuth_deg"]):
+            raise AssetError("manifest.bin: scene_options: sun azimuth is not finite")
+        if not 0 < sun["elevation_deg"] <= 90:
+            raise AssetError(
+                f"manifest.bin: scene_options: sun elevation {sun['elevation_deg']} "
+                "is not in (0, 90] degrees"
+            )
+        if not all(math.isfinite(x) and x >= 0 for x in [sun["irradiance"]] + sun["color"]):
+            raise AssetError(
+                "manifest.bin: scene_options: sun irradiance or colour is not finite "
+                "and non-negative"
+            )
+    v = o["bake_volume"]
+    if v is not None and (
+        not all(math.isfinite(x) for x in v) or any(v[k] >= v[k + 3] for k in range(3))
+    ):
+        raise AssetError(
+            f"manifest.bin: scene_options: bake volume {v} is not a finite box with each "
+            "minimum below its maximum"
+        )
+    n = o["max_texture_size"]
+    if n is not None and not 1 <= n <= 65536:
+        raise AssetError(
+            f"manifest.bin: scene_options: largest texture side {n} is not in 1..=65536"
+        )
+
+
+def num(x: float) -> str:
+    """An f32 as the shortest decimal that reads back as itself, without an
+    exponent (as gibake prints it)."""
+    for digits in range(1, 10):
+        t = f"{x:.{digits}g}"
+        if struct.unpack("<f", struct.pack("<f", float(t)))[0] == x:
+            break
+    t = format(decimal.Decimal(t), "f")
+    if "." in t:
+        t = t.rstrip("0").rstrip(".")
+    return "0" if t == "-0" and math.copysign(1, x) > 0 else t
+
+
+def shell_word(w: str) -> str:
+    safe = w and all(c.isascii() and (c.isalnum() or c in "_-.,/:=+@%") for c in w)
+    return w if safe else "'" + w.replace("'", "'\\''") + "'"
+
+
+def scene_flags(o: dict | None) -> str:
+    """The bake's command-line flags that give these options."""
+    if o is None:
+        return "not recorded (format 4.3 or older)"
+    out = []
+
+    def flag(name: str, value: str) -> str:
+        return f"{name}={value}" if value.startswith("-") else f"{name} {value}"
+
+    sun = o["sun"]
+    if sun is not None:
+        out.append(flag("--sun", f"{num(sun['azimuth_deg'])},{num(sun['elevation_deg'])}"))
+        if sun["irradiance"] != 1.0:
+            out.append(flag("--sun-irradiance", num(sun["irradiance"])))
+        if sun["color"] != [1.0, 1.0, 1.0]:
+            out.append(flag("--sun-color", ",".join(num(c) for c in sun["color"])))
+    out += [f"--dynamic {shell_word(p)}" for p in sorted(set(o["dynamic"]))]
+    out += [f"--light {shell_word(p)}" for p in sorted(set(o["lights"]))]
+    if o["bake_volume"] is not None:
+        out.append(flag("--bake-volume", ",".join(num(x) for x in o["bake_volume"])))
+    if o["max_texture_size"] not in (None, 8192):
+        out.append(f"--max-texture-size {o['max_texture_size']}")
+    return " ".join(out) or "none (the level as exported)"
 
 
 def kind_name(light: dict) -> str:
@@ -299,6 +408,10 @@ def read_manifest(asset: str) -> dict:
     # it (no ring VPLs).
     m["view_rsms"] = appended("view_rsms", len(views), "views") if minor >= 1 else []
     m["ring_vpls"] = appended("ring_vpls", len(lights), "lights") if minor >= 3 else []
+    # 4.4 appends scene_options (Option<SceneOptions>: the scene options the
+    # bake applied); a 4.3 or older payload ends before it (None: not
+    # recorded).
+    m["scene_options"] = read_scene_options(d) if minor >= 4 else None
     extra = length - d.pos
     if extra and minor <= READER_MINOR:
         raise AssetError(
@@ -491,6 +604,7 @@ def check_manifest_values(m: dict) -> list[str]:
     check_views(m)
     check_view_rsm_list(m)
     check_ring_vpl_list(m)
+    check_scene_options(m["scene_options"])
     if m["map_count"] > m["vpl_count"]:
         raise AssetError(
             f"manifest.bin: map_count {m['map_count']} > vpl_count {m['vpl_count']}"
@@ -1524,6 +1638,7 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
             + "; "
             f"{m['vpl_count']} VPLs, {m['map_count']} maps, dynamic {m['has_dynamic']}"
         ),
+        f"  scene flags: {scene_flags(m['scene_options'])}",
         (
             "  baked lights: "
             + (

@@ -237,6 +237,10 @@ pub struct DiffReport {
     /// How the baked lights differ ([`crate::light_changes`]; both assets
     /// 3.1 or later), one line each.
     pub lights: Vec<String>,
+    /// The scene options the bakes applied ([`crate::Manifest::scene_options`],
+    /// as the bake's flags), when they differ; a difference only when both
+    /// assets record them (format 4.4), else reported only.
+    pub scene_options: Option<FieldDiff>,
     /// Light view fields that differ beyond `map_rel`.
     pub light_view: Vec<FieldDiff>,
     /// The VPL sets.
@@ -1133,6 +1137,26 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
         );
     }
 
+    let flags = |o: &Option<crate::SceneOptions>| {
+        o.as_ref()
+            .map_or_else(|| "not recorded".to_string(), |o| o.flags_or_none())
+    };
+    let same_options = match (&ma.scene_options, &mb.scene_options) {
+        (Some(x), Some(y)) => x.same(y),
+        (x, y) => x.is_none() && y.is_none(),
+    };
+    let scene_options = (!same_options).then(|| FieldDiff {
+        field: "scene_options".into(),
+        a: flags(&ma.scene_options),
+        b: flags(&mb.scene_options),
+    });
+    if let (Some(d), Some(_), Some(_)) = (&scene_options, &ma.scene_options, &mb.scene_options) {
+        differences.push(format!(
+            "scene flags: A was baked with {}, B with {}",
+            d.a, d.b
+        ));
+    }
+
     let mut light_view = Vec::new();
     let (la, lb) = (&ma.light_view, &mb.light_view);
     field(
@@ -1244,6 +1268,7 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
         provenance,
         static_scene_hash,
         lights,
+        scene_options,
         light_view,
         vpls,
         trees,
@@ -1310,6 +1335,10 @@ impl fmt::Display for DiffReport {
         }
         for l in &self.lights {
             writeln!(f, "  {l}")?;
+        }
+        match &self.scene_options {
+            None => writeln!(f, "scene flags: same")?,
+            Some(d) => writeln!(f, "scene flags: {} vs {}", d.a, d.b)?,
         }
         list(f, "light view", &self.light_view)?;
         let v = &self.vpls;

@@ -37,7 +37,7 @@ pub enum AssetError {
     /// The asset was baked from a different static scene than the one it is
     /// used with.
     #[error(
-        "{asset} was baked from a different static scene than {} (asset's static scene hash {asset_hash}, scene's {scene_hash}); re-bake it",
+        "{asset} was baked from a different static scene than {} (asset's static scene hash {asset_hash}, scene's {scene_hash}){hint}",
         scene.display()
     )]
     SceneMismatch {
@@ -49,6 +49,10 @@ pub enum AssetError {
         asset_hash: String,
         /// Static scene hash of the scene (hex, first 16 digits).
         scene_hash: String,
+        /// What to do, from `; `: re-bake, or load the scene with the scene
+        /// options the asset records ([`crate::Manifest::scene_options`]),
+        /// which it names.
+        hint: String,
     },
     /// Writing the output failed (lock, temporary, swap).
     #[error(transparent)]

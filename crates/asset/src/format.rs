@@ -72,8 +72,10 @@ fn encode_manifest(manifest: &Manifest, path: &Path) -> Result<Vec<u8>, AssetErr
 
 /// The manifest as format `4.minor` writes it: the serde fields, then
 /// (minor ≥ 1) `view_rsms` as a bincode `Vec<u32>` in the same
-/// configuration (varint count, varint indices). Minor 0 (4.0) has no
-/// `view_rsms`: it must be empty.
+/// configuration (varint count, varint indices), (minor ≥ 3) `ring_vpls`
+/// likewise and (minor ≥ 4) `scene_options` as a bincode (serde)
+/// `Option<SceneOptions>`. An older minor lacks the later fields: they must
+/// be empty (`None`).
 fn encode_manifest_as(manifest: &Manifest, minor: u16, path: &Path) -> Result<Vec<u8>, AssetError> {
     let cannot = |e: bincode::error::EncodeError| {
         AssetError::invalid(path, format!("cannot encode the manifest: {e}"))
@@ -97,6 +99,18 @@ fn encode_manifest_as(manifest: &Manifest, minor: u16, path: &Path) -> Result<Ve
         return Err(AssetError::invalid(
             path,
             format!("cannot encode the manifest: format 4.{minor} has no ring_vpls"),
+        ));
+    }
+    if minor >= 4 {
+        // An Option<SceneOptions> through serde: a tag byte, then the
+        // fields in order (docs/asset-format.md).
+        let appended = bincode::serde::encode_to_vec(&manifest.scene_options, bincode_config())
+            .map_err(cannot)?;
+        payload.extend_from_slice(&appended);
+    } else if manifest.scene_options.is_some() {
+        return Err(AssetError::invalid(
+            path,
+            format!("cannot encode the manifest: format 4.{minor} has no scene_options"),
         ));
     }
     let mut out = Vec::with_capacity(HEADER_BYTES + payload.len() + TRAILER_BYTES);
@@ -169,6 +183,14 @@ fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetEr
         )
         .map_err(bad)?;
         manifest.ring_vpls = v;
+        used += n;
+    }
+    if minor >= 4 {
+        // 4.4 appends `scene_options` (an Option<SceneOptions>) after it.
+        let (v, n): (Option<crate::SceneOptions>, usize) =
+            bincode::serde::decode_from_slice(&payload[used..], bincode_config())
+                .map_err(|e| bad(format!("damaged manifest payload: scene_options: {e}")))?;
+        manifest.scene_options = v;
         used += n;
     }
     if used != payload.len() && !is_newer_minor(minor) {
@@ -544,6 +566,9 @@ fn validate_manifest(
             ));
         }
     }
+    if let Some(p) = m.scene_options.as_ref().and_then(|o| o.problem()) {
+        return bad(format!("scene_options: {p}"));
+    }
     if let Err(e) = check_views(m) {
         return bad(e);
     }
@@ -707,29 +732,66 @@ pub fn verify_files(dir: &Path) -> Result<Manifest, AssetError> {
 
 /// Compares the asset's static scene hash with `hash` (the static scene hash
 /// of the scene at `scene_path`); a [`AssetError::SceneMismatch`] naming the
-/// asset (by the scene it was baked from) and the scene when they differ.
+/// asset (by the scene it was baked from) and the scene when they differ,
+/// and, in plain words (no command line: the runtime's message), the scene
+/// options the asset was baked with ([`Manifest::scene_options`]).
 pub fn check_scene_hash(
     manifest: &Manifest,
     hash: &[u8; 32],
     scene_path: &Path,
 ) -> Result<(), AssetError> {
     let asset = format!("the asset baked from `{}`", manifest.provenance.scene_name);
-    check_hash(asset, manifest, hash, scene_path)
+    let hint = match &manifest.scene_options {
+        Some(o) if !o.is_empty() => format!(
+            "; it was baked with the scene options {o}: load the scene with them, or re-bake it"
+        ),
+        _ => "; re-bake it".to_string(),
+    };
+    check_hash(asset, manifest, hash, scene_path, hint)
 }
 
-/// Like [`check_scene_hash`], naming the asset by its directory `asset_dir`.
+/// Like [`check_scene_hash`], for a command-line tool: names the asset by
+/// its directory `asset_dir` and the scene options it was baked with as
+/// the bake's flags (`it was baked with --sun 173,60 --dynamic 'Cylinder*'`).
+/// `loaded_with`: the options the scene was loaded with, when the tool
+/// knows them ([`crate::SceneOptions::resolve`]): the same as the record,
+/// the message says the level itself changed.
 pub fn check_scene_hash_for(
     asset_dir: &Path,
     manifest: &Manifest,
     hash: &[u8; 32],
     scene_path: &Path,
+    loaded_with: Option<&crate::SceneOptions>,
 ) -> Result<(), AssetError> {
     let asset = format!(
         "{} (baked from `{}`)",
         asset_dir.display(),
         manifest.provenance.scene_name
     );
-    check_hash(asset, manifest, hash, scene_path)
+    let all = crate::all_flags();
+    let hint = match &manifest.scene_options {
+        None => format!(
+            "; re-bake it, or, if it was baked with {all}, give the same ones (an asset before format 4.4 does not record them)"
+        ),
+        Some(r) if loaded_with.is_some_and(|l| l.same(r)) => {
+            if r.is_empty() {
+                "; re-bake it".to_string()
+            } else {
+                format!(
+                    "; it was baked with {}, the same flags as here: the level's static part changed since; re-bake it",
+                    r.flags()
+                )
+            }
+        }
+        Some(r) if r.is_empty() => {
+            format!("; it was baked with none of {all}: give none of them, or re-bake it")
+        }
+        Some(r) => format!(
+            "; it was baked with {}: give the same flags, or re-bake it",
+            r.flags()
+        ),
+    };
+    check_hash(asset, manifest, hash, scene_path, hint)
 }
 
 fn check_hash(
@@ -737,6 +799,7 @@ fn check_hash(
     manifest: &Manifest,
     hash: &[u8; 32],
     scene_path: &Path,
+    hint: String,
 ) -> Result<(), AssetError> {
     if &manifest.static_scene_hash == hash {
         return Ok(());
@@ -746,6 +809,7 @@ fn check_hash(
         scene: scene_path.to_owned(),
         asset_hash: hex16(&manifest.static_scene_hash),
         scene_hash: hex16(hash),
+        hint,
     })
 }
 
@@ -1331,6 +1395,12 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
     let bad = |m: String| Err(AssetError::invalid(dir, format!("cannot write: {m}")));
     let mut m = asset.manifest.clone();
     m.files.clear();
+    // The canonical form (sorted lists, no default texture size): the same
+    // options give the same bytes whatever order they were given in.
+    m.scene_options = m
+        .scene_options
+        .as_ref()
+        .map(crate::SceneOptions::normalized);
     let s = &m.settings;
     if s.vpl_map_size == 0 {
         return bad("settings.vpl_map_size is 0".into());
@@ -1712,9 +1782,18 @@ pub mod testing {
 
     /// The bytes of `manifest.bin` for `manifest` as a format 4.2 writer
     /// wrote them (minor 2, the payload ends after `view_rsms`; its
-    /// `ring_vpls` must be empty): to check that 4.2 assets still load.
+    /// `ring_vpls` must be empty, its `scene_options` `None`): to check
+    /// that 4.2 assets still load.
     pub fn manifest_bytes_4_2(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
         encode_manifest_as(manifest, 2, Path::new(FILE_MANIFEST))
+    }
+
+    /// The bytes of `manifest.bin` for `manifest` as a format 4.3 writer
+    /// wrote them (minor 3, the payload ends after `ring_vpls`; its
+    /// `scene_options` must be `None`): to check that 4.3 assets still
+    /// load.
+    pub fn manifest_bytes_4_3(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
+        encode_manifest_as(manifest, 3, Path::new(FILE_MANIFEST))
     }
 
     fn before_4_2(manifest: &Manifest) -> Manifest {

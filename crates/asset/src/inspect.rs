@@ -121,6 +121,13 @@ pub struct Inspection {
     /// Per light, its VPLs on its outer rings (format 4.3; empty when none
     /// has any: [`crate::Manifest::ring_vpls`]).
     pub ring_vpls: Vec<u32>,
+    /// The scene options the bake applied (format 4.4,
+    /// [`crate::Manifest::scene_options`]; `None`: not recorded).
+    pub scene_options: Option<crate::SceneOptions>,
+    /// The same as the bake's command-line flags (`--sun 173,60 --dynamic
+    /// 'Cylinder*'`; empty for none; `None`: not recorded): what to give
+    /// `gibake reference`, which takes no asset.
+    pub scene_flags: Option<String>,
     /// Shadow-map views of the lights after the first (a point light's six
     /// faces, a spot's or sun's one).
     pub views: usize,
@@ -207,6 +214,8 @@ pub fn inspect(asset: &Asset) -> Inspection {
             .collect(),
         lights: m.lights.clone(),
         ring_vpls: m.ring_vpls.clone(),
+        scene_options: m.scene_options.clone(),
+        scene_flags: m.scene_options.as_ref().map(|o| o.flags()),
         views: m.views.len(),
         light_maps_stored: m.views.iter().filter(|v| v.tile != NO_MAP).count(),
         light_map_size: m.light_map_size,
@@ -312,6 +321,22 @@ impl fmt::Display for Inspection {
             p.adapter, p.backend, p.driver
         )?;
         writeln!(f, "  static scene hash {}", self.static_scene_hash)?;
+        match &self.scene_options {
+            None => writeln!(
+                f,
+                "  scene flags: not recorded (an asset before format 4.4, or a library bake): give render and view the bake's own"
+            )?,
+            Some(o) if o.is_empty() => writeln!(
+                f,
+                "  scene flags: none (the level as exported: no {})",
+                crate::all_flags()
+            )?,
+            Some(o) => writeln!(
+                f,
+                "  scene flags: {} (render and view apply them when given none)",
+                o.flags()
+            )?,
+        }
         let (o, d) = (self.light_origin, self.light_direction);
         writeln!(
             f,

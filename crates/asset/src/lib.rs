@@ -10,6 +10,9 @@
 //! - [`load`] / [`load_manifest`]: read and verify everything (magic, version,
 //!   checksums, counts, sizes, values) without panicking on any input;
 //! - [`check_scene_hash`]: refuse an asset baked from a different static scene;
+//! - [`SceneOptions`]: the scene options a bake applied (`--sun`,
+//!   `--dynamic`, `--light`, ...), recorded so that users load the level the
+//!   same way ([`SceneOptions::resolve`]);
 //! - [`inspect`]: a summary ([`Inspection`], `Display` + `Serialize`);
 //! - [`diff`] / [`write_diff_images`]: compare two assets under a [`Tolerance`];
 //! - [`verify_files`]: manifest and file checksums only (up-to-date checks);
@@ -24,6 +27,7 @@ mod error;
 mod exrio;
 mod format;
 mod inspect;
+mod scene_options;
 mod shard;
 mod tolerance;
 mod what;
@@ -43,6 +47,10 @@ pub use format::{
     load_manifest, load_with_limit, verify_files, write,
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
+pub use scene_options::{
+    DEFAULT_MAX_TEXTURE_SIZE, OptionsConflict, Resolution, SceneOption, SceneOptions, SunOption,
+    all_flags, shell_word,
+};
 pub use shard::{
     MAX_SHARDS, MergeError, Merger, PART_MAGIC, PART_VERSION, ShardMaps, ShardPart,
     assign_map_tiles, load_part, merge, shard_range, write_part,
@@ -59,8 +67,9 @@ pub const FORMAT_MAJOR: u16 = 4;
 /// with no view RSMs. 4.2: `vpl_coherence.bin`, [`Asset::vpl_coherence`];
 /// an older asset reads with none, every level-3 node one cosine lobe.
 /// 4.3: [`Manifest::ring_vpls`] appended after `view_rsms`; an older asset
-/// reads with no ring VPLs).
-pub const FORMAT_MINOR: u16 = 3;
+/// reads with no ring VPLs. 4.4: [`Manifest::scene_options`] appended after
+/// `ring_vpls`; an older asset reads with none recorded).
+pub const FORMAT_MINOR: u16 = 4;
 
 /// One static VPL record. Stored as a little-endian array in `vpls.bin`
 /// (48 bytes each, fields in this order).
@@ -541,6 +550,18 @@ pub struct Manifest {
     /// directional light. Encoded by hand (see `format.rs`).
     #[serde(skip)]
     pub ring_vpls: Vec<u32>,
+    /// Format 4.4, appended after [`Manifest::ring_vpls`] (an older
+    /// manifest ends before it: `None`): the scene options the bake applied
+    /// to the level as exported that are part of its static-scene hash
+    /// (`--sun`, `--dynamic`, `--light`, `--bake-volume`,
+    /// `--max-texture-size`), in their canonical form
+    /// ([`SceneOptions::normalized`]; the writer normalizes). `None`: not
+    /// recorded (an older asset, or a bake by a library call that did not
+    /// say); `Some` of an empty record: none was given. `gibake render`,
+    /// `gibake view` and the runtime's `load_scene_for` apply them
+    /// ([`SceneOptions::resolve`]). Encoded by hand (see `format.rs`).
+    #[serde(skip)]
+    pub scene_options: Option<SceneOptions>,
 }
 
 impl Manifest {
@@ -728,6 +749,13 @@ pub struct Asset {
 }
 
 impl Asset {
+    /// The scene options the bake applied ([`Manifest::scene_options`];
+    /// `None`: not recorded). Load the level with them
+    /// ([`SceneOptions::resolve`]) or the static-scene hash differs.
+    pub fn scene_options(&self) -> Option<&SceneOptions> {
+        self.manifest.scene_options.as_ref()
+    }
+
     /// Each VPL's [`TreeLobes`] ([`tree_lobes`] of its near-field tree and
     /// level-3 coherences), in VPL order: what shading draws its far-field
     /// disks with, computed once per VPL at load.

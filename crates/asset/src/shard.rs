@@ -21,7 +21,7 @@ use crate::{Asset, AssetError, Manifest, Map, MapAtlas, NO_MAP, RsmData, VplReco
 /// Magic bytes at the start of a part file.
 pub const PART_MAGIC: [u8; 8] = *b"GIBKPART";
 /// Part format version: parts are transient, so any other version is refused.
-pub const PART_VERSION: u16 = 5;
+pub const PART_VERSION: u16 = 6;
 /// Largest shard count accepted.
 pub const MAX_SHARDS: u32 = 4096;
 /// Largest accepted part file (16 GiB).
@@ -113,6 +113,10 @@ struct PartPayload {
     /// The manifest's `view_rsms` (skipped by its serde encoding) and the
     /// view RSMs, one per entry (part version 4).
     view_rsms: (Vec<u32>, Vec<RsmPayload>),
+    /// The manifest's `ring_vpls` and `scene_options` (skipped by its serde
+    /// encoding; part version 6: version 5 lost the ring VPLs).
+    ring_vpls: Vec<u32>,
+    scene_options: Option<crate::SceneOptions>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -299,6 +303,8 @@ fn encode_part(part: &ShardPart, path: &Path) -> Result<Vec<u8>, AssetError> {
             a.manifest.view_rsms.clone(),
             a.view_rsms.iter().map(rsm_payload).collect(),
         ),
+        ring_vpls: a.manifest.ring_vpls.clone(),
+        scene_options: a.manifest.scene_options.clone(),
     };
     let body = bincode::serde::encode_to_vec(&payload, part_config())
         .map_err(|e| AssetError::invalid(path, format!("cannot encode the part: {e}")))?;
@@ -352,6 +358,8 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
     let mut manifest = p.manifest;
     let (view_rsm_list, view_rsms) = p.view_rsms;
     manifest.view_rsms = view_rsm_list;
+    manifest.ring_vpls = p.ring_vpls;
+    manifest.scene_options = p.scene_options;
     let (lt, ln, lmaps) = p.light_maps;
     let light_maps = if ln == 0 {
         MapAtlas::empty(lt)
@@ -520,8 +528,20 @@ fn manifest_difference(a: &Manifest, b: &Manifest) -> Option<String> {
             adapter(a)
         ));
     }
+    if a.scene_options != b.scene_options {
+        let flags = |m: &Manifest| {
+            m.scene_options
+                .as_ref()
+                .map_or_else(|| "none recorded".to_string(), |o| o.flags_or_none())
+        };
+        return Some(format!(
+            "baked with other scene flags ({} against {})",
+            flags(b),
+            flags(a)
+        ));
+    }
     if a != b {
-        return Some("the manifests differ (scene name, light view or counts)".into());
+        return Some("the manifests differ (scene name, light view, counts or ring VPLs)".into());
     }
     None
 }
@@ -692,6 +712,7 @@ mod tests {
             light_map_size: 0,
             view_rsms: Vec::new(),
             ring_vpls: Vec::new(),
+            scene_options: None,
         };
         let rec = VplRecord {
             position: [0.0; 3],

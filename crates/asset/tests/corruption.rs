@@ -375,7 +375,7 @@ fn scene_hash_mismatch_names_asset_and_scene() {
     let m = load_manifest(&dir).unwrap();
     let scene = Path::new("data/other_scene.gltf");
     check_scene_hash(&m, &[0xAB; 32], scene).unwrap();
-    check_scene_hash_for(&dir, &m, &[0xAB; 32], scene).unwrap();
+    check_scene_hash_for(&dir, &m, &[0xAB; 32], scene, None).unwrap();
     let e = check_scene_hash(&m, &[0xCD; 32], scene).unwrap_err();
     assert!(matches!(e, AssetError::SceneMismatch { .. }));
     let msg = e.to_string();
@@ -391,7 +391,7 @@ fn scene_hash_mismatch_names_asset_and_scene() {
         msg.contains("abababab") && msg.contains("cdcdcdcd"),
         "{msg}"
     );
-    let msg = check_scene_hash_for(&dir, &m, &[0; 32], scene)
+    let msg = check_scene_hash_for(&dir, &m, &[0; 32], scene, None)
         .unwrap_err()
         .to_string();
     assert!(

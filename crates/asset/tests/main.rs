@@ -10,5 +10,6 @@ mod fuzz_regressions;
 mod owned_files;
 mod ring_vpls;
 mod roundtrip;
+mod scene_options;
 mod view_rsms;
 mod write_safety;

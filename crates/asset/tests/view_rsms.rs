@@ -80,14 +80,15 @@ fn view_rsms_round_trip_in_the_documented_layout() {
         .collect();
     assert_eq!(names.last(), Some(&FILE_VIEW_RSMS));
     // The manifest payload ends with the appended vector: count 3, then
-    // the indices (one-byte varints); then (4.3) no ring VPLs (`00`).
+    // the indices (one-byte varints); then (4.3) no ring VPLs (`00`) and
+    // (4.4) no scene options recorded (`00`).
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
     assert_eq!(
         u16::from_le_bytes([bytes[10], bytes[11]]),
         gibake_asset::FORMAT_MINOR
     );
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    assert_eq!(&bytes[20 + len - 5..20 + len], &[3, 1, 4, 5, 0]);
+    assert_eq!(&bytes[20 + len - 6..20 + len], &[3, 1, 4, 5, 0, 0]);
     // The atlas, read back as the spec lays it out.
     let (w, h, z, share, vpl) = atlas_of(&asset.view_rsms);
     assert_eq!((w, h), (2 * RSM as usize, 2 * RSM as usize));
@@ -190,13 +191,14 @@ fn bad_view_rsm_lists_are_refused_naming_the_manifest() {
         }
     }
     // A hostile count (2^40 entries) is refused before any allocation
-    // (the payload ends with view_rsms, 4 bytes, then ring_vpls, 1).
+    // (the payload ends with view_rsms, 4 bytes, then ring_vpls, 1, and
+    // scene_options, 1).
     let (dir, _) = fresh(tmp.path(), "huge.gibake");
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
     let mut tail = vec![253];
     tail.extend_from_slice(&(1u64 << 40).to_le_bytes());
-    let out = with_payload_tail(&bytes, len - 5, &tail);
+    let out = with_payload_tail(&bytes, len - 6, &tail);
     std::fs::write(dir.join(FILE_MANIFEST), &out).unwrap();
     let msg = load_manifest(&dir).unwrap_err().to_string();
     assert!(
@@ -204,7 +206,7 @@ fn bad_view_rsm_lists_are_refused_naming_the_manifest() {
         "{msg}"
     );
     // Cut inside the vector: damaged.
-    let out = with_payload_tail(&bytes, len - 2, &[]);
+    let out = with_payload_tail(&bytes, len - 3, &[]);
     std::fs::write(dir.join(FILE_MANIFEST), &out).unwrap();
     let msg = load_manifest(&dir).unwrap_err().to_string();
     assert!(

@@ -841,6 +841,9 @@ fn bake_with(
         light_map_size,
         view_rsms: view_rsm_views,
         ring_vpls,
+        // The scene options the level was loaded with are the caller's to
+        // record (`gibake bake` does; the `Scene` does not hold them).
+        scene_options: None,
     };
     let asset = Asset {
         manifest,

@@ -63,6 +63,9 @@ struct App {
     stats: String,
     /// Hot reloads done.
     reloads: u32,
+    /// The scene options the scene on screen was loaded with, when known
+    /// (what a reloaded asset is compared with: [`crate::level`]).
+    loaded_with: Option<gibake_runtime::SceneOptions>,
 }
 
 /// The display named in the environment, for messages; `None`: none.
@@ -85,6 +88,12 @@ pub(crate) fn run(opts: ViewOptions) -> Result<Option<Screenshot>, ViewerError> 
     event_loop.set_control_flow(ControlFlow::Poll);
     let fly = initial_camera(&opts.scene, opts.time)?;
     let now = Instant::now();
+    // As the caller loaded it (`gibake view`: the user's options, the
+    // asset's recorded ones applied).
+    let loaded_with = match (&opts.reimport, &opts.asset, &opts.asset_dir) {
+        (Some(r), Some(a), Some(dir)) => r.options_for(a.scene_options(), dir).ok(),
+        _ => None,
+    };
     let mut app = App {
         follow_scene: opts.scene.camera.is_some(),
         time: opts.time,
@@ -105,6 +114,7 @@ pub(crate) fn run(opts: ViewOptions) -> Result<Option<Screenshot>, ViewerError> 
         title_at: now,
         stats: String::new(),
         reloads: 0,
+        loaded_with,
     };
     event_loop
         .run_app(&mut app)
@@ -398,7 +408,9 @@ impl App {
         ));
     }
 
-    /// Hot reload: a changed manifest → load, check, `set_asset`.
+    /// Hot reload: a changed manifest → load, the level for it (loaded
+    /// again when it was baked with other scene options), check,
+    /// `set_asset`.
     fn reload_if_changed(&mut self, now: Instant) {
         let (Some(watch), Some(dir)) = (self.watch.as_mut(), self.opts.asset_dir.as_ref()) else {
             return;
@@ -407,24 +419,43 @@ impl App {
             return;
         }
         let Some(gpu) = self.gpu.as_mut() else { return };
-        let scene = &self.opts.scene;
+        let (reimport, loaded_with) = (self.opts.reimport.as_ref(), self.loaded_with.as_ref());
+        let current = &self.opts.scene;
         let loaded = gibake_asset::load_with_limit(dir, self.opts.max_decoded_bytes)
-            .and_then(|asset| {
-                let hash = gibake_scene::static_scene_hash(scene);
-                gibake_asset::check_scene_hash_for(dir, &asset.manifest, &hash, &scene.source)?;
-                Ok(asset)
-            })
             .map_err(|e| e.to_string())
             .and_then(|asset| {
+                let (scene, with) =
+                    crate::level::level_for(reimport, asset.scene_options(), loaded_with, dir)?;
+                let level = scene.as_ref().unwrap_or(current);
+                let hash = gibake_scene::static_scene_hash(level);
+                gibake_asset::check_scene_hash_for(
+                    dir,
+                    &asset.manifest,
+                    &hash,
+                    &level.source,
+                    with.as_ref(),
+                )
+                .map_err(|e| e.to_string())?;
                 gpu.renderer
-                    .set_asset(&gpu.device, &gpu.queue, scene, Some(&asset))
+                    .set_asset(&gpu.device, &gpu.queue, level, Some(&asset))
                     .map_err(|e| e.to_string())?;
-                Ok(asset)
+                Ok((asset, scene, with))
             });
         match loaded {
-            Ok(asset) => {
-                eprintln_info(&format!("reloaded {}", dir.display()));
+            Ok((asset, scene, with)) => {
+                let again = match (&scene, &with) {
+                    (Some(_), Some(w)) => format!(
+                        " (the level loaded again with the bake's {})",
+                        w.flags_or_none()
+                    ),
+                    _ => String::new(),
+                };
+                eprintln_info(&format!("reloaded {}{again}", dir.display()));
                 self.opts.asset = Some(asset);
+                if let Some(scene) = scene {
+                    self.opts.scene = scene;
+                }
+                self.loaded_with = with;
                 self.reloads += 1;
             }
             Err(e) => tracing::warn!(

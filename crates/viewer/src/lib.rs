@@ -11,7 +11,9 @@
 //! - Hot reload: the asset's manifest is polled once a second ([`watch`]);
 //!   a re-baked asset replaces the old one with
 //!   [`gibake_runtime::Renderer::set_asset`] (a failed load keeps the old
-//!   one, with a warning).
+//!   one, with a warning). One re-baked with other scene options (another
+//!   `--sun`, other moving props) comes with the level loaded again with
+//!   them ([`Reimport`]).
 //! - Headless ([`ViewOptions::frames`]): N frames are rendered and
 //!   presented to a real window and the last one is returned
 //!   ([`Screenshot`]) for the caller to write; frame `f` is at
@@ -24,6 +26,7 @@ mod app;
 mod error;
 pub mod fly;
 mod gpu;
+mod level;
 pub mod present;
 pub mod watch;
 
@@ -31,13 +34,19 @@ use std::path::PathBuf;
 
 pub use error::ViewerError;
 pub use gpu::GpuReport;
+pub use level::Reimport;
 
 use gibake_runtime::{Asset, RenderSettings, Requirements, Scene};
 
 /// What to show and how.
 pub struct ViewOptions {
-    /// The scene (loaded by the caller, with its level flags).
+    /// The scene (loaded by the caller, with its level flags and the
+    /// asset's recorded scene options).
     pub scene: Scene,
+    /// How the scene was loaded, to load it again for a hot-reloaded asset
+    /// baked with other scene options (`None`: never loaded again; such an
+    /// asset is then refused).
+    pub reimport: Option<Reimport>,
     /// The baked asset (`None`: only `direct` mode can be shown).
     pub asset: Option<Asset>,
     /// Where the asset lives (watched for hot reload).

@@ -207,6 +207,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
             light_map_size: LIGHT_MAP,
             view_rsms: Vec::new(),
             ring_vpls: Vec::new(),
+            scene_options: None,
         },
         vpl_coherence: vec![1.0; vpls.len() * gibake_asset::LEVEL3_NODES],
         vpls,
