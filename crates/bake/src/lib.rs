@@ -16,6 +16,7 @@
 pub mod bake;
 pub mod budget;
 pub mod cluster;
+pub mod later;
 pub mod lights;
 pub mod near_field;
 pub mod reach;

@@ -57,18 +57,35 @@ fn cell(x: u32, mut lo: u32, mut hi: u32, levels: u32) -> usize {
     idx
 }
 
+/// The aggregate of a node's members (texels, or surfels for the later
+/// bounces' VPLs): weights are the channel sum of each member's flux.
 #[derive(Clone, Copy, Default)]
-struct Sums {
-    w: f64,
-    wp: DVec3,
-    wn: DVec3,
-    flux: DVec3,
-    area: f64,
-    count: u32,
+pub(crate) struct Sums {
+    pub(crate) w: f64,
+    pub(crate) wp: DVec3,
+    pub(crate) wn: DVec3,
+    pub(crate) flux: DVec3,
+    pub(crate) area: f64,
+    pub(crate) count: u32,
 }
 
 impl Sums {
-    fn add(&mut self, o: &Sums) {
+    /// Adds one member at `p` with normal `n`, flux `flux` and area `area`
+    /// (none if its flux is not positive and finite).
+    pub(crate) fn push(&mut self, p: Vec3, n: Vec3, flux: Vec3, area: f32) {
+        let w = f64::from(flux.x) + f64::from(flux.y) + f64::from(flux.z);
+        if !(w > 0.0 && w.is_finite()) {
+            return;
+        }
+        self.w += w;
+        self.wp += p.as_dvec3() * w;
+        self.wn += n.as_dvec3() * w;
+        self.flux += flux.as_dvec3();
+        self.area += f64::from(area);
+        self.count += 1;
+    }
+
+    pub(crate) fn add(&mut self, o: &Sums) {
         self.w += o.w;
         self.wp += o.wp;
         self.wn += o.wn;
@@ -90,7 +107,7 @@ impl Sums {
         }
     }
 
-    fn record(&self) -> VplRecord {
+    pub(crate) fn record(&self) -> VplRecord {
         let empty = VplRecord::EMPTY_NODE;
         if self.count == 0 || !(self.w > 0.0 && self.w.is_finite()) {
             return empty;
@@ -163,21 +180,21 @@ pub fn vpl_nodes_and_coherence(
         let j = cell(y, y0, y1, levels);
         for x in x0..x1 {
             let t = (y * rsm.size + x) as usize;
-            let f = rsm.flux[t];
-            let w = f64::from(f.x) + f64::from(f.y) + f64::from(f.z);
-            if !(rsm.metric[t].is_finite() && w > 0.0 && w.is_finite() && member(t)) {
+            if !(rsm.metric[t].is_finite() && member(t)) {
                 continue;
             }
             let i = cell(x, x0, x1, levels);
-            let s = &mut leaf[j * side + i];
-            s.w += w;
-            s.wp += rsm.position[t].as_dvec3() * w;
-            s.wn += rsm.normal[t].as_dvec3() * w;
-            s.flux += f.as_dvec3();
-            s.area += f64::from(rsm.area[t]);
-            s.count += 1;
+            leaf[j * side + i].push(rsm.position[t], rsm.normal[t], rsm.flux[t], rsm.area[t]);
         }
     }
+    tree_of_cells(leaf)
+}
+
+/// The near-field tree and level-3 coherences of a VPL whose members are
+/// summed into its `8 × 8` level-3 cells `leaf` (row-major: `j · 8 + i`).
+pub(crate) fn tree_of_cells(leaf: Vec<Sums>) -> (Vec<VplRecord>, Vec<f32>) {
+    let levels = NEAR_FIELD_LEVELS;
+    debug_assert_eq!(leaf.len(), 1 << (2 * levels));
     let mut coherence: Vec<f32> = leaf.iter().map(Sums::coherence).collect();
     let mut out = vec![Sums::default().record(); NODES_PER_VPL];
     let mut cur = leaf;

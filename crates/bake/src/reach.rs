@@ -120,7 +120,7 @@ pub fn aim_targets(rays: &RayScene<'_>, moving: Aabb) -> Vec<Vec3> {
 }
 
 /// SplitMix64 finaliser (seeds the per-texel jitter).
-fn mix(mut z: u64) -> u64 {
+pub(crate) fn mix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
@@ -140,7 +140,7 @@ fn basis(n: Vec3) -> (Vec3, Vec3) {
 
 /// Cosine-distributed direction about `n` for `(u1, u2) ∈ [0, 1)²`
 /// (Malley: a uniform disk sample lifted to the hemisphere).
-fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
+pub(crate) fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
     let r = u1.sqrt();
     let phi = std::f32::consts::TAU * u2;
     let (t, b) = basis(n);

@@ -59,7 +59,13 @@ fn main() {
         let r = &m.rsm;
         for (t, &v) in c.texel_vpl.iter().enumerate() {
             if v != gibake_bake::cluster::NO_VPL {
-                texels.push((r.position[t], r.normal[t], r.area[t], r.flux[t], first + v as usize));
+                texels.push((
+                    r.position[t],
+                    r.normal[t],
+                    r.area[t],
+                    r.flux[t],
+                    first + v as usize,
+                ));
             }
         }
         first += c.vpls.len();

@@ -1,0 +1,136 @@
+//! The bounces after the first (issue 50): computed at bake time for the
+//! static scene and stored as more VPLs, which the runtime shades as it
+//! shades the first bounce's.
+//!
+//! The first bounce is the paper's: VPLs from the lights' RSMs, moving
+//! objects merged into their maps each frame. The later bounces carry, in
+//! interiors, as much light again or far more (the grid of rooms: 3.8–5.2×
+//! the first bounce; a white arena lit through openings: 19×), so a bake of
+//! every bounce adds them, in three steps:
+//!
+//! 1. **Surfels** ([`surfels`]): points on both sides of the static
+//!    surfaces, by area.
+//! 2. **The bounces** ([`radiosity`]): each surfel's direct irradiance
+//!    (shadow rays to every light), then bounce after bounce over fixed
+//!    links — the surfel each of its cosine rays lands on — until a bounce
+//!    carries under a thousandth of the light so far or the ratio between
+//!    bounces is steady (the rest then added as a geometric series); a
+//!    level whose light does not die down (a closed box of albedo 1) is cut
+//!    at [`radiosity::MAX_BOUNCES`] and the bake warns.
+//! 3. **Later-bounce VPLs** ([`secondary`]): each surfel passes on `albedo ·
+//!    E · area`, `E` its irradiance from the first bounce on; those are
+//!    clustered into VPLs with the first bounce's rule, each with its own
+//!    near-field tree and, in the bake, its own hemisphere map. So moving
+//!    objects shadow the later bounces as they shadow the first (merged
+//!    into their maps); what a moving object changes in the light the
+//!    later bounces carry (a door closing) is not followed (docs/method.md,
+//!    "Every bounce").
+
+pub mod radiosity;
+pub mod secondary;
+pub mod surfels;
+
+use gibake_asset::VplRecord;
+use gibake_raycast::RayScene;
+use glam::Vec3;
+
+pub use radiosity::Bounces;
+
+/// The later bounces' VPLs by default: this share of the first bounce's
+/// (at least one). A quarter keeps the frame within 1.3× of a bake of the
+/// first bounce alone (docs/method.md, "Every bounce").
+pub const LATER_VPL_FRACTION: f64 = 0.25;
+
+/// Surface points sampled for the later bounces (two surfels each where
+/// both sides see out).
+pub const LATER_POINTS: u32 = 16384;
+
+/// Rays per surfel.
+pub const LATER_RAYS: u32 = 64;
+
+/// Under [`Bounces::Every`] the later bounces are left out when they carry
+/// under this share of all the light the level's surfaces reflect
+/// ([`Later::later_share`]): outdoors, where direct light dominates (the
+/// town: 0.0%), the bake stores nothing for them and the frame has no VPL
+/// more; a room lit through a window carries 3%, a white arena 55%.
+pub const NEGLIGIBLE_LATER_SHARE: f64 = 0.0025;
+
+/// How the bake follows the later bounces.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LaterOptions {
+    /// How many bounces in all ([`Bounces::Count`]`(1)`: none after the
+    /// first).
+    pub bounces: Bounces,
+    /// Surface points sampled (each gives a surfel per side).
+    pub points: u32,
+    /// Rays per surfel.
+    pub rays: u32,
+    /// The later bounces' VPLs.
+    pub vpls: u32,
+}
+
+/// The later bounces of a level: their VPLs and what each bounce carries.
+pub struct Later {
+    /// The VPLs (no maps yet), their near-field trees and level-3
+    /// coherences, in the layout of the first bounce's.
+    pub vpls: Vec<VplRecord>,
+    /// Near-field trees.
+    pub nodes: Vec<VplRecord>,
+    /// Level-3 coherences.
+    pub coherence: Vec<f32>,
+    /// The light the surfels reflect after each bounce, `k = 1, 2, …`
+    /// (W, RGB), and after those the rest of the series.
+    pub per_bounce: Vec<Vec3>,
+    /// The rest of the series beyond the last bounce followed.
+    pub tail: Vec3,
+    /// The light reflected straight from the lights, `Σ albedo · E_direct ·
+    /// area` (W, RGB).
+    pub direct: Vec3,
+    /// Whether the light died down (else: cut at the bounce cap).
+    pub converged: bool,
+    /// Surfels used.
+    pub surfels: usize,
+}
+
+impl Later {
+    /// The light the bounces after the first carry over all the light the
+    /// surfaces reflect (direct, first bounce and later): the share a bake
+    /// leaves out when it leaves them out.
+    pub fn later_share(&self) -> f64 {
+        let sum = |v: Vec3| f64::from(v.x) + f64::from(v.y) + f64::from(v.z);
+        let later: f64 =
+            self.per_bounce.iter().skip(1).map(|v| sum(*v)).sum::<f64>() + sum(self.tail);
+        let all = sum(self.direct)
+            + self.per_bounce.iter().map(|v| sum(*v)).sum::<f64>()
+            + sum(self.tail);
+        if all > 0.0 { later / all } else { 0.0 }
+    }
+}
+
+/// The later bounces of the static scene in `rays` (see the module docs).
+pub fn later_bounces(rays: &RayScene<'_>, opts: &LaterOptions) -> Later {
+    let surfels = surfels::place(rays, opts.points);
+    let direct = radiosity::direct(rays, &surfels);
+    let links = radiosity::link(rays, &surfels, opts.rays);
+    let solution = radiosity::solve(&surfels, &links, &direct, opts.bounces);
+    let emitted: Vec<Vec3> = (0..surfels.len())
+        .map(|s| surfels.albedo[s] * solution.indirect[s] * surfels.area[s])
+        .collect();
+    let bounds = rays.scene().static_bounds();
+    let diag = (bounds.max - bounds.min).length();
+    let sec = secondary::cluster(rays, &surfels, &emitted, opts.vpls, diag);
+    let mut reflected = glam::DVec3::ZERO;
+    for s in 0..surfels.len() {
+        reflected += (surfels.albedo[s] * direct[s] * surfels.area[s]).as_dvec3();
+    }
+    Later {
+        vpls: sec.vpls,
+        nodes: sec.nodes,
+        coherence: sec.coherence,
+        per_bounce: solution.per_bounce,
+        tail: solution.tail,
+        direct: reflected.as_vec3(),
+        converged: solution.converged,
+        surfels: surfels.len(),
+    }
+}

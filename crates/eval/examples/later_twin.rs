@@ -1,0 +1,274 @@
+//! The later bounces' VPLs judged on the CPU against an every-bounce
+//! estimate (a probe for issue 50): the first bounce's VPLs
+//! (`every_light`) and the later bounces' (`gibake_bake::later`), both
+//! through the runtime's transport twin with exact visibility, against a
+//! path-traced every-bounce indirect light at the pixel centres (next
+//! event at every vertex, Russian roulette after the third bounce), and
+//! the first bounce alone against the one-bounce reference.
+//!
+//! ```text
+//! cargo run --release -p gibake-eval --example later_twin -- SCENE.glb | --list LEVELS.json NAME | LEVEL [--vpls N] [--later N] [--points N] [--rays N] [--size S] [--side N]
+//! ```
+
+use gibake_bake::cluster::ClusterTarget;
+use gibake_bake::later::{Bounces, LaterOptions, later_bounces};
+use gibake_bake::lights::every_light;
+use gibake_bake::reach::Reach;
+use gibake_eval::transport::TwinVpls;
+use gibake_reference::{Hit, RayScene};
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use std::f32::consts::PI;
+
+/// A uniform number in `[0, 1)` from `(p, s, k)` (SplitMix64 finaliser).
+fn rnd(p: u32, s: u32, k: u32) -> f32 {
+    let mut z = (u64::from(p) << 40) ^ (u64::from(s) << 20) ^ u64::from(k);
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^= z >> 31;
+    (z >> 40) as f32 / (1u64 << 24) as f32
+}
+
+fn every_bounce(rays: &RayScene<'_>, h: &Hit, seed: u32, side: u32) -> Vec3 {
+    let mut sum = Vec3::ZERO;
+    for s in 0..side * side {
+        let mut hit = *h;
+        let mut through = Vec3::ONE;
+        let mut k = 0u32;
+        loop {
+            let (t, b) = gibake_gpu::orthonormal_basis(hit.shading_normal);
+            let (u1, u2) = if k == 0 {
+                (
+                    ((s % side) as f32 + rnd(seed, s, 0)) / side as f32,
+                    ((s / side) as f32 + rnd(seed, s, 1)) / side as f32,
+                )
+            } else {
+                (rnd(seed, s, 3 * k), rnd(seed, s, 3 * k + 1))
+            };
+            let r = u1.sqrt();
+            let phi = 2.0 * PI * u2;
+            let dir = t * (r * phi.cos())
+                + b * (r * phi.sin())
+                + hit.shading_normal * (1.0 - u1).max(0.0).sqrt();
+            if hit.geometric_normal.dot(dir) <= 0.0 {
+                break;
+            }
+            let origin = rays.offset_point(hit.position, hit.geometric_normal);
+            let Some(y) = rays.intersect(origin, dir, f32::INFINITY) else {
+                break;
+            };
+            through *= y.albedo;
+            let e = gibake_reference::irradiance(
+                rays,
+                y.position,
+                y.geometric_normal,
+                y.shading_normal,
+            );
+            sum += through * e;
+            k += 1;
+            if k >= 3 {
+                let p = through.max_element().min(1.0);
+                if p <= 0.0 || rnd(seed, s, 3 * k + 2) >= p {
+                    break;
+                }
+                through /= p;
+            }
+            if k > 4096 {
+                break;
+            }
+            hit = y;
+        }
+    }
+    sum / (side * side) as f32
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (mut vpls, mut later, mut points, mut rays_per, mut size, mut side) =
+        (256u32, 0u32, 16384u32, 64u32, 32u32, 16u32);
+    let (mut list, mut name) = (None::<String>, None::<String>);
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let mut num = || {
+            it.next()
+                .and_then(|v| v.parse::<u32>().ok())
+                .expect("a number")
+        };
+        match a.as_str() {
+            "--vpls" => vpls = num(),
+            "--later" => later = num(),
+            "--points" => points = num(),
+            "--rays" => rays_per = num(),
+            "--size" => size = num(),
+            "--side" => side = num(),
+            "--list" => list = it.next().cloned(),
+            n => name = Some(n.to_string()),
+        }
+    }
+    if later == 0 {
+        later = vpls.div_ceil(4);
+    }
+    let name = name.expect("a scene or a level");
+    let scene = if name.ends_with(".glb") || name.ends_with(".gltf") {
+        gibake_scene::load(std::path::Path::new(&name), &Default::default()).expect("loads")
+    } else {
+        let list = list
+            .map(std::path::PathBuf::from)
+            .unwrap_or_else(gibake_eval::levels::bundled_list);
+        let specs = gibake_eval::levels::read_specs(&list).expect("levels.json");
+        let spec = specs
+            .iter()
+            .find(|s| s.name == name)
+            .expect("a level of the list");
+        spec.load(list.parent().unwrap()).expect("loads")
+    };
+    let stat = gibake_bake::static_only(&scene);
+    let rays = RayScene::build(&stat, 0.0);
+    let reach = Reach::new(&rays, scene.dynamic_swept_bounds());
+    let t0 = std::time::Instant::now();
+    let every = every_light(&scene, &reach, 512, 2048, ClusterTarget::Count(vpls));
+    let t1 = t0.elapsed().as_secs_f64();
+    let t0 = std::time::Instant::now();
+    let l = later_bounces(
+        &rays,
+        &LaterOptions {
+            bounces: Bounces::Every,
+            points,
+            rays: rays_per,
+            vpls: later,
+        },
+    );
+    let t2 = t0.elapsed().as_secs_f64();
+    // The same steps by hand, for the surfels' own light (each surfel a
+    // small disk with exact visibility): what the clustering stands for.
+    let sf = gibake_bake::later::surfels::place(&rays, points);
+    let dir = gibake_bake::later::radiosity::direct(&rays, &sf);
+    let links = gibake_bake::later::radiosity::link(&rays, &sf, rays_per);
+    let sol = gibake_bake::later::radiosity::solve(&sf, &links, &dir, Bounces::Every);
+    let emitters: Vec<(Vec3, Vec3, f32, Vec3)> = (0..sf.len())
+        .map(|i| {
+            (
+                sf.position[i],
+                sf.normal[i],
+                sf.area[i],
+                sf.albedo[i] * sol.indirect[i] * sf.area[i],
+            )
+        })
+        .filter(|e| e.3.max_element() > 0.0)
+        .collect();
+    if std::env::var("SURFEL_DEBUG").is_ok() {
+        for (k, b) in l.per_bounce.iter().enumerate() {
+            eprintln!("  bounce {}: {:.4e} {:.4e} {:.4e}", k + 1, b.x, b.y, b.z);
+        }
+        eprintln!("  tail {:?}, direct {:?}", l.tail, l.direct);
+    }
+    let records = every.vpl_records();
+    let (nodes, coherence) = every.vpl_trees();
+    let ring = every.ring_flags();
+    let first = TwinVpls::new(&records, &ring, &nodes, &coherence);
+    let no_ring = vec![std::env::var("LIFT_ONE").is_ok(); l.vpls.len()];
+    let second = TwinVpls::new(&l.vpls, &no_ring, &l.nodes, &l.coherence);
+    let cam = gibake_reference::View::from_scene(&scene, 0.0).expect("a camera");
+    let px: Vec<(Vec3, Vec3, Vec3, Vec3, Vec3)> = (0..size * size)
+        .into_par_iter()
+        .map(|p| {
+            let (x, y) = (p % size, p / size);
+            let (o, d, t0) = cam.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
+            let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
+                return (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+            };
+            let mut one = Vec3::ZERO;
+            gibake_eval::bounce::one_bounce_samples(&rays, &h, p, side, |_, l| one += l);
+            let one = h.albedo * one / (side * side) as f32;
+            let all = h.albedo / PI * every_bounce(&rays, &h, p, side);
+            let a = h.albedo / PI * first.irradiance(&rays, &h).visible;
+            let b = h.albedo / PI * second.irradiance(&rays, &h).visible;
+            let mut e = Vec3::ZERO;
+            for &(p, n, ar, f) in &emitters {
+                let k = gibake_eval::transport::disk_irradiance(
+                    p,
+                    n,
+                    ar,
+                    f,
+                    h.position,
+                    h.shading_normal,
+                    h.geometric_normal,
+                );
+                if k != Vec3::ZERO && rays.visible(p, n, h.position, h.geometric_normal) {
+                    e += k;
+                }
+            }
+            (one, all, a, b, h.albedo / PI * e)
+        })
+        .collect();
+    let mut s = [DVec3::ZERO; 5];
+    for v in &px {
+        s[4] += v.4.as_dvec3();
+        s[0] += v.0.as_dvec3();
+        s[1] += v.1.as_dvec3();
+        s[2] += v.2.as_dvec3();
+        s[3] += v.3.as_dvec3();
+    }
+    let blur_err = |img: &dyn Fn(usize) -> Vec3, refi: &dyn Fn(usize) -> Vec3| {
+        let (mut num, mut den) = (0f64, 0f64);
+        for y in 0..size as i32 {
+            for x in 0..size as i32 {
+                let (mut a, mut r) = (Vec3::ZERO, Vec3::ZERO);
+                for dy in -1..=1 {
+                    for dx in -1..=1 {
+                        let (xx, yy) = (
+                            (x + dx).clamp(0, size as i32 - 1),
+                            (y + dy).clamp(0, size as i32 - 1),
+                        );
+                        let i = (yy * size as i32 + xx) as usize;
+                        a += img(i);
+                        r += refi(i);
+                    }
+                }
+                num += f64::from((a - r).length_squared());
+                den += f64::from(r.length_squared());
+            }
+        }
+        (num / den).sqrt()
+    };
+    let pct = |a: DVec3, b: DVec3| {
+        let r = a / b - 1.0;
+        format!(
+            "{:+.1}/{:+.1}/{:+.1}%",
+            r.x * 100.0,
+            r.y * 100.0,
+            r.z * 100.0
+        )
+    };
+    let later_share: f64 = l.later_share();
+    println!(
+        "{name}: {} first-bounce VPLs ({t1:.1} s), {} later VPLs from {} surfels ({t2:.1} s, {} bounces{}, converged {}), later share of reflected light {:.1}%",
+        records.len(),
+        l.vpls.len(),
+        l.surfels,
+        l.per_bounce.len(),
+        if l.tail != Vec3::ZERO { " + tail" } else { "" },
+        l.converged,
+        later_share * 100.0
+    );
+    println!(
+        "  first + surfels' own light vs every-bounce ref: {} (err {:.3}); later VPLs / surfels' own light: {}",
+        pct(s[2] + s[4], s[1]),
+        blur_err(&|i| px[i].2 + px[i].4, &|i| px[i].1),
+        pct(s[3], s[4]),
+    );
+    println!(
+        "  every bounce / one bounce (reference, indirect): {}",
+        pct(s[1], s[0]).replace('%', "").replace('+', "×+")
+    );
+    println!(
+        "  first bounce vs one-bounce ref: {} (blurred err {:.3}); first+later vs every-bounce ref: {} (blurred err {:.3}); first alone vs every-bounce: {} (err {:.3})",
+        pct(s[2], s[0]),
+        blur_err(&|i| px[i].2, &|i| px[i].0),
+        pct(s[2] + s[3], s[1]),
+        blur_err(&|i| px[i].2 + px[i].3, &|i| px[i].1),
+        pct(s[2], s[1]),
+        blur_err(&|i| px[i].2, &|i| px[i].1),
+    );
+}
