@@ -100,16 +100,18 @@ pub const MAX_BOUNCES: u32 = 1024;
 
 /// Bounces every path follows before Russian roulette may end it: 3.
 ///
-/// The first bounces carry most of a level's indirect light (the first
-/// alone is half of it in a living room, 1/19 in a white arena), and a
-/// path that is always traced through them keeps their noise free of
+/// The first bounces carry most of an ordinary level's indirect light (the
+/// first alone is 2/3 of it in the bundled living room: docs/reference.md),
+/// and a path that is always traced through them keeps their noise free of
 /// roulette's; after three bounces of ordinary albedos (0.3–0.8) the
 /// throughput is 0.03–0.5, so roulette ends paths in proportion to what
-/// they can still carry. Where the albedo is 1 the throughput stays 1 and
+/// they can still carry. Where the albedo is 1 (the white arena, whose
+/// first bounce is 1/21 of its indirect light) the throughput stays 1 and
 /// roulette ends nothing: such a path ends when it escapes, or at
 /// [`MAX_BOUNCES`]. `Bounces(n)` for `n ≤ 3` never draws a roulette
-/// number, so its paths are the first bounces of [`Depth::Every`]'s with
-/// the same seed.
+/// number, so a pixel's first sample traces the first bounces of
+/// [`Depth::Every`]'s with the same seed (the later samples' positions
+/// follow the numbers the longer paths drew).
 pub const ROULETTE_FROM: u32 = 3;
 
 impl Depth {
