@@ -681,6 +681,39 @@ fn reference_spp_zero() {
     assert_empty(out.path(), &r);
 }
 
+/// `reference --bounces`: more than the cap, not a number, or with
+/// `--direct-only` (which is `--bounces 0`): exit 2, the flag named.
+#[test]
+fn reference_bad_bounces() {
+    let out = tempfile::tempdir().unwrap();
+    for (value, extra, needles) in [
+        ("1025", None, &["--bounces", "at most 1024"][..]),
+        (
+            "two",
+            None,
+            &["--bounces", "not a number of bounces", "all"][..],
+        ),
+        ("-1", None, &["--bounces"][..]),
+        (
+            "3",
+            Some("--direct-only"),
+            &["--bounces", "--direct-only"][..],
+        ),
+    ] {
+        let mut c = common::gibake();
+        c.arg("reference")
+            .arg(common::data("corner_bunny.glb"))
+            .args(["--spp", "1", "--width", "8", "--height", "8"])
+            .arg(format!("--bounces={value}"))
+            .args(extra)
+            .arg("-o")
+            .arg(out.path().join("ref.exr"));
+        let r = run_command(c);
+        assert_bad(&r, needles);
+        assert_empty(out.path(), &r);
+    }
+}
+
 #[test]
 fn reference_width_zero() {
     let out = tempfile::tempdir().unwrap();

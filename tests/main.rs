@@ -14,6 +14,7 @@ mod cli_basic;
 mod cli_errors;
 mod common;
 mod direct_vs_reference;
+mod every_bounce_judge;
 mod every_light;
 mod every_light_frame;
 mod exports;

@@ -225,7 +225,8 @@ pub enum Command {
     /// asset when it is re-baked. `--frames N --screenshot F.png` runs
     /// headless (still in a window); `--gpu-report` needs no window.
     View(ViewArgs),
-    /// Render the independent CPU reference (path tracer, direct + one
+    /// Render the independent CPU reference (path tracer: every bounce by
+    /// default, `--bounces N` for the first N, `--bounces 1` direct + one
     /// bounce). It reads no asset: give it the scene flags the bake was
     /// given (--sun, --dynamic, --light, --bake-volume; `gibake inspect
     /// ASSET` prints them).
@@ -585,8 +586,19 @@ pub struct ReferenceArgs {
     /// Samples per pixel.
     #[arg(long, default_value_t = 256)]
     pub spp: u32,
-    /// Direct light only (path depth 2) instead of direct + one bounce.
-    #[arg(long)]
+    /// Light bounces to follow: `all` (the default) is every bounce —
+    /// unbounded path depth, Russian roulette after the third bounce,
+    /// unbiased; a path is cut at 1024 bounces, which only a scene that
+    /// traps light reaches (albedo 1 in a closed space has no finite
+    /// answer), and a warning says how many were. N (0 to 1024): direct
+    /// light and the first N bounces exactly. `--bounces 1` is direct + one
+    /// bounce (path depth 3: light → surface → surface → eye, what the
+    /// paper's method computes and what this command rendered before every
+    /// bounce), bit for bit; `--bounces 0` is direct light only.
+    #[arg(long, value_name = "N|all", default_value = "all", value_parser = bounces_value)]
+    pub bounces: gibake_reference::Depth,
+    /// Direct light only (path depth 2): the same as `--bounces 0`.
+    #[arg(long, conflicts_with = "bounces")]
     pub direct_only: bool,
     /// Random seed (the image is deterministic for a given seed).
     #[arg(long, default_value_t = 0)]
@@ -594,6 +606,23 @@ pub struct ReferenceArgs {
     /// Output EXR (linear radiance) or PNG preview.
     #[arg(short, long, value_name = "REF.exr")]
     pub output: PathBuf,
+}
+
+/// Parses `--bounces`: `all` or 0 to 1024.
+fn bounces_value(s: &str) -> Result<gibake_reference::Depth, String> {
+    use gibake_reference::{Depth, MAX_BOUNCES};
+    match s.parse::<u32>() {
+        _ if s == "all" => Ok(Depth::Every),
+        Ok(0) => Ok(Depth::Direct),
+        Ok(1) => Ok(Depth::OneBounce),
+        Ok(n) if n <= MAX_BOUNCES => Ok(Depth::Bounces(n)),
+        Ok(n) => Err(format!(
+            "{n} is more bounces than the reference follows (at most {MAX_BOUNCES}; `all` for every bounce)"
+        )),
+        Err(_) => Err(format!(
+            "{s:?} is not a number of bounces (0 to {MAX_BOUNCES}) or `all`"
+        )),
+    }
 }
 
 /// `gibake diff`.

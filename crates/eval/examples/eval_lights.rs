@@ -3,10 +3,12 @@
 //! and judges them against the CPU reference lit by every light
 //! (`gibake_eval::levels::judge_level`: image and direct rel MSE, indirect
 //! bias per channel, full's blurred indirect error against rsm's, naive
-//! against full, FLIP).
+//! against full, FLIP), one bounce and every bounce (`vs one bounce: …`,
+//! `vs every bounce ×R/G/B of one: …`; `--one-bounce-only` leaves the
+//! every-bounce reference out).
 //!
 //! ```text
-//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--near-field-descent N] [--look-at EX,EY,EZ,TX,TY,TZ] [--no-light-bounce] [--balls-under-lamps R] [--out DIR] [--no-naive]
+//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--near-field-descent N] [--look-at EX,EY,EZ,TX,TY,TZ] [--no-light-bounce] [--balls-under-lamps R] [--out DIR] [--no-naive] [--one-bounce-only]
 //! ```
 //!
 //! `--no-naive` leaves out the `naive` render (every VPL map re-rendered:
@@ -40,6 +42,7 @@ fn main() {
         spp: 512,
         blur: 4,
         ssaa: 4,
+        every_bounce: true,
         ..Default::default()
     };
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -88,6 +91,7 @@ fn main() {
             }
             "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
             "--no-naive" => s.naive = false,
+            "--one-bounce-only" => s.every_bounce = false,
             _ => scenes.push(a.clone()),
         }
     }

@@ -10,11 +10,14 @@
 //! LEVEL --sun … --dynamic …` passes to the importer, and
 //! [`LevelSpec::command_line`] prints those flags.
 //!
-//! [`judge_level`] renders the reference (direct + one bounce, direct only)
-//! and every mode, and reports per level ([`LevelEval`]): image rel MSE,
-//! direct rel MSE, the indirect part's mean bias per channel, `full`'s and
-//! `rsm`'s blurred indirect error, mean FLIP, `naive` against `full`, the
-//! bake time and VPL counts. [`write_panel`] writes the picture reference |
+//! [`judge_level`] renders the reference (direct + one bounce, direct only;
+//! every bounce too with [`EvalSettings::every_bounce`]) and every mode,
+//! and reports per level ([`LevelEval`]): image rel MSE, direct rel MSE,
+//! the indirect part's mean bias per channel, `full`'s and `rsm`'s blurred
+//! indirect error, mean FLIP, `naive` against `full`, the bake time and
+//! VPL counts; against the every-bounce reference, the every-bounce ÷
+//! one-bounce indirect ratio and `full`'s bias and error
+//! ([`crate::EveryBounceEval`], [`LevelEval::every_markdown_row`]). [`write_panel`] writes the picture reference |
 //! full | rsm | error that docs/results.md shows per level.
 
 use std::path::{Path, PathBuf};
@@ -320,6 +323,29 @@ impl LevelEval {
     }
 }
 
+impl LevelEval {
+    /// The header of [`LevelEval::every_markdown_row`]'s table.
+    pub const EVERY_MARKDOWN_HEADER: &'static str = "| level | every ÷ one bounce indirect (R/G/B) | bounces a path | full vs one bounce | full vs every bounce | rsm vs every bounce | full err vs every bounce |\n|---|---|---|---|---|---|---|";
+
+    /// One row of the table of what the later bounces add and `full`'s
+    /// bias against both references (docs/reference.md, "Every bounce on
+    /// the real levels"); `None` without the every-bounce reference.
+    pub fn every_markdown_row(&self) -> Option<String> {
+        let e = self.indirect.every.as_ref()?;
+        let pct = |b: [f32; 3]| b.map(|x| format!("{:+.1}", 100.0 * x)).join("/") + "%";
+        Some(format!(
+            "| {} | {} | {:.1} | {} | {} | {} | {:.2} |",
+            self.indirect.name,
+            e.ratio.map(|r| format!("{r:.2}")).join("/"),
+            e.mean_bounces,
+            pct(self.indirect.full_bias),
+            pct(e.full_bias),
+            pct(e.rsm_bias),
+            e.full_err,
+        ))
+    }
+}
+
 /// The images of one level's judgement.
 pub struct LevelImages {
     /// The reference.
@@ -407,6 +433,9 @@ pub fn judge_level(
         .into_iter()
         .flatten()
         .collect(),
+        every: reference.every.as_ref().map(|e| {
+            crate::EveryBounceEval::new(&full_ind, &rsm_ind, e, &reference.direct, rm, s.blur)
+        }),
     };
     let exposure = reference.one_bounce.auto_exposure();
     let eval = LevelEval {

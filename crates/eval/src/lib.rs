@@ -1,6 +1,8 @@
 //! The judge of the method's indirect light: for a scene, bake it, render
 //! `full`, `rsm`, `naive` and `direct`, render the independent CPU
-//! reference (one bounce and direct only), and compare the indirect parts.
+//! reference (one bounce and direct only; with
+//! [`EvalSettings::every_bounce`] also every bounce), and compare the
+//! indirect parts.
 //!
 //! Figures, per scene ([`IndirectEval`]):
 //! - **mean indirect bias** per channel: `mean(ours) / mean(reference) − 1`
@@ -11,7 +13,14 @@
 //!   not dominate, divided by the reference's mean indirect radiance
 //!   (dimensionless);
 //! - on scenes without moving objects, `naive` against `full` (they must
-//!   agree) and whether every mode has indirect light.
+//!   agree) and whether every mode has indirect light;
+//! - with [`EvalSettings::every_bounce`] ([`EveryBounceEval`]): the same
+//!   bias and error against the every-bounce reference (`every bounce −
+//!   direct only`), and the every-bounce ÷ one-bounce indirect ratio per
+//!   channel. The tests judge against the one-bounce reference (the
+//!   method's first bounce is the paper's; the later bounces are another
+//!   issue's), so it is off by default: an every-bounce reference costs
+//!   1.5–20× a one-bounce one (the bounces a path makes).
 //!
 //! Used by the tests (`tests/indirect_accuracy.rs`, 20 random seeds at a
 //! small size) and by `gibake bench accuracy` (more seeds, full size).
@@ -77,6 +86,12 @@ pub struct EvalSettings {
     /// The runtime's near-field descent
     /// ([`RenderSettings::near_field_descent`]).
     pub near_field_descent: u32,
+    /// Also render the every-bounce reference ([`ReferenceImages::every`],
+    /// same samples per pixel as the one-bounce image) and judge against
+    /// it too ([`IndirectEval::every`]). Off by default (the tests judge
+    /// the one-bounce method against the one-bounce reference); the eval
+    /// tools turn it on.
+    pub every_bounce: bool,
 }
 
 impl Default for EvalSettings {
@@ -95,6 +110,7 @@ impl Default for EvalSettings {
             light_bounce: true,
             naive: true,
             near_field_descent: RenderSettings::default().near_field_descent,
+            every_bounce: false,
         }
     }
 }
@@ -141,6 +157,84 @@ pub struct IndirectEval {
     /// Per mode (`full`, `indirect`, `rsm`, and `naive` where rendered): mean indirect radiance
     /// (sum of channels) — all must be positive where the reference's is.
     pub mode_indirect: Vec<(String, f32)>,
+    /// The figures against the every-bounce reference
+    /// ([`EvalSettings::every_bounce`]; `None` when it was not rendered).
+    pub every: Option<EveryBounceEval>,
+}
+
+/// `full` and `rsm` judged against the every-bounce reference (`every
+/// bounce − direct only`), beside [`IndirectEval`]'s one-bounce figures.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct EveryBounceEval {
+    /// The every-bounce reference's mean indirect radiance (RGB).
+    pub ref_mean: [f32; 3],
+    /// Its standard error, relative, per channel (two halves of its samples).
+    pub ref_noise: [f32; 3],
+    /// Every-bounce indirect ÷ one-bounce indirect, per channel: what the
+    /// later bounces add (1: nothing).
+    pub ratio: [f32; 3],
+    /// `full`'s mean indirect bias against it, per channel.
+    pub full_bias: [f32; 3],
+    /// `rsm`'s mean indirect bias against it.
+    pub rsm_bias: [f32; 3],
+    /// `full`'s relative indirect error against it (blurred, as
+    /// [`IndirectEval::full_err`]).
+    pub full_err: f64,
+    /// Bounce rays a path of the every-bounce reference made.
+    pub mean_bounces: f64,
+    /// Its paths cut at [`gibake_reference::MAX_BOUNCES`].
+    pub capped: u64,
+}
+
+impl EveryBounceEval {
+    /// The figures of `full` and `rsm` (indirect parts) against
+    /// `reference` (the every-bounce reference's indirect part, with its
+    /// noise and path stats) and `one` (the one-bounce reference's mean
+    /// indirect radiance).
+    pub fn new(
+        full: &Image,
+        rsm: &Image,
+        reference: &EveryBounceImage,
+        direct: &Image,
+        one: Vec3,
+        blur: u32,
+    ) -> EveryBounceEval {
+        let ind = reference.image.sub(direct);
+        let rm = ind.mean();
+        let tiny = Vec3::splat(f32::MIN_POSITIVE);
+        EveryBounceEval {
+            ref_mean: rm.to_array(),
+            ref_noise: (reference.noise / rm.max(tiny)).to_array(),
+            ratio: (rm / one.max(tiny)).to_array(),
+            full_bias: bias(full.mean(), rm),
+            rsm_bias: bias(rsm.mean(), rm),
+            full_err: indirect_error(full, &ind, blur),
+            mean_bounces: reference.stats.mean_bounces(),
+            capped: reference.stats.capped,
+        }
+    }
+
+    /// The part of [`IndirectEval::line`] it adds.
+    pub fn line(&self) -> String {
+        let pct =
+            |b: [f32; 3]| format!("{:+.1}/{:+.1}/{:+.1}%", b[0] * 1e2, b[1] * 1e2, b[2] * 1e2);
+        format!(
+            "every bounce ×{:.2}/{:.2}/{:.2} of one: bias full {} rsm {} (ref ±{:.1}%, {:.1} bounces a path{}) err full {:.4}",
+            self.ratio[0],
+            self.ratio[1],
+            self.ratio[2],
+            pct(self.full_bias),
+            pct(self.rsm_bias),
+            300.0 * self.ref_noise.iter().fold(0f32, |a, b| a.max(*b)),
+            self.mean_bounces,
+            if self.capped > 0 {
+                format!(", {} cut at the cap", self.capped)
+            } else {
+                String::new()
+            },
+            self.full_err,
+        )
+    }
 }
 
 impl IndirectEval {
@@ -156,12 +250,14 @@ impl IndirectEval {
         (0..3).all(|c| self.full_bias[c].abs() <= tol + 3.0 * self.ref_noise[c])
     }
 
-    /// One line for logs.
+    /// One line for logs: the figures against the one-bounce reference
+    /// ("bias full … rsm …"), then, where rendered, those against the
+    /// every-bounce reference ([`EveryBounceEval::line`]).
     pub fn line(&self) -> String {
         let pct =
             |b: [f32; 3]| format!("{:+.1}/{:+.1}/{:+.1}%", b[0] * 1e2, b[1] * 1e2, b[2] * 1e2);
         format!(
-            "{:<44} vpls {:>4} | bias full {} rsm {} (ref ±{:.1}%) | err full {:.4} rsm {:.4} ({:.2}×) | naive~full {}",
+            "{:<44} vpls {:>4} | vs one bounce: bias full {} rsm {} (ref ±{:.1}%) | err full {:.4} rsm {:.4} ({:.2}×) | naive~full {}{}",
             self.name,
             self.vpls,
             pct(self.full_bias),
@@ -174,7 +270,10 @@ impl IndirectEval {
                 "not rendered".to_string()
             } else {
                 format!("{:.1e}", self.naive_vs_full)
-            }
+            },
+            self.every
+                .as_ref()
+                .map_or(String::new(), |e| format!(" | vs {}", e.line()))
         )
     }
 }
@@ -280,7 +379,8 @@ pub fn render(
 /// The reference's images: direct + one bounce (the mean of two independent
 /// halves of the samples, seeds 0 and 1), direct only (seed 2), and the
 /// standard error of the one-bounce image's mean per channel, estimated
-/// from the two halves.
+/// from the two halves; with [`EvalSettings::every_bounce`], every bounce
+/// too ([`reference_every_bounce`]).
 pub struct ReferenceImages {
     /// Direct light plus one bounce (path depth 3).
     pub one_bounce: Image,
@@ -288,12 +388,33 @@ pub struct ReferenceImages {
     pub direct: Image,
     /// Standard error of `one_bounce`'s mean radiance per channel.
     pub noise: Vec3,
+    /// Direct light plus every bounce, where rendered.
+    pub every: Option<EveryBounceImage>,
+}
+
+/// The every-bounce reference image ([`reference_every_bounce`]).
+pub struct EveryBounceImage {
+    /// Direct light plus every bounce: the mean of two halves of the
+    /// samples, seeds 0 and 1 (the one-bounce halves' seeds: each path's
+    /// first bounce is the one-bounce image's, so the two differ by the
+    /// later bounces of the same paths, not by independent noise).
+    pub image: Image,
+    /// Standard error of its mean radiance per channel (the two halves).
+    pub noise: Vec3,
+    /// What its paths did (both halves).
+    pub stats: gibake_reference::PathStats,
 }
 
 impl ReferenceImages {
     /// The indirect part: one bounce minus direct only.
     pub fn indirect(&self) -> Image {
         self.one_bounce.sub(&self.direct)
+    }
+
+    /// The every-bounce indirect part: every bounce minus direct only
+    /// (`None` where it was not rendered).
+    pub fn indirect_every(&self) -> Option<Image> {
+        self.every.as_ref().map(|e| e.image.sub(&self.direct))
     }
 }
 
@@ -324,10 +445,10 @@ pub fn reference_renders(scene: &Scene, s: &EvalSettings) -> Result<[Image; 3], 
     ])
 }
 
-/// Renders the reference images of `scene` (see [`ReferenceImages`]).
-pub fn reference_images(scene: &Scene, s: &EvalSettings) -> Result<ReferenceImages, EvalError> {
-    let [a, b, direct] = reference_renders(scene, s)?;
-    let mut full = Image::new(s.size, s.size);
+/// The mean of two independent renders and the standard error of its mean
+/// radiance per channel.
+fn mean_of_halves(a: &Image, b: &Image) -> (Image, Vec3) {
+    let mut full = Image::new(a.width, a.height);
     let mut var = Vec3::ZERO;
     for (k, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         full.pixels[k] = (*p + *q) * 0.5;
@@ -335,10 +456,76 @@ pub fn reference_images(scene: &Scene, s: &EvalSettings) -> Result<ReferenceImag
         var += (*p - *q) * (*p - *q) * 0.25;
     }
     let n = a.pixels.len().max(1) as f32;
+    (full, (var / (n * n)).map(f32::sqrt))
+}
+
+/// The direct-only reference image of [`reference_renders`] alone (seed 2,
+/// a quarter of the samples, at least 16).
+fn reference_renders_direct(scene: &Scene, s: &EvalSettings) -> Result<Image, EvalError> {
+    Ok(gibake_reference::render(
+        scene,
+        &gibake_reference::Settings {
+            width: s.size,
+            height: s.size,
+            spp: (s.spp / 4).max(16),
+            time: s.time,
+            depth: gibake_reference::Depth::Direct,
+            seed: 2,
+        },
+        &|_| {},
+    )?)
+}
+
+/// Renders the reference images of `scene` (see [`ReferenceImages`]).
+pub fn reference_images(scene: &Scene, s: &EvalSettings) -> Result<ReferenceImages, EvalError> {
+    let [a, b, direct] = reference_renders(scene, s)?;
+    let (one_bounce, noise) = mean_of_halves(&a, &b);
+    let every = if s.every_bounce {
+        Some(reference_every_bounce(scene, s)?)
+    } else {
+        None
+    };
     Ok(ReferenceImages {
-        one_bounce: full,
+        one_bounce,
         direct,
-        noise: (var / (n * n)).map(f32::sqrt),
+        noise,
+        every,
+    })
+}
+
+/// The every-bounce reference of `scene`: two halves of `s.spp` samples
+/// per pixel ([`gibake_reference::Depth::Every`], seeds 0 and 1, as the
+/// one-bounce halves of [`reference_renders`]).
+pub fn reference_every_bounce(
+    scene: &Scene,
+    s: &EvalSettings,
+) -> Result<EveryBounceImage, EvalError> {
+    let half = (s.spp / 2).max(1);
+    let mut stats = gibake_reference::PathStats::default();
+    let mut r = |seed| -> Result<Image, EvalError> {
+        let (img, st) = gibake_reference::render_with_stats(
+            scene,
+            &gibake_reference::Settings {
+                width: s.size,
+                height: s.size,
+                spp: half,
+                time: s.time,
+                depth: gibake_reference::Depth::Every,
+                seed,
+            },
+            &|_| {},
+        )?;
+        stats.paths += st.paths;
+        stats.bounces += st.bounces;
+        stats.capped += st.capped;
+        Ok(img)
+    };
+    let (a, b) = (r(0)?, r(1)?);
+    let (image, noise) = mean_of_halves(&a, &b);
+    Ok(EveryBounceImage {
+        image,
+        noise,
+        stats,
     })
 }
 
@@ -444,6 +631,22 @@ fn evaluate_with(
         full.clone()
     };
     let rsm = render(ctx, scene, &asset, Mode::Rsm, s)?.sub(&direct);
+    let every = if s.every_bounce {
+        let e = reference_every_bounce(scene, s)?;
+        // The one-bounce indirect reference came as one image: its direct
+        // part is rendered again here (the same seed, so the same image).
+        let ref_direct = reference_renders_direct(scene, s)?;
+        Some(EveryBounceEval::new(
+            &full,
+            &rsm,
+            &e,
+            &ref_direct,
+            reference.mean(),
+            s.blur,
+        ))
+    } else {
+        None
+    };
     // Naive re-renders every map each frame (slow); it must equal full.
     let naive = if with_naive && s.naive {
         Some(render(ctx, scene, &asset, Mode::Naive, s)?.sub(&direct))
@@ -476,5 +679,6 @@ fn evaluate_with(
         .into_iter()
         .chain(naive.as_ref().map(|n| ("naive".into(), sum(n))))
         .collect(),
+        every,
     })
 }
