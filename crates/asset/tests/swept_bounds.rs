@@ -84,10 +84,7 @@ fn bad_swept_bounds_are_refused_naming_the_manifest() {
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
     let keep = len - 31;
     let nan = f32::NAN.to_bits();
-    let mut three = vec![3u8];
-    for _ in 0..3 {
-        three.push(0);
-    }
+    let three = vec![3u8, 0, 0, 0];
     let mut with_nan = vec![6u8];
     for v in [0, 0, 0, nan, 0, 0] {
         if v == 0 {
