@@ -328,3 +328,322 @@ fn a_run_that_finds_the_asset_up_to_date_removes_a_killed_runs_temporaries() {
     assert!(r.stderr.contains("up to date"), "{r}");
     assert_eq!(hidden(dir), Vec::<String>::new());
 }
+
+// ------------------------------------------- the image diff and CI step
+
+/// The fenced block of `lang` that follows the first line of `doc`
+/// containing `after`.
+fn block_after(doc: &str, after: &str, lang: &str) -> String {
+    let start = doc
+        .find(after)
+        .unwrap_or_else(|| panic!("docs/pipeline.md has no `{after}`"));
+    let fence = format!("```{lang}\n");
+    let open = start + doc[start..].find(&fence).expect("a fenced block") + fence.len();
+    let close = open + doc[open..].find("\n```").expect("its end") + 1;
+    doc[open..close].to_string()
+}
+
+/// The `run:` script of the GitHub Actions step named `name`.
+fn github_run(yaml: &str, name: &str) -> String {
+    let at = yaml
+        .find(&format!("- name: {name}\n"))
+        .unwrap_or_else(|| panic!("no step `{name}`"));
+    let rest = &yaml[at..];
+    let line = rest
+        .lines()
+        .find_map(|l| l.trim_start().strip_prefix("run: "))
+        .expect("a one-line run:");
+    line.to_string()
+}
+
+/// The bundled corner with its spot moved by `dx` along X.
+fn corner_with_light_moved(dst: &Path, dx: f64) {
+    edit_glb(&common::data("corner_bunny.glb"), dst, |j| {
+        assert_eq!(j["nodes"][17]["name"], "spot");
+        let x = j["nodes"][17]["translation"][0].as_f64().unwrap();
+        j["nodes"][17]["translation"][0] = serde_json::json!(x + dx);
+    });
+}
+
+/// A git repository holding `levels/corner.glb` (the bundled corner) at
+/// its one commit, with `baked/corner.gibake` baked from it with `flags`
+/// (the last accepted asset, not committed).
+fn repo_with_accepted_level(dir: &Path, flags: &str) {
+    let git = |args: &[&str]| {
+        let o = Command::new("git")
+            .args(["-c", "user.name=ci", "-c", "user.email=ci@example.com"])
+            .args(args)
+            .current_dir(dir)
+            .output()
+            .expect("git is needed by this test (Debian package git)");
+        assert!(o.status.success(), "git {args:?}: {o:?}");
+    };
+    std::fs::create_dir_all(dir.join("levels")).unwrap();
+    std::fs::create_dir_all(dir.join("baked")).unwrap();
+    std::fs::copy(
+        common::data("corner_bunny.glb"),
+        dir.join("levels/corner.glb"),
+    )
+    .unwrap();
+    git(&["init", "-q"]);
+    git(&["add", "levels"]);
+    git(&["commit", "-q", "-m", "the accepted level"]);
+    let mut c = common::gibake();
+    c.current_dir(dir)
+        .args(["bake", "levels/corner.glb", "-o", "baked/corner.gibake"])
+        .args(flags.split_whitespace());
+    let r = run(c);
+    assert_eq!(r.code, Some(0), "{r}");
+}
+
+/// Runs `script` with `sh` in `dir`, `gibake` first on the `PATH`.
+fn sh_in(dir: &Path, script: &str, env: &[(&str, &str)]) -> common::Run {
+    let bin = Path::new(gibake_bin()).parent().unwrap().to_owned();
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let mut c = Command::new("sh");
+    c.args(["-c", script]).current_dir(dir).env("PATH", path);
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    run(c)
+}
+
+/// Small bakes and frames: each diff renders in about a second.
+const CI_BAKE: &str = "--vpls 64 --rsm-size 128 --vpl-map-size 32 --shadow-map-size 512";
+const CI_DIFF: &str = "--width 160 --height 90";
+
+#[test]
+fn the_ci_step_of_docs_pipeline_md_fails_on_a_visible_change_and_passes_a_tolerable_one() {
+    let doc = std::fs::read_to_string(common::root().join("docs/pipeline.md")).unwrap();
+    let script = block_after(&doc, "`scripts/ci-diff-bakes.sh`:", "sh");
+    assert_eq!(
+        script,
+        std::fs::read_to_string(common::root().join("scripts/ci-diff-bakes.sh")).unwrap(),
+        "docs/pipeline.md shows scripts/ci-diff-bakes.sh as it is"
+    );
+    let plain = block_after(&doc, "A plain shell CI job", "sh");
+    let yaml = block_after(&doc, "A GitHub Actions job", "yaml");
+    let tmp = tempfile::tempdir().unwrap();
+    let env = [("BAKE_FLAGS", CI_BAKE), ("DIFF_FLAGS", CI_DIFF)];
+
+    // A moved light: the plain job, as written (its `scripts/...` is the
+    // repository's; `origin/main` is this repository's one commit).
+    let visible = tmp.path().join("visible");
+    repo_with_accepted_level(&visible, CI_BAKE);
+    std::fs::create_dir_all(visible.join("scripts")).unwrap();
+    std::fs::write(visible.join("scripts/ci-diff-bakes.sh"), &script).unwrap();
+    let plain = plain.replace("origin/main", "HEAD");
+    corner_with_light_moved(&visible.join("levels/corner.glb"), -0.5);
+    let r = sh_in(&visible, &plain, &env);
+    no_panic(&r);
+    assert_eq!(r.code, Some(1), "a visible change fails the job\n{r}");
+    let summary = std::fs::read_to_string(visible.join("ci-diff/summary.md")).unwrap();
+    assert!(
+        r.stdout.contains(&summary),
+        "the job prints the summary\n{r}"
+    );
+    assert!(
+        summary.contains("## corner: **FAIL**, visible change"),
+        "{summary}"
+    );
+    assert!(
+        summary.contains("| camera | 0 s |") && summary.contains("**FAIL** |"),
+        "{summary}"
+    );
+    // Where: a pixel and a world position in the table.
+    assert!(
+        summary.contains("pixel (") && summary.contains("world ("),
+        "{summary}"
+    );
+    // The picture, by a path relative to the summary, and its heat map.
+    let link = summary
+        .split("](")
+        .nth(1)
+        .and_then(|s| s.split(')').next())
+        .expect("a picture link");
+    assert_eq!(link, "corner/camera_t0.png", "{summary}");
+    let ci = visible.join("ci-diff");
+    for p in [link, "corner/camera_t0_heat.png", "corner/camera_t0_a.png"] {
+        let bytes = std::fs::read(ci.join(p)).unwrap_or_else(|e| panic!("{p}: {e}"));
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{p}");
+    }
+    let heat = png_rgb(&ci.join("corner/camera_t0_heat.png"));
+    assert!(heat.iter().any(|&v| v > 128), "the heat map shows a change");
+    assert!(
+        heat.chunks(3).any(|p| p == [0, 255, 255]),
+        "the largest change is boxed"
+    );
+
+    // The same change through the GitHub job's own steps.
+    let summary_file = tmp.path().join("step_summary.md");
+    std::fs::remove_dir_all(&ci).unwrap();
+    let bake_step = github_run(&yaml, "Bake the changed levels and diff them");
+    let r = sh_in(
+        &visible,
+        &bake_step,
+        &[env[0], env[1], ("BASE", "HEAD"), ("ACCEPTED", "baked")],
+    );
+    assert_eq!(r.code, Some(1), "{r}");
+    let step = github_run(&yaml, "Summary");
+    let r = sh_in(
+        &visible,
+        &step,
+        &[("GITHUB_STEP_SUMMARY", summary_file.to_str().unwrap())],
+    );
+    assert_eq!(r.code, Some(0), "{r}");
+    let posted = std::fs::read_to_string(&summary_file).unwrap();
+    assert!(posted.contains("## corner: **FAIL**"), "{posted}");
+
+    // A light nudged by a tenth of a millimetre: the data differ (another
+    // static scene), nobody sees it; the script as written passes.
+    let tolerable = tmp.path().join("tolerable");
+    repo_with_accepted_level(&tolerable, CI_BAKE);
+    corner_with_light_moved(&tolerable.join("levels/corner.glb"), -1e-4);
+    let mut e = env.to_vec();
+    e.push(("BASE", "HEAD"));
+    let r = sh_in(&tolerable, &script, &e);
+    no_panic(&r);
+    assert_eq!(r.code, Some(0), "a change within tolerance passes\n{r}");
+    let summary = std::fs::read_to_string(tolerable.join("ci-diff/summary.md")).unwrap();
+    assert!(
+        summary.contains("## corner: **PASS**, no visible change"),
+        "{summary}"
+    );
+    assert!(
+        summary.contains("DIFFERENT SCENES"),
+        "the data diff is there\n{summary}"
+    );
+    assert!(summary.contains("No visible change."), "{summary}");
+}
+
+/// The RGB8 pixels of a PNG the binary wrote.
+fn png_rgb(path: &Path) -> Vec<u8> {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    buf.truncate(info.buffer_size());
+    buf
+}
+
+#[test]
+fn diff_scene_judges_by_the_images_and_refuses_what_it_cannot_compare() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let corner = dir.join("corner.glb");
+    std::fs::copy(common::data("corner_bunny.glb"), &corner).unwrap();
+    let bake = |scene: &Path, out: &Path, vpls: &str| {
+        let mut c = common::gibake();
+        c.args(["bake"]).arg(scene).arg("-o").arg(out);
+        let flags = CI_BAKE.replace("--vpls 64", &format!("--vpls {vpls}"));
+        c.args(flags.split_whitespace());
+        let r = run(c);
+        assert_eq!(r.code, Some(0), "{r}");
+    };
+    let (a, b) = (dir.join("a.gibake"), dir.join("b.gibake"));
+    bake(&corner, &a, "64");
+    bake(&corner, &b, "60");
+    let diff = |extra: &[&dyn AsRef<std::ffi::OsStr>]| {
+        let mut c = common::gibake();
+        c.arg("diff").arg(&a).arg(&b);
+        for e in extra {
+            c.arg(e);
+        }
+        run(c)
+    };
+    // The data differ (another budget): exit 1 without --scene ...
+    assert_eq!(diff(&[]).code, Some(1));
+    // ... and nobody sees it: exit 0 with it; the JSON has both diffs.
+    let r = diff(&[
+        &"--scene",
+        &corner,
+        &"--width",
+        &"96",
+        &"--height",
+        &"54",
+        &"--json",
+    ]);
+    assert_eq!(r.code, Some(0), "{r}");
+    let j: serde_json::Value = serde_json::from_str(&r.stdout).expect("one JSON object");
+    assert!(
+        j["differences"].as_array().is_some_and(|d| !d.is_empty()),
+        "{j}"
+    );
+    let views = j["image_diff"]["views"]
+        .as_array()
+        .expect("image_diff.views");
+    assert_eq!(views.len(), 1, "{j}");
+    assert_eq!(views[0]["view"], "camera");
+    assert_eq!(j["image_diff"]["visible"], false);
+    let flip = views[0]["flip"].as_f64().unwrap();
+    assert!(flip > 0.0 && flip < 0.02, "{flip}");
+    // Two views and two times: four rows; the look-at view is named.
+    let r = diff(&[
+        &"--scene",
+        &corner,
+        &"--width",
+        &"64",
+        &"--height",
+        &"36",
+        &"--view=2,1.5,2,-0.5,0.5,-0.5,50",
+        &"--view-camera",
+        &"camera",
+        &"--time",
+        &"0",
+        &"--time",
+        &"0.5",
+    ]);
+    assert_eq!(r.code, Some(0), "{r}");
+    assert_eq!(r.stdout.matches(" at t = ").count(), 4, "{r}");
+    assert!(r.stdout.contains("view at t = 0.5 s"), "{r}");
+
+    // Refused, exit 2, before any render: one --scene for two levels ...
+    let moved = dir.join("moved.glb");
+    corner_with_light_moved(&moved, -0.5);
+    let c = dir.join("c.gibake");
+    bake(&moved, &c, "64");
+    let mut cmd = common::gibake();
+    cmd.arg("diff").arg(&a).arg(&c).arg("--scene").arg(&corner);
+    let r = run(cmd);
+    assert_eq!(r.code, Some(2), "{r}");
+    assert!(r.stderr.contains("--scene A_SCENE --scene B_SCENE"), "{r}");
+    // ... a level without a camera and no --view ...
+    let room = dir.join("room.glb");
+    edit_glb(&corner, &room, |j| {
+        j["nodes"][18].as_object_mut().unwrap().remove("camera");
+    });
+    let mut cmd = common::gibake();
+    cmd.arg("diff").arg(&a).arg(&b).arg("--scene").arg(&room);
+    let r = run(cmd);
+    assert_eq!(r.code, Some(2), "{r}");
+    assert!(r.stderr.contains("the level has no camera"), "{r}");
+    // ... a view without --scene, --images naming a file, --markdown not .md.
+    let notes = dir.join("notes.txt");
+    std::fs::write(&notes, b"mine").unwrap();
+    for (args, says) in [
+        (
+            vec!["--view=1,1,1,0,0,0".to_string()],
+            "give --scene LEVEL too",
+        ),
+        (
+            vec!["--images".into(), notes.display().to_string()],
+            "is a regular file",
+        ),
+        (
+            vec!["--markdown".into(), dir.join("s.txt").display().to_string()],
+            "--markdown must name a .md or .markdown file",
+        ),
+    ] {
+        let mut cmd = common::gibake();
+        cmd.arg("diff").arg(&a).arg(&b).args(&args);
+        let r = run(cmd);
+        assert_eq!(r.code, Some(2), "{args:?}\n{r}");
+        assert!(r.stderr.contains(says), "{says}\n{r}");
+    }
+    assert_eq!(std::fs::read(&notes).unwrap(), b"mine");
+}
