@@ -18,20 +18,22 @@ OUT=${OUT:-ci-diff}
 BAKE_FLAGS=${BAKE_FLAGS:-}
 DIFF_FLAGS=${DIFF_FLAGS:-}
 
-mkdir -p "$OUT/base" "$OUT/new" || exit 2
+mkdir -p "$OUT/base" "$OUT/new" "$OUT/pictures" || exit 2
 # The levels as they were at BASE (a .gltf level keeps its .bin and textures).
 if git cat-file -e "$BASE:$LEVELS" 2>/dev/null; then
     git archive "$BASE" "$LEVELS" | tar -x -C "$OUT/base" || exit 2
 fi
+# The levels the change added, modified or renamed.
+git -c core.quotePath=false diff --name-only --diff-filter=AMR "$BASE" -- "$LEVELS" |
+    grep -E '\.(glb|gltf)$' > "$OUT/levels.txt"
 summary="$OUT/summary.md"
 printf '# Baked lighting: what changed since %s\n\n' "$BASE" > "$summary"
 worst=0
-for level in $(git diff --name-only --diff-filter=AMR "$BASE" -- "$LEVELS" |
-               grep -E '\.(glb|gltf)$'); do
+while IFS= read -r level; do
     name=$(basename "$level")
     name=${name%.*}
     # shellcheck disable=SC2086 # the flags are words
-    if ! gibake bake "$level" -o "$OUT/new/$name.gibake" $BAKE_FLAGS; then
+    if ! gibake bake "$level" -o "$OUT/new/$name.gibake" $BAKE_FLAGS < /dev/null; then
         printf '## %s: **FAILED** to bake (see the job log)\n\n' "$level" >> "$summary"
         worst=2
         continue
@@ -43,16 +45,17 @@ for level in $(git diff --name-only --diff-filter=AMR "$BASE" -- "$LEVELS" |
     # shellcheck disable=SC2086
     gibake diff "$ACCEPTED/$name.gibake" "$OUT/new/$name.gibake" \
         --scene "$OUT/base/$level" --scene "$level" \
-        --images "$OUT/$name" --markdown "$OUT/$name.md" $DIFF_FLAGS > "$OUT/$name.txt"
+        --images "$OUT/pictures/$name" --markdown "$OUT/$name.diff.md" \
+        $DIFF_FLAGS > "$OUT/$name.diff.txt" < /dev/null
     rc=$?
-    tail -n 3 "$OUT/$name.txt"
-    if [ -f "$OUT/$name.md" ] && [ $rc -lt 2 ]; then
-        sed "s|^## gibake diff:|## $name:|" "$OUT/$name.md" >> "$summary"
+    tail -n 3 "$OUT/$name.diff.txt"
+    if [ -f "$OUT/$name.diff.md" ] && [ $rc -lt 2 ]; then
+        sed "s|^## gibake diff:|## $name:|" "$OUT/$name.diff.md" >> "$summary"
         printf '\n' >> "$summary"
     else
         printf '## %s: **FAILED** to diff (see the job log)\n\n' "$level" >> "$summary"
     fi
     [ $rc -gt $worst ] && worst=$rc
-done
+done < "$OUT/levels.txt"
 [ $worst -eq 0 ] && printf 'No visible change.\n' >> "$summary"
 exit $worst

@@ -465,13 +465,17 @@ fn the_ci_step_of_docs_pipeline_md_fails_on_a_visible_change_and_passes_a_tolera
         .nth(1)
         .and_then(|s| s.split(')').next())
         .expect("a picture link");
-    assert_eq!(link, "corner/camera_t0.png", "{summary}");
+    assert_eq!(link, "pictures/corner/camera_t0.png", "{summary}");
     let ci = visible.join("ci-diff");
-    for p in [link, "corner/camera_t0_heat.png", "corner/camera_t0_a.png"] {
+    for p in [
+        link,
+        "pictures/corner/camera_t0_heat.png",
+        "pictures/corner/camera_t0_a.png",
+    ] {
         let bytes = std::fs::read(ci.join(p)).unwrap_or_else(|e| panic!("{p}: {e}"));
         assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{p}");
     }
-    let heat = png_rgb(&ci.join("corner/camera_t0_heat.png"));
+    let heat = png_rgb(&ci.join("pictures/corner/camera_t0_heat.png"));
     assert!(heat.iter().any(|&v| v > 128), "the heat map shows a change");
     assert!(
         heat.chunks(3).any(|p| p == [0, 255, 255]),
