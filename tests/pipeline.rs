@@ -141,10 +141,10 @@ fn sharded_and_merged_equals_single_bake_for_every_bundled_scene() {
 #[test]
 fn a_merge_keeps_the_manifests_appended_fields_ring_vpls_and_swept_bounds() {
     // The town under a sun has VPLs on its outer rings (format 4.3's
-    // `ring_vpls`), and the corner its balls' swept box (4.4's
+    // `ring_vpls`), and the corner its balls' swept box (4.5's
     // `swept_bounds`): both are appended to the manifest by hand, outside
-    // its serde fields, so the part must carry them (part version 6; a
-    // merge of version-5 parts lost the ring VPLs).
+    // its serde fields, so the part must carry them (part versions 6 and
+    // 7; a merge of version-5 parts lost the ring VPLs).
     let work = tempfile::tempdir().unwrap();
     let town = common::root().join("data/levels/town/town_model.gltf");
     let cases: [(&Path, &[&str]); 2] = [

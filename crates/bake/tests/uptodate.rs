@@ -2,7 +2,7 @@
 //! a real bake's manifest: nothing differs for the same inputs, and each
 //! changed input is named — including the two the static-scene hash leaves
 //! out (the moving objects' presence and their swept bounds, recorded since
-//! format 4.4, which shape the light view and the VPLs).
+//! format 4.5, which shape the light view and the VPLs).
 
 use std::path::Path;
 
@@ -161,7 +161,7 @@ fn every_changed_input_is_named_and_nothing_else() {
         diff(&lower, &opts, "1.0.0"),
         "the moving objects' swept bounds changed",
     );
-    // An asset from before format 4.4 does not record the box.
+    // An asset from before format 4.5 does not record the box.
     let mut old = m.clone();
     old.swept_bounds = None;
     one(
