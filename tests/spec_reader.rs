@@ -959,6 +959,7 @@ fn reader_reads_the_scene_options() {
     // The same asset as a 4.3 writer wrote it: nothing recorded.
     let mut old = m.clone();
     old.scene_options = None;
+    old.swept_bounds = None;
     let bytes = gibake_asset::testing::manifest_bytes_4_3(&old).unwrap();
     std::fs::write(asset.join(gibake_asset::FILE_MANIFEST), bytes).unwrap();
     let r = read(&py, &asset);
