@@ -10,6 +10,7 @@ mod bench_quick;
 mod bench_small;
 mod budget;
 mod cascades;
+mod ci_diff;
 mod cli_basic;
 mod cli_errors;
 mod common;

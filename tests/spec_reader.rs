@@ -274,17 +274,18 @@ fn reader_refuses_damaged_assets() {
 
     // Re-sealed manifests (payload edited, length and BLAKE3 trailer
     // recomputed): what the spec says a reader must refuse or accept.
-    // The bake writes the current minor (4.4: the views, light_map_size,
-    // the appended view_rsms, ring_vpls and scene_options end the payload;
-    // a one-light asset without rings baked with no scene flag has no
-    // views, so its last nine bytes are the view count 0, light_map_size
-    // 0, the view_rsms count 0, the ring_vpls count 0 and the scene
-    // options `01 00 00 00 00 00`: recorded, none given; 4.2 added a file,
-    // not payload bytes).
+    // The bake writes the current minor (4.5: the views, light_map_size,
+    // the appended view_rsms, ring_vpls, scene_options and swept_bounds
+    // end the payload; a one-light asset without rings baked with no scene
+    // flag has no views, so before swept_bounds its last nine bytes are the
+    // view count 0, light_map_size 0, the view_rsms count 0, the ring_vpls
+    // count 0 and the scene options `01 00 00 00 00 00`: recorded, none
+    // given; 4.2 added a file, not payload bytes). The 4.4 cases below
+    // first drop swept_bounds (`to44`): a whole 4.4 payload.
     assert_eq!(
         (gibake_asset::FORMAT_MAJOR, gibake_asset::FORMAT_MINOR),
-        (4, 4),
-        "the re-sealed cases below are written for format 4.4"
+        (4, 5),
+        "the re-sealed cases below are written for format 4.5"
     );
     let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
     assert!(
@@ -294,13 +295,22 @@ fn reader_refuses_damaged_assets() {
             && m.scene_options == Some(Default::default()),
         "corner_bunny.glb: one light, no views, no ring VPLs, no scene flags\n{m:#?}"
     );
+    // swept_bounds: a count, then six varints (1 byte below 251, 3 below
+    // 2^16, else 5).
+    let swept = m.swept_bounds.expect("the bake records its sweep");
+    let varint = |v: u32| match v {
+        0..=250 => 1,
+        251..=65535 => 3,
+        _ => 5,
+    };
+    let tail: usize = 1 + swept.iter().map(|v| varint(v.to_bits())).sum::<usize>();
     let bytes = std::fs::read(asset.join(gibake_asset::FILE_MANIFEST)).unwrap();
-    assert!(bytes[..bytes.len() - 32].ends_with(&[0, 0, 0, 0, 1, 0, 0, 0, 0, 0]));
-    let reseal_cases: [(&str, &str, Option<&str>); 20] = [
+    let before_swept = &bytes[..bytes.len() - 32 - tail];
+    assert!(before_swept.ends_with(&[0, 0, 0, 0, 1, 0, 0, 0, 0, 0]));
+    let to44 = format!("payload = payload[:-{tail}]; ");
+    let cases_44: [(&str, &str, Option<&str>); 19] = [
         // One byte after the last field, same minor: refused.
         ("payload += b'\\x00'", "4", Some("after the last field")),
-        // The same from a newer minor (4.5): accepted and ignored.
-        ("payload += b'\\x00'", "5", None),
         // light_map_size cut off: refused.
         (
             "payload = payload[:-9]",
@@ -390,9 +400,51 @@ fn reader_refuses_damaged_assets() {
             "4",
             Some("light_map_size is 5 but there are no views"),
         ),
-        // Control: re-sealed unchanged, accepted.
+        // Control: a whole 4.4 payload (swept bounds not recorded): accepted.
         ("pass", "4", None),
     ];
+    let mut reseal_cases: Vec<(String, &str, Option<&str>)> = cases_44
+        .iter()
+        .map(|(e, minor, r)| (format!("{to44}{e}"), *minor, *r))
+        .collect();
+    let nan = "b'\\xfc\\x00\\x00\\xc0\\x7f'";
+    let cases_45: [(String, &str, Option<&str>); 7] = [
+        // Control: re-sealed unchanged, accepted.
+        ("pass".into(), "5", None),
+        // One byte after the last field of 4.5: refused ...
+        (
+            "payload += b'\\x00'".into(),
+            "5",
+            Some("after the last field"),
+        ),
+        // ... and accepted from a newer minor (4.6), ignored.
+        ("payload += b'\\x00'".into(), "6", None),
+        // swept_bounds cut inside: refused.
+        (
+            "payload = payload[:-1]".into(),
+            "5",
+            Some("payload ends inside swept_bounds"),
+        ),
+        // A 4.4 payload read as 4.5: it ends where swept_bounds' count is.
+        (
+            to44.clone(),
+            "5",
+            Some("payload ends inside swept_bounds length"),
+        ),
+        // Three values, not six: refused.
+        (
+            format!("{to44}payload += b'\\x03\\x00\\x00\\x00'"),
+            "5",
+            Some("swept_bounds holds 3 values"),
+        ),
+        // A NaN: refused.
+        (
+            format!("{to44}payload += b'\\x06\\x00\\x00\\x00' + {nan} + b'\\x00\\x00'"),
+            "5",
+            Some("swept_bounds holds NaN"),
+        ),
+    ];
+    reseal_cases.extend(cases_45);
     for (k, (edit, minor, refusal)) in reseal_cases.iter().enumerate() {
         let copy = copy_asset(&asset, work.path(), &format!("reseal{k}.gibake"));
         reseal(&py, &copy.join("manifest.bin"), edit, minor);
@@ -907,6 +959,7 @@ fn reader_reads_the_scene_options() {
     // The same asset as a 4.3 writer wrote it: nothing recorded.
     let mut old = m.clone();
     old.scene_options = None;
+    old.swept_bounds = None;
     let bytes = gibake_asset::testing::manifest_bytes_4_3(&old).unwrap();
     std::fs::write(asset.join(gibake_asset::FILE_MANIFEST), bytes).unwrap();
     let r = read(&py, &asset);

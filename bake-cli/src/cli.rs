@@ -232,6 +232,8 @@ pub enum Command {
     /// ASSET` prints them).
     Reference(ReferenceArgs),
     /// Compare two baked assets: exit 0 equal (within tolerance), 1 different, 2 bad input.
+    /// With --scene, render both and compare what a player sees: exit 1 on
+    /// a visible change.
     Diff(DiffArgs),
     /// Describe a baked asset: counts, sizes, settings, provenance, VPL flux.
     Inspect(InspectArgs),
@@ -657,9 +659,72 @@ pub struct DiffArgs {
     /// Count provenance differences (adapter, driver, baker version) as differences.
     #[arg(long)]
     pub strict_provenance: bool,
-    /// Write |A−B| EXR images of the maps that differ into this directory.
+    /// Write |A−B| EXR images of the maps that differ into this directory
+    /// (created); with --scene also, per view, A's and B's frames and a heat
+    /// map as PNGs (`VIEW_a.png`, `VIEW_b.png`, `VIEW_heat.png`) and the
+    /// three side by side (`VIEW.png`).
     #[arg(long, value_name = "DIR")]
     pub images: Option<PathBuf>,
+    /// The image-space diff (what a player sees differently): render both
+    /// assets from the level's camera (or --view-camera / --view) and
+    /// compare the frames. Give the scene both were baked from, or twice:
+    /// A's scene, then B's (a level that changed). The verdict then comes
+    /// from the images (--max-image-relmse, --max-flip); the data diff is
+    /// still reported.
+    #[arg(long = "scene", value_name = "SCENE.glb", num_args = 1, action = clap::ArgAction::Append)]
+    pub scenes: Vec<PathBuf>,
+    /// With --scene: --sun, --dynamic, --bake-volume as `render` takes them
+    /// (each asset's recorded flags apply when none is given).
+    #[command(flatten)]
+    pub level: LevelArgs,
+    /// With --scene: only these lights (as `render --light`; repeatable).
+    #[arg(long = "light", value_name = "NAME")]
+    pub lights: Vec<String>,
+    /// With --scene: import budgets.
+    #[command(flatten)]
+    pub limits: crate::limits::LimitArgs,
+    /// With --scene: a view from the scene's camera of this name
+    /// (repeatable). Default: the scene's first camera.
+    #[arg(long = "view-camera", value_name = "NAME")]
+    pub view_cameras: Vec<String>,
+    /// With --scene: a view from a perspective camera at EYE looking at
+    /// TARGET, vertical field of view FOV degrees (default 60; repeatable;
+    /// write `--view=-2,1,…` when the first number is negative).
+    #[arg(long = "view", value_name = "EX,EY,EZ,TX,TY,TZ[,FOV]", value_parser = parse_look_at, allow_hyphen_values = true)]
+    pub views: Vec<[f32; 7]>,
+    /// With --scene: animation times to compare at, in seconds (repeatable;
+    /// default 0).
+    #[arg(long = "time", value_name = "T")]
+    pub times: Vec<f32>,
+    /// With --scene: frame width in pixels (small keeps a CI step fast).
+    #[arg(long, default_value_t = 320)]
+    pub width: u32,
+    /// With --scene: frame height in pixels.
+    #[arg(long, default_value_t = 180)]
+    pub height: u32,
+    /// With --scene: supersampling (render N× larger, box-filter down).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub ssaa: u32,
+    /// With --scene: primary shadow map resolution of the renders.
+    #[arg(long, default_value_t = 2048)]
+    pub shadow_map_size: u32,
+    /// With --scene: a view whose frames differ by more than this rel MSE
+    /// (per pixel and channel (b−a)²/(a²+0.01), averaged) is a visible
+    /// change (exit 1).
+    #[arg(long, value_name = "X", default_value_t = 0.002, value_parser = crate::limits::tolerance_f64("--max-image-relmse"))]
+    pub max_image_relmse: f64,
+    /// With --scene: a view whose frames differ by more than this mean FLIP
+    /// (NVIDIA's perceptual difference, 0 to 1) is a visible change.
+    #[arg(long, value_name = "X", default_value_t = 0.02, value_parser = crate::limits::tolerance_f64("--max-flip"))]
+    pub max_flip: f64,
+    /// Write a Markdown summary (verdict, a table per view, the pictures of
+    /// --images by paths relative to FILE's directory, the data diff) for a
+    /// CI job summary or a review comment.
+    #[arg(long, value_name = "FILE.md")]
+    pub markdown: Option<PathBuf>,
+    /// The GPU adapter of the renders (a substring of its name).
+    #[arg(long, value_name = "NAME")]
+    pub adapter: Option<String>,
 }
 
 /// Tolerance presets of `diff`.

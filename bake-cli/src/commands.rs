@@ -471,8 +471,33 @@ pub(crate) fn inspect(a: InspectArgs) -> anyhow::Result<ExitCode> {
 }
 
 pub(crate) fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
+    // Every output and every option checked before any work.
+    let inputs: Vec<&Path> = [&a.a, &a.b]
+        .into_iter()
+        .chain(&a.scenes)
+        .map(PathBuf::as_path)
+        .collect();
     if let Some(dir) = &a.images {
-        crate::output::check_not_input("--images", dir, &[&a.a, &a.b])?;
+        crate::output::check_not_input("--images", dir, &inputs)?;
+        crate::guard::check_dir_output("--images", dir)?;
+    }
+    if let Some(md) = &a.markdown {
+        crate::output::check_extension("--markdown", md, &["md", "markdown"])?;
+        crate::output::check_not_input("--markdown", md, &inputs)?;
+        crate::guard::check_file_output("--markdown", md)?;
+    }
+    if a.scenes.is_empty() {
+        for (given, flag) in [
+            (!a.views.is_empty(), "--view"),
+            (!a.view_cameras.is_empty(), "--view-camera"),
+            (!a.times.is_empty(), "--time"),
+        ] {
+            if given {
+                bail!("{flag} chooses what the image-space diff renders: give --scene LEVEL too");
+            }
+        }
+    } else {
+        crate::scene_diff::check_args(&a)?;
     }
     let asset_a = crate::limits::load_asset(&a.a)?;
     let asset_b = crate::limits::load_asset(&a.b)?;
@@ -494,10 +519,28 @@ pub(crate) fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
     }
     tol.strict_provenance |= a.strict_provenance;
     let report = gibake_asset::diff(&asset_a, &asset_b, &tol);
+    let images = if a.scenes.is_empty() {
+        None
+    } else {
+        Some(crate::scene_diff::run(&a, &asset_a, &asset_b)?)
+    };
+    let md_dir = a.markdown.as_deref().map(|m| {
+        m.parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."))
+            .to_owned()
+    });
     if a.json {
-        crate::output::print_stdout(&serde_json::to_string_pretty(&report)?)?;
+        let mut j = serde_json::to_value(&report)?;
+        if let Some(i) = &images {
+            j["image_diff"] = i.json(None);
+        }
+        crate::output::print_stdout(&serde_json::to_string_pretty(&j)?)?;
     } else {
         crate::output::print_stdout(&report.to_string())?;
+        if let Some(i) = &images {
+            crate::output::print_stdout(&i.text())?;
+        }
     }
     if let Some(dir) = &a.images {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -505,9 +548,37 @@ pub(crate) fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
             eprintln!("wrote {}", p.display());
         }
     }
-    Ok(if report.equal() {
-        ExitCode::SUCCESS
-    } else {
+    if let (Some(md), Some(dir)) = (&a.markdown, &md_dir) {
+        let text = match &images {
+            Some(i) => i.markdown(&a.a, &a.b, dir, &report.to_string()),
+            None => data_markdown(&a, &report),
+        };
+        crate::output::write_atomic(md, text.as_bytes())?;
+        eprintln!("wrote {}", md.display());
+    }
+    let different = match &images {
+        Some(i) => i.visible(),
+        None => !report.equal(),
+    };
+    Ok(if different {
         ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
     })
+}
+
+/// The Markdown summary of a data diff alone (no --scene).
+fn data_markdown(a: &DiffArgs, report: &gibake_asset::DiffReport) -> String {
+    let name = |p: &Path| crate::guard::lossy(p.file_name().map_or(p, Path::new));
+    let (mark, words) = if report.equal() {
+        ("PASS", "equal within the tolerance")
+    } else {
+        ("FAIL", "different")
+    };
+    format!(
+        "## gibake diff: **{mark}**, {words}\n\n`{}` against `{}` (the baked data; give `--scene LEVEL` to compare what a player sees).\n\n```\n{}\n```\n",
+        name(&a.a),
+        name(&a.b),
+        report.to_string().trim_end()
+    )
 }

@@ -92,15 +92,22 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
             a.scenes.len()
         );
     };
-    if a.shard.is_some() {
+    // A link to an asset directory is written where it points.
+    let target = if a.shard.is_some() {
         crate::guard::check_part_output(&output)?;
+        output.clone()
     } else {
-        crate::guard::check_asset_output("-o", &output)?;
-    }
+        crate::guard::check_asset_output("-o", &output)?
+    };
     crate::output::check_not_input("-o", &output, &[scene_path])?;
     // One writer per output from here on: a second bake of the same output
-    // waits, then finds it up to date.
-    let _lock = crate::guard::lock_output(&output)?;
+    // waits, then finds it up to date. Where the lock cannot be taken (a
+    // read-only checkout), only the up-to-date check may go on: it reads.
+    let lock = if a.shard.is_some() {
+        Ok(crate::guard::lock_output(&output)?)
+    } else {
+        lock_and_tidy(&target)
+    };
     let opts = options(&a);
     let flags = recorded(&a);
     let total = Instant::now();
@@ -123,7 +130,7 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
     }
     // The up-to-date check needs only the adapter's identity, not a device.
     let record = GpuContext::adapter_record(&gpu)?;
-    let (freshness, check_s) = decide(&output, &scene, &opts, &flags, a.force, &record);
+    let (freshness, check_s) = decide(&target, &scene, &opts, &flags, a.force, &record, &lock)?;
     let o = match freshness {
         Freshness::UpToDate => Outcome {
             reasons: None,
@@ -141,7 +148,7 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
                 check_s,
                 load_s,
             };
-            bake_stale(&ctx, &scene, &output, &opts, &flags, stale, &progress)?
+            bake_stale(&ctx, &scene, &target, &opts, &flags, stale, &progress)?
         }
     };
     let total_s = total.elapsed().as_secs_f64();
@@ -258,9 +265,39 @@ impl Outcome {
     }
 }
 
+/// Locks the asset output `target` for the rest of the command and removes
+/// the temporaries an earlier run left there when it was killed (even when
+/// this run then finds the asset up to date and writes nothing). An error
+/// (a read-only file system, a planted link in place of the lock file) is
+/// returned for [`decide`] to judge: an up-to-date check needs no lock.
+fn lock_and_tidy(target: &Path) -> anyhow::Result<gibake_output::OutputLock> {
+    let lock = crate::guard::lock_output(target)?;
+    let owned: Vec<std::ffi::OsString> = gibake_asset::owned_names(target)
+        .into_iter()
+        .map(Into::into)
+        .collect();
+    let removed = gibake_output::remove_stale(target, &owned, &lock);
+    if !removed.is_empty() {
+        eprintln!(
+            "{}: removed what an earlier run left when it was stopped: {}",
+            target.display(),
+            removed
+                .iter()
+                .map(|p| lossy(p.file_name().unwrap_or(p.as_os_str()).as_ref()))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(lock)
+}
+
 /// Whether `out` needs a (re-)bake, and how long deciding took: the bake
 /// library's check ([`gibake_bake::check_up_to_date`]), and whether the
-/// asset records the scene options `flags` ([`flags_change`]).
+/// asset records the scene options `flags` ([`flags_change`]). `lock` is
+/// the output's lock, or why it could not be taken: then only "up to date"
+/// is an answer (it writes nothing; a note says the check ran without the
+/// lock), and a needed bake is an error that gives the reasons and why the
+/// output cannot be written.
 fn decide(
     out: &Path,
     scene: &Scene,
@@ -268,7 +305,8 @@ fn decide(
     flags: &SceneOptions,
     force: bool,
     adapter: &gibake_gpu::AdapterRecord,
-) -> (Freshness, f64) {
+    lock: &anyhow::Result<gibake_output::OutputLock>,
+) -> anyhow::Result<(Freshness, f64)> {
     let check = Instant::now();
     let freshness = if force {
         Freshness::Stale(vec!["--force".into()])
@@ -285,7 +323,21 @@ fn decide(
             }
         }
     };
-    (freshness, check.elapsed().as_secs_f64())
+    let seconds = check.elapsed().as_secs_f64();
+    if let Err(e) = lock {
+        match &freshness {
+            Freshness::UpToDate => eprintln!(
+                "{}: checked without the output's lock, which cannot be taken ({e}); nothing needs writing",
+                out.display()
+            ),
+            Freshness::Stale(reasons) => bail!(
+                "{}: needs a bake ({}) but cannot be written: {e}",
+                out.display(),
+                reasons.join("; ")
+            ),
+        }
+    }
+    Ok((freshness, seconds))
 }
 
 /// Why the asset at `out` does not record the scene options `flags` a
@@ -329,7 +381,8 @@ fn bake_one(
     progress: &dyn BakeProgress,
     load_s: f64,
 ) -> anyhow::Result<Outcome> {
-    match decide(out, scene, opts, flags, force, &ctx.record) {
+    let lock = lock_and_tidy(out);
+    match decide(out, scene, opts, flags, force, &ctx.record, &lock)? {
         (Freshness::UpToDate, check_s) => Ok(Outcome {
             reasons: None,
             check_s,
@@ -511,8 +564,10 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
     }
     std::fs::create_dir_all(dir)
         .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
+    // Where each asset is written (a link to an asset directory: there).
+    let mut targets = Vec::new();
     for (_, out) in &outs {
-        crate::guard::check_asset_output("--out-dir", out)?;
+        targets.push(crate::guard::check_asset_output("--out-dir", out)?);
     }
     let opts = options(a);
     let flags = recorded(a);
@@ -532,15 +587,16 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
     };
     let mut results = Vec::new();
     let mut failed = Vec::new();
-    for (scene_path, out) in &outs {
+    for ((scene_path, out), target) in outs.iter().zip(&targets) {
         let t = Instant::now();
         let mut warnings = Vec::new();
         let r = (|| {
             let scene = load_scene(&scene_args(a, scene_path))?;
             warnings.clone_from(&scene.warnings);
             let load_s = t.elapsed().as_secs_f64();
-            let _lock = crate::guard::lock_output(out)?;
-            bake_one(&ctx, &scene, out, &opts, &flags, a.force, &progress, load_s)
+            bake_one(
+                &ctx, &scene, target, &opts, &flags, a.force, &progress, load_s,
+            )
         })();
         progress.end();
         let seconds = t.elapsed().as_secs_f64();
@@ -611,10 +667,10 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
 
 /// `gibake merge PART... -o OUT.gibake`.
 pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
-    crate::guard::check_asset_output("-o", &a.output)?;
+    let target = crate::guard::check_asset_output("-o", &a.output)?;
     let inputs: Vec<&Path> = a.parts.iter().map(PathBuf::as_path).collect();
     crate::output::check_not_input("-o", &a.output, &inputs)?;
-    let _lock = crate::guard::lock_output(&a.output)?;
+    let _lock = lock_and_tidy(&target)?;
     let t = Instant::now();
     // One part's front data in memory at a time (plus every shard's maps).
     let mut merger = gibake_asset::Merger::default();
@@ -622,7 +678,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
         merger.add(p.clone(), gibake_asset::load_part(p)?)?;
     }
     let asset = merger.finish()?;
-    gibake_asset::write(&asset, &a.output)?;
+    gibake_asset::write(&asset, &target)?;
     let seconds = t.elapsed().as_secs_f64();
     let m = &asset.manifest;
     if a.json {

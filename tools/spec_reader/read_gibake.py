@@ -27,6 +27,9 @@ another language. It
   a directional light; ring VPLs are left out of the light-view, RSM and
   light-map surface checks (no RSM texel may name them) and their hemisphere
   maps' origins are lifted by one texel's radius,
+- reads `swept_bounds` (4.5: the moving objects' swept box the bake used,
+  six f32 bit patterns, or none): nothing else depends on it, so it is
+  only checked for its length and NaN,
 - checks the RSM against the first light's VPLs (texel counts, flux shares
   adding up to each VPL, each position at its texel nearest to the
   flux-weighted centroid),
@@ -69,7 +72,7 @@ except ImportError as e:  # pragma: no cover - environment problem
 
 MAGIC = b"GIBAKE\x00\x01"
 READER_MAJOR = 4
-READER_MINOR = 4
+READER_MINOR = 5
 MAX_PAYLOAD = 16 * 1024 * 1024
 MAX_MAP_SIZE = 16384
 # Most texels of one map file (an atlas).
@@ -412,6 +415,21 @@ def read_manifest(asset: str) -> dict:
     # bake applied); a 4.3 or older payload ends before it (None: not
     # recorded).
     m["scene_options"] = read_scene_options(d) if minor >= 4 else None
+    # 4.5 appends swept_bounds (Vec<u32>: none, or the f32 bit patterns of
+    # the moving objects' swept box, min x y z then max x y z); a 4.4 or
+    # older payload ends before it (not recorded).
+    m["swept_bounds"] = None
+    if minor >= 5:
+        bits = appended("swept_bounds", 6, "box bounds")
+        if len(bits) not in (0, 6):
+            raise AssetError(
+                f"manifest.bin: swept_bounds holds {len(bits)} values (none, or the box's six)"
+            )
+        if bits:
+            box = [struct.unpack("<f", struct.pack("<I", b))[0] for b in bits]
+            if any(v != v for v in box):
+                raise AssetError("manifest.bin: swept_bounds holds NaN")
+            m["swept_bounds"] = box
     extra = length - d.pos
     if extra and minor <= READER_MINOR:
         raise AssetError(

@@ -6,6 +6,7 @@
 
 use std::collections::HashMap;
 use std::fmt;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -1470,7 +1471,13 @@ fn write_exr(
     let path = dir.join(name);
     let bytes = exrio::encode(w, h, channels)
         .map_err(|e| AssetError::invalid(&path, format!("cannot encode EXR: {e}")))?;
-    std::fs::write(&path, bytes).map_err(|e| AssetError::io(&path, e))?;
+    // Through a temporary sibling and a rename, as every output: a full
+    // disk leaves the old image (or none), never a short one under its name.
+    let mut out = gibake_output::FileWriter::create(&path, &mut |_| {})?;
+    out.file()
+        .write_all(&bytes)
+        .map_err(|e| AssetError::io(&path, e))?;
+    out.commit()?;
     Ok(path)
 }
 

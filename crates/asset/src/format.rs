@@ -113,6 +113,19 @@ fn encode_manifest_as(manifest: &Manifest, minor: u16, path: &Path) -> Result<Ve
             format!("cannot encode the manifest: format 4.{minor} has no scene_options"),
         ));
     }
+    if minor >= 5 {
+        let bits: Vec<u32> = manifest
+            .swept_bounds
+            .map(|b| b.map(f32::to_bits).to_vec())
+            .unwrap_or_default();
+        let appended = bincode::encode_to_vec(&bits, bincode_config()).map_err(cannot)?;
+        payload.extend_from_slice(&appended);
+    } else if manifest.swept_bounds.is_some() {
+        return Err(AssetError::invalid(
+            path,
+            format!("cannot encode the manifest: format 4.{minor} has no swept_bounds"),
+        ));
+    }
     let mut out = Vec::with_capacity(HEADER_BYTES + payload.len() + TRAILER_BYTES);
     out.extend_from_slice(&MAGIC);
     out.extend_from_slice(&FORMAT_MAJOR.to_le_bytes());
@@ -191,6 +204,28 @@ fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetEr
             bincode::serde::decode_from_slice(&payload[used..], bincode_config())
                 .map_err(|e| bad(format!("damaged manifest payload: scene_options: {e}")))?;
         manifest.scene_options = v;
+        used += n;
+    }
+    if minor >= 5 {
+        // 4.5 appends `swept_bounds`: none (not recorded) or the six f32
+        // bit patterns of the moving objects' swept box.
+        let (v, n) =
+            decode_appended(&payload[used..], "swept_bounds", 6, "box bounds").map_err(bad)?;
+        manifest.swept_bounds = match v.len() {
+            0 => None,
+            6 => {
+                let b: [f32; 6] = std::array::from_fn(|k| f32::from_bits(v[k]));
+                if b.iter().any(|x| x.is_nan()) {
+                    return Err(bad("swept_bounds holds NaN".into()));
+                }
+                Some(b)
+            }
+            k => {
+                return Err(bad(format!(
+                    "swept_bounds holds {k} values (none, or the box's six)"
+                )));
+            }
+        };
         used += n;
     }
     if used != payload.len() && !is_newer_minor(minor) {
@@ -1512,7 +1547,9 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
 
 /// The names of the files an asset directory's format owns: the fixed names
 /// and, if the old manifest can be decoded, every plain name it lists.
-fn owned_names(dir: &Path) -> Vec<String> {
+/// Anything else in an asset directory is a user's (kept by every replace,
+/// never removed as a stale temporary's content).
+pub fn owned_names(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = [
         FILE_MANIFEST,
         FILE_VPLS,
@@ -1562,9 +1599,16 @@ fn check_target(dir: &Path) -> Result<(), AssetError> {
         Err(e) => return Err(AssetError::io(dir, e)),
     };
     if !meta.is_dir() {
+        // Say what is there: a link to an asset is a directory to its user.
+        let what = gibake_output::describe(dir).unwrap_or_else(|| "gone".into());
+        let hint = if meta.file_type().is_symlink() {
+            ": an asset is replaced by swapping directories, which would replace the link itself; give the directory it points to"
+        } else {
+            ", not a directory"
+        };
         return Err(AssetError::invalid(
             dir,
-            "exists and is not a directory; refusing to replace it with an asset",
+            format!("is {what}{hint}; refusing to replace it with an asset"),
         ));
     }
     let empty = fs::read_dir(dir)
@@ -1790,10 +1834,17 @@ pub mod testing {
 
     /// The bytes of `manifest.bin` for `manifest` as a format 4.3 writer
     /// wrote them (minor 3, the payload ends after `ring_vpls`; its
-    /// `scene_options` must be `None`): to check that 4.3 assets still
-    /// load.
+    /// `scene_options` and `swept_bounds` must be `None`): to check that
+    /// 4.3 assets still load.
     pub fn manifest_bytes_4_3(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
         encode_manifest_as(manifest, 3, Path::new(FILE_MANIFEST))
+    }
+
+    /// The bytes of `manifest.bin` for `manifest` as a format 4.4 writer
+    /// wrote them (minor 4, the payload ends after `scene_options`; its
+    /// `swept_bounds` must be `None`): to check that 4.4 assets still load.
+    pub fn manifest_bytes_4_4(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
+        encode_manifest_as(manifest, 4, Path::new(FILE_MANIFEST))
     }
 
     fn before_4_2(manifest: &Manifest) -> Manifest {

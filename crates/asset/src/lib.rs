@@ -44,7 +44,7 @@ pub use format::{
     DEFAULT_MAX_DECODED_BYTES, FILE_LIGHT_MAPS, FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM,
     FILE_VIEW_RSMS, FILE_VPL_COHERENCE, FILE_VPL_MAPS, FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE,
     VPL_RECORD_BYTES, check_output, check_scene_hash, check_scene_hash_for, decoded_bytes, load,
-    load_manifest, load_with_limit, verify_files, write,
+    load_manifest, load_with_limit, owned_names, verify_files, write,
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
 pub use scene_options::{
@@ -68,8 +68,10 @@ pub const FORMAT_MAJOR: u16 = 4;
 /// an older asset reads with none, every level-3 node one cosine lobe.
 /// 4.3: [`Manifest::ring_vpls`] appended after `view_rsms`; an older asset
 /// reads with no ring VPLs. 4.4: [`Manifest::scene_options`] appended after
-/// `ring_vpls`; an older asset reads with none recorded).
-pub const FORMAT_MINOR: u16 = 4;
+/// `ring_vpls`; an older asset reads with none recorded. 4.5:
+/// [`Manifest::swept_bounds`] appended after `scene_options`; an older
+/// asset reads with `None`).
+pub const FORMAT_MINOR: u16 = 5;
 
 /// One static VPL record. Stored as a little-endian array in `vpls.bin`
 /// (48 bytes each, fields in this order).
@@ -562,6 +564,19 @@ pub struct Manifest {
     /// ([`SceneOptions::resolve`]). Encoded by hand (see `format.rs`).
     #[serde(skip)]
     pub scene_options: Option<SceneOptions>,
+    /// Format 4.5, appended after [`Manifest::scene_options`] (an older
+    /// manifest ends before it: `None`, not recorded): the moving objects'
+    /// swept bounds the bake used, `[min x, min y, min z, max x, max y,
+    /// max z]` in world units (`Scene::dynamic_swept_bounds`; an empty box,
+    /// `+∞ … −∞`, for a scene without moving objects). The static-scene
+    /// hash leaves the moving objects out, yet the bake's bytes depend on
+    /// these bounds (the light views are fitted to them; the reach probe
+    /// aims rays at them and keeps the VPLs that light only them, which
+    /// moves a `--vpls` budget's threshold), so the up-to-date check
+    /// compares them bit for bit. Encoded by hand as the six values' f32
+    /// bit patterns in a bincode `Vec<u32>` (0 entries: not recorded).
+    #[serde(skip)]
+    pub swept_bounds: Option<[f32; 6]>,
 }
 
 impl Manifest {

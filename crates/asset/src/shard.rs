@@ -21,7 +21,9 @@ use crate::{Asset, AssetError, Manifest, Map, MapAtlas, NO_MAP, RsmData, VplReco
 /// Magic bytes at the start of a part file.
 pub const PART_MAGIC: [u8; 8] = *b"GIBKPART";
 /// Part format version: parts are transient, so any other version is refused.
-pub const PART_VERSION: u16 = 6;
+/// (7: the manifest's `swept_bounds`, which its serde encoding skips,
+/// follows `scene_options`.)
+pub const PART_VERSION: u16 = 7;
 /// Largest shard count accepted.
 pub const MAX_SHARDS: u32 = 4096;
 /// Largest accepted part file (16 GiB).
@@ -117,6 +119,8 @@ struct PartPayload {
     /// encoding; part version 6: version 5 lost the ring VPLs).
     ring_vpls: Vec<u32>,
     scene_options: Option<crate::SceneOptions>,
+    /// The manifest's `swept_bounds` (part version 7).
+    swept_bounds: Option<[f32; 6]>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -305,6 +309,7 @@ fn encode_part(part: &ShardPart, path: &Path) -> Result<Vec<u8>, AssetError> {
         ),
         ring_vpls: a.manifest.ring_vpls.clone(),
         scene_options: a.manifest.scene_options.clone(),
+        swept_bounds: a.manifest.swept_bounds,
     };
     let body = bincode::serde::encode_to_vec(&payload, part_config())
         .map_err(|e| AssetError::invalid(path, format!("cannot encode the part: {e}")))?;
@@ -360,6 +365,7 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
     manifest.view_rsms = view_rsm_list;
     manifest.ring_vpls = p.ring_vpls;
     manifest.scene_options = p.scene_options;
+    manifest.swept_bounds = p.swept_bounds;
     let (lt, ln, lmaps) = p.light_maps;
     let light_maps = if ln == 0 {
         MapAtlas::empty(lt)
@@ -713,6 +719,7 @@ mod tests {
             view_rsms: Vec::new(),
             ring_vpls: Vec::new(),
             scene_options: None,
+            swept_bounds: None,
         };
         let rec = VplRecord {
             position: [0.0; 3],

@@ -11,5 +11,6 @@ mod owned_files;
 mod ring_vpls;
 mod roundtrip;
 mod scene_options;
+mod swept_bounds;
 mod view_rsms;
 mod write_safety;

@@ -844,6 +844,7 @@ fn bake_with(
         // The scene options the level was loaded with are the caller's to
         // record (`gibake bake` does; the `Scene` does not hold them).
         scene_options: None,
+        swept_bounds: Some(crate::uptodate::swept_record(scene)),
     };
     let asset = Asset {
         manifest,

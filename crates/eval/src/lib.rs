@@ -27,9 +27,10 @@
 //!
 //! Also the tools' helpers around the runtime that a game does not need:
 //! [`frame`] (render a scene's own frame, read an output back),
-//! [`transport`] (the CPU twin of the shading's VPL transport) and
+//! [`transport`] (the CPU twin of the shading's VPL transport),
 //! [`moving`] (what moving objects change in a level's indirect light,
-//! judged with correlated reference renders).
+//! judged with correlated reference renders) and [`view_diff`] (the
+//! image-space diff of two bakes of one level, `gibake diff --scene`).
 
 pub mod bounce;
 pub mod fit;
@@ -40,6 +41,7 @@ pub mod lights;
 pub mod moving;
 pub mod pareto;
 pub mod transport;
+pub mod view_diff;
 
 use gibake_asset::Asset;
 use gibake_gpu::GpuContext;

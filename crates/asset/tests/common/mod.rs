@@ -208,6 +208,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
             view_rsms: Vec::new(),
             ring_vpls: Vec::new(),
             scene_options: None,
+            swept_bounds: None,
         },
         vpl_coherence: vec![1.0; vpls.len() * gibake_asset::LEVEL3_NODES],
         vpls,
