@@ -744,11 +744,20 @@ fn inspect_json_has_the_vpl_count() {
         .as_u64()
         .unwrap_or_else(|| panic!("bake --json has no vpls count\n{r}"));
     assert!(vpls > 0, "{r}");
-    // --vpls 16: 16 VPLs in the asset, within 2 (docs/method.md, bake
-    // section 3, "Budget").
+    // --vpls 16: 16 first-bounce VPLs in the asset, within 2
+    // (docs/method.md, bake section 3, "Budget"), and the later bounces'
+    // after them (a quarter as many at most).
+    let first = baked["first_bounce_vpls"]
+        .as_u64()
+        .unwrap_or_else(|| panic!("bake --json has no first_bounce_vpls\n{r}"));
     assert!(
-        (14..=18).contains(&vpls),
-        "asked for 16 VPLs, got {vpls}\n{r}"
+        (14..=18).contains(&first),
+        "asked for 16 VPLs, got {first}\n{r}"
+    );
+    assert_eq!(
+        vpls,
+        first + baked["later"]["vpls"].as_u64().unwrap_or(0),
+        "{r}"
     );
 
     let r = gibake!("inspect", &asset, "--json");

@@ -1054,6 +1054,10 @@ fn render_with_other_lights_than_the_bake_is_refused() {
         "64",
         "--vpls",
         "8",
+        // The first bounce alone: rewritten below as a 4.3 asset, which
+        // had no later bounces.
+        "--bounces",
+        "1",
         "-o",
         &asset
     );

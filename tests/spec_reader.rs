@@ -939,6 +939,10 @@ fn reader_reads_the_scene_options() {
         "--bake-volume=-3,-1,-3,3,3,3",
         "--max-texture-size",
         "1024",
+        // The first bounce alone: rewritten below as a 4.3 asset, which
+        // had no later bounces.
+        "--bounces",
+        "1",
     ]);
     let asset = bake_with(&common::data("occluded.glb"), work.path(), &flags);
     let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
@@ -968,5 +972,63 @@ fn reader_reads_the_scene_options() {
             && r.stdout.contains("gibake asset 4.3")
             && r.stdout.contains("  scene flags: not recorded"),
         "a 4.3 asset must be read with no scene flags\n{r}"
+    );
+}
+
+/// Format 4.6's later bounces: a default bake (the later VPLs the last of
+/// `vpls.bin`, no light's) is read, its record printed, the later VPLs'
+/// maps checked from their lifted origins; a record that claims one later
+/// VPL fewer (the lights' counts then do not add up) is refused by the
+/// reader as by `load`, and a 4.5 manifest of a first-bounce-alone bake
+/// reads as the first bounce alone.
+#[test]
+fn reader_reads_the_later_bounces() {
+    let py = python();
+    let work = tempfile::tempdir().unwrap();
+    let asset = bake_with(&common::data("occluded.glb"), work.path(), &SMALL);
+    let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
+    let later = m
+        .later
+        .clone()
+        .expect("the default bake records its bounces");
+    assert!(later.vpls > 0, "occluded.glb's later bounces were left out");
+    let r = read(&py, &asset);
+    assert!(
+        r.code == Some(0)
+            && r.stdout.contains("gibake asset 4.6")
+            && r.stdout.contains(&format!(
+                "later bounces (every bounce that matters, {} followed): the last {} VPLs",
+                later.per_bounce.len(),
+                later.vpls
+            ))
+            && r.stdout.trim_end().ends_with("OK"),
+        "the reader does not read the later bounces\n{r}"
+    );
+    // One later VPL fewer: the lights' counts and the later ones do not
+    // add up to vpl_count.
+    let bad = copy_asset(&asset, work.path(), "bad.gibake");
+    edit_manifest(&bad, &|m| m.later.as_mut().unwrap().vpls -= 1);
+    let r = read(&py, &bad);
+    assert!(
+        r.code != Some(0) && r.stderr.contains("and the later bounces' to"),
+        "the reader accepts later VPL counts that do not add up\n{r}"
+    );
+    assert!(gibake_asset::load(&bad).is_err());
+    // A first-bounce-alone bake as a 4.5 writer wrote it.
+    let one_dir = work.path().join("one");
+    std::fs::create_dir_all(&one_dir).unwrap();
+    let mut flags = SMALL.to_vec();
+    flags.extend(["--bounces", "1"]);
+    let one = bake_with(&common::data("occluded.glb"), &one_dir, &flags);
+    let m = gibake_asset::load_manifest(&one).unwrap();
+    assert!(m.later.is_none());
+    let bytes = gibake_asset::testing::manifest_bytes_4_5(&m).unwrap();
+    std::fs::write(one.join(gibake_asset::FILE_MANIFEST), bytes).unwrap();
+    let r = read(&py, &one);
+    assert!(
+        r.code == Some(0)
+            && r.stdout.contains("gibake asset 4.5")
+            && !r.stdout.contains("later bounces"),
+        "a 4.5 asset must read as the first bounce alone\n{r}"
     );
 }

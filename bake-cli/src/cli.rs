@@ -312,6 +312,24 @@ pub struct BakeArgs {
     /// budget (--max-memory) is checked again then, before any map is made.
     #[arg(long, value_name = "X", value_parser = threshold_value)]
     pub threshold: Option<f32>,
+    /// How many bounces of light the asset carries, in all (1 to 256), or
+    /// `all`. Default (`all`): every bounce that matters — the first bounce's VPLs (the
+    /// paper's method, shadowed by moving objects each frame) plus VPLs for
+    /// the later bounces of the static scene, gathered on surface samples
+    /// until a bounce carries under a thousandth of the light so far; left
+    /// out when they carry under 0.1% of the light the level's surfaces
+    /// reflect (outdoors). 1: the first bounce alone (the paper's method;
+    /// the asset of earlier versions). In interiors the later bounces carry
+    /// as much light again as the first or many times more
+    /// (docs/method.md, "Every bounce").
+    #[arg(long, value_name = "N|all", value_parser = bake_bounces_value)]
+    pub bounces: Option<gibake_bake::later::Bounces>,
+    /// The later bounces' VPLs (default: a quarter of the first bounce's,
+    /// at least 1). More: the later light nearer the truth where it
+    /// dominates (a white interior), a costlier frame.
+    #[arg(long, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    pub later_vpls: Option<u32>,
     /// Reflective shadow map resolution, 8 to 8192.
     #[arg(long, default_value_t = 512, value_name = "N",
           value_parser = clap::value_parser!(u32).range(8..=8192))]
@@ -608,6 +626,22 @@ pub struct ReferenceArgs {
     /// Output EXR (linear radiance) or PNG preview.
     #[arg(short, long, value_name = "REF.exr")]
     pub output: PathBuf,
+}
+
+/// Parses `bake --bounces`: `all` or 1 to 256 (the bake's cap,
+/// `gibake_bake::later::radiosity::MAX_BOUNCES`).
+fn bake_bounces_value(s: &str) -> Result<gibake_bake::later::Bounces, String> {
+    use gibake_bake::later::{Bounces, radiosity::MAX_BOUNCES};
+    match s.parse::<u32>() {
+        _ if s == "all" => Ok(Bounces::Every),
+        Ok(n @ 1..) if n <= MAX_BOUNCES => Ok(Bounces::Count(n)),
+        Ok(n) => Err(format!(
+            "{n} bounces: the bake carries 1 (the first bounce alone) to {MAX_BOUNCES}, or `all`"
+        )),
+        Err(_) => Err(format!(
+            "{s:?} is not a number of bounces (1 to {MAX_BOUNCES}) or `all`"
+        )),
+    }
 }
 
 /// Parses `--bounces`: `all` or 0 to 1024.

@@ -72,6 +72,8 @@ fn options(a: &BakeArgs) -> BakeOptions {
         vpl_map_size: a.vpl_map_size,
         shadow_map_size: a.shadow_map_size,
         target,
+        bounces: a.bounces.unwrap_or(gibake_bake::later::Bounces::Every),
+        later_vpls: a.later_vpls,
     }
 }
 
@@ -163,7 +165,7 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
         eprintln!("GPU: {record}");
         o.print(&output);
         if o.baked.is_some() {
-            eprintln!("  {:<12} {:>8.3} s", "total", total_s);
+            eprintln!("  {:<14} {:>8.3} s", "total", total_s);
         }
     }
     Ok(ExitCode::SUCCESS)
@@ -188,7 +190,16 @@ struct Baked {
     budget: Option<u32>,
     threshold: f32,
     has_dynamic: bool,
+    /// The later bounces' record (`None`: `--bounces 1`).
+    later: Option<gibake_asset::LaterRecord>,
     stages: Vec<(String, f64)>,
+}
+
+impl Baked {
+    /// The first bounce's VPLs (what `--vpls` budgets).
+    fn first_vpls(&self) -> u32 {
+        self.vpls - self.later.as_ref().map_or(0, |l| l.vpls)
+    }
 }
 
 impl Outcome {
@@ -209,6 +220,18 @@ impl Outcome {
         });
         if let Some(b) = &self.baked {
             j["vpls"] = json!(b.vpls);
+            j["first_bounce_vpls"] = json!(b.first_vpls());
+            j["later"] = match &b.later {
+                None => json!(null),
+                Some(l) => json!({
+                    "bounces": if l.bounces == 0 { json!("every") } else { json!(l.bounces) },
+                    "vpls": l.vpls,
+                    "left_out": l.left_out,
+                    "converged": l.converged,
+                    "share": l.later_share(),
+                    "bounces_followed": l.per_bounce.len(),
+                }),
+            };
             j["maps_stored"] = json!(b.maps);
             j["vpls_dropped"] = json!(b.dropped);
             j["threshold"] = json!(b.threshold);
@@ -232,17 +255,18 @@ impl Outcome {
             ),
             (Some(b), reasons) => {
                 let why = reasons.clone().unwrap_or_default().join("; ");
+                let first = b.first_vpls();
                 eprintln!(
-                    "baked {}: {} VPLs ({} maps stored{}{}), threshold {:.3e}; reason: {why}",
+                    "baked {}: {} VPLs ({} maps stored{}{}), threshold {:.3e}; {}; reason: {why}",
                     asset.display(),
                     b.vpls,
                     b.maps,
                     match b.budget {
                         // The budget holds within 2% (docs/method.md, bake
                         // section 3) unless the level cannot be cut finer.
-                        Some(n) if u64::from(b.vpls.abs_diff(n)) * 50 > u64::from(n) => format!(
+                        Some(n) if u64::from(first.abs_diff(n)) * 50 > u64::from(n) => format!(
                             "; --vpls {n} asked for: {}",
-                            if b.vpls < n {
+                            if first < n {
                                 "the level's light that reaches a surface cannot be split into more"
                             } else {
                                 "each light view whose bounce is not negligible keeps one VPL at least, and one split can add several depth layers"
@@ -255,10 +279,28 @@ impl Outcome {
                     } else {
                         String::new()
                     },
-                    b.threshold
+                    b.threshold,
+                    match &b.later {
+                        None => "the first bounce alone (--bounces 1)".to_string(),
+                        Some(l) if l.left_out => format!(
+                            "later bounces left out: they carry {:.2}% of the light the surfaces reflect",
+                            100.0 * l.later_share()
+                        ),
+                        Some(l) => format!(
+                            "{first} first-bounce VPLs + {} for {} later bounces{} ({:.1}% of the light the surfaces reflect)",
+                            l.vpls,
+                            l.per_bounce.len().saturating_sub(1),
+                            if l.tail != [0.0; 3] {
+                                " and their tail"
+                            } else {
+                                ""
+                            },
+                            100.0 * l.later_share()
+                        ),
+                    }
                 );
                 for (n, s) in &b.stages {
-                    eprintln!("  {n:<12} {s:>8.3} s");
+                    eprintln!("  {n:<14} {s:>8.3} s");
                 }
             }
         }
@@ -440,6 +482,7 @@ fn bake_stale(
             },
             threshold: m.settings.threshold,
             has_dynamic: m.has_dynamic,
+            later: m.later.clone(),
             stages,
         }),
     })

@@ -162,10 +162,11 @@ impl BakedGpu {
         // Each VPL's lobes and facing shifts, from its tree with the
         // level-3 normals weighted by their texels' coherence
         // (`gibake_asset::tree_lobes`): sums over its texels.
-        // A VPL on a light's outer rings is lifted by one texel's radius
-        // (`Manifest::ring_vpls`, `hemisphere::record_origin`).
+        // A VPL on a light's outer rings or of the later bounces is lifted
+        // by one of its members' radius (`Manifest::origin_lift_flags`,
+        // `hemisphere::record_origin`).
         let lobes = asset.tree_lobes();
-        let ring = m.ring_flags();
+        let ring = m.origin_lift_flags();
         let vpls: Vec<GpuVpl> = asset
             .vpls
             .iter()

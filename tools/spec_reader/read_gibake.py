@@ -30,6 +30,12 @@ another language. It
 - reads `swept_bounds` (4.5: the moving objects' swept box the bake used,
   six f32 bit patterns, or none): nothing else depends on it, so it is
   only checked for its length and NaN,
+- reads `later` (4.6: the bounces after the first — the bounces asked for,
+  0 for every one; the later VPLs, the last of vpls.bin after every
+  light's; whether they were left out; per bounce the light the surfaces
+  reflect): the later VPLs are counted with the lights' to make vpl_count,
+  and their hemisphere maps' origins are lifted by one member's radius, as
+  ring VPLs' are,
 - checks the RSM against the first light's VPLs (texel counts, flux shares
   adding up to each VPL, each position at its texel nearest to the
   flux-weighted centroid),
@@ -72,7 +78,7 @@ except ImportError as e:  # pragma: no cover - environment problem
 
 MAGIC = b"GIBAKE\x00\x01"
 READER_MAJOR = 4
-READER_MINOR = 5
+READER_MINOR = 6
 MAX_PAYLOAD = 16 * 1024 * 1024
 MAX_MAP_SIZE = 16384
 # Most texels of one map file (an atlas).
@@ -175,6 +181,47 @@ class Decoder:
         if tag > 1:
             raise AssetError(f"manifest.bin: {what}: invalid Option tag {tag}")
         return tag == 1
+
+
+MAX_LATER_BOUNCES = 256
+
+
+def read_later(d: Decoder) -> dict | None:
+    """The manifest's `later` (4.6): an Option tag, then bounces (u32, 0 for
+    every bounce that matters, else N >= 2), vpl_budget (u32, 0 for the
+    default), vpls (u32: the last VPLs of vpls.bin), left_out (bool),
+    converged (bool), direct ([f32; 3]), per_bounce (Vec<[f32; 3]>, at most
+    256), tail ([f32; 3])."""
+    if not d.option("later"):
+        return None
+    r = {
+        "bounces": d.u32("later.bounces"),
+        "vpl_budget": d.u32("later.vpl_budget"),
+        "vpls": d.u32("later.vpls"),
+        "left_out": d.boolean("later.left_out"),
+        "converged": d.boolean("later.converged"),
+        "direct": d.f32s(3, "later.direct"),
+    }
+    n = d.u64("later.per_bounce length")
+    if n > MAX_LATER_BOUNCES:
+        raise AssetError(
+            f"manifest.bin: later.per_bounce holds {n} bounces (at most {MAX_LATER_BOUNCES})"
+        )
+    r["per_bounce"] = [d.f32s(3, f"later.per_bounce[{k}]") for k in range(n)]
+    r["tail"] = d.f32s(3, "later.tail")
+    if r["bounces"] == 1:
+        raise AssetError("manifest.bin: later.bounces = 1 (the first bounce alone has no record)")
+    if r["left_out"] and r["vpls"]:
+        raise AssetError(f"manifest.bin: later is left out, yet holds {r['vpls']} VPLs")
+    for v in [r["direct"], r["tail"], *r["per_bounce"]]:
+        if not all(x == x and 0.0 <= x < float("inf") for x in v):
+            raise AssetError("manifest.bin: later: a light total is negative or not finite")
+    return r
+
+
+def later_vpls(m: dict) -> int:
+    """The later bounces' VPLs (4.6), the last of vpls.bin; 0 without."""
+    return m["later"]["vpls"] if m.get("later") else 0
 
 
 def read_light_view(d: Decoder, what: str) -> dict:
@@ -430,6 +477,9 @@ def read_manifest(asset: str) -> dict:
             if any(v != v for v in box):
                 raise AssetError("manifest.bin: swept_bounds holds NaN")
             m["swept_bounds"] = box
+    # 4.6 appends later (Option<LaterRecord>: the bounces after the first);
+    # a 4.5 or older payload ends before it (the first bounce alone).
+    m["later"] = read_later(d) if minor >= 6 else None
     extra = length - d.pos
     if extra and minor <= READER_MINOR:
         raise AssetError(
@@ -583,11 +633,15 @@ def ring_counts(m: dict) -> list[int]:
 
 
 def ring_mask(m: dict, ranges: list[tuple[int, int]]) -> np.ndarray:
-    """Per VPL record: whether it is a ring VPL (the last ring_vpls[k] of
-    light k's range)."""
+    """Per VPL record: whether its map origin is lifted by one member's
+    radius: a ring VPL (the last ring_vpls[k] of light k's range) or a later
+    bounce's (4.6: the last later.vpls of vpls.bin, after every light's)."""
     out = np.zeros(m["vpl_count"], dtype=bool)
     for (lo, hi), ring in zip(ranges, ring_counts(m)):
         out[hi - ring : hi] = True
+    later = later_vpls(m)
+    if later:
+        out[m["vpl_count"] - later :] = True
     return out
 
 
@@ -700,13 +754,19 @@ def light_vpl_ranges(m: dict) -> list[tuple[int, int]]:
     """Each light's VPLs in vpls.bin, [start, end): the lights' `vpls` counts,
     consecutive in light order (the first light's VPLs first). Without light
     records, every VPL is the primary light's."""
-    if not m["lights"]:
-        return [(0, m["vpl_count"])]
-    total = sum(light["vpls"] for light in m["lights"])
-    if total != m["vpl_count"]:
+    later = later_vpls(m)
+    if later > m["vpl_count"]:
         raise AssetError(
-            f"manifest.bin: the lights' VPL counts add up to {total} but vpl_count is "
-            f"{m['vpl_count']}"
+            f"manifest.bin: {later} later VPLs but vpl_count is {m['vpl_count']}"
+        )
+    if not m["lights"]:
+        return [(0, m["vpl_count"] - later)]
+    total = sum(light["vpls"] for light in m["lights"])
+    if total + later != m["vpl_count"]:
+        raise AssetError(
+            f"manifest.bin: the lights' VPL counts add up to {total}"
+            + (f" and the later bounces' to {later}" if later else "")
+            + f" but vpl_count is {m['vpl_count']}"
         )
     out, start = [], 0
     for light in m["lights"]:
@@ -1673,6 +1733,15 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
         for k, r in enumerate(m["ring_vpls"])
         if r
     ]
+    if m.get("later"):
+        lt = m["later"]
+        asked = "every bounce that matters" if lt["bounces"] == 0 else f"{lt['bounces']} bounces"
+        out.append(
+            f"  later bounces ({asked}, {len(lt['per_bounce'])} followed"
+            + ("" if lt["converged"] else ", not converged")
+            + "): "
+            + ("left out" if lt["left_out"] else f"the last {lt['vpls']} VPLs, map origins one member's radius up")
+        )
     out += [
         f"  files (manifest order): {', '.join(names)}; all sizes and BLAKE3 hashes match",
         f"  vpl_nodes.bin: {len(nodes)} nodes, level sums match",

@@ -242,6 +242,10 @@ pub struct DiffReport {
     /// as the bake's flags), when they differ; a difference only when both
     /// assets record them (format 4.4), else reported only.
     pub scene_options: Option<FieldDiff>,
+    /// How the bounces after the first differ ([`crate::Manifest::later`],
+    /// format 4.6): what was asked and kept exactly, the light each bounce
+    /// carries within `vpl_flux_rel` of the largest.
+    pub later: Vec<FieldDiff>,
     /// Light view fields that differ beyond `map_rel`.
     pub light_view: Vec<FieldDiff>,
     /// The VPL sets.
@@ -1158,6 +1162,47 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
         ));
     }
 
+    let mut later = Vec::new();
+    match (&ma.later, &mb.later) {
+        (None, None) => {}
+        (Some(x), Some(y)) => {
+            field(&mut later, "later.bounces", &x.bounces, &y.bounces);
+            field(&mut later, "later.vpl_budget", &x.vpl_budget, &y.vpl_budget);
+            field(&mut later, "later.vpls", &x.vpls, &y.vpls);
+            field(&mut later, "later.left_out", &x.left_out, &y.left_out);
+            field(&mut later, "later.converged", &x.converged, &y.converged);
+            let flat = |l: &crate::LaterRecord| -> Vec<f32> {
+                l.direct
+                    .iter()
+                    .chain(l.per_bounce.iter().flatten())
+                    .chain(&l.tail)
+                    .copied()
+                    .collect()
+            };
+            close_arrays(
+                &mut later,
+                "later light per bounce",
+                &flat(x),
+                &flat(y),
+                tol.vpl_flux_rel,
+            );
+        }
+        (x, y) => {
+            let what = |l: &Option<crate::LaterRecord>| match l {
+                None => "the first bounce alone".to_string(),
+                Some(l) => format!("{} later VPLs", l.vpls),
+            };
+            later.push(FieldDiff {
+                field: "later".into(),
+                a: what(x),
+                b: what(y),
+            });
+        }
+    }
+    for d in &later {
+        differences.push(format!("later bounces: {} {} vs {}", d.field, d.a, d.b));
+    }
+
     let mut light_view = Vec::new();
     let (la, lb) = (&ma.light_view, &mb.light_view);
     field(
@@ -1270,6 +1315,7 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
         static_scene_hash,
         lights,
         scene_options,
+        later,
         light_view,
         vpls,
         trees,
@@ -1341,6 +1387,7 @@ impl fmt::Display for DiffReport {
             None => writeln!(f, "scene flags: same")?,
             Some(d) => writeln!(f, "scene flags: {} vs {}", d.a, d.b)?,
         }
+        list(f, "later bounces", &self.later)?;
         list(f, "light view", &self.light_view)?;
         let v = &self.vpls;
         writeln!(

@@ -126,6 +126,18 @@ fn encode_manifest_as(manifest: &Manifest, minor: u16, path: &Path) -> Result<Ve
             format!("cannot encode the manifest: format 4.{minor} has no swept_bounds"),
         ));
     }
+    if minor >= 6 {
+        // An Option<LaterRecord> through serde: a tag byte, then the fields
+        // in order (docs/asset-format.md, `later`).
+        let appended =
+            bincode::serde::encode_to_vec(&manifest.later, bincode_config()).map_err(cannot)?;
+        payload.extend_from_slice(&appended);
+    } else if manifest.later.is_some() {
+        return Err(AssetError::invalid(
+            path,
+            format!("cannot encode the manifest: format 4.{minor} has no later bounces"),
+        ));
+    }
     let mut out = Vec::with_capacity(HEADER_BYTES + payload.len() + TRAILER_BYTES);
     out.extend_from_slice(&MAGIC);
     out.extend_from_slice(&FORMAT_MAJOR.to_le_bytes());
@@ -226,6 +238,15 @@ fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetEr
                 )));
             }
         };
+        used += n;
+    }
+    if minor >= 6 {
+        // 4.6 appends `later` (an Option<LaterRecord>) after it; its list
+        // of bounces is bounded by the payload limit before it is read.
+        let (v, n): (Option<crate::LaterRecord>, usize) =
+            bincode::serde::decode_from_slice(&payload[used..], bincode_config())
+                .map_err(|e| bad(format!("damaged manifest payload: later: {e}")))?;
+        manifest.later = v;
         used += n;
     }
     if used != payload.len() && !is_newer_minor(minor) {
@@ -604,6 +625,9 @@ fn validate_manifest(
     if let Some(p) = m.scene_options.as_ref().and_then(|o| o.problem()) {
         return bad(format!("scene_options: {p}"));
     }
+    if let Some(p) = m.later.as_ref().and_then(|l| l.problem(m.vpl_count)) {
+        return bad(format!("later: {p}"));
+    }
     if let Err(e) = check_views(m) {
         return bad(e);
     }
@@ -693,17 +717,26 @@ fn validate_manifest(
     Ok(())
 }
 
-/// Whether the lights' VPL counts add up to `vpl_count` (checked once the
+/// Whether the lights' VPL counts (and the later bounces', format 4.6) add
+/// up to `vpl_count` (checked once the
 /// VPL records are read, so that a hostile count is named by its file),
 /// and `ring_vpls` fits them: empty or one entry per light, each at most
 /// the light's VPLs, and only a directional light's non-zero.
 fn check_light_vpls(m: &Manifest) -> Result<(), String> {
     let sum: u64 = m.lights.iter().map(|l| l.vpls as u64).sum();
-    if !m.lights.is_empty() && sum != m.vpl_count as u64 {
-        return Err(format!(
-            "the lights' VPL counts add up to {sum} but vpl_count is {}",
-            m.vpl_count
-        ));
+    let later = u64::from(m.later_vpls());
+    if !m.lights.is_empty() && sum + later != m.vpl_count as u64 {
+        return Err(if later > 0 {
+            format!(
+                "the lights' VPL counts add up to {sum} and the later bounces' to {later}, but vpl_count is {}",
+                m.vpl_count
+            )
+        } else {
+            format!(
+                "the lights' VPL counts add up to {sum} but vpl_count is {}",
+                m.vpl_count
+            )
+        });
     }
     if !m.ring_vpls.is_empty() && m.ring_vpls.len() != m.lights.len() {
         return Err(format!(
@@ -1845,6 +1878,13 @@ pub mod testing {
     /// `swept_bounds` must be `None`): to check that 4.4 assets still load.
     pub fn manifest_bytes_4_4(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
         encode_manifest_as(manifest, 4, Path::new(FILE_MANIFEST))
+    }
+
+    /// The bytes of `manifest.bin` for `manifest` as a format 4.5 writer
+    /// wrote them (minor 5, the payload ends after `swept_bounds`; its
+    /// `later` must be `None`): to check that 4.5 assets still load.
+    pub fn manifest_bytes_4_5(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
+        encode_manifest_as(manifest, 5, Path::new(FILE_MANIFEST))
     }
 
     fn before_4_2(manifest: &Manifest) -> Manifest {

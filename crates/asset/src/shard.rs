@@ -22,8 +22,8 @@ use crate::{Asset, AssetError, Manifest, Map, MapAtlas, NO_MAP, RsmData, VplReco
 pub const PART_MAGIC: [u8; 8] = *b"GIBKPART";
 /// Part format version: parts are transient, so any other version is refused.
 /// (7: the manifest's `swept_bounds`, which its serde encoding skips,
-/// follows `scene_options`.)
-pub const PART_VERSION: u16 = 7;
+/// follows `scene_options`; 8: and its `later`.)
+pub const PART_VERSION: u16 = 8;
 /// Largest shard count accepted.
 pub const MAX_SHARDS: u32 = 4096;
 /// Largest accepted part file (16 GiB).
@@ -121,6 +121,8 @@ struct PartPayload {
     scene_options: Option<crate::SceneOptions>,
     /// The manifest's `swept_bounds` (part version 7).
     swept_bounds: Option<[f32; 6]>,
+    /// The manifest's `later` (part version 8).
+    later: Option<crate::LaterRecord>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -310,6 +312,7 @@ fn encode_part(part: &ShardPart, path: &Path) -> Result<Vec<u8>, AssetError> {
         ring_vpls: a.manifest.ring_vpls.clone(),
         scene_options: a.manifest.scene_options.clone(),
         swept_bounds: a.manifest.swept_bounds,
+        later: a.manifest.later.clone(),
     };
     let body = bincode::serde::encode_to_vec(&payload, part_config())
         .map_err(|e| AssetError::invalid(path, format!("cannot encode the part: {e}")))?;
@@ -366,6 +369,7 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
     manifest.ring_vpls = p.ring_vpls;
     manifest.scene_options = p.scene_options;
     manifest.swept_bounds = p.swept_bounds;
+    manifest.later = p.later;
     let (lt, ln, lmaps) = p.light_maps;
     let light_maps = if ln == 0 {
         MapAtlas::empty(lt)
@@ -720,6 +724,7 @@ mod tests {
             ring_vpls: Vec::new(),
             scene_options: None,
             swept_bounds: None,
+            later: None,
         };
         let rec = VplRecord {
             position: [0.0; 3],

@@ -28,9 +28,11 @@ fn swept_bounds_round_trip_in_the_documented_layout() {
     // pattern as a varint u32 (`FC` and four little-endian bytes for the
     // patterns of these values, all at or above 2^16).
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
-    assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), 5);
+    assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), 6);
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    let tail = &bytes[20 + len - 31..20 + len];
+    // (then 4.6's `later`, none: `00`)
+    assert_eq!(bytes[20 + len - 1], 0);
+    let tail = &bytes[20 + len - 32..20 + len - 1];
     assert_eq!(tail[0], 6);
     for (k, v) in BOX.iter().enumerate() {
         let at = 1 + 5 * k;
@@ -70,7 +72,8 @@ fn a_4_4_manifest_loads_without_swept_bounds() {
     m.swept_bounds = None;
     let old = testing::manifest_bytes_4_4(&m).unwrap();
     assert_eq!(u16::from_le_bytes([old[10], old[11]]), 4);
-    assert_eq!(old.len() + 1, testing::manifest_bytes(&m).unwrap().len());
+    // One byte for the empty box, one for 4.6's `later` (none).
+    assert_eq!(old.len() + 2, testing::manifest_bytes(&m).unwrap().len());
     std::fs::write(dir.join(FILE_MANIFEST), &old).unwrap();
     let loaded = load(&dir).expect("a 4.4 asset loads");
     assert_eq!(loaded.manifest.swept_bounds, None);
@@ -82,7 +85,7 @@ fn bad_swept_bounds_are_refused_naming_the_manifest() {
     let dir = written(tmp.path(), &with_sweep());
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    let keep = len - 31;
+    let keep = len - 32;
     let nan = f32::NAN.to_bits();
     let three = vec![3u8, 0, 0, 0];
     let mut with_nan = vec![6u8];

@@ -150,6 +150,40 @@ pub fn differences(
         ),
         _ => {}
     }
+    // The bounces (format 4.6: none recorded is the first bounce alone).
+    let bounces = |b: u32| match b {
+        0 => "every bounce".to_string(),
+        1 => "1 (the first bounce alone)".to_string(),
+        n => n.to_string(),
+    };
+    let (was, was_budget) = m
+        .later
+        .as_ref()
+        .map_or((1, 0), |l| (l.bounces, l.vpl_budget));
+    let now = match opts.bounces {
+        crate::later::Bounces::Every => 0,
+        crate::later::Bounces::Count(n) => n.max(1),
+    };
+    if was != now {
+        r.push(format!(
+            "setting --bounces changed ({} → {})",
+            bounces(was),
+            bounces(now)
+        ));
+    } else if now != 1 && was_budget != opts.later_vpls.unwrap_or(0) {
+        let budget = |b: u32| {
+            if b == 0 {
+                "the default".to_string()
+            } else {
+                b.to_string()
+            }
+        };
+        r.push(format!(
+            "setting --later-vpls changed ({} → {})",
+            budget(was_budget),
+            budget(opts.later_vpls.unwrap_or(0))
+        ));
+    }
     let p = &m.provenance;
     // The asset records the scene's file name: the same content under a new
     // name would give other bytes, so it is not up to date either.

@@ -1,8 +1,11 @@
 //! The bake's method revision ([`gibake_bake::BAKE_METHOD`]) against what a
-//! bake writes: two small bakes of bundled scenes (a spot light; every light
-//! of a room with a spot and two point lights), their VPLs, near-field trees
-//! and hemisphere maps hashed, held to the hash recorded for the current
-//! revision. These are the parts computed on the CPU by rays and the
+//! bake writes: small bakes of bundled scenes (a spot light; every light
+//! of a room with a spot and two point lights), each with the first bounce
+//! alone (`--bounces 1`, the paper's method) and with every bounce (the
+//! default), their VPLs, near-field trees and hemisphere maps hashed, held
+//! to the hashes recorded for the current revision. The one-bounce hashes
+//! are revision 6's: `--bounces 1` writes what the bake wrote before the
+//! later bounces (issue 50). These are the parts computed on the CPU by rays and the
 //! clustering, the same on every adapter; the GPU's shadow maps are left
 //! out.
 //!
@@ -23,14 +26,22 @@ use gibake_bake::{BAKE_METHOD, BakeOptions, NoProgress, bake};
 use gibake_gpu::GpuContext;
 use gibake_scene::LoadOptions;
 
-/// The revision these hashes belong to, and the hash of each scene's bake.
-const RECORDED: (u32, [(&str, &str); 2]) = (
-    6,
+/// The revision these hashes belong to, and the hash of each scene's bake:
+/// (scene, `--bounces 1`, the default).
+const RECORDED: (u32, [(&str, &str, &str); 2]) = (
+    7,
     [
-        ("corner_bunny", "468d0ace1f351ccc"),
-        ("lamps", "c7cf9c94ae279309"),
+        ("corner_bunny", "468d0ace1f351ccc", "0cb2fd54110f6137"),
+        ("lamps", "c7cf9c94ae279309", "f6ba5e05bbb746c9"),
     ],
 );
+
+/// The first bounce alone's hashes before the later bounces (revision 6):
+/// `--bounces 1` must still write them.
+const ONE_BOUNCE_BEFORE: [(&str, &str); 2] = [
+    ("corner_bunny", "468d0ace1f351ccc"),
+    ("lamps", "c7cf9c94ae279309"),
+];
 
 /// BLAKE3 of the VPL records, the near-field trees, their level-3
 /// coherences and the hemisphere maps, every float by its bits.
@@ -68,26 +79,42 @@ fn the_bake_method_revision_matches_what_a_bake_writes() {
              `apt-get install mesa-vulkan-drivers` gives the lavapipe software GPU"
         )
     });
-    let opts = BakeOptions {
+    let one = BakeOptions {
         rsm_size: 128,
         vpl_map_size: 16,
         shadow_map_size: 256,
         target: ClusterTarget::Count(48),
+        bounces: gibake_bake::later::Bounces::Count(1),
+        later_vpls: None,
+    };
+    let every = BakeOptions {
+        bounces: gibake_bake::later::Bounces::Every,
+        ..one.clone()
     };
     let mut got = Vec::new();
-    for (name, _) in RECORDED.1 {
+    for (name, _, _) in RECORDED.1 {
         let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data"))
             .join(format!("{name}.glb"));
         let scene = gibake_scene::load(&path, &LoadOptions::default())
             .unwrap_or_else(|e| panic!("load {}: {e}", path.display()));
-        let asset = bake(&ctx, &scene, &opts, &NoProgress, "test")
-            .unwrap_or_else(|e| panic!("bake of {name}: {e}"))
-            .asset;
-        got.push((name, hash(&asset)));
+        let [h1, h] = [&one, &every].map(|opts| {
+            let asset = bake(&ctx, &scene, opts, &NoProgress, "test")
+                .unwrap_or_else(|e| panic!("bake of {name}: {e}"))
+                .asset;
+            hash(&asset)
+        });
+        got.push((name, h1, h));
+    }
+    for ((name, before), (_, h1, _)) in ONE_BOUNCE_BEFORE.iter().zip(&got) {
+        assert_eq!(
+            before, h1,
+            "--bounces 1 of data/{name}.glb no longer writes what the bake wrote before the \
+             later bounces (hash {h1}, recorded {before}): the first bounce changed"
+        );
     }
     let table: Vec<String> = got
         .iter()
-        .map(|(n, h)| format!("(\"{n}\", \"{h}\")"))
+        .map(|(n, h1, h)| format!("(\"{n}\", \"{h1}\", \"{h}\")"))
         .collect();
     assert_eq!(
         RECORDED.0,
@@ -97,10 +124,10 @@ fn the_bake_method_revision_matches_what_a_bake_writes() {
         RECORDED.0,
         table.join(", ")
     );
-    for ((name, want), (_, have)) in RECORDED.1.iter().zip(&got) {
+    for ((name, want1, want), (_, have1, have)) in RECORDED.1.iter().zip(&got) {
         assert_eq!(
-            want,
-            have,
+            (want1.to_string(), want.to_string()),
+            (have1.clone(), have.clone()),
             "the bake of data/{name}.glb changed (hash {have}, revision {BAKE_METHOD} recorded \
              {want}). If that was meant, bump gibake_bake::BAKE_METHOD (crates/bake/src/lib.rs) \
              so that assets of the older method re-bake, and record RECORDED = \

@@ -28,6 +28,9 @@ fn every_changed_input_is_named_and_nothing_else() {
         vpl_map_size: 16,
         shadow_map_size: 256,
         target: ClusterTarget::Count(32),
+        // The first bounce alone (what this checks).
+        bounces: gibake_bake::later::Bounces::Count(1),
+        later_vpls: None,
     };
     let asset = bake(&ctx, &scene, &opts, &NoProgress, "1.0.0")
         .expect("bake")
@@ -209,6 +212,9 @@ fn the_views_moving_objects_can_enter_are_compared() {
         vpl_map_size: 16,
         shadow_map_size: 256,
         target: ClusterTarget::Count(64),
+        // The first bounce alone (what this checks).
+        bounces: gibake_bake::later::Bounces::Count(1),
+        later_vpls: None,
     };
     let asset = bake(&ctx, &scene, &opts, &NoProgress, "1.0.0")
         .expect("bake")

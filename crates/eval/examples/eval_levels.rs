@@ -3,11 +3,15 @@
 //! (its levels' files relative to it; all, or those named), against the
 //! CPU reference, one bounce and every bounce (`vs one bounce: …`, `vs
 //! every bounce ×R/G/B of one: …`: what the later bounces add and
-//! `full`'s bias against each; `--one-bounce-only` leaves the every-bounce
-//! reference out, 1.5–20× the one-bounce reference's time); prints one
+//! `full`'s bias against each; then `every-bounce bake`: the default bake,
+//! the later bounces' VPLs included, against the every-bounce reference;
+//! `--one-bounce-only` leaves the every-bounce reference and bake out,
+//! 1.5–20× the one-bounce reference's time); prints one
 //! line per level and, with --out,
-//! writes reference | full | rsm | error pictures (NAME.png) and the same
-//! for the indirect light alone (NAME_indirect.png); --markdown ends with
+//! writes reference | full | rsm | error pictures (NAME.png), the same
+//! for the indirect light alone (NAME_indirect.png) and every-bounce
+//! reference | every-bounce bake | one-bounce bake | error
+//! (NAME_every.png); --markdown ends with
 //! the table of docs/results.md, "Real levels", and the every-bounce table
 //! of docs/reference.md, "Every bounce on the real levels". `DUMP_EXR=1` with
 //! `--out DIR` also writes the reference's, `full`'s and `rsm`'s indirect
@@ -30,6 +34,7 @@ fn main() {
         blur: 4,
         ssaa: 4,
         every_bounce: true,
+        every_bounce_bake: true,
         ..Default::default()
     };
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -67,7 +72,10 @@ fn main() {
             }
             "--markdown" => markdown = true,
             "--no-naive" => s.naive = false,
-            "--one-bounce-only" => s.every_bounce = false,
+            "--one-bounce-only" => {
+                s.every_bounce = false;
+                s.every_bounce_bake = false;
+            }
             "--static-only" => static_only = true,
             "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
             "--list" => list = std::path::PathBuf::from(it.next().expect("a levels.json")),
@@ -112,6 +120,11 @@ fn main() {
             gibake_eval::levels::write_indirect_panel(
                 &images,
                 &d.join(format!("{}_indirect.png", spec.name)),
+            )
+            .unwrap();
+            gibake_eval::levels::write_every_panel(
+                &images,
+                &d.join(format!("{}_every.png", spec.name)),
             )
             .unwrap();
             if std::env::var("DUMP_EXR").is_ok() {

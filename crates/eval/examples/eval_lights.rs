@@ -43,6 +43,7 @@ fn main() {
         blur: 4,
         ssaa: 4,
         every_bounce: true,
+        every_bounce_bake: true,
         ..Default::default()
     };
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -91,7 +92,10 @@ fn main() {
             }
             "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
             "--no-naive" => s.naive = false,
-            "--one-bounce-only" => s.every_bounce = false,
+            "--one-bounce-only" => {
+                s.every_bounce = false;
+                s.every_bounce_bake = false;
+            }
             _ => scenes.push(a.clone()),
         }
     }

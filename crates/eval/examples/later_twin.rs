@@ -107,7 +107,13 @@ fn main() {
             .map(|i| sf.albedo[i] * sol.indirect[i] * sf.area[i])
             .collect();
         let b = stat.static_bounds();
-        let sec = gibake_bake::later::secondary::cluster(&rays, &sf, &em, later, (b.max - b.min).length());
+        let sec = gibake_bake::later::secondary::cluster(
+            &rays,
+            &sf,
+            &em,
+            later,
+            (b.max - b.min).length(),
+        );
         let flags = vec![true; sec.vpls.len()];
         let tw = TwinVpls::new(&sec.vpls, &flags, &sec.nodes, &sec.coherence);
         let cam = gibake_reference::View::from_scene(&scene, 0.0).expect("a camera");
@@ -119,22 +125,60 @@ fn main() {
                 let h = rays.intersect_range(o, d, t0, f32::INFINITY)?;
                 let mut per = vec![(0f32, 0f32); sec.vpls.len()];
                 for (i, v) in sec.vpls.iter().enumerate() {
-                    let t = gibake_eval::transport::static_vpl_terms(v, tw.centres[i], tw.tree(i), &tw.lobes[i], h.position, h.shading_normal, h.geometric_normal);
-                    let vis = !gibake_eval::transport::origin_in_front(tw.origins[i], h.position, h.geometric_normal)
-                        || rays.visible(tw.origins[i], Vec3::from_array(v.normal), h.position, h.geometric_normal);
+                    let t = gibake_eval::transport::static_vpl_terms(
+                        v,
+                        tw.centres[i],
+                        tw.tree(i),
+                        &tw.lobes[i],
+                        h.position,
+                        h.shading_normal,
+                        h.geometric_normal,
+                    );
+                    let vis = !gibake_eval::transport::origin_in_front(
+                        tw.origins[i],
+                        h.position,
+                        h.geometric_normal,
+                    ) || rays.visible(
+                        tw.origins[i],
+                        Vec3::from_array(v.normal),
+                        h.position,
+                        h.geometric_normal,
+                    );
                     per[i].0 = (if vis { t.total() } else { t.open }).element_sum();
                 }
                 for (k, &vv) in sec.surfel_vpl.iter().enumerate() {
                     if vv == u32::MAX {
                         continue;
                     }
-                    let e = gibake_eval::transport::disk_irradiance(sf.position[k], sf.normal[k], sf.area[k], em[k], h.position, h.shading_normal, h.geometric_normal);
-                    if e != Vec3::ZERO && rays.visible(sf.position[k], sf.normal[k], h.position, h.geometric_normal) {
+                    let e = gibake_eval::transport::disk_irradiance(
+                        sf.position[k],
+                        sf.normal[k],
+                        sf.area[k],
+                        em[k],
+                        h.position,
+                        h.shading_normal,
+                        h.geometric_normal,
+                    );
+                    if e != Vec3::ZERO
+                        && rays.visible(
+                            sf.position[k],
+                            sf.normal[k],
+                            h.position,
+                            h.geometric_normal,
+                        )
+                    {
                         per[vv as usize].1 += e.element_sum();
                     }
                 }
                 let excess: f32 = per.iter().map(|(a, b)| a - b).sum();
-                Some((excess, p, per.into_iter().enumerate().map(|(i, (a, b))| (i, a, b)).collect()))
+                Some((
+                    excess,
+                    p,
+                    per.into_iter()
+                        .enumerate()
+                        .map(|(i, (a, b))| (i, a, b))
+                        .collect(),
+                ))
             })
             .collect();
         worst.sort_by(|a, b| b.0.total_cmp(&a.0));
@@ -153,7 +197,11 @@ fn main() {
                 }
                 println!(
                     "    VPL {i}: {n} surfels, at {:.2?} normal {:.2?}, area {:.2}, extent {:.2?}, coherence {:.3}: sends {a:.4}, its surfels {b:.4}",
-                    v.position, v.normal, v.area, hi - lo, tw.lobes[i].vpl
+                    v.position,
+                    v.normal,
+                    v.area,
+                    hi - lo,
+                    tw.lobes[i].vpl
                 );
             }
         }
@@ -245,7 +293,7 @@ fn main() {
     };
     let later_share: f64 = l.later_share();
     println!(
-        "{name}: {} first-bounce VPLs ({t1:.1} s), {} later VPLs from {} surfels ({t2:.1} s, {} bounces{}, converged {}), later share of reflected light {:.1}%",
+        "{name}: {} first-bounce VPLs ({t1:.1} s), {} later VPLs from {} surfels ({t2:.1} s, {} bounces{}, converged {}), later share of reflected light {:.2}%",
         records.len(),
         l.vpls.len(),
         l.surfels,

@@ -94,6 +94,12 @@ pub struct EvalSettings {
     /// the one-bounce method against the one-bounce reference); the eval
     /// tools turn it on.
     pub every_bounce: bool,
+    /// With [`EvalSettings::every_bounce`], also bake with every bounce
+    /// (the default of `gibake bake`) and judge its `full` against the
+    /// every-bounce reference ([`EveryBounceEval::baked`]); the figures
+    /// against one bounce stay those of the one-bounce bake. On in the
+    /// eval tools.
+    pub every_bounce_bake: bool,
 }
 
 impl Default for EvalSettings {
@@ -113,6 +119,7 @@ impl Default for EvalSettings {
             naive: true,
             near_field_descent: RenderSettings::default().near_field_descent,
             every_bounce: false,
+            every_bounce_bake: false,
         }
     }
 }
@@ -186,6 +193,25 @@ pub struct EveryBounceEval {
     pub mean_bounces: f64,
     /// Its paths cut at [`gibake_reference::MAX_BOUNCES`].
     pub capped: u64,
+    /// The default bake (every bounce, `gibake bake` without `--bounces`)
+    /// judged against it: `None` when not rendered.
+    pub baked: Option<EveryBounceBake>,
+}
+
+/// `full` of the default bake — the first bounce's VPLs and the later
+/// bounces' ([`gibake_bake::later`]) — against the every-bounce reference.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct EveryBounceBake {
+    /// Its VPLs, the later bounces' included.
+    pub vpls: usize,
+    /// The later bounces' VPLs (0: left out).
+    pub later_vpls: u32,
+    /// Its bake time, seconds (the later bounces included).
+    pub bake_s: f64,
+    /// `full`'s mean indirect bias against the every-bounce reference.
+    pub full_bias: [f32; 3],
+    /// `full`'s relative indirect error against it (blurred).
+    pub full_err: f64,
 }
 
 impl EveryBounceEval {
@@ -213,7 +239,29 @@ impl EveryBounceEval {
             full_err: indirect_error(full, &ind, blur),
             mean_bounces: reference.stats.mean_bounces(),
             capped: reference.stats.capped,
+            baked: None,
         }
+    }
+
+    /// Adds the default bake's `full` (indirect part) to the judgement.
+    pub fn with_bake(
+        mut self,
+        full: &Image,
+        reference: &EveryBounceImage,
+        direct: &Image,
+        asset: &Asset,
+        bake_s: f64,
+        blur: u32,
+    ) -> EveryBounceEval {
+        let ind = reference.image.sub(direct);
+        self.baked = Some(EveryBounceBake {
+            vpls: asset.vpls.len(),
+            later_vpls: asset.manifest.later_vpls(),
+            bake_s,
+            full_bias: bias(full.mean(), ind.mean()),
+            full_err: indirect_error(full, &ind, blur),
+        });
+        self
     }
 
     /// The part of [`IndirectEval::line`] it adds.
@@ -235,7 +283,14 @@ impl EveryBounceEval {
                 String::new()
             },
             self.full_err,
-        )
+        ) + &self.baked.as_ref().map_or(String::new(), |b| {
+            format!(
+                "; every-bounce bake ({} later VPLs): bias {} err {:.4}",
+                b.later_vpls,
+                pct(b.full_bias),
+                b.full_err
+            )
+        })
     }
 }
 
@@ -317,11 +372,24 @@ pub fn random_scene(seed: u64) -> (Scene, String) {
 
 /// Bakes `scene` with the evaluation's settings.
 pub fn bake(ctx: &GpuContext, scene: &Scene, s: &EvalSettings) -> Result<Asset, EvalError> {
+    bake_bounces(ctx, scene, s, gibake_bake::later::Bounces::Count(1))
+}
+
+/// Bakes `scene` with the evaluation's settings and `bounces`
+/// ([`bake`]: the first bounce alone, what the one-bounce judge checks).
+pub fn bake_bounces(
+    ctx: &GpuContext,
+    scene: &Scene,
+    s: &EvalSettings,
+    bounces: gibake_bake::later::Bounces,
+) -> Result<Asset, EvalError> {
     let opts = gibake_bake::BakeOptions {
         rsm_size: s.rsm_size,
         vpl_map_size: s.vpl_map_size,
         shadow_map_size: 2048,
         target: gibake_bake::cluster::ClusterTarget::Count(s.vpls),
+        bounces,
+        later_vpls: None,
     };
     let asset = gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "eval")?.asset;
     Ok(if s.light_bounce {
@@ -638,14 +706,16 @@ fn evaluate_with(
         // The one-bounce indirect reference came as one image: its direct
         // part is rendered again here (the same seed, so the same image).
         let ref_direct = reference_renders_direct(scene, s)?;
-        Some(EveryBounceEval::new(
-            &full,
-            &rsm,
-            &e,
-            &ref_direct,
-            reference.mean(),
-            s.blur,
-        ))
+        let judged = EveryBounceEval::new(&full, &rsm, &e, &ref_direct, reference.mean(), s.blur);
+        Some(if s.every_bounce_bake {
+            let t = std::time::Instant::now();
+            let every = bake_bounces(ctx, scene, s, gibake_bake::later::Bounces::Every)?;
+            let bake_s = t.elapsed().as_secs_f64();
+            let full = render(ctx, scene, &every, Mode::Full, s)?.sub(&direct);
+            judged.with_bake(&full, &e, &ref_direct, &every, bake_s, s.blur)
+        } else {
+            judged
+        })
     } else {
         None
     };

@@ -76,8 +76,15 @@ fn a_ray_from_just_beside_a_surface_hits_it() {
                 let h = rays
                     .intersect(o, d, f32::INFINITY)
                     .unwrap_or_else(|| panic!("×{s}, gap {gap}: {d} from {o} misses the wall"));
-                assert!(h.position.x.abs() <= 1e-5 * s, "×{s}: hit at {}", h.position);
-                assert!(rays.occluded(o, d, f32::INFINITY), "×{s}, gap {gap}: not occluded");
+                assert!(
+                    h.position.x.abs() <= 1e-5 * s,
+                    "×{s}: hit at {}",
+                    h.position
+                );
+                assert!(
+                    rays.occluded(o, d, f32::INFINITY),
+                    "×{s}, gap {gap}: not occluded"
+                );
             }
         }
     }

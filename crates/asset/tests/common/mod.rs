@@ -209,6 +209,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
             ring_vpls: Vec::new(),
             scene_options: None,
             swept_bounds: None,
+            later: None,
         },
         vpl_coherence: vec![1.0; vpls.len() * gibake_asset::LEVEL3_NODES],
         vpls,
