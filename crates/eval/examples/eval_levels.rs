@@ -1,4 +1,4 @@
-//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--near-field-descent N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive] [--static-only] [--one-bounce-only] [--list LEVELS.json]`
+//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--shadow-map N] [--blur N] [--ssaa N] [--near-field-descent N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive] [--static-only] [--one-bounce-only] [--list LEVELS.json]`
 //! Judges the real levels of data/levels/levels.json, or of `--list`'s file
 //! (its levels' files relative to it; all, or those named), against the
 //! CPU reference, one bounce and every bounce (`vs one bounce: …`, `vs
@@ -15,8 +15,10 @@
 //! the table of docs/results.md, "Real levels", and the every-bounce table
 //! of docs/reference.md, "Every bounce on the real levels". `DUMP_EXR=1` with
 //! `--out DIR` also writes the reference's, `full`'s and `rsm`'s indirect
-//! images and the direct light as EXR (`NAME_ref_ind.exr`, …), as
-//! `eval_lights` does. `--no-naive` leaves out
+//! images, the direct light and the reference's direct light as EXR
+//! (`NAME_ref_ind.exr`, …, `NAME_ref_direct.exr`), as `eval_lights` does.
+//! `--shadow-map N` bakes the primary shadow map at N² (default 2048, as
+//! `gibake bake`). `--no-naive` leaves out
 //! the `naive` render (every VPL map re-rendered: 90% of the time on
 //! lavapipe) and its naive~full figure. `--static-only` judges each level
 //! without its moving objects (bake, frames and reference alike), to tell
@@ -60,6 +62,7 @@ fn main() {
             "--blur" => s.blur = num(),
             "--rsm" => s.rsm_size = num(),
             "--map" => s.vpl_map_size = num(),
+            "--shadow-map" => s.shadow_map_size = num(),
             "--ssaa" => s.ssaa = num(),
             "--near-field-descent" => s.near_field_descent = num(),
             "--cascades" => {

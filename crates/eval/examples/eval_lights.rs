@@ -32,7 +32,9 @@
 //! `DUMP_EXR=1` with `--out DIR`: also the reference's, `full`'s and
 //! `rsm`'s indirect images and the runtime's direct light as EXR
 //! (`NAME_ref_ind.exr`, `NAME_full_ind.exr`, `NAME_rsm_ind.exr`,
-//! `NAME_direct.exr`), for looking at where the indirect light is lost.
+//! `NAME_direct.exr`) and the reference's direct light
+//! (`NAME_ref_direct.exr`), for looking at where the indirect light is
+//! lost or the direct light's shadows leak.
 
 use gibake_scene::LoadOptions;
 

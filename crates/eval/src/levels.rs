@@ -534,8 +534,9 @@ pub fn write_indirect_panel(
 
 /// Writes the reference's, `full`'s and `rsm`'s indirect light and the
 /// direct light as EXR, `DIR/NAME_ref_ind.exr`, `NAME_full_ind.exr`,
-/// `NAME_rsm_ind.exr` and `NAME_direct.exr` (the examples' `DUMP_EXR=1`:
-/// for looking at where the indirect light is lost).
+/// `NAME_rsm_ind.exr`, `NAME_direct.exr` and the reference's direct light
+/// `NAME_ref_direct.exr` (the examples' `DUMP_EXR=1`: for looking at where
+/// the indirect light is lost, or where the direct light's shadows leak).
 pub fn write_exrs(
     images: &LevelImages,
     dir: &Path,
@@ -546,6 +547,7 @@ pub fn write_exrs(
         ("full_ind", images.full.sub(&images.direct)),
         ("rsm_ind", images.rsm.sub(&images.direct)),
         ("direct", images.direct.clone()),
+        ("ref_direct", images.reference.direct.clone()),
     ] {
         image.write_exr(&dir.join(format!("{name}_{part}.exr")))?;
     }

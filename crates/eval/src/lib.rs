@@ -64,6 +64,8 @@ pub struct EvalSettings {
     pub rsm_size: u32,
     /// Hemisphere map resolution.
     pub vpl_map_size: u32,
+    /// Primary shadow map resolution (`gibake bake --shadow-map-size`).
+    pub shadow_map_size: u32,
     /// Scene time.
     pub time: f32,
     /// Box-blur radius in pixels for the error.
@@ -110,6 +112,7 @@ impl Default for EvalSettings {
             vpls: 664,
             rsm_size: 512,
             vpl_map_size: 128,
+            shadow_map_size: 2048,
             time: 0.5,
             blur: 1,
             ssaa: 2,
@@ -386,7 +389,7 @@ pub fn bake_bounces(
     let opts = gibake_bake::BakeOptions {
         rsm_size: s.rsm_size,
         vpl_map_size: s.vpl_map_size,
-        shadow_map_size: 2048,
+        shadow_map_size: s.shadow_map_size,
         target: gibake_bake::cluster::ClusterTarget::Count(s.vpls),
         bounces,
         later_vpls: None,
