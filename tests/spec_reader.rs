@@ -243,7 +243,11 @@ fn reader_accepts_walls_edge_on_to_the_sun() {
 fn reader_refuses_damaged_assets() {
     let py = python();
     let work = tempfile::tempdir().unwrap();
-    let asset = bake(&common::data("corner_bunny.glb"), work.path());
+    // The first bounce alone (`--bounces 1`): its manifest ends with
+    // 4.6's `later` tag `00`, which the re-sealed cases below build on.
+    let mut flags = common::TINY_BAKE.to_vec();
+    flags.extend(["--bounces", "1"]);
+    let asset = bake_with(&common::data("corner_bunny.glb"), work.path(), &flags);
     let intact = read(&py, &asset);
     assert_eq!(intact.code, Some(0), "the intact asset must pass\n{intact}");
 
@@ -274,9 +278,10 @@ fn reader_refuses_damaged_assets() {
 
     // Re-sealed manifests (payload edited, length and BLAKE3 trailer
     // recomputed): what the spec says a reader must refuse or accept.
-    // The bake writes the current minor (4.5: the views, light_map_size,
-    // the appended view_rsms, ring_vpls, scene_options and swept_bounds
-    // end the payload; a one-light asset without rings baked with no scene
+    // The bake writes the current minor (4.6: the views, light_map_size,
+    // the appended view_rsms, ring_vpls, scene_options, swept_bounds and
+    // later end the payload; `later` is the one byte `00` here (the first
+    // bounce alone), dropped first for the 4.5 cases (`to45`); a one-light asset without rings baked with no scene
     // flag has no views, so before swept_bounds its last nine bytes are the
     // view count 0, light_map_size 0, the view_rsms count 0, the ring_vpls
     // count 0 and the scene options `01 00 00 00 00 00`: recorded, none
@@ -284,15 +289,16 @@ fn reader_refuses_damaged_assets() {
     // first drop swept_bounds (`to44`): a whole 4.4 payload.
     assert_eq!(
         (gibake_asset::FORMAT_MAJOR, gibake_asset::FORMAT_MINOR),
-        (4, 5),
-        "the re-sealed cases below are written for format 4.5"
+        (4, 6),
+        "the re-sealed cases below are written for format 4.6"
     );
     let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
     assert!(
         m.lights.len() == 1
             && m.views.is_empty()
             && m.ring_vpls.is_empty()
-            && m.scene_options == Some(Default::default()),
+            && m.scene_options == Some(Default::default())
+            && m.later.is_none(),
         "corner_bunny.glb: one light, no views, no ring VPLs, no scene flags\n{m:#?}"
     );
     // swept_bounds: a count, then six varints (1 byte below 251, 3 below
@@ -305,9 +311,11 @@ fn reader_refuses_damaged_assets() {
     };
     let tail: usize = 1 + swept.iter().map(|v| varint(v.to_bits())).sum::<usize>();
     let bytes = std::fs::read(asset.join(gibake_asset::FILE_MANIFEST)).unwrap();
-    let before_swept = &bytes[..bytes.len() - 32 - tail];
+    assert_eq!(bytes[bytes.len() - 33], 0, "later: none");
+    let before_swept = &bytes[..bytes.len() - 33 - tail];
     assert!(before_swept.ends_with(&[0, 0, 0, 0, 1, 0, 0, 0, 0, 0]));
-    let to44 = format!("payload = payload[:-{tail}]; ");
+    let to44 = format!("payload = payload[:-{}]; ", tail + 1);
+    let to45 = "payload = payload[:-1]; ";
     let cases_44: [(&str, &str, Option<&str>); 19] = [
         // One byte after the last field, same minor: refused.
         ("payload += b'\\x00'", "4", Some("after the last field")),
@@ -409,19 +417,19 @@ fn reader_refuses_damaged_assets() {
         .collect();
     let nan = "b'\\xfc\\x00\\x00\\xc0\\x7f'";
     let cases_45: [(String, &str, Option<&str>); 7] = [
-        // Control: re-sealed unchanged, accepted.
-        ("pass".into(), "5", None),
+        // Control: a whole 4.5 payload, accepted.
+        (format!("{to45}pass"), "5", None),
         // One byte after the last field of 4.5: refused ...
         (
-            "payload += b'\\x00'".into(),
+            format!("{to45}payload += b'\\x02'"),
             "5",
             Some("after the last field"),
         ),
-        // ... and accepted from a newer minor (4.6), ignored.
-        ("payload += b'\\x00'".into(), "6", None),
+        // ... and accepted from a newer minor (4.7), ignored.
+        ("payload += b'\\x02'".into(), "7", None),
         // swept_bounds cut inside: refused.
         (
-            "payload = payload[:-1]".into(),
+            format!("{to45}payload = payload[:-1]"),
             "5",
             Some("payload ends inside swept_bounds"),
         ),
@@ -445,6 +453,36 @@ fn reader_refuses_damaged_assets() {
         ),
     ];
     reseal_cases.extend(cases_45);
+    let cases_46: [(String, &str, Option<&str>); 5] = [
+        // Control: re-sealed unchanged, accepted.
+        ("pass".into(), "6", None),
+        // A 4.5 payload read as 4.6: it ends where later's tag is.
+        (to45.into(), "6", Some("payload ends inside later tag")),
+        // An Option tag bincode does not define.
+        (
+            format!("{to45}payload += b'\\x02'"),
+            "6",
+            Some("later: invalid Option tag 2"),
+        ),
+        // A record of one bounce (the first alone has none): refused.
+        (
+            format!(
+                "{to45}payload += b'\\x01\\x01\\x00\\x00\\x00\\x01' + struct.pack('<3f', 1, 1, 1) + b'\\x00' + struct.pack('<3f', 0, 0, 0)"
+            ),
+            "6",
+            Some("later.bounces = 1"),
+        ),
+        // More bounces listed than the cap (a hostile count): refused
+        // before reading them.
+        (
+            format!(
+                "{to45}payload += b'\\x01\\x00\\x00\\x00\\x00\\x01' + struct.pack('<3f', 1, 1, 1) + b'\\xfb\\x01\\x01'"
+            ),
+            "6",
+            Some("later.per_bounce holds 257 bounces"),
+        ),
+    ];
+    reseal_cases.extend(cases_46);
     for (k, (edit, minor, refusal)) in reseal_cases.iter().enumerate() {
         let copy = copy_asset(&asset, work.path(), &format!("reseal{k}.gibake"));
         reseal(&py, &copy.join("manifest.bin"), edit, minor);
@@ -766,9 +804,10 @@ fn reader_accepts_a_point_light_first() {
         r.code == Some(0) && r.stdout.trim_end().ends_with("OK"),
         "a point light first must pass the reader\n{r}"
     );
+    // (the later bounces' VPLs, format 4.6, are no light's)
     let every = format!(
         "{} VPLs of every light (lights[0] is a point light) on their views' map surfaces",
-        m.vpl_count
+        m.vpl_count - m.later.as_ref().map_or(0, |l| l.vpls)
     );
     assert!(
         r.stdout

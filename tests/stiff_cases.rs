@@ -24,7 +24,11 @@ use gibake_scenegen::{geom, gltf::Builder};
 use glam::DVec3;
 
 const W: &str = "48";
-const BAKE: [&str; 8] = [
+/// The bake's settings: the first bounce alone (`--bounces 1`), judged
+/// against the one-bounce reference; the later bounces' stiff cases (a
+/// white room, albedo 0.99 and 1, 1 mm and 1 km) are
+/// crates/bake/tests/later.rs's, their accuracy tests/every_bounce_accuracy.rs's.
+const BAKE: [&str; 10] = [
     "--vpls",
     "64",
     "--rsm-size",
@@ -33,6 +37,8 @@ const BAKE: [&str; 8] = [
     "32",
     "--shadow-map-size",
     "512",
+    "--bounces",
+    "1",
 ];
 const MODES: [&str; 5] = ["full", "direct", "indirect", "rsm", "naive"];
 

@@ -105,7 +105,8 @@ fn a_4_5_manifest_loads_as_the_first_bounce_alone() {
 #[test]
 fn bad_later_records_are_refused_naming_the_manifest() {
     let tmp = tempfile::tempdir().unwrap();
-    let cases: Vec<(Box<dyn Fn(&mut LaterRecord)>, &str)> = vec![
+    type Edit = Box<dyn Fn(&mut LaterRecord)>;
+    let cases: Vec<(Edit, &str)> = vec![
         (Box::new(|l| l.bounces = 1), "bounces = 1"),
         (
             Box::new(|l| l.left_out = true),

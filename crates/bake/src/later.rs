@@ -137,8 +137,8 @@ pub fn later_bounces(rays: &RayScene<'_>, opts: &LaterOptions) -> Later {
     let diag = (bounds.max - bounds.min).length();
     let sec = secondary::cluster(rays, &surfels, &emitted, opts.vpls, diag);
     let mut reflected = glam::DVec3::ZERO;
-    for s in 0..surfels.len() {
-        reflected += (surfels.albedo[s] * direct[s] * surfels.area[s]).as_dvec3();
+    for ((albedo, d), area) in surfels.albedo.iter().zip(&direct).zip(&surfels.area) {
+        reflected += (*albedo * *d * *area).as_dvec3();
     }
     Later {
         vpls: sec.vpls,
@@ -150,4 +150,10 @@ pub fn later_bounces(rays: &RayScene<'_>, opts: &LaterOptions) -> Later {
         converged: solution.converged,
         surfels: surfels.len(),
     }
+}
+
+/// `a > b`, false where either is NaN: `!gt(a, b)` takes a NaN as "not
+/// greater", as `!(a > b)` does, in words clippy accepts.
+pub(crate) fn gt<T: PartialOrd>(a: T, b: T) -> bool {
+    matches!(a.partial_cmp(&b), Some(std::cmp::Ordering::Greater))
 }

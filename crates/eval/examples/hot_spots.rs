@@ -73,7 +73,8 @@ fn main() {
     let cam = gibake_reference::View::from_scene(&scene, 0.0).expect("the scene has a camera");
     let sum = |v: Vec3| f64::from(v.x + v.y + v.z);
     // Per pixel: (excess, pixel, per-VPL (twin, texels)).
-    let mut px: Vec<(f64, u32, Vec<(usize, f64, f64)>)> = (0..size * size)
+    type Pixel = (f64, u32, Vec<(usize, f64, f64)>);
+    let mut px: Vec<Pixel> = (0..size * size)
         .into_par_iter()
         .filter_map(|p| {
             let (x, y) = (p % size, p / size);

@@ -117,7 +117,9 @@ fn main() {
         let flags = vec![true; sec.vpls.len()];
         let tw = TwinVpls::new(&sec.vpls, &flags, &sec.nodes, &sec.coherence);
         let cam = gibake_reference::View::from_scene(&scene, 0.0).expect("a camera");
-        let mut worst: Vec<(f32, u32, Vec<(usize, f32, f32)>)> = (0..size * size)
+        // Per pixel: (excess, pixel, per-VPL (twin, surfels)).
+        type Worst = (f32, u32, Vec<(usize, f32, f32)>);
+        let mut worst: Vec<Worst> = (0..size * size)
             .into_par_iter()
             .filter_map(|p| {
                 let (x, y) = (p % size, p / size);

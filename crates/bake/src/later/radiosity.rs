@@ -68,14 +68,14 @@ fn light_irradiance(rays: &RayScene<'_>, light: &Light, p: Vec3, ng: Vec3, ns: V
             }
             let w = l / d;
             let att = light.attenuation(-w, d);
-            if !(att > 0.0) {
+            if !super::gt(att, 0.0) {
                 return Vec3::ZERO;
             }
             (w, d, light.color * (att / (d * d)))
         }
     };
     let (cos_g, cos_s) = (ng.dot(w), ns.dot(w));
-    if !(cos_g > 0.0 && cos_s > 0.0) {
+    if !(super::gt(cos_g, 0.0) && super::gt(cos_s, 0.0)) {
         return Vec3::ZERO;
     }
     let origin = rays.offset_point(p, ng);
@@ -188,7 +188,7 @@ impl Grid {
             let (a, b) = (y + n * lift, p + ns * lift);
             let d = b - a;
             let l = d.length();
-            if !(l > 0.0) || !rays.occluded(a, d / l, l) {
+            if !super::gt(l, 0.0) || !rays.occluded(a, d / l, l) {
                 return s;
             }
         }
@@ -293,8 +293,8 @@ pub fn solve(surfels: &Surfels, links: &Links, direct: &[Vec3], bounces: Bounces
     };
     let reflected = |e: &[Vec3]| -> Vec3 {
         let mut sum = glam::DVec3::ZERO;
-        for s in 0..n {
-            sum += (surfels.albedo[s] * e[s] * surfels.area[s]).as_dvec3();
+        for ((albedo, e), area) in surfels.albedo.iter().zip(e).zip(&surfels.area).take(n) {
+            sum += (*albedo * *e * *area).as_dvec3();
         }
         sum.as_vec3()
     };
@@ -328,7 +328,7 @@ pub fn solve(surfels: &Surfels, links: &Links, direct: &[Vec3], bounces: Bounces
             prev = next;
             continue;
         }
-        if !(carried > NEGLIGIBLE_BOUNCE * total) {
+        if !super::gt(carried, NEGLIGIBLE_BOUNCE * total) {
             break;
         }
         // A steady ratio r < 1 between bounces (the light has settled into

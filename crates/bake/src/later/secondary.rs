@@ -56,7 +56,7 @@ impl Stats {
     /// `hidden` the share of the light of the surfels that do not see the
     /// node's origin (two rooms' floors, coplanar, a wall between them).
     fn score(&self, diag2: f64, total: f64, hidden: f64) -> f32 {
-        if !(self.w > 0.0) {
+        if !super::gt(self.w, 0.0) {
             return 0.0;
         }
         let mean = self.wp / self.w;
@@ -158,7 +158,7 @@ pub fn cluster(
     // would graze its seams).
     let lift = 0.25 * surfels.spacing;
     let hidden = |ids: &[u32], st: &Stats| -> f64 {
-        if !(st.w > 0.0) {
+        if !super::gt(st.w, 0.0) {
             return 0.0;
         }
         let c = (st.wp / st.w).as_vec3();
@@ -170,7 +170,7 @@ pub fn cluster(
                 let p = surfels.position[i as usize] + surfels.normal[i as usize] * lift;
                 let d = o - p;
                 let l = d.length();
-                !(l > 0.0) || !rays.occluded(p, d / l, l)
+                !super::gt(l, 0.0) || !rays.occluded(p, d / l, l)
             })
             .collect();
         let mut h = 0.0;

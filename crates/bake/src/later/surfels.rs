@@ -83,7 +83,7 @@ pub fn place(rays: &RayScene<'_>, points: u32) -> Surfels {
     // The density giving `target` points (count is non-decreasing in d).
     let (mut lo, mut hi) = (0.0f64, 1.0f64);
     let largest = areas.iter().cloned().fold(0.0, f64::max);
-    if !(largest > 0.0) {
+    if !super::gt(largest, 0.0) {
         return Surfels::default();
     }
     hi /= largest;
@@ -102,7 +102,9 @@ pub fn place(rays: &RayScene<'_>, points: u32) -> Surfels {
     let lift = (0.5 / d.sqrt()) as f32;
     const A1: f64 = 0.754_877_666_246_692_7;
     const A2: f64 = 0.569_840_290_998_053_2;
-    let per_tri: Vec<Vec<(Vec3, Vec3, Vec3, f32, Vec3)>> = tris
+    /// A point's position, geometric normal, shading normal, area and albedo.
+    type Point = (Vec3, Vec3, Vec3, f32, Vec3);
+    let per_tri: Vec<Vec<Point>> = tris
         .par_iter()
         .zip(&areas)
         .enumerate()
