@@ -95,12 +95,12 @@ pub use gibake_scene::{
     Aabb, Animator, DynamicObject, Light, LightKind, Material, Mesh, Projection, Scene, SceneError,
     Texture,
 };
-#[cfg(feature = "gltf")]
+#[cfg(feature = "gltf-import")]
 pub use gibake_scene::{LoadOptions, load as load_scene};
 pub use light::LightInfo;
 pub use plan::{FramePlan, Pass, PassSet, ShadeFlag};
 pub use requirements::Requirements;
-#[cfg(feature = "gltf")]
+#[cfg(feature = "gltf-import")]
 pub use scene_options::{load_options_for, load_scene_for};
 pub use settings::{Cascades, Mode, RenderSettings};
 pub use stats::{FRAMES_IN_FLIGHT, FrameStats, Timing};
