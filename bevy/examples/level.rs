@@ -19,12 +19,14 @@
 //! GPU times of a frame a few frames old (`poll_stats`).
 //!
 //! `--frames N --screenshot out.png` renders N frames, writes what the
-//! window shows, and exits (run it under Xvfb for pictures).
+//! window shows, and exits (run it under Xvfb for pictures); `--size WxH`
+//! sizes the window.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::{Arc, Mutex};
 
+use bevy::camera::Exposure;
 use bevy::camera_controller::free_camera::{FreeCamera, FreeCameraPlugin};
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::light::GlobalAmbientLight;
@@ -32,8 +34,8 @@ use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 use bevy::window::{PrimaryWindow, WindowResolution};
 use gibake_bevy::{
-    GibakeCamera, GibakeLevel, GibakeLight, GibakeMode, GibakeObject, GibakePlugin,
-    GibakeSettings, GibakeShared, Pass,
+    GibakeCamera, GibakeLevel, GibakeLight, GibakeMode, GibakeObject, GibakePlugin, GibakeSettings,
+    GibakeShared, Pass,
 };
 
 /// The level's bake, as `gibake bake` is told (levels.json: its sun, the
@@ -48,40 +50,34 @@ const BAKE_ARGS: &[&str] = &[
 ];
 
 fn main() -> AppExit {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let flag = |name: &str| {
-        args.iter()
-            .position(|a| a == name)
-            .and_then(|i| args.get(i + 1))
-            .cloned()
+    let options = match Options::parse(std::env::args().skip(1)) {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("level: {e}\n\n{USAGE}");
+            std::process::exit(2);
+        }
     };
-    let frames: Option<u32> = flag("--frames").and_then(|v| v.parse().ok());
-    let screenshot = flag("--screenshot").map(PathBuf::from);
+    let Options {
+        frames,
+        screenshot,
+        size,
+    } = options;
     if let Err(e) = ensure_bake() {
         eprintln!("level: {e}");
         std::process::exit(2);
     }
+    // Bevy asks for every feature the adapter has (its default
+    // `WgpuSettingsPriority::Functionality`): timestamp queries for the top
+    // line's per-pass times where the GPU has them.
     App::new()
-        .add_plugins(
-            DefaultPlugins
-                .set(WindowPlugin {
-                    primary_window: Some(Window {
-                        title: "gibake in Bevy: living room".into(),
-                        resolution: WindowResolution::new(1024, 576),
-                        ..default()
-                    }),
-                    ..default()
-                })
-                .set(bevy::render::RenderPlugin {
-                    render_creation: bevy::render::settings::WgpuSettings {
-                        // The per-pass times of the top line.
-                        features: bevy::render::settings::WgpuFeatures::TIMESTAMP_QUERY,
-                        ..default()
-                    }
-                    .into(),
-                    ..default()
-                }),
-        )
+        .add_plugins(DefaultPlugins.set(WindowPlugin {
+            primary_window: Some(Window {
+                title: "gibake in Bevy: living room".into(),
+                resolution: WindowResolution::new(size.0, size.1),
+                ..default()
+            }),
+            ..default()
+        }))
         .add_plugins((GibakePlugin::default(), FreeCameraPlugin))
         // gibake's bounce replaces Bevy's flat ambient term.
         .insert_resource(GlobalAmbientLight::NONE)
@@ -97,6 +93,63 @@ fn main() -> AppExit {
         .add_systems(Startup, setup)
         .add_systems(Update, (keys, move_lamp, status_line, finish))
         .run()
+}
+
+const USAGE: &str = "usage: level [--size WIDTHxHEIGHT] [--frames N [--screenshot OUT.png]]
+  --size WxH         the window's size (default 1024x576)
+  --frames N         render N frames once gibake draws, then exit
+  --screenshot PATH  with --frames: write the window's last frame as a PNG";
+
+/// The command line.
+struct Options {
+    frames: Option<u32>,
+    screenshot: Option<PathBuf>,
+    size: (u32, u32),
+}
+
+impl Options {
+    fn parse(args: impl Iterator<Item = String>) -> Result<Options, String> {
+        let mut o = Options {
+            frames: None,
+            screenshot: None,
+            size: (1024, 576),
+        };
+        let mut args = args.peekable();
+        while let Some(a) = args.next() {
+            let mut value = || args.next().ok_or_else(|| format!("{a} needs a value"));
+            match a.as_str() {
+                "--frames" => {
+                    let v = value()?;
+                    o.frames = Some(
+                        v.parse()
+                            .ok()
+                            .filter(|n| *n > 0)
+                            .ok_or_else(|| format!("--frames {v}: not a positive number"))?,
+                    );
+                }
+                "--screenshot" => o.screenshot = Some(PathBuf::from(value()?)),
+                "--size" => {
+                    let v = value()?;
+                    o.size = v
+                        .split_once('x')
+                        .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
+                        .filter(|(w, h): &(u32, u32)| {
+                            (1..=8192).contains(w) && (1..=8192).contains(h)
+                        })
+                        .ok_or_else(|| format!("--size {v}: not WIDTHxHEIGHT (1 to 8192 each)"))?;
+                }
+                "-h" | "--help" => {
+                    println!("{USAGE}");
+                    std::process::exit(0);
+                }
+                _ => return Err(format!("unknown argument {a}")),
+            }
+        }
+        if o.screenshot.is_some() && o.frames.is_none() {
+            return Err("--screenshot needs --frames".into());
+        }
+        Ok(o)
+    }
 }
 
 #[derive(Resource)]
@@ -180,14 +233,16 @@ fn setup(mut commands: Commands, assets: Res<AssetServer>) {
         Transform::from_xyz(-2.93, 2.21, -1.89).looking_at(Vec3::new(-0.1, 1.98, 2.23), Vec3::Y),
         // The sun's 3 W/m² (lux to Bevy) at an exposure of 1: the numbers
         // gibake bakes, seen as they are.
-        Exposure { ev100: -(1.2f32).log2() },
+        Exposure {
+            ev100: -(1.2f32).log2(),
+        },
         Tonemapping::AcesFitted,
         FreeCamera::default(),
     ));
     commands.spawn((
         Text::new("gibake: loading"),
         TextFont {
-            font_size: 15.0,
+            font_size: bevy::text::FontSize::Px(15.0),
             ..default()
         },
         TextColor(Color::WHITE),
@@ -256,7 +311,8 @@ fn move_lamp(
         }
         let s = *start.get_or_insert(*t);
         let phase = run.t * 0.6;
-        t.translation = s.translation + Vec3::new(0.9 * phase.sin(), 0.0, 0.5 * (phase * 0.7).sin());
+        t.translation =
+            s.translation + Vec3::new(0.9 * phase.sin(), 0.0, 0.5 * (phase * 0.7).sin());
         t.rotation = s.rotation * Quat::from_rotation_y(phase * 0.5);
     }
 }
@@ -311,12 +367,12 @@ fn finish(
         match run.screenshot.clone() {
             Some(path) => {
                 let slot = run.shot.clone();
-                commands
-                    .spawn(Screenshot::primary_window())
-                    .observe(move |shot: On<ScreenshotCaptured>| {
+                commands.spawn(Screenshot::primary_window()).observe(
+                    move |shot: On<ScreenshotCaptured>| {
                         let r = write_png(&shot.image, &path);
                         *slot.lock().unwrap() = Some(r);
-                    });
+                    },
+                );
             }
             None => {
                 exit.write(AppExit::Success);

@@ -44,7 +44,9 @@ pub struct GibakeAsset {
 pub enum GibakeLoadError {
     /// The asset server's path has no directory on disk (not the file
     /// source).
-    #[error("{path}: a .gibake asset loads from the file system (the default asset source); this path has no directory under {root}")]
+    #[error(
+        "{path}: a .gibake asset loads from the file system (the default asset source); this path has no directory under {root}"
+    )]
     NotOnDisk {
         /// The asset path.
         path: String,
@@ -126,7 +128,12 @@ pub(crate) struct ReloadWatch {
     pub(crate) last: Option<Instant>,
     /// Per loaded asset: its path for the asset server, its directory and
     /// the manifest's stamp when it was loaded.
-    pub(crate) seen: Vec<(AssetId<GibakeAsset>, AssetPath<'static>, PathBuf, Option<Stamp>)>,
+    pub(crate) seen: Vec<(
+        AssetId<GibakeAsset>,
+        AssetPath<'static>,
+        PathBuf,
+        Option<Stamp>,
+    )>,
 }
 
 /// Records each loaded asset's stamp; asks the asset server to reload an
@@ -154,7 +161,10 @@ pub(crate) fn watch_for_rebakes(
         }
     }
     let now = Instant::now();
-    if watch.last.is_some_and(|t| now.duration_since(t) < watch.every) {
+    if watch
+        .last
+        .is_some_and(|t| now.duration_since(t) < watch.every)
+    {
         return;
     }
     watch.last = Some(now);

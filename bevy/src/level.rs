@@ -140,6 +140,7 @@ pub enum BevyLight {
 /// copy puts [`GibakeObject::copy_of`] on the copy's root: a new object for
 /// the runtime (`Renderer::spawn`), removed when the entity despawns.
 #[derive(Component, Clone, Debug, PartialEq, Eq)]
+#[require(Transform, Visibility)]
 pub struct GibakeObject {
     name: String,
     declared: bool,
@@ -244,7 +245,9 @@ pub(crate) fn load_level_scenes(
             (None, Some(r)) => match r.0.path() {
                 Some(p) => p.path().to_string_lossy().into_owned(),
                 None => {
-                    warn_once!("gibake: the level's WorldAssetRoot has no path; set GibakeLevel::scene");
+                    warn_once!(
+                        "gibake: the level's WorldAssetRoot has no path; set GibakeLevel::scene"
+                    );
                     continue;
                 }
             },
@@ -362,7 +365,14 @@ pub(crate) struct ExtractedGibake {
 
 pub(crate) fn extract_level(
     levels: Extract<Query<(&LevelState, &GlobalTransform), With<GibakeLevel>>>,
-    objects: Extract<Query<(Entity, &GibakeObject, &GlobalTransform, &InheritedVisibility)>>,
+    objects: Extract<
+        Query<(
+            Entity,
+            &GibakeObject,
+            &GlobalTransform,
+            &InheritedVisibility,
+        )>,
+    >,
     settings: Extract<Res<GibakeSettings>>,
     mut out: ResMut<ExtractedGibake>,
 ) {

@@ -152,8 +152,7 @@ impl Plugin for GibakePlugin {
         let (root, watching) = match app.get_added_plugins::<AssetPlugin>().first() {
             Some(p) => (
                 bevy::asset::io::file::FileAssetReader::get_base_path().join(&p.file_path),
-                p.watch_for_changes_override
-                    .unwrap_or(true),
+                p.watch_for_changes_override.unwrap_or(true),
             ),
             None => panic!("GibakePlugin needs the AssetPlugin (DefaultPlugins) added before it"),
         };

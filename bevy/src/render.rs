@@ -134,7 +134,6 @@ impl GibakeRender {
     pub fn active(&self) -> bool {
         self.active
     }
-
 }
 
 /// Logs an error once (until it changes) and reports it.
@@ -388,7 +387,11 @@ pub(crate) fn prepare(
                         },
                     );
                     if let Err(e) = result {
-                        fail(&mut state.last_error, &shared, format!("Bevy's G-buffer: {e}"));
+                        fail(
+                            &mut state.last_error,
+                            &shared,
+                            format!("Bevy's G-buffer: {e}"),
+                        );
                         continue;
                     }
                     v.albedo = Some(albedo);
@@ -402,12 +405,12 @@ pub(crate) fn prepare(
             }
             _ => {}
         }
-        if let Err(e) = r.set_output(
-            device,
-            v.id,
-            OutputTarget::AddScaled(t, camera.exposure),
-        ) {
-            fail(&mut state.last_error, &shared, format!("the camera's target: {e}"));
+        if let Err(e) = r.set_output(device, v.id, OutputTarget::AddScaled(t, camera.exposure)) {
+            fail(
+                &mut state.last_error,
+                &shared,
+                format!("the camera's target: {e}"),
+            );
             continue;
         }
         let m = camera_matrices(&view.world_from_view, view.clip_from_view);
@@ -480,7 +483,8 @@ pub(crate) fn record_view(
 }
 
 /// The schedule order of the per-camera system.
-pub(crate) fn view_system_config() -> bevy::ecs::schedule::ScheduleConfigs<bevy::ecs::system::ScheduleSystem> {
+pub(crate) fn view_system_config()
+-> bevy::ecs::schedule::ScheduleConfigs<bevy::ecs::system::ScheduleSystem> {
     record_view
         .after(main_opaque_pass_3d)
         .before(main_transparent_pass_3d)

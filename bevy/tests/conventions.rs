@@ -7,8 +7,8 @@
 //! GPU side of the same conventions (a depth and normal prepass rebuilt
 //! into gibake's G-buffer, Bevy's sun against gibake's) is in `headless`.
 
-use bevy::camera::{OrthographicProjection, PerspectiveProjection, ScalingMode};
 use bevy::camera::CameraProjection;
+use bevy::camera::{OrthographicProjection, PerspectiveProjection, ScalingMode};
 use bevy::prelude::*;
 use gibake_bevy::gibake_runtime::{CameraMatrices, LightKind};
 use gibake_bevy::{BevyLight, bevy_light, camera_matrices};
@@ -19,7 +19,11 @@ fn close(a: Mat4, b: Mat4, eps: f32) -> bool {
 
 #[test]
 fn bevys_perspective_is_gibakes_reversed_z_infinite_projection() {
-    for (fov, aspect, near) in [(75f32, 16.0 / 9.0, 0.05f32), (38.0, 1.0, 0.1), (90.0, 0.5, 2.0)] {
+    for (fov, aspect, near) in [
+        (75f32, 16.0 / 9.0, 0.05f32),
+        (38.0, 1.0, 0.1),
+        (90.0, 0.5, 2.0),
+    ] {
         let p = PerspectiveProjection {
             fov: fov.to_radians(),
             aspect_ratio: aspect,
@@ -29,7 +33,10 @@ fn bevys_perspective_is_gibakes_reversed_z_infinite_projection() {
         let bevy = p.get_clip_from_view();
         let gibake =
             CameraMatrices::perspective(Mat4::IDENTITY, fov.to_radians(), aspect, near).view_proj;
-        assert!(close(bevy, gibake, 1e-6), "{fov}°, {aspect}, {near}:\n{bevy}\n{gibake}");
+        assert!(
+            close(bevy, gibake, 1e-6),
+            "{fov}°, {aspect}, {near}:\n{bevy}\n{gibake}"
+        );
         // Reversed Z: the near plane at depth 1, far away towards 0.
         let depth = |z: f32| {
             let c = bevy * Vec4::new(0.0, 0.0, -z, 1.0);
@@ -58,7 +65,11 @@ fn bevys_orthographic_projection_is_reversed_z() {
     p.update(800.0, 400.0);
     let bevy = p.get_clip_from_view();
     let gibake = CameraMatrices::orthographic(Mat4::IDENTITY, 2.0, 2.0, 0.5, 60.0);
-    assert!(close(bevy, gibake.view_proj, 1e-6), "\n{bevy}\n{}", gibake.view_proj);
+    assert!(
+        close(bevy, gibake.view_proj, 1e-6),
+        "\n{bevy}\n{}",
+        gibake.view_proj
+    );
     let m = camera_matrices(&GlobalTransform::IDENTITY, bevy);
     assert!(m.orthographic);
 }
@@ -131,11 +142,16 @@ fn the_lights_the_plugin_spawns_carry_gibakes_numbers_in_bevys_units() {
         panic!("{l:?}")
     };
     assert!((lin(s.color) * s.illuminance).abs_diff_eq(Vec3::new(3.0, 2.7, 2.4), 1e-5));
-    assert!(t.forward().abs_diff_eq(d, 1e-5), "a Bevy light shines down its −Z");
+    assert!(
+        t.forward().abs_diff_eq(d, 1e-5),
+        "a Bevy light shines down its −Z"
+    );
     assert!(s.shadow_maps_enabled);
     // A point light of 25 W/sr: Bevy's shader divides lumens by 4π.
     let (l, t) = bevy_light(&light(LightKind::Point, Vec3::splat(25.0), Vec3::NEG_Y));
-    let BevyLight::Point(p) = l else { panic!("{l:?}") };
+    let BevyLight::Point(p) = l else {
+        panic!("{l:?}")
+    };
     assert!((lin(p.color) * p.intensity / four_pi).abs_diff_eq(Vec3::splat(25.0), 1e-4));
     assert!(t.translation.abs_diff_eq(Vec3::new(1.0, 2.0, 3.0), 1e-6));
     // A spot keeps glTF's cone.
@@ -147,8 +163,13 @@ fn the_lights_the_plugin_spawns_carry_gibakes_numbers_in_bevys_units() {
         Vec3::new(40.0, 40.0, 20.0),
         Vec3::Y,
     ));
-    let BevyLight::Spot(s) = l else { panic!("{l:?}") };
+    let BevyLight::Spot(s) = l else {
+        panic!("{l:?}")
+    };
     assert_eq!((s.inner_angle, s.outer_angle), (0.4, 0.6));
     assert!((lin(s.color) * s.intensity / four_pi).abs_diff_eq(Vec3::new(40.0, 40.0, 20.0), 1e-3));
-    assert!(t.forward().abs_diff_eq(Vec3::Y, 1e-5), "straight up needs another up vector");
+    assert!(
+        t.forward().abs_diff_eq(Vec3::Y, 1e-5),
+        "straight up needs another up vector"
+    );
 }

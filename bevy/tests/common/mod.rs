@@ -91,10 +91,7 @@ pub struct Root {
 impl Root {
     /// The level baked with [`BAKE_FLAGS`], a sun of [`SUN_IRRADIANCE`].
     pub fn new(name: &str) -> Root {
-        let dir = std::env::temp_dir().join(format!(
-            "gibake-bevy-{name}-{}",
-            std::process::id()
-        ));
+        let dir = std::env::temp_dir().join(format!("gibake-bevy-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         let level = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/levels/living_room");
@@ -114,7 +111,9 @@ impl Root {
         run_gibake(&self.dir, &args);
     }
 
-    /// `gibake render` of the test camera at time 0, read back.
+    /// `gibake render` of the test camera at time 0, read back: one
+    /// sample per pixel (`--ssaa 1`), every VPL in every pixel
+    /// (`--interleave 1`), as the plugin shades this size.
     pub fn render(&self, mode: &str, out: &str) -> Vec<[f32; 3]> {
         let look = format!(
             "{},{},{},{},{},{},{}",
@@ -124,14 +123,91 @@ impl Root {
         run_gibake(
             &self.dir,
             &[
-                "render", LEVEL, "--bake", "living_room.gibake", "--mode", mode, "--look-at",
-                &look, "--width", &w, "--height", &h, "--interleave", "1", "--time", "0", "-o",
+                "render",
+                LEVEL,
+                "--bake",
+                "living_room.gibake",
+                "--mode",
+                mode,
+                "--look-at",
+                &look,
+                "--width",
+                &w,
+                "--height",
+                &h,
+                "--interleave",
+                "1",
+                "--ssaa",
+                "1",
+                "--time",
+                "0",
+                "-o",
                 out,
             ],
         );
         let img = gibake_image::Image::read_exr(&self.dir.join(out)).expect("read the EXR");
         assert_eq!((img.width, img.height), (W, H));
         img.pixels.iter().map(|p| [p.x, p.y, p.z]).collect()
+    }
+
+    /// `gibake render --stats` of the test camera, `frames` frames at time
+    /// 0 (nothing is animated: each is the same work): the last frame's GPU
+    /// time per pass and its wall time (`prepare`, record, submit, wait),
+    /// in milliseconds.
+    pub fn render_stats(&self, mode: &str, frames: u32) -> (Vec<(String, f64)>, f64) {
+        let look = format!(
+            "{},{},{},{},{},{},{}",
+            EYE[0], EYE[1], EYE[2], TARGET[0], TARGET[1], TARGET[2], FOV_DEG
+        );
+        let (w, h, n) = (W.to_string(), H.to_string(), frames.to_string());
+        run_gibake(
+            &self.dir,
+            &[
+                "render",
+                LEVEL,
+                "--bake",
+                "living_room.gibake",
+                "--mode",
+                mode,
+                "--look-at",
+                &look,
+                "--width",
+                &w,
+                "--height",
+                &h,
+                "--interleave",
+                "1",
+                "--ssaa",
+                "1",
+                "--time",
+                "0",
+                "--frames",
+                &n,
+                "--stats",
+                "stats.json",
+                "-o",
+                "timed.exr",
+            ],
+        );
+        let text = std::fs::read_to_string(self.dir.join("stats.json")).expect("read stats.json");
+        let json: serde_json::Value = serde_json::from_str(&text).expect("stats.json is JSON");
+        let last = json["frames"]
+            .as_array()
+            .and_then(|f| f.last())
+            .expect("stats.json has frames");
+        let wall_ms = last["wall_seconds"].as_f64().expect("wall_seconds") * 1e3;
+        let passes = last["passes_ms"]
+            .as_array()
+            .expect("passes_ms")
+            .iter()
+            .map(|p| {
+                (
+                    p["pass"].as_str().expect("a pass name").to_string(),
+                    p["ms"].as_f64().expect("a time"),
+                )
+            })
+            .collect();
+        (passes, wall_ms)
     }
 }
 
@@ -217,13 +293,13 @@ impl Game {
             .id();
         let latest = Arc::new(Mutex::new(Latest::default()));
         let slot = latest.clone();
-        app.world_mut().spawn(Readback::texture(image)).observe(
-            move |e: On<ReadbackComplete>| {
+        app.world_mut()
+            .spawn(Readback::texture(image))
+            .observe(move |e: On<ReadbackComplete>| {
                 let mut l = slot.lock().unwrap();
                 l.data = Some(e.data.clone());
                 l.count += 1;
-            },
-        );
+            });
         app.finish();
         app.cleanup();
         Game {
@@ -246,6 +322,22 @@ impl Game {
         self.app.update();
         let l = self.latest.lock().unwrap();
         l.data.as_ref().map(|d| decode(d))
+    }
+
+    /// The mean wall time of `n` frames (the whole Bevy frame: on lavapipe
+    /// the GPU work is done on the CPU within it, the readback waited for).
+    pub fn frame_wall_ms(&mut self, n: usize) -> f64 {
+        let start = Instant::now();
+        self.skip(n);
+        start.elapsed().as_secs_f64() * 1e3 / n as f64
+    }
+
+    /// `n` frames, their pixels not looked at (what the test changed
+    /// reaches the frames read back).
+    pub fn skip(&mut self, n: usize) {
+        for _ in 0..n {
+            self.app.update();
+        }
     }
 
     /// Updates until `ready` holds for the report and two frames read back
