@@ -12,8 +12,9 @@
 //! `../target/release/gibake` or `gibake` on the `PATH`). Re-baking it
 //! while the game runs (another `--vpls`, say) reloads it in the game.
 //!
-//! Keys: W A S D, Q E, Shift fly; mouse (right button held) looks around;
-//! G toggles gibake's light; M switches what gibake adds (the indirect
+//! Keys: W A S D, Q E, Shift fly; mouse (right button held, M grabs the
+//! cursor) looks around;
+//! G toggles gibake's light; L switches what gibake adds (the indirect
 //! light onto Bevy's own sun, or everything, with Bevy's sun off); H hides
 //! the lamp; Space pauses it; Esc quits. The top line shows the per-pass
 //! GPU times of a frame a few frames old (`poll_stats`).
@@ -61,6 +62,7 @@ fn main() -> AppExit {
         frames,
         screenshot,
         size,
+        off,
     } = options;
     if let Err(e) = ensure_bake() {
         eprintln!("level: {e}");
@@ -70,17 +72,29 @@ fn main() -> AppExit {
     // `WgpuSettingsPriority::Functionality`): timestamp queries for the top
     // line's per-pass times where the GPU has them.
     App::new()
-        .add_plugins(DefaultPlugins.set(WindowPlugin {
-            primary_window: Some(Window {
-                title: "gibake in Bevy: living room".into(),
-                resolution: WindowResolution::new(size.0, size.1),
-                ..default()
-            }),
-            ..default()
-        }))
+        .add_plugins(
+            DefaultPlugins
+                .set(WindowPlugin {
+                    primary_window: Some(Window {
+                        title: "gibake in Bevy: living room".into(),
+                        resolution: WindowResolution::new(size.0, size.1),
+                        ..default()
+                    }),
+                    ..default()
+                })
+                // The example's assets wherever the binary runs from.
+                .set(AssetPlugin {
+                    file_path: assets().to_string_lossy().into_owned(),
+                    ..default()
+                }),
+        )
         .add_plugins((GibakePlugin::default(), FreeCameraPlugin))
         // gibake's bounce replaces Bevy's flat ambient term.
         .insert_resource(GlobalAmbientLight::NONE)
+        .insert_resource(GibakeSettings {
+            enabled: !off,
+            ..default()
+        })
         .insert_resource(ClearColor(Color::srgb(0.55, 0.7, 0.9)))
         .insert_resource(Run {
             frames,
@@ -95,8 +109,9 @@ fn main() -> AppExit {
         .run()
 }
 
-const USAGE: &str = "usage: level [--size WIDTHxHEIGHT] [--frames N [--screenshot OUT.png]]
+const USAGE: &str = "usage: level [--size WIDTHxHEIGHT] [--off] [--frames N [--screenshot OUT.png]]
   --size WxH         the window's size (default 1024x576)
+  --off              start with gibake's light off (G turns it on)
   --frames N         render N frames once gibake draws, then exit
   --screenshot PATH  with --frames: write the window's last frame as a PNG";
 
@@ -105,6 +120,7 @@ struct Options {
     frames: Option<u32>,
     screenshot: Option<PathBuf>,
     size: (u32, u32),
+    off: bool,
 }
 
 impl Options {
@@ -113,6 +129,7 @@ impl Options {
             frames: None,
             screenshot: None,
             size: (1024, 576),
+            off: false,
         };
         let mut args = args.peekable();
         while let Some(a) = args.next() {
@@ -128,6 +145,7 @@ impl Options {
                     );
                 }
                 "--screenshot" => o.screenshot = Some(PathBuf::from(value()?)),
+                "--off" => o.off = true,
                 "--size" => {
                     let v = value()?;
                     o.size = v
@@ -231,10 +249,11 @@ fn setup(mut commands: Commands, assets: Res<AssetServer>) {
             ..default()
         }),
         Transform::from_xyz(-2.93, 2.21, -1.89).looking_at(Vec3::new(-0.1, 1.98, 2.23), Vec3::Y),
-        // The sun's 3 W/m² (lux to Bevy) at an exposure of 1: the numbers
-        // gibake bakes, seen as they are.
+        // An exposure of 3 (Bevy's `1 / (1.2 · 2^ev100)`): the sun's 3 W/m²
+        // (lux to Bevy) and gibake's light, added times the same exposure,
+        // brought up for the eye; ACES tone mapping after.
         Exposure {
-            ev100: -(1.2f32).log2(),
+            ev100: -(3.6f32).log2(),
         },
         Tonemapping::AcesFitted,
         FreeCamera::default(),
@@ -267,7 +286,8 @@ fn keys(
     if input.just_pressed(KeyCode::KeyG) {
         settings.enabled = !settings.enabled;
     }
-    if input.just_pressed(KeyCode::KeyM) {
+    // (M is the fly camera's cursor grab.)
+    if input.just_pressed(KeyCode::KeyL) {
         settings.mode = match settings.mode {
             GibakeMode::Indirect => GibakeMode::Everything,
             GibakeMode::Everything => GibakeMode::Indirect,
@@ -324,7 +344,7 @@ fn status_line(
 ) {
     let report = shared.report();
     let mut line = format!(
-        "gibake {} ({:?}) [G toggle, M mode, H lamp, Space pause]",
+        "gibake {} ({:?}) [G toggle, L mode, H lamp, Space pause]",
         if settings.enabled { "on" } else { "off" },
         settings.mode
     );
@@ -356,10 +376,18 @@ fn finish(
     shared: Res<GibakeShared>,
     mut exit: MessageWriter<AppExit>,
     window: Query<Entity, With<PrimaryWindow>>,
+    settings: Res<GibakeSettings>,
+    lights: Query<(), With<GibakeLight>>,
 ) {
     let Some(n) = run.frames else { return };
-    // Count frames once gibake draws (the level and pipelines are ready).
-    if shared.report().frames == 0 {
+    // Count frames once gibake draws (the level and pipelines are ready),
+    // or, with gibake off, once the level's lights are spawned.
+    let ready = if settings.enabled {
+        shared.report().frames > 0
+    } else {
+        !lights.is_empty()
+    };
+    if !ready {
         return;
     }
     run.done += 1;
