@@ -238,7 +238,7 @@ fn bevys_gbuffer_rebuilt_is_gibakes_own() {
     let _gpu = common::serial();
     let root = Root::new("gbuffer");
     let mut game = Game::new(&root);
-    let slot: Arc<Mutex<Option<Vec<Vec<[f32; 4]>>>>> = Arc::default();
+    let slot: Arc<Mutex<Option<GBuffer>>> = Arc::default();
     let s = slot.clone();
     game.app.sub_app_mut(RenderApp).add_systems(
         Render,
@@ -346,6 +346,9 @@ fn bevys_gbuffer_rebuilt_is_gibakes_own() {
     assert!(bad_normal * 100 < both, "{bad_normal} normals differ");
     assert!(bad_albedo * 100 < both, "{bad_albedo} albedos differ");
 }
+
+/// A G-buffer's textures read back (positions, normals, albedo).
+type GBuffer = Vec<Vec<[f32; 4]>>;
 
 /// The octahedral decoding of gibake's `common.wgsl`.
 fn oct_decode(x: f32, y: f32) -> Vec3 {
