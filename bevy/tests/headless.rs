@@ -552,3 +552,46 @@ fn moving_objects_follow_their_entities() {
         "despawned: the frame before it"
     );
 }
+
+/// `GibakeMode::Everything` with Bevy's own lights hidden: the frame is
+/// gibake's alone, direct light and shadows included, and it is `gibake
+/// render --mode full --ssaa 1` of the same camera.
+#[test]
+fn everything_mode_is_gibake_renders_full() {
+    let _gpu = common::serial();
+    let root = Root::new("full");
+    let reference = root.render("full", "full.exr");
+    let mut game = Game::new(&root);
+    game.settings().mode = gibake_bevy::GibakeMode::Everything;
+    // Bevy's lights (the ones the plugin spawned) hidden, once they exist.
+    let start = std::time::Instant::now();
+    loop {
+        game.skip(1);
+        let world = game.app.world_mut();
+        let lights: Vec<Entity> = world
+            .query_filtered::<Entity, With<gibake_bevy::GibakeLight>>()
+            .iter(world)
+            .collect();
+        if !lights.is_empty() {
+            for l in lights {
+                world.entity_mut(l).insert(Visibility::Hidden);
+            }
+            break;
+        }
+        assert!(
+            start.elapsed().as_secs() < 300,
+            "the level's lights never came"
+        );
+    }
+    game.skip(4);
+    let frame = game.settle("everything", |r| r.frames > 2);
+    common::picture("bevy_everything.png", &frame, 1.0);
+    let (mf, mr) = (mean(&frame), mean(&reference));
+    let (d, p99) = difference(&frame, &reference);
+    eprintln!(
+        "everything: mean {mf:.5} against gibake render --mode full {mr:.5}; mean |difference| {d:.4}, 99th percentile {p99:.4} (of the mean)"
+    );
+    assert!((mf / mr - 1.0).abs() < 0.01, "{mf:.5} against {mr:.5}");
+    assert!(d < 0.01, "mean difference {d:.4} of the mean");
+    assert!(p99 < 0.1, "99th percentile {p99:.4} of the mean");
+}
