@@ -8,7 +8,8 @@
 # (target/pyenv: numpy, OpenEXR, blake3) is made for tests/spec_reader.rs,
 # which reads a baked asset with tools/spec_reader/read_gibake.py. strace is
 # installed for the fault injection of tests/faults.rs. Xvfb is installed for
-# tests/view.rs (`gibake view`'s window under a virtual X server).
+# tests/view.rs (`gibake view`'s window under a virtual X server). Then the
+# Bevy plugin's tests (bevy/, its own workspace on nightly).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/ensure-deps.sh --node --slurm --python --faults --xvfb
@@ -21,6 +22,27 @@ set +e
 cargo test --workspace --release --no-fail-fast 2>&1 | tee "$log"
 status=${PIPESTATUS[0]}
 set -e
+# gibake-bevy (bevy/): the Bevy plugin, a workspace of its own on nightly
+# (Bevy 0.20.1 declares rust-version 1.97.1; nightly 1.97.0 builds it with
+# --ignore-rust-version: bevy/README.md). Its tests render with Bevy on
+# lavapipe and compare with the gibake binary built above; Bevy is built
+# with only the plugin's features, in bevy/'s dev profile (opt-level 1, no
+# debug info). GIBAKE_BEVY=0 skips it.
+if [ "${GIBAKE_BEVY:-1}" != 0 ]; then
+    echo "== gibake-bevy (bevy/, nightly)"
+    target_dir=$(cargo metadata --format-version 1 --no-deps |
+        python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')
+    set +e
+    cargo build --release -p gibake &&
+        (cd bevy && GIBAKE="$target_dir/release/gibake" \
+            cargo test --locked --ignore-rust-version --no-default-features --test integration) 2>&1 |
+        tee -a "$log"
+    bevy_status=${PIPESTATUS[0]}
+    set -e
+    if [ "$bevy_status" != 0 ]; then
+        status=1
+    fi
+fi
 # Bounded fuzzing (about 2 minutes: six targets of 20 s; needs nightly, installs cargo-fuzz;
 # GIBAKE_FUZZ=0 skips it). A crash fails the run and is kept in
 # fuzz/regressions/ for the plain regression tests.

@@ -2,6 +2,11 @@
 //! its depth buffer and the frame camera's inverse view-projection give the
 //! world position, its normal buffer the normals, its albedo buffer the
 //! albedo. Recorded in place of the G-buffer pass, every frame.
+//!
+//! Its two pipelines (a `Depth32Float` or an `R32Float` depth) are made once
+//! per renderer ([`Pipelines`]): an engine whose depth and normal textures
+//! come from a pool that may hand out other ones from frame to frame gives
+//! them again with `use_depth_gbuffer` and pays for a bind group.
 
 use gibake_gpu::shaders;
 
@@ -48,6 +53,47 @@ struct GpuDepthParams {
     size: [u32; 2],
     far_depth: f32,
     normals: u32,
+}
+
+impl GpuDepthParams {
+    fn set_camera(&mut self, camera: &CameraMatrices) {
+        let gpu = camera.to_gpu();
+        self.inv_view_proj = camera.view_proj.inverse().to_cols_array_2d();
+        self.position = gpu.position;
+        self.forward = gpu.forward;
+    }
+}
+
+/// The rebuild pipelines of one renderer, made when first needed: for a
+/// `Depth32Float` depth, for an `R32Float` one.
+#[derive(Default)]
+pub(crate) struct Pipelines([std::sync::OnceLock<wgpu::ComputePipeline>; 2]);
+
+impl Pipelines {
+    fn get(&self, device: &wgpu::Device, depth: wgpu::TextureFormat) -> wgpu::ComputePipeline {
+        let float = depth != wgpu::TextureFormat::Depth32Float;
+        self.0[usize::from(float)]
+            .get_or_init(|| {
+                let (decl, load) = if float {
+                    ("texture_2d<f32>", "textureLoad(depth_tex, px, 0).r")
+                } else {
+                    ("texture_depth_2d", "textureLoad(depth_tex, px, 0)")
+                };
+                let own = include_str!("gbuffer_depth.wgsl")
+                    .replace("DEPTH_TEXTURE", decl)
+                    .replace("DEPTH_LOAD", load);
+                let module = shaders::module(device, "gbuffer_depth.wgsl", &own);
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some("gbuffer from depth"),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some("cs_main"),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+            })
+            .clone()
+    }
 }
 
 /// The rebuild pass of one view.
@@ -101,9 +147,11 @@ impl DepthGBufferPass {
     /// The pass from `src` into `target` (both of `size`).
     pub(crate) fn new(
         device: &wgpu::Device,
+        pipelines: &Pipelines,
         src: &DepthGBuffer<'_>,
         target: &GBuffer,
         size: (u32, u32),
+        camera: Option<&CameraMatrices>,
     ) -> Result<DepthGBufferPass, RuntimeError> {
         use wgpu::TextureFormat as F;
         check(src.depth, "depth", size, &[F::Depth32Float, F::R32Float])?;
@@ -114,24 +162,8 @@ impl DepthGBufferPass {
                 "the far depth of an external G-buffer must be finite".into(),
             ));
         }
-        let (decl, load) = if src.depth.format() == F::Depth32Float {
-            ("texture_depth_2d", "textureLoad(depth_tex, px, 0)")
-        } else {
-            ("texture_2d<f32>", "textureLoad(depth_tex, px, 0).r")
-        };
-        let own = include_str!("gbuffer_depth.wgsl")
-            .replace("DEPTH_TEXTURE", decl)
-            .replace("DEPTH_LOAD", load);
-        let module = shaders::module(device, "gbuffer_depth.wgsl", &own);
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("gbuffer from depth"),
-            layout: None,
-            module: &module,
-            entry_point: Some("cs_main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        let params = GpuDepthParams {
+        let pipeline = pipelines.get(device, src.depth.format());
+        let mut params = GpuDepthParams {
             inv_view_proj: glam::Mat4::IDENTITY.to_cols_array_2d(),
             position: [0.0; 4],
             forward: [0.0, 0.0, -1.0, 0.0],
@@ -143,6 +175,11 @@ impl DepthGBufferPass {
                 NormalEncoding::WorldUnorm => 2,
             },
         };
+        // A source given again between `prepare` and `record` keeps the
+        // prepared frame's camera.
+        if let Some(camera) = camera {
+            params.set_camera(camera);
+        }
         let params_buf = crate::shade::uniform(device, "gbuffer from depth", &params);
         let view = |t: &wgpu::Texture| t.create_view(&Default::default());
         let (d, n, a) = (view(src.depth), view(src.normals), view(src.albedo));
@@ -171,10 +208,7 @@ impl DepthGBufferPass {
 
     /// The frame's camera (its inverse view-projection rebuilds positions).
     pub(crate) fn set_camera(&mut self, queue: &wgpu::Queue, camera: &CameraMatrices) {
-        let gpu = camera.to_gpu();
-        self.params.inv_view_proj = camera.view_proj.inverse().to_cols_array_2d();
-        self.params.position = gpu.position;
-        self.params.forward = gpu.forward;
+        self.params.set_camera(camera);
         queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
     }
 

@@ -95,12 +95,12 @@ pub use gibake_scene::{
     Aabb, Animator, DynamicObject, Light, LightKind, Material, Mesh, Projection, Scene, SceneError,
     Texture,
 };
-#[cfg(feature = "gltf")]
+#[cfg(feature = "gltf-import")]
 pub use gibake_scene::{LoadOptions, load as load_scene};
 pub use light::LightInfo;
 pub use plan::{FramePlan, Pass, PassSet, ShadeFlag};
 pub use requirements::Requirements;
-#[cfg(feature = "gltf")]
+#[cfg(feature = "gltf-import")]
 pub use scene_options::{load_options_for, load_scene_for};
 pub use settings::{Cascades, Mode, RenderSettings};
 pub use stats::{FRAMES_IN_FLIGHT, FrameStats, Timing};
@@ -546,10 +546,12 @@ impl Renderer {
 
     /// Records the frame last prepared into `encoder`; uploads nothing:
     /// the per-frame update once, then each view's G-buffer and shading.
-    /// Submit it before the next [`Renderer::prepare`].
+    /// Submit it before the next [`Renderer::prepare`]. The same as
+    /// [`Renderer::record_update`], [`Renderer::record_view`] of every view
+    /// and [`Renderer::record_finish`], in that order.
     pub fn record(&self, encoder: &mut wgpu::CommandEncoder) {
+        self.record_update(encoder);
         let w = &self.world;
-        w.record_update(encoder, &self.timer);
         for (k, v) in self.views.iter().flatten().enumerate() {
             v.record(
                 encoder,
@@ -560,6 +562,51 @@ impl Renderer {
                 k as u32,
             );
         }
+        self.record_finish(encoder);
+    }
+
+    /// Records the frame's update alone: the passes that run once per
+    /// frame however many views there are (merges, dynamic VPLs, VPL maps,
+    /// cascades; nothing without moving objects). For an engine that
+    /// records each camera in its own pass (a render graph): this first,
+    /// then [`Renderer::record_view`] per view (in any encoders submitted
+    /// after this one, in the same submission or later ones of the frame),
+    /// then [`Renderer::record_finish`] after them all.
+    pub fn record_update(&self, encoder: &mut wgpu::CommandEncoder) {
+        self.world.record_update(encoder, &self.timer);
+    }
+
+    /// Records one view of the frame: its G-buffer (or the rebuild from the
+    /// engine's), shading, interleave filter and composite into its target
+    /// ([`Renderer::set_output`]). After [`Renderer::record_update`] of the
+    /// same frame; [`RuntimeError::UnknownView`] (nothing recorded) for a
+    /// view this renderer does not have. A view prepared but not recorded
+    /// in a frame is simply not drawn (its pass times that frame are
+    /// meaningless).
+    pub fn record_view(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        id: ViewId,
+    ) -> Result<(), RuntimeError> {
+        let v = self.view(id)?;
+        // The view's rank among the live views keys its timers.
+        let k = self.views[..id.0 as usize].iter().flatten().count();
+        let w = &self.world;
+        v.record(
+            encoder,
+            (&self.shade, &w.gbuffer, &w.scene_gpu),
+            &w.moving_draws,
+            &w.gi,
+            &self.timer,
+            k as u32,
+        );
+        Ok(())
+    }
+
+    /// Ends the frame's commands: resolves its pass timers (read later by
+    /// [`Renderer::poll_stats`]). Record it after every other pass of the
+    /// frame, in the last encoder submitted for it.
+    pub fn record_finish(&self, encoder: &mut wgpu::CommandEncoder) {
         self.timer.finish(encoder);
     }
 

@@ -52,7 +52,7 @@ pub fn bake_volume_of(v: &[f32; 6]) -> Aabb {
 /// loaded with them records; canonical form). Its limits' default largest
 /// texture side ([`gibake_asset::DEFAULT_MAX_TEXTURE_SIZE`]) counts as none
 /// given.
-#[cfg(feature = "gltf")]
+#[cfg(feature = "gltf-import")]
 pub fn scene_options_of(options: &crate::LoadOptions) -> crate::SceneOptions {
     crate::SceneOptions {
         sun: options.sun.as_ref().map(sun_option),
@@ -66,7 +66,7 @@ pub fn scene_options_of(options: &crate::LoadOptions) -> crate::SceneOptions {
 
 /// `options` with its scene options replaced by `scene` (camera and other
 /// limits kept).
-#[cfg(feature = "gltf")]
+#[cfg(feature = "gltf-import")]
 pub fn with_scene_options(
     options: &crate::LoadOptions,
     scene: &crate::SceneOptions,
@@ -87,7 +87,7 @@ pub fn with_scene_options(
 /// none of their kind ([`crate::SceneOptions::resolve`]), and the resolution
 /// (which recorded options were applied: say so). An asset that records
 /// none (format 4.3 or older) leaves `options` as they are.
-#[cfg(feature = "gltf")]
+#[cfg(feature = "gltf-import")]
 pub fn load_options_for(
     asset: &crate::Asset,
     options: &crate::LoadOptions,
@@ -102,7 +102,7 @@ pub fn load_options_for(
 /// [`crate::RuntimeError::SceneOptions`] when `options` gives one that
 /// differs from the asset's; [`crate::RuntimeError::Scene`] when the file
 /// cannot be loaded.
-#[cfg(feature = "gltf")]
+#[cfg(feature = "gltf-import")]
 pub fn load_scene_for(
     path: &std::path::Path,
     asset: &crate::Asset,
@@ -112,7 +112,7 @@ pub fn load_scene_for(
     Ok(gibake_scene::load(path, &options)?)
 }
 
-#[cfg(all(test, feature = "gltf"))]
+#[cfg(all(test, feature = "gltf-import"))]
 mod tests {
     use super::*;
 

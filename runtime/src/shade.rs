@@ -102,6 +102,11 @@ pub(crate) struct ShadePass {
     fallback_cascades: wgpu::Buffer,
     /// Layout of group 0 (a view: G-buffer, params, output).
     view_layout: wgpu::BindGroupLayout,
+    /// The views' composite pipelines (per target format and blend), made
+    /// when first needed and shared by every view.
+    pub(crate) composite: crate::composite::Pipelines,
+    /// The views' G-buffer rebuild pipelines (per depth format), likewise.
+    pub(crate) depth_gbuffer: crate::gbuffer_depth::Pipelines,
 }
 
 const COMPUTE: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
@@ -274,6 +279,8 @@ impl ShadePass {
         ShadePass {
             one,
             many: std::sync::OnceLock::new(),
+            composite: Default::default(),
+            depth_gbuffer: Default::default(),
             fallback_buf: storage("absent GI input", 64),
             fallback_dyn_vpls: storage("no dynamic VPLs", 48),
             fallback_map: gibake_gpu::util::texture_2d(

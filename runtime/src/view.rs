@@ -38,6 +38,11 @@ pub enum OutputTarget<'a> {
     /// feature; `RENDER_ATTACHMENT` usage): for a game that lights its own
     /// frame (typically `Mode::Indirect` onto its own direct light).
     Add(&'a wgpu::Texture),
+    /// As [`OutputTarget::Add`], the radiance times a factor: the engine's
+    /// exposure, for an engine whose own lights are written exposed (Bevy
+    /// multiplies every light by its camera's `exposure`). Finite and not
+    /// negative.
+    AddScaled(&'a wgpu::Texture, f32),
 }
 
 /// Where a view's G-buffer comes from.
@@ -71,6 +76,9 @@ pub(crate) struct View {
     composite: Option<CompositePass>,
     /// Shading's group 0.
     group: wgpu::BindGroup,
+    /// The camera of the last prepared frame (a G-buffer source given
+    /// between `prepare` and `record` rebuilds with it).
+    last_camera: Option<CameraMatrices>,
 }
 
 /// Checks an output size (with its interleave setting: the interleaved
@@ -189,6 +197,7 @@ impl View {
             radiance_view,
             composite: None,
             group,
+            last_camera: None,
         }
     }
 
@@ -276,6 +285,7 @@ impl View {
         if let Source::Depth(p) = &mut self.source {
             p.set_camera(queue, camera);
         }
+        self.last_camera = Some(*camera);
     }
 
     /// Sends the frame to `target` from now on.
@@ -286,9 +296,14 @@ impl View {
         target: OutputTarget<'_>,
     ) -> Result<(), RuntimeError> {
         let (w, h) = self.size();
-        let composite = |t: &wgpu::Texture, blend| {
+        let composite = |t: &wgpu::Texture, blend, scale: f32| {
             crate::composite::check_target(device, t, (w, h), blend)?;
-            Ok::<_, RuntimeError>(Some((t.clone(), blend)))
+            if !(scale.is_finite() && scale >= 0.0) {
+                return Err(RuntimeError::InvalidSetting(format!(
+                    "the scale of an added output must be finite and not negative, not {scale}"
+                )));
+            }
+            Ok::<_, RuntimeError>(Some((t.clone(), blend, scale)))
         };
         let storage = |t: &wgpu::Texture| {
             t.format() == OUTPUT_FORMAT && t.usage().contains(wgpu::TextureUsages::STORAGE_BINDING)
@@ -300,14 +315,41 @@ impl View {
                 check_storage_target(t, (w, h))?;
                 (Some(t.clone()), None)
             }
-            OutputTarget::Texture(t) => (None, composite(t, Blend::Replace)?),
-            OutputTarget::Add(t) => (None, composite(t, Blend::Add)?),
+            OutputTarget::Texture(t) => (None, composite(t, Blend::Replace, 1.0)?),
+            OutputTarget::Add(t) => (None, composite(t, Blend::Add, 1.0)?),
+            OutputTarget::AddScaled(t, s) => (None, composite(t, Blend::Add, s)?),
         };
-        self.radiance = direct.unwrap_or_else(|| self.own.clone());
-        self.radiance_view = self.radiance.create_view(&Default::default());
-        self.composite =
-            into.map(|(t, blend)| CompositePass::new(device, &self.radiance_view, &t, blend));
-        self.rebind(device, shade);
+        let radiance = direct.unwrap_or_else(|| self.own.clone());
+        // The same radiance into the same target: only the scale can
+        // change (an engine handing its target every frame).
+        if radiance == self.radiance {
+            match (&mut self.composite, &into) {
+                (None, None) => return Ok(()),
+                (Some(c), Some((t, blend, scale))) if c.writes(t, *blend) => {
+                    c.set_scale(*scale);
+                    return Ok(());
+                }
+                _ => {}
+            }
+        }
+        let changed = radiance != self.radiance;
+        if changed {
+            self.radiance = radiance;
+            self.radiance_view = self.radiance.create_view(&Default::default());
+        }
+        self.composite = into.map(|(t, blend, scale)| {
+            CompositePass::new(
+                device,
+                &shade.composite,
+                &self.radiance_view,
+                &t,
+                blend,
+                scale,
+            )
+        });
+        if changed {
+            self.rebind(device, shade);
+        }
         Ok(())
     }
 
@@ -330,9 +372,20 @@ impl View {
         shade: &ShadePass,
         src: &DepthGBuffer<'_>,
     ) -> Result<(), RuntimeError> {
-        let pass = DepthGBufferPass::new(device, src, &self.gbuffer, self.size())?;
+        let pass = DepthGBufferPass::new(
+            device,
+            &shade.depth_gbuffer,
+            src,
+            &self.gbuffer,
+            self.size(),
+            self.last_camera.as_ref(),
+        )?;
+        let rebind = matches!(self.source, Source::Views(_));
         self.source = Source::Depth(Box::new(pass));
-        self.rebind(device, shade);
+        // Own and rebuilt G-buffers are the same textures: group 0 stays.
+        if rebind {
+            self.rebind(device, shade);
+        }
         Ok(())
     }
 

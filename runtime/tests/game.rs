@@ -9,7 +9,7 @@ use std::sync::OnceLock;
 
 use gibake_bake::cluster::ClusterTarget;
 use gibake_gpu::GpuContext;
-use gibake_runtime::glam::Mat4;
+use gibake_runtime::glam::{self, Mat4};
 use gibake_runtime::{
     Asset, CameraMatrices, DepthGBuffer, FrameInput, Image, Mode, NormalEncoding, OutputTarget,
     Pass, Reload, RenderSettings, Renderer, RuntimeError, Scene, Timing, ViewId, wgpu,
@@ -646,4 +646,180 @@ fn a_spawned_copy_renders_like_a_declared_object() {
     ));
     r.remove(copy).unwrap();
     assert!(r.transform(copy).is_err());
+}
+
+/// What an engine's render graph does (Bevy's, `gibake-bevy`): the update
+/// recorded once in its own encoder, each view in its camera's encoder,
+/// the timers resolved in a last one, all submitted in that order. The
+/// same images, and figures, as one `record`.
+#[test]
+fn an_update_views_and_finish_recorded_apart_equal_one_record() {
+    let f = fixture();
+    let (d, q) = (&f.ctx.device, &f.ctx.queue);
+    let transforms = gibake_runtime::scene_transforms(&f.scene, TIME);
+    let s = settings(Mode::Full);
+    let mut whole = renderer(&f.scene, Some(&f.asset), &s);
+    let mut apart = renderer(&f.scene, Some(&f.asset), &s);
+    let other = CameraMatrices::perspective(
+        // From the right of the room, looking left and a little down.
+        Mat4::from_rotation_translation(
+            glam::Quat::from_rotation_y(1.1) * glam::Quat::from_rotation_x(-0.35),
+            glam::Vec3::new(1.5, 1.0, 0.2),
+        ),
+        0.8,
+        W as f32 / H as f32,
+        0.05,
+    );
+    let [second_whole, second_apart] =
+        [&mut whole, &mut apart].map(|r| r.add_view(d, q, W, H, 0).expect("a second view"));
+    assert_eq!(second_whole, second_apart);
+    let cameras = [(second_whole, other)];
+    let frame = FrameInput::new(camera())
+        .transforms(&transforms)
+        .views(&cameras);
+    draw_all(&mut [&mut whole], &frame);
+    apart.prepare(d, q, &frame).unwrap();
+    let mut encoders: Vec<_> = (0..4)
+        .map(|_| d.create_command_encoder(&Default::default()))
+        .collect();
+    apart.record_update(&mut encoders[0]);
+    // The views in the order the engine's cameras run (the second first).
+    apart.record_view(&mut encoders[1], second_apart).unwrap();
+    apart.record_view(&mut encoders[2], ViewId::MAIN).unwrap();
+    apart.record_finish(&mut encoders[3]);
+    q.submit(encoders.into_iter().map(|e| e.finish()));
+    assert_eq!(read(apart.output()), read(whole.output()));
+    assert_eq!(
+        read(apart.view_output(second_apart).unwrap()),
+        read(whole.view_output(second_whole).unwrap())
+    );
+    assert!(read(apart.output()).mean().x > 0.0);
+    let stats = apart.stats(d);
+    assert_eq!(stats.views, 2);
+    if stats.timing == Timing::GpuTimestamps {
+        assert_eq!(
+            stats
+                .passes
+                .iter()
+                .filter(|(p, _)| *p == Pass::Shade)
+                .count(),
+            2
+        );
+        assert!(stats.pass_ms(Pass::Shade) > 0.0, "{stats:?}");
+    }
+    // A view the renderer does not have records nothing.
+    apart.remove_view(second_apart).unwrap();
+    let mut e = d.create_command_encoder(&Default::default());
+    let err = apart.record_view(&mut e, second_apart).unwrap_err();
+    assert!(matches!(err, RuntimeError::UnknownView(_)), "{err}");
+}
+
+/// An engine hands its HDR target every frame (Bevy's view target swaps
+/// between two textures; its texture pool may hand out another one) and
+/// its exposure: the radiance is added times the exposure into whichever
+/// texture is given, and a bad scale is refused.
+#[test]
+fn radiance_is_added_scaled_into_a_target_given_each_frame() {
+    let f = fixture();
+    let (d, q) = (&f.ctx.device, &f.ctx.queue);
+    let transforms = gibake_runtime::scene_transforms(&f.scene, TIME);
+    let frame = FrameInput::new(camera()).transforms(&transforms);
+    let mut r = renderer(&f.scene, Some(&f.asset), &settings(Mode::Indirect));
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+    let targets = [0, 1].map(|_| texture(wgpu::TextureFormat::Rgba16Float, usage));
+    for (i, scale) in [0.5f32, 2.0, 0.25].into_iter().enumerate() {
+        let t = &targets[i % 2];
+        // The target starts at zero each time: what lands is scale · radiance.
+        let mut enc = d.create_command_encoder(&Default::default());
+        enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("clear"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &t.create_view(&Default::default()),
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            ..Default::default()
+        });
+        q.submit([enc.finish()]);
+        r.set_output(d, ViewId::MAIN, OutputTarget::AddScaled(t, scale))
+            .unwrap();
+        draw_all(&mut [&mut r], &frame);
+        let radiance = read(r.output());
+        assert!(radiance.mean().x > 0.0);
+        for (k, (g, e)) in read_f16(t).iter().zip(&radiance.pixels).enumerate() {
+            for c in 0..3 {
+                let want = scale * e[c];
+                assert!(
+                    (g[c] - want).abs() <= want * 2f32.powi(-9) + 1e-7,
+                    "frame {i}, pixel {k}: {g:?} vs {scale} × {e:?}"
+                );
+            }
+        }
+    }
+    for bad in [-1.0, f32::NAN, f32::INFINITY] {
+        let e = r
+            .set_output(d, ViewId::MAIN, OutputTarget::AddScaled(&targets[0], bad))
+            .unwrap_err();
+        assert!(matches!(e, RuntimeError::InvalidSetting(_)), "{e}");
+    }
+}
+
+/// An engine's depth and normals may be other textures next frame (a
+/// texture pool): given again, even between `prepare` and `record`, the
+/// rebuild reads them with the prepared frame's camera.
+#[test]
+fn a_depth_gbuffer_given_again_between_prepare_and_record_keeps_the_camera() {
+    let f = fixture();
+    let (d, q) = (&f.ctx.device, &f.ctx.queue);
+    let transforms = gibake_runtime::scene_transforms(&f.scene, TIME);
+    let frame = FrameInput::new(camera()).transforms(&transforms);
+    let s = RenderSettings {
+        interleave: 1,
+        ..settings(Mode::Full)
+    };
+    let mut own = renderer(&f.scene, Some(&f.asset), &s);
+    draw_all(&mut [&mut own], &frame);
+    let reference = read(own.output());
+    // Two sets of the engine's buffers, as a pool would hold them: the
+    // G-buffers of two renderers of the same frame.
+    let mut other = renderer(&f.scene, Some(&f.asset), &s);
+    draw_all(&mut [&mut other], &frame);
+    let set = |r: &Renderer| -> [wgpu::Texture; 3] {
+        let g = r.gbuffer_textures();
+        [r.gbuffer_depth().clone(), g[1].clone(), g[2].clone()]
+    };
+    let pools = [set(&own), set(&other)];
+    let mut engine = renderer(&f.scene, Some(&f.asset), &s);
+    fn src(p: &[wgpu::Texture; 3]) -> DepthGBuffer<'_> {
+        let [depth, normals, albedo] = p.each_ref();
+        DepthGBuffer {
+            depth,
+            far_depth: 0.0,
+            normals,
+            encoding: NormalEncoding::Octahedral,
+            albedo,
+        }
+    }
+    engine
+        .use_depth_gbuffer(d, ViewId::MAIN, &src(&pools[0]))
+        .unwrap();
+    for p in &pools {
+        engine.prepare(d, q, &frame).unwrap();
+        engine.use_depth_gbuffer(d, ViewId::MAIN, &src(p)).unwrap();
+        let mut enc = d.create_command_encoder(&Default::default());
+        engine.record(&mut enc);
+        q.submit([enc.finish()]);
+        let got = read(engine.output());
+        let worst = got
+            .pixels
+            .iter()
+            .zip(&reference.pixels)
+            .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / b[c].abs().max(1e-3)))
+            .fold(0f32, f32::max);
+        assert!(worst < 1e-2, "worst relative difference {worst:.2e}");
+    }
 }
