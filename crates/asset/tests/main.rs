@@ -7,6 +7,7 @@ mod common;
 mod corruption;
 mod diff_inspect;
 mod fuzz_regressions;
+mod lower;
 mod owned_files;
 mod ring_vpls;
 mod roundtrip;

@@ -6,7 +6,7 @@ use std::time::Instant;
 use crate::lights::ViewPlan;
 use gibake_asset::{
     Asset, BakeSettings, MAX_SHARDS, Manifest, Map, MapAtlas, NO_MAP, Provenance, RsmData,
-    ShardMaps, ShardPart, VplRecord, assign_map_tiles, shard_range,
+    ShardMaps, ShardPart, VplRecord, assign_lower_tiles, assign_map_tiles, shard_range,
 };
 use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::passes::light_maps::{self, LightMaps};
@@ -245,7 +245,7 @@ pub fn bake(
     progress: &dyn BakeProgress,
     baker_version: &str,
 ) -> Result<BakeOutput, BakeError> {
-    bake_with(ctx, scene, opts, progress, baker_version, None).map(|(out, _)| out)
+    bake_with(ctx, scene, opts, progress, baker_version, None).map(|(out, _, _)| out)
 }
 
 /// One shard of a distributed bake: shard `index` of `count` (0-based).
@@ -283,13 +283,15 @@ pub fn bake_shard(
             shard.index, shard.count, shard.count
         )));
     }
-    let (out, maps) = bake_with(ctx, scene, opts, progress, baker_version, Some(shard))?;
+    let (out, maps, lower_maps) =
+        bake_with(ctx, scene, opts, progress, baker_version, Some(shard))?;
     Ok(ShardOutput {
         part: ShardPart {
             shard: shard.index,
             shards: shard.count,
             front: out.asset,
             maps,
+            lower_maps,
         },
         stages: out.stages,
     })
@@ -344,6 +346,9 @@ struct Front {
     vpls: Vec<VplRecord>,
     vpl_nodes: Vec<VplRecord>,
     vpl_coherence: Vec<f32>,
+    /// Per VPL, its second origin for the light below its horizon
+    /// ([`crate::horizon`]).
+    vpl_lower: Vec<Option<glam::Vec3>>,
     /// VPLs per light, in light order (the VPLs are in that order).
     per_light: Vec<u32>,
     /// Per light, its VPLs on its outer rings (the last of its VPLs);
@@ -507,6 +512,7 @@ fn every_light_front(
         .collect();
     let vpls = every.vpl_records();
     let (vpl_nodes, vpl_coherence) = every.vpl_trees();
+    let vpl_lower = crate::horizon::lower_origins_of_every(reach.rays, &every);
     // The first light's RSM (one view: a spot or directional light); when
     // its bounce was left out as negligible, rendered for the dynamic merge
     // with no texel of any VPL.
@@ -542,6 +548,7 @@ fn every_light_front(
         vpls,
         vpl_nodes,
         vpl_coherence,
+        vpl_lower,
         per_light,
         ring_vpls,
         made,
@@ -562,7 +569,7 @@ fn bake_with(
     progress: &dyn BakeProgress,
     baker_version: &str,
     shard: Option<Shard>,
-) -> Result<(BakeOutput, ShardMaps), BakeError> {
+) -> Result<(BakeOutput, ShardMaps, ShardMaps), BakeError> {
     let max_tex = ctx.device.limits().max_texture_dimension_2d;
     check("--rsm-size", opts.rsm_size, 8192)?;
     check("--vpl-map-size", opts.vpl_map_size, 2048)?;
@@ -711,7 +718,11 @@ fn bake_with(
             vpl_nodes.extend(t);
             vpl_coherence.extend(k);
         }
+        let vpl_lower = (0..clusters.vpls.len())
+            .map(|i| crate::horizon::lower_origin_of(&rays, &rsm, &clusters, i))
+            .collect();
         Front {
+            vpl_lower,
             per_light: vec![vpls.len() as u32],
             ring_vpls: Vec::new(),
             vpls,
@@ -734,6 +745,7 @@ fn bake_with(
         mut vpls,
         vpl_nodes,
         vpl_coherence,
+        vpl_lower,
         per_light,
         ring_vpls,
         dropped,
@@ -757,22 +769,48 @@ fn bake_with(
         Some(s) => shard_range(vpls.len(), s.index, s.count),
         None => 0..vpls.len(),
     };
-    progress.begin("VPL maps", range.len() as u64);
+    // Each VPL's map, then its second map (or none).
+    progress.begin("VPL maps", 2 * range.len() as u64);
     let rings = gibake_asset::ring_flags(&per_light, &ring_vpls);
     let each = crate::vplmap::render_each_vpl_map(
         &rays,
         &vpls[range.clone()],
-        &rings[range],
+        &rings[range.clone()],
         opts.vpl_map_size,
         &|| progress.advance(1),
     );
-    let (maps, shard_maps) = match shard {
-        Some(_) => (MapAtlas::empty(opts.vpl_map_size), each),
+    // The second maps, for the light below the VPLs' horizons
+    // (crate::horizon), alike.
+    let each_lower = crate::vplmap::render_each_lower_map(
+        &rays,
+        &vpls[range.clone()],
+        &vpl_lower[range],
+        opts.vpl_map_size,
+        &|| progress.advance(1),
+    );
+    let mut vpl_lower: Vec<gibake_asset::LowerVpl> = vpl_lower
+        .iter()
+        .map(|o| match o {
+            Some(o) => gibake_asset::LowerVpl {
+                origin: o.to_array(),
+                map: NO_MAP,
+            },
+            None => gibake_asset::LowerVpl::NONE,
+        })
+        .collect();
+    let full = || BakeError::InvalidSetting("the VPL maps do not fit one atlas in memory".into());
+    let (maps, lower_maps, shard_maps, shard_lower) = match shard {
+        Some(_) => (
+            MapAtlas::empty(opts.vpl_map_size),
+            MapAtlas::empty(opts.vpl_map_size),
+            each,
+            each_lower,
+        ),
         None => {
-            let atlas = assign_map_tiles(&mut vpls, opts.vpl_map_size, each).ok_or_else(|| {
-                BakeError::InvalidSetting("the VPL maps do not fit one atlas in memory".into())
-            })?;
-            (atlas, Vec::new())
+            let atlas = assign_map_tiles(&mut vpls, opts.vpl_map_size, each).ok_or_else(full)?;
+            let lower = assign_lower_tiles(&mut vpl_lower, opts.vpl_map_size, each_lower)
+                .ok_or_else(full)?;
+            (atlas, lower, Vec::new(), Vec::new())
         }
     };
     progress.end();
@@ -844,12 +882,15 @@ fn bake_with(
         // The scene options the level was loaded with are the caller's to
         // record (`gibake bake` does; the `Scene` does not hold them).
         scene_options: None,
+        lower_map_count: lower_maps.count(),
     };
     let asset = Asset {
         manifest,
         vpls,
         vpl_nodes,
         vpl_coherence,
+        vpl_lower,
+        vpl_lower_maps: lower_maps,
         primary_depth: Map {
             size: opts.shadow_map_size,
             data: primary,
@@ -867,5 +908,6 @@ fn bake_with(
             warnings,
         },
         shard_maps,
+        shard_lower,
     ))
 }

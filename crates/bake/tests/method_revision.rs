@@ -1,8 +1,8 @@
 //! The bake's method revision ([`gibake_bake::BAKE_METHOD`]) against what a
 //! bake writes: two small bakes of bundled scenes (a spot light; every light
-//! of a room with a spot and two point lights), their VPLs, near-field trees
-//! and hemisphere maps hashed, held to the hash recorded for the current
-//! revision. These are the parts computed on the CPU by rays and the
+//! of a room with a spot and two point lights), their VPLs, near-field trees,
+//! hemisphere maps and second origins and maps hashed, held to the hash
+//! recorded for the current revision. These are the parts computed on the CPU by rays and the
 //! clustering, the same on every adapter; the GPU's shadow maps are left
 //! out.
 //!
@@ -25,15 +25,16 @@ use gibake_scene::LoadOptions;
 
 /// The revision these hashes belong to, and the hash of each scene's bake.
 const RECORDED: (u32, [(&str, &str); 2]) = (
-    6,
+    7,
     [
-        ("corner_bunny", "468d0ace1f351ccc"),
-        ("lamps", "c7cf9c94ae279309"),
+        ("corner_bunny", "ad06f89a3a899055"),
+        ("lamps", "f2576bce0fce70c7"),
     ],
 );
 
 /// BLAKE3 of the VPL records, the near-field trees, their level-3
-/// coherences and the hemisphere maps, every float by its bits.
+/// coherences, the hemisphere maps and the second origins and maps, every
+/// float by its bits.
 fn hash(asset: &Asset) -> String {
     let mut h = blake3::Hasher::new();
     for v in asset.vpls.iter().chain(&asset.vpl_nodes) {
@@ -55,6 +56,17 @@ fn hash(asset: &Asset) -> String {
     h.update(&asset.vpl_maps.tile_size().to_le_bytes());
     h.update(&asset.vpl_maps.count().to_le_bytes());
     for t in asset.vpl_maps.texels() {
+        h.update(&t.to_bits().to_le_bytes());
+    }
+    // Revision 7: the second origins and maps (crate::horizon).
+    for l in &asset.vpl_lower {
+        for f in l.origin {
+            h.update(&f.to_bits().to_le_bytes());
+        }
+        h.update(&l.map.to_le_bytes());
+    }
+    h.update(&asset.vpl_lower_maps.count().to_le_bytes());
+    for t in asset.vpl_lower_maps.texels() {
         h.update(&t.to_bits().to_le_bytes());
     }
     h.finalize().to_hex()[..16].to_string()

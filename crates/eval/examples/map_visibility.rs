@@ -15,9 +15,11 @@
 //! the maps emulated on the CPU (`gibake_eval::transport::map_visibility`,
 //! the shader's lookup on the asset's maps; its ratio to the rays should
 //! match the GPU's), and where their excess over the rays lies — light to
-//! receivers below the VPL's horizon (lit only by near-field nodes facing
-//! them; the map holds nothing there and answers from its rim) or above
-//! it — as shares of the rays' total.
+//! receivers below the VPL's horizon (its second map's, from its second
+//! origin, where it has one: `gibake_bake::horizon`; else the first map's
+//! rim) or above it — as shares of the rays' total. The twin's exact rays
+//! are cast from the same origins as the maps
+//! (`TwinVpls::visibility_frame`).
 use gibake_runtime::{Mode, RenderSettings};
 fn main() {
     let names: Vec<String> = std::env::args().skip(1).collect();
@@ -92,7 +94,12 @@ fn main() {
                 for (i, t) in twin.terms(p, ns, ng) {
                     let nv = glam::Vec3::from_array(asset.vpls[i].normal);
                     let origin = twin.origins[i];
-                    let exact = f64::from(u8::from(rays.visible(origin, nv, p, ng)));
+                    let (o, n, _) = twin.visibility_frame(i, p);
+                    let exact = if gibake_eval::transport::origin_in_front(o, p, ng) {
+                        f64::from(u8::from(rays.visible(o, n, p, ng)))
+                    } else {
+                        1.0
+                    };
                     let m = maps.visibility(&twin, i, p, ng);
                     // The open part (finest nodes, near) is not map-tested.
                     let r = radiance(t.shadowed);
