@@ -246,12 +246,17 @@ fn reader_refuses_damaged_assets() {
     let asset = bake(&common::data("corner_bunny.glb"), work.path());
     let intact = read(&py, &asset);
     assert_eq!(intact.code, Some(0), "the intact asset must pass\n{intact}");
+    assert!(
+        intact.stdout.contains("VPLs with a second origin"),
+        "the reader reads vpl_lower.bin (4.5)\n{intact}"
+    );
 
     // (file flipped, byte offset, the file the message must name)
     type Damage = (&'static str, fn(usize) -> usize, &'static str);
-    let cases: [Damage; 6] = [
+    let cases: [Damage; 7] = [
         ("vpl_maps.exr", |n| n / 2, "vpl_maps.exr"),
         ("vpl_coherence.bin", |n| n / 2, "vpl_coherence.bin"),
+        ("vpl_lower.bin", |n| n / 2, "vpl_lower.bin"),
         ("primary_depth.exr", |n| n - 1, "primary_depth.exr"),
         ("vpls.bin", |_| 3, "vpls.bin"),
         // Inside the payload (the scene name) and in the BLAKE3 trailer.
@@ -274,17 +279,17 @@ fn reader_refuses_damaged_assets() {
 
     // Re-sealed manifests (payload edited, length and BLAKE3 trailer
     // recomputed): what the spec says a reader must refuse or accept.
-    // The bake writes the current minor (4.4: the views, light_map_size,
-    // the appended view_rsms, ring_vpls and scene_options end the payload;
-    // a one-light asset without rings baked with no scene flag has no
-    // views, so its last nine bytes are the view count 0, light_map_size
-    // 0, the view_rsms count 0, the ring_vpls count 0 and the scene
-    // options `01 00 00 00 00 00`: recorded, none given; 4.2 added a file,
-    // not payload bytes).
+    // The bake writes the current minor (4.5: the views, light_map_size,
+    // the appended view_rsms, ring_vpls, scene_options and lower_map_count
+    // end the payload; a one-light asset without rings baked with no scene
+    // flag has no views, so its last eleven bytes are the view count 0,
+    // light_map_size 0, the view_rsms count 0, the ring_vpls count 0, the
+    // scene options `01 00 00 00 00 00` (recorded, none given) and the
+    // second maps' count (one byte); 4.2 added a file, not payload bytes).
     assert_eq!(
         (gibake_asset::FORMAT_MAJOR, gibake_asset::FORMAT_MINOR),
-        (4, 4),
-        "the re-sealed cases below are written for format 4.4"
+        (4, 5),
+        "the re-sealed cases below are written for format 4.5"
     );
     let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
     assert!(
@@ -294,104 +299,125 @@ fn reader_refuses_damaged_assets() {
             && m.scene_options == Some(Default::default()),
         "corner_bunny.glb: one light, no views, no ring VPLs, no scene flags\n{m:#?}"
     );
+    let lower = u8::try_from(m.lower_map_count)
+        .ok()
+        .filter(|&n| n < 251)
+        .expect("a one-byte varint of second maps");
     let bytes = std::fs::read(asset.join(gibake_asset::FILE_MANIFEST)).unwrap();
-    assert!(bytes[..bytes.len() - 32].ends_with(&[0, 0, 0, 0, 1, 0, 0, 0, 0, 0]));
-    let reseal_cases: [(&str, &str, Option<&str>); 20] = [
+    assert!(bytes[..bytes.len() - 32].ends_with(&[0, 0, 0, 0, 1, 0, 0, 0, 0, 0, lower]));
+    let reseal_cases: [(&str, &str, Option<&str>); 21] = [
         // One byte after the last field, same minor: refused.
-        ("payload += b'\\x00'", "4", Some("after the last field")),
-        // The same from a newer minor (4.5): accepted and ignored.
-        ("payload += b'\\x00'", "5", None),
+        ("payload += b'\\x00'", "5", Some("after the last field")),
+        // The same from a newer minor (4.6): accepted and ignored.
+        ("payload += b'\\x00'", "6", None),
         // light_map_size cut off: refused.
         (
-            "payload = payload[:-9]",
-            "4",
+            "payload = payload[:-10]",
+            "5",
             Some("payload ends inside light_map_size"),
         ),
         // The appended view_rsms cut off: refused.
         (
-            "payload = payload[:-8]",
-            "4",
+            "payload = payload[:-9]",
+            "5",
             Some("payload ends inside view_rsms length"),
         ),
         // The appended ring_vpls cut off: refused.
         (
-            "payload = payload[:-7]",
-            "4",
+            "payload = payload[:-8]",
+            "5",
             Some("payload ends inside ring_vpls length"),
         ),
-        // The appended scene_options cut off: refused in 4.4 ...
+        // The appended scene_options cut off: refused ...
         (
-            "payload = payload[:-6]",
-            "4",
+            "payload = payload[:-7]",
+            "5",
             Some("payload ends inside scene_options tag"),
         ),
         (
-            "payload = payload[:-1]",
-            "4",
+            "payload = payload[:-2]",
+            "5",
             Some("payload ends inside scene_options.max_texture_size tag"),
         ),
-        // ... and the same bytes are a whole 4.3 payload (nothing
-        // recorded): accepted, as a 4.3 asset.
-        ("payload = payload[:-6]", "3", None),
-        // A 4.3 payload with the scene options after it: bytes after the
-        // last field of its minor, refused.
+        // ... and the appended lower_map_count (4.5).
+        (
+            "payload = payload[:-1]",
+            "5",
+            Some("payload ends inside lower_map_count"),
+        ),
+        // The same bytes are a whole 4.4 payload, but one that lists
+        // vpl_lower.bin (4.5's file): refused, as a format's own file the
+        // counts say is not stored (a 4.4 asset that does not list it:
+        // accepted, below).
+        (
+            "payload = payload[:-1]",
+            "4",
+            Some("vpl_lower.bin, which the counts say is not stored"),
+        ),
+        // A 4.3 payload with what 4.4 and 4.5 append after it: bytes after
+        // the last field of its minor, refused.
         ("pass", "3", Some("after the last field")),
-        // Without them and ring_vpls a whole 4.2 payload: accepted.
-        ("payload = payload[:-7]", "2", None),
+        // Without them and ring_vpls a whole 4.2 payload, listing 4.5's
+        // file: refused.
+        (
+            "payload = payload[:-8]",
+            "2",
+            Some("vpl_lower.bin, which the counts say is not stored"),
+        ),
         // Without view_rsms too a whole 4.0 payload, but one that lists
         // vpl_coherence.bin (4.2's file): refused, as a format's own file
         // the counts say is not stored.
         (
-            "payload = payload[:-8]",
+            "payload = payload[:-9]",
             "0",
             Some("vpl_coherence.bin, which the counts say is not stored"),
         ),
         // The same under 4.1: refused the same way.
         (
-            "payload = payload[:-7]",
+            "payload = payload[:-8]",
             "1",
             Some("vpl_coherence.bin, which the counts say is not stored"),
         ),
         // ring_vpls with more entries than lights: refused while decoding.
         (
-            "payload = payload[:-7] + b'\\x02\\x00\\x00' + payload[-6:]",
-            "4",
+            "payload = payload[:-8] + b'\\x02\\x00\\x00' + payload[-7:]",
+            "5",
             Some("ring_vpls holds 2 entries but there are only 1 lights"),
         ),
         // scene_options with an Option tag bincode does not define.
         (
-            "payload = payload[:-6] + b'\\x02'",
-            "4",
+            "payload = payload[:-7] + b'\\x02' + payload[-1:]",
+            "5",
             Some("scene_options: invalid Option tag 2"),
         ),
         // A sun on the horizon (elevation 0): refused.
         (
-            "payload = payload[:-6] + b'\\x01\\x01' + struct.pack('<6f', 10, 0, 1, 1, 1, 1) + b'\\x00\\x00\\x00\\x00'",
-            "4",
+            "payload = payload[:-7] + b'\\x01\\x01' + struct.pack('<6f', 10, 0, 1, 1, 1, 1) + b'\\x00\\x00\\x00\\x00' + payload[-1:]",
+            "5",
             Some("scene_options: sun elevation 0.0 is not in (0, 90]"),
         ),
         // A bake volume whose minimum is not below its maximum: refused.
         (
-            "payload = payload[:-6] + b'\\x01\\x00\\x00\\x00\\x01' + struct.pack('<6f', 0, 0, 0, 1, 0, 1) + b'\\x00'",
-            "4",
+            "payload = payload[:-7] + b'\\x01\\x00\\x00\\x00\\x01' + struct.pack('<6f', 0, 0, 0, 1, 0, 1) + b'\\x00' + payload[-1:]",
+            "5",
             Some("scene_options: bake volume"),
         ),
         // The lights cut short: refused.
-        ("payload = payload[:-46]", "4", Some("payload ends inside")),
+        ("payload = payload[:-47]", "5", Some("payload ends inside")),
         // A varint marker bincode does not define (254), as the first length.
         (
             "payload = b'\\xfe' + payload[1:]",
-            "4",
+            "5",
             Some("invalid varint marker"),
         ),
         // light_map_size 5 without views: refused.
         (
-            "payload = payload[:-9] + b'\\x05\\x00\\x00' + payload[-6:]",
-            "4",
+            "payload = payload[:-10] + b'\\x05\\x00\\x00' + payload[-7:]",
+            "5",
             Some("light_map_size is 5 but there are no views"),
         ),
         // Control: re-sealed unchanged, accepted.
-        ("pass", "4", None),
+        ("pass", "5", None),
     ];
     for (k, (edit, minor, refusal)) in reseal_cases.iter().enumerate() {
         let copy = copy_asset(&asset, work.path(), &format!("reseal{k}.gibake"));
@@ -409,6 +435,19 @@ fn reader_refuses_damaged_assets() {
             ),
         }
     }
+    // A 4.4 asset, whose writer listed neither of 4.5's files: accepted,
+    // without second origins.
+    let copy = copy_asset(&asset, work.path(), "v44.gibake");
+    std::fs::write(
+        copy.join("manifest.bin"),
+        gibake_asset::testing::manifest_bytes_4_4(&m).unwrap(),
+    )
+    .unwrap();
+    let r = read(&py, &copy);
+    assert!(
+        r.code == Some(0) && r.stdout.contains("no vpl_lower.bin"),
+        "a 4.4 asset must be accepted without second origins\n{r}"
+    );
 
     // A major version this reader does not know (5.0), and the previous
     // one (3.1: its assets are re-baked).
