@@ -183,41 +183,51 @@ fn vpl_map_distance(map: u32, tile: u32, lower: bool, c: vec2<i32>) -> f32 {
 // the crease's other side (as before, somewhat more). A receiver whose
 // plane has the origin behind it is not map-tested (below). A receiver below the
 // VPL's horizon is looked up in its second map where it has one
-// (lower_visibility); else on the map's rim: the map holds nothing below
-// its horizon. CPU twin: gibake_eval::transport::map_visibility.
+// (lower_record); else on the map's rim: the map holds nothing below its
+// horizon. CPU twin: gibake_eval::transport::map_visibility.
 fn vpl_visibility(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ng: vec3<f32>) -> f32 {
+    // The map to look up: the first, or below the horizon the second where
+    // the VPL has one (lower_record), chosen first so that one lookup runs
+    // whichever it is (no divergent second lookup in a SIMD group).
+    var map = v.map;
+    var slot = i;
+    var lower = false;
+    var normal = v.normal;
+    var o = origin;
+    if (dot(v.normal, x - origin) < 0.0) {
+        let lo = lower_record(i);
+        if (lo.texels != 0u) {
+            map = lo.map;
+            slot = params.n_static + i;
+            lower = true;
+            normal = lo.normal;
+            o = lo.position;
+        }
+    }
     var tile = NONE;
     if (has(FLAG_TILES)) {
-        tile = vpl_tile[i];
+        tile = vpl_tile[slot];
     }
-    return hemi_visibility(v.map, tile, false, v.normal, origin, x, ng);
+    return hemi_visibility(map, tile, lower, normal, o, x, ng);
 }
 
 // A static VPL's second-map record (baked.rs): after the VPLs, their trees,
 // far-field records and nodes' facing records; `position` its second
 // origin, `normal` the opposite of its normal, `map` its tile in the second
 // maps' atlas (NONE: it sees no surface), `texels` 0 for a VPL without one.
-fn lower_record(i: u32) -> Vpl {
-    return vpls[params.n_static * (2u + NODES_PER_VPL + FACING_NODES) + i];
-}
-
 // The light a cluster sends below its own horizon leaves from its texels
 // tilted away from its normal (a roof's with the walls of a hole in it, a
 // wall face's with a window's sill and jambs), which see what its lifted
 // map origin does not: through the hole, the window. A VPL with enough of
 // it has a second origin on those texels and a second map around the
-// opposite of its normal from there (gibake_bake::horizon), looked up here
-// for a receiver below the VPL's horizon: the first map's rim sees the
-// open sky along the roof (over-lit), and its origin's exact ray crosses
-// the roof (over-darkened). Its moving-object tile is the merge's
-// `n_static + i`. Measured in docs/method.md, "Below the horizon". CPU
-// twin: gibake_eval::transport::TwinMaps::visibility.
-fn lower_visibility(i: u32, lo: Vpl, x: vec3<f32>, ng: vec3<f32>) -> f32 {
-    var tile = NONE;
-    if (has(FLAG_TILES)) {
-        tile = vpl_tile[params.n_static + i];
-    }
-    return hemi_visibility(lo.map, tile, true, lo.normal, lo.position, x, ng);
+// opposite of its normal from there (gibake_bake::horizon), which
+// vpl_visibility looks up for a receiver below the VPL's horizon: the
+// first map's rim sees the open sky along the roof (over-lit), and its
+// origin's exact ray crosses the roof (over-darkened). Its moving-object
+// tile is the merge's `n_static + i`. Measured in docs/method.md, "Below
+// the horizon". CPU twin: gibake_eval::transport::TwinMaps::visibility.
+fn lower_record(i: u32) -> Vpl {
+    return vpls[params.n_static * (2u + NODES_PER_VPL + FACING_NODES) + i];
 }
 
 // Fraction of the light of a map (baked tile `map`, of the second maps'
@@ -624,17 +634,7 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocat
                 if (any(t.shadowed != vec3<f32>(0.0))) {
                     var vis = 1.0;
                     if (has(FLAG_VISIBILITY)) {
-                        // Below the VPL's horizon: its second map, where
-                        // it has one (lower_visibility).
-                        var lo = Vpl();
-                        if (dot(v.normal, x - origin) < 0.0) {
-                            lo = lower_record(i);
-                        }
-                        if (lo.texels != 0u) {
-                            vis = lower_visibility(i, lo, x, ng);
-                        } else {
-                            vis = vpl_visibility(i, v, origin, x, ng);
-                        }
+                        vis = vpl_visibility(i, v, origin, x, ng);
                     }
                     ei += t.shadowed * vis;
                 }
