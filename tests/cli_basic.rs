@@ -157,6 +157,8 @@ fn help_of_every_subcommand() {
                 "--width",
                 "--height",
                 "--spp",
+                "--bounces",
+                "every bounce",
                 "--direct-only",
                 "--output",
                 "--light",
@@ -423,6 +425,142 @@ fn reference_shades_every_lamp_by_default() {
     }
 }
 
+/// `reference --bounces`: the default is every bounce (more light than one
+/// bounce in the bundled corner); `--bounces 1` writes what `reference`
+/// always wrote before every bounce existed (the library's one-bounce
+/// render, bit for bit); `--bounces 0` is `--direct-only`.
+#[test]
+fn reference_bounces() {
+    let out = tempfile::tempdir().unwrap();
+    let scene = common::data("corner_bunny.glb");
+    let run = |name: &str, extra: &[&str]| {
+        let p = out.path().join(name);
+        let mut c = common::gibake();
+        c.arg("reference")
+            .arg(&scene)
+            .args([
+                "--spp", "4", "--width", "24", "--height", "16", "--seed", "3",
+            ])
+            .args(extra)
+            .arg("-o")
+            .arg(&p);
+        let r = run_command(c);
+        assert_ok(&r);
+        (r, read_exr(&p))
+    };
+    let (r, every) = run("every.exr", &[]);
+    assert!(r.stderr.contains("every bounce"), "{r}");
+    assert!(!r.stderr.contains("warning"), "{r}");
+    assert_sane(&every, "reference");
+    let (_, all) = run("all.exr", &["--bounces", "all"]);
+    assert_eq!(all.pixels, every.pixels, "the default is --bounces all");
+    let (r, one) = run("one.exr", &["--bounces", "1"]);
+    assert!(r.stderr.contains("direct + one bounce"), "{r}");
+    let loaded = gibake_scene::load(&scene, &Default::default()).expect("corner_bunny loads");
+    let library = gibake_reference::render(
+        &loaded,
+        &gibake_reference::Settings {
+            width: 24,
+            height: 16,
+            spp: 4,
+            time: 0.0,
+            depth: gibake_reference::Depth::OneBounce,
+            seed: 3,
+        },
+        &|_| {},
+    )
+    .expect("reference");
+    assert_eq!(
+        one.pixels, library.pixels,
+        "--bounces 1 is the one-bounce reference"
+    );
+    let (_, zero) = run("zero.exr", &["--bounces", "0"]);
+    let (_, direct) = run("direct.exr", &["--direct-only"]);
+    assert_eq!(zero.pixels, direct.pixels, "--bounces 0 is --direct-only");
+    let (_, three) = run("three.exr", &["--bounces", "3"]);
+    let sum = |i: &gibake_image::Image| i.mean().element_sum();
+    assert!(
+        sum(&direct) < sum(&one) && sum(&one) < sum(&three) && sum(&three) < sum(&every),
+        "each bounce adds light: {} {} {} {}",
+        sum(&direct),
+        sum(&one),
+        sum(&three),
+        sum(&every)
+    );
+}
+
+/// A closed box of glTF's default material (albedo 1) with a lamp inside:
+/// every bounce has no finite answer there. `reference` does not hang: its
+/// paths stop at 1024 bounces, a quick probe warns before the render and
+/// the render says how many paths were cut, and the image is finite.
+#[test]
+fn reference_of_a_white_closed_box_warns_and_ends() {
+    use gibake_scenegen::geom;
+    use glam::DVec3;
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = gibake_scenegen::gltf::Builder::new(1.0, "none");
+    let room = geom::aabox(DVec3::splat(-1.0), DVec3::splat(1.0), 1, true);
+    b.static_mesh("room", &room, [1.0; 3]);
+    b.point("lamp", DVec3::new(0.2, 0.3, -0.1), [1.0; 3], 1.0, None);
+    b.perspective(
+        "camera",
+        DVec3::ZERO,
+        DVec3::new(-1.0, -0.5, -1.0),
+        1.2,
+        0.01,
+        100.0,
+    );
+    let scene = dir.path().join("white_box.glb");
+    std::fs::write(&scene, b.finish()).unwrap();
+    let exr = dir.path().join("ref.exr");
+    let t = std::time::Instant::now();
+    let r = gibake!(
+        "reference",
+        &scene,
+        "--spp",
+        "1",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "-o",
+        &exr
+    );
+    assert_ok(&r);
+    assert!(t.elapsed().as_secs() < 60, "{r}");
+    assert!(r.stderr.contains("quick probe"), "{r}");
+    assert!(r.stderr.contains("reached 1024 bounces"), "{r}");
+    assert!(r.stderr.contains("--bounces N"), "{r}");
+    let img = read_exr(&exr);
+    assert_sane(&img, "white box");
+    // Each of the ~1024 bounces adds about the first's light again.
+    let (_, one) = {
+        let p = dir.path().join("one.exr");
+        let r = gibake!(
+            "reference",
+            &scene,
+            "--spp",
+            "1",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--bounces",
+            "1",
+            "-o",
+            &p
+        );
+        assert_ok(&r);
+        assert!(!r.stderr.contains("warning"), "{r}");
+        (r, read_exr(&p))
+    };
+    let ratio = img.mean().x / one.mean().x;
+    assert!(
+        ratio > 200.0 && ratio.is_finite(),
+        "every ÷ one bounce {ratio}"
+    );
+}
+
 #[test]
 fn reference_is_deterministic_for_a_seed() {
     let out = tempfile::tempdir().unwrap();
@@ -606,11 +744,20 @@ fn inspect_json_has_the_vpl_count() {
         .as_u64()
         .unwrap_or_else(|| panic!("bake --json has no vpls count\n{r}"));
     assert!(vpls > 0, "{r}");
-    // --vpls 16: 16 VPLs in the asset, within 2 (docs/method.md, bake
-    // section 3, "Budget").
+    // --vpls 16: 16 first-bounce VPLs in the asset, within 2
+    // (docs/method.md, bake section 3, "Budget"), and the later bounces'
+    // after them (a quarter as many at most).
+    let first = baked["first_bounce_vpls"]
+        .as_u64()
+        .unwrap_or_else(|| panic!("bake --json has no first_bounce_vpls\n{r}"));
     assert!(
-        (14..=18).contains(&vpls),
-        "asked for 16 VPLs, got {vpls}\n{r}"
+        (14..=18).contains(&first),
+        "asked for 16 VPLs, got {first}\n{r}"
+    );
+    assert_eq!(
+        vpls,
+        first + baked["later"]["vpls"].as_u64().unwrap_or(0),
+        "{r}"
     );
 
     let r = gibake!("inspect", &asset, "--json");

@@ -681,6 +681,39 @@ fn reference_spp_zero() {
     assert_empty(out.path(), &r);
 }
 
+/// `reference --bounces`: more than the cap, not a number, or with
+/// `--direct-only` (which is `--bounces 0`): exit 2, the flag named.
+#[test]
+fn reference_bad_bounces() {
+    let out = tempfile::tempdir().unwrap();
+    for (value, extra, needles) in [
+        ("1025", None, &["--bounces", "at most 1024"][..]),
+        (
+            "two",
+            None,
+            &["--bounces", "not a number of bounces", "all"][..],
+        ),
+        ("-1", None, &["--bounces"][..]),
+        (
+            "3",
+            Some("--direct-only"),
+            &["--bounces", "--direct-only"][..],
+        ),
+    ] {
+        let mut c = common::gibake();
+        c.arg("reference")
+            .arg(common::data("corner_bunny.glb"))
+            .args(["--spp", "1", "--width", "8", "--height", "8"])
+            .arg(format!("--bounces={value}"))
+            .args(extra)
+            .arg("-o")
+            .arg(out.path().join("ref.exr"));
+        let r = run_command(c);
+        assert_bad(&r, needles);
+        assert_empty(out.path(), &r);
+    }
+}
+
 #[test]
 fn reference_width_zero() {
     let out = tempfile::tempdir().unwrap();
@@ -1021,6 +1054,10 @@ fn render_with_other_lights_than_the_bake_is_refused() {
         "64",
         "--vpls",
         "8",
+        // The first bounce alone: rewritten below as a 4.3 asset, which
+        // had no later bounces.
+        "--bounces",
+        "1",
         "-o",
         &asset
     );
@@ -1052,6 +1089,7 @@ fn render_with_other_lights_than_the_bake_is_refused() {
     // The same asset as format 4.3 wrote it: nothing recorded to compare.
     let mut m = gibake_asset::load_manifest(&asset).unwrap();
     m.scene_options = None;
+    m.swept_bounds = None;
     std::fs::write(
         asset.join(gibake_asset::FILE_MANIFEST),
         gibake_asset::testing::manifest_bytes_4_3(&m).unwrap(),

@@ -26,6 +26,7 @@ fn settings(scene: &Scene, budget: Budget, keep_negligible: bool) -> JudgeSettin
         budget,
         keep_negligible,
         split: None,
+        every_bounce: false,
     }
 }
 

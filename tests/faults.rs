@@ -25,7 +25,7 @@ use common::{Run, TINY_BAKE};
 
 // ------------------------------------------------------------ helpers
 
-fn gibake_bin() -> &'static str {
+pub(crate) fn gibake_bin() -> &'static str {
     env!("CARGO_BIN_EXE_gibake")
 }
 
@@ -54,16 +54,16 @@ fn scene_with_light(dir: &Path, name: &str, light: &str) -> PathBuf {
     p
 }
 
-fn scene(dir: &Path) -> PathBuf {
+pub(crate) fn scene(dir: &Path) -> PathBuf {
     scene_with_light(dir, "s.glb", "spot")
 }
 
-fn run(mut c: Command) -> Run {
+pub(crate) fn run(mut c: Command) -> Run {
     c.stdin(Stdio::null());
     common::run_command(c)
 }
 
-fn gibake<I, S>(args: I) -> Command
+pub(crate) fn gibake<I, S>(args: I) -> Command
 where
     I: IntoIterator<Item = S>,
     S: AsRef<OsStr>,
@@ -74,7 +74,7 @@ where
 }
 
 /// `bake SCENE -o OUT --vpls N` with the tiny settings, `--force`.
-fn bake_args(scene: &Path, out: &Path, vpls: u32) -> Vec<std::ffi::OsString> {
+pub(crate) fn bake_args(scene: &Path, out: &Path, vpls: u32) -> Vec<std::ffi::OsString> {
     let mut a: Vec<std::ffi::OsString> = vec![
         "bake".into(),
         scene.into(),
@@ -92,7 +92,7 @@ fn bake_args(scene: &Path, out: &Path, vpls: u32) -> Vec<std::ffi::OsString> {
 }
 
 /// `strace` with fault injection around `gibake ARGS`.
-fn under_strace(trace: &str, inject: &str, args: &[std::ffi::OsString]) -> Command {
+pub(crate) fn under_strace(trace: &str, inject: &str, args: &[std::ffi::OsString]) -> Command {
     need("strace", "strace");
     let mut c = Command::new("strace");
     c.args(["-f", "-qq", "-o", "/dev/null", "-e"])
@@ -105,7 +105,7 @@ fn under_strace(trace: &str, inject: &str, args: &[std::ffi::OsString]) -> Comma
 }
 
 /// Fails (never skips) when `tool` is missing.
-fn need(tool: &str, package: &str) {
+pub(crate) fn need(tool: &str, package: &str) {
     let ok = Command::new("sh")
         .args(["-c", &format!("command -v {tool}")])
         .stdout(Stdio::null())
@@ -120,14 +120,14 @@ fn need(tool: &str, package: &str) {
 
 /// The VPL budget of the asset at `out` if it loads and verifies (the
 /// bakes below differ only in `--vpls`), else `None`.
-fn asset_vpls(out: &Path) -> Option<u32> {
+pub(crate) fn asset_vpls(out: &Path) -> Option<u32> {
     gibake_asset::load(out)
         .ok()
         .and_then(|a| a.manifest.settings.vpl_budget)
 }
 
 /// Hidden entries of `dir` (temporaries, lock files).
-fn hidden(dir: &Path) -> Vec<String> {
+pub(crate) fn hidden(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -137,7 +137,7 @@ fn hidden(dir: &Path) -> Vec<String> {
     v
 }
 
-fn no_panic(r: &Run) {
+pub(crate) fn no_panic(r: &Run) {
     assert!(
         !r.stderr.contains("panicked") && r.code != Some(101) && r.code != Some(134),
         "panic\n{r}"

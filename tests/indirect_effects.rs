@@ -91,6 +91,9 @@ fn bake(ctx: &GpuContext, scene: &Scene) -> Asset {
         vpl_map_size: 64,
         shadow_map_size: 1024,
         target: gibake_bake::cluster::ClusterTarget::Count(200),
+        // The first bounce alone (what this checks).
+        bounces: gibake_bake::later::Bounces::Count(1),
+        later_vpls: None,
     };
     gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "test")
         .unwrap()

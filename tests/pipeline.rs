@@ -139,6 +139,45 @@ fn sharded_and_merged_equals_single_bake_for_every_bundled_scene() {
 }
 
 #[test]
+fn a_merge_keeps_the_manifests_appended_fields_ring_vpls_and_swept_bounds() {
+    // The town under a sun has VPLs on its outer rings (format 4.3's
+    // `ring_vpls`), and the corner its balls' swept box (4.5's
+    // `swept_bounds`): both are appended to the manifest by hand, outside
+    // its serde fields, so the part must carry them (part versions 6 and
+    // 7; a merge of version-5 parts lost the ring VPLs).
+    let work = tempfile::tempdir().unwrap();
+    let town = common::root().join("data/levels/town/town_model.gltf");
+    let cases: [(&Path, &[&str]); 2] = [
+        (&town, &["--sun", "173,60"]),
+        (&common::data("corner_bunny.glb"), &[]),
+    ];
+    for (i, (scene, extra)) in cases.iter().enumerate() {
+        let single = work.path().join(format!("single{i}.gibake"));
+        assert_ok(&bake_small(scene, &single, extra));
+        let parts: Vec<PathBuf> = (0..2)
+            .map(|k| work.path().join(format!("p{i}.{k}")))
+            .collect();
+        for (k, p) in parts.iter().enumerate() {
+            let mut e = extra.to_vec();
+            let s = format!("{k}/2");
+            e.extend(["--shard", &s]);
+            assert_ok(&bake_small(scene, p, &e));
+        }
+        let merged = work.path().join(format!("merged{i}.gibake"));
+        let mut c = common::gibake();
+        c.arg("merge").args(&parts).arg("-o").arg(&merged);
+        assert_ok(&run_command(c));
+        let m = gibake_asset::load_manifest(&merged).unwrap();
+        if i == 0 {
+            assert!(m.ring_vpls.iter().any(|&n| n > 0), "{:?}", m.ring_vpls);
+        } else {
+            assert!(m.swept_bounds.is_some_and(|b| b[0] < b[3]), "{m:?}");
+        }
+        assert_same_bytes(&single, &merged, &format!("case {i}"));
+    }
+}
+
+#[test]
 fn merge_refuses_bad_parts_naming_them() {
     let work = tempfile::tempdir().unwrap();
     let w = work.path();

@@ -12,7 +12,7 @@ use std::path::Path;
 use std::process::Command;
 
 /// Lines not run, and why (each is covered elsewhere).
-const NOT_RUN: [(&str, &str); 4] = [
+const NOT_RUN: [(&str, &str); 5] = [
     (
         "gibake view scene.glb --bake scene.gibake",
         "opens a window and runs until it is closed; tests/view.rs runs it headless under Xvfb",
@@ -28,6 +28,10 @@ const NOT_RUN: [(&str, &str); 4] = [
     (
         "scripts/slurm/submit.sh --wait level.glb level.gibake 16",
         "needs Slurm: tests/pipeline_slurm.rs (a real cluster) and tests/faults.rs (a stand-in sbatch)",
+    ),
+    (
+        "BASE=origin/main sh scripts/ci-diff-bakes.sh",
+        "needs a git repository with accepted assets: tests/ci_diff.rs runs it in one",
     ),
 ];
 
@@ -143,6 +147,7 @@ fn every_readme_example_runs_as_written() {
         "baked/hall.gibake/manifest.bin",
         "baked/yard.gibake/manifest.bin",
         "level.gibake/manifest.bin",
+        "diff.md",
     ] {
         assert!(dir.join(f).exists(), "{f} was not made");
     }

@@ -22,6 +22,9 @@ fn bake(ctx: &GpuContext, scene: &Scene, vpls: u32, map: u32) -> Asset {
         vpl_map_size: map,
         shadow_map_size: 2048,
         target: ClusterTarget::Count(vpls),
+        // The first bounce alone (what this checks).
+        bounces: gibake_bake::later::Bounces::Count(1),
+        later_vpls: None,
     };
     gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "test")
         .unwrap()

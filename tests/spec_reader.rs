@@ -243,12 +243,16 @@ fn reader_accepts_walls_edge_on_to_the_sun() {
 fn reader_refuses_damaged_assets() {
     let py = python();
     let work = tempfile::tempdir().unwrap();
-    let asset = bake(&common::data("corner_bunny.glb"), work.path());
+    // The first bounce alone: the re-sealed cases below cut the payload's
+    // end, and a later bounces' record there would cut the VPLs' count.
+    let mut flags = common::TINY_BAKE.to_vec();
+    flags.extend(["--bounces", "1"]);
+    let asset = bake_with(&common::data("corner_bunny.glb"), work.path(), &flags);
     let intact = read(&py, &asset);
     assert_eq!(intact.code, Some(0), "the intact asset must pass\n{intact}");
     assert!(
         intact.stdout.contains("VPLs with a second origin"),
-        "the reader reads vpl_lower.bin (4.5)\n{intact}"
+        "the reader reads vpl_lower.bin (4.7)\n{intact}"
     );
 
     // (file flipped, byte offset, the file the message must name)
@@ -279,146 +283,214 @@ fn reader_refuses_damaged_assets() {
 
     // Re-sealed manifests (payload edited, length and BLAKE3 trailer
     // recomputed): what the spec says a reader must refuse or accept.
-    // The bake writes the current minor (4.5: the views, light_map_size,
-    // the appended view_rsms, ring_vpls, scene_options and lower_map_count
-    // end the payload; a one-light asset without rings baked with no scene
-    // flag has no views, so its last eleven bytes are the view count 0,
-    // light_map_size 0, the view_rsms count 0, the ring_vpls count 0, the
-    // scene options `01 00 00 00 00 00` (recorded, none given) and the
-    // second maps' count (one byte); 4.2 added a file, not payload bytes).
+    // The bake (the first bounce alone) writes the current minor (4.7: the
+    // views, light_map_size, the appended view_rsms, ring_vpls,
+    // scene_options, swept_bounds, later and lower_map_count end the
+    // payload; a one-light asset without rings baked with no scene flag has
+    // no views, so before swept_bounds its last ten bytes are the view
+    // count 0, light_map_size 0, the view_rsms count 0, the ring_vpls count
+    // 0 and the scene options `01 00 00 00 00 00`: recorded, none given;
+    // 4.2 added a file, not payload bytes; after swept_bounds come the
+    // `later` tag `00` and the second maps' count, one byte). The 4.4 cases
+    // below first drop what 4.5 to 4.7 append (`to44`): a whole 4.4 payload,
+    // but one whose file list names vpl_lower.bin (4.7's file), so the
+    // older minors that would read it refuse that file; a 4.6 asset whose
+    // writer did not list it is accepted below.
     assert_eq!(
         (gibake_asset::FORMAT_MAJOR, gibake_asset::FORMAT_MINOR),
-        (4, 5),
-        "the re-sealed cases below are written for format 4.5"
+        (4, 7),
+        "the re-sealed cases below are written for format 4.7"
     );
     let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
     assert!(
         m.lights.len() == 1
             && m.views.is_empty()
             && m.ring_vpls.is_empty()
-            && m.scene_options == Some(Default::default()),
-        "corner_bunny.glb: one light, no views, no ring VPLs, no scene flags\n{m:#?}"
+            && m.scene_options == Some(Default::default())
+            && m.later.is_none(),
+        "corner_bunny.glb: one light, no views, no ring VPLs, no scene flags, the first bounce alone\n{m:#?}"
     );
     let lower = u8::try_from(m.lower_map_count)
         .ok()
         .filter(|&n| n < 251)
         .expect("a one-byte varint of second maps");
+    // swept_bounds: a count, then six varints (1 byte below 251, 3 below
+    // 2^16, else 5).
+    let swept = m.swept_bounds.expect("the bake records its sweep");
+    let varint = |v: u32| match v {
+        0..=250 => 1,
+        251..=65535 => 3,
+        _ => 5,
+    };
+    let swept_len: usize = 1 + swept.iter().map(|v| varint(v.to_bits())).sum::<usize>();
     let bytes = std::fs::read(asset.join(gibake_asset::FILE_MANIFEST)).unwrap();
-    assert!(bytes[..bytes.len() - 32].ends_with(&[0, 0, 0, 0, 1, 0, 0, 0, 0, 0, lower]));
-    let reseal_cases: [(&str, &str, Option<&str>); 21] = [
+    let payload_end = bytes.len() - 32;
+    assert_eq!(&bytes[payload_end - 2..payload_end], &[0, lower]);
+    let before_swept = &bytes[..payload_end - 2 - swept_len];
+    assert!(before_swept.ends_with(&[0, 0, 0, 0, 1, 0, 0, 0, 0, 0]));
+    let to44 = format!("payload = payload[:-{}]; ", swept_len + 2);
+    let to45 = "payload = payload[:-2]; ";
+    let not_stored = "vpl_lower.bin, which the counts say is not stored";
+    let cases_44: [(&str, &str, Option<&str>); 19] = [
         // One byte after the last field, same minor: refused.
-        ("payload += b'\\x00'", "5", Some("after the last field")),
-        // The same from a newer minor (4.6): accepted and ignored.
-        ("payload += b'\\x00'", "6", None),
+        ("payload += b'\\x00'", "4", Some("after the last field")),
         // light_map_size cut off: refused.
         (
-            "payload = payload[:-10]",
-            "5",
+            "payload = payload[:-9]",
+            "4",
             Some("payload ends inside light_map_size"),
         ),
         // The appended view_rsms cut off: refused.
         (
-            "payload = payload[:-9]",
-            "5",
+            "payload = payload[:-8]",
+            "4",
             Some("payload ends inside view_rsms length"),
         ),
         // The appended ring_vpls cut off: refused.
         (
-            "payload = payload[:-8]",
-            "5",
+            "payload = payload[:-7]",
+            "4",
             Some("payload ends inside ring_vpls length"),
         ),
-        // The appended scene_options cut off: refused ...
+        // The appended scene_options cut off: refused in 4.4 ...
         (
-            "payload = payload[:-7]",
-            "5",
+            "payload = payload[:-6]",
+            "4",
             Some("payload ends inside scene_options tag"),
         ),
         (
-            "payload = payload[:-2]",
-            "5",
-            Some("payload ends inside scene_options.max_texture_size tag"),
-        ),
-        // ... and the appended lower_map_count (4.5).
-        (
-            "payload = payload[:-1]",
-            "5",
-            Some("payload ends inside lower_map_count"),
-        ),
-        // The same bytes are a whole 4.4 payload, but one that lists
-        // vpl_lower.bin (4.5's file): refused, as a format's own file the
-        // counts say is not stored (a 4.4 asset that does not list it:
-        // accepted, below).
-        (
             "payload = payload[:-1]",
             "4",
-            Some("vpl_lower.bin, which the counts say is not stored"),
+            Some("payload ends inside scene_options.max_texture_size tag"),
         ),
-        // A 4.3 payload with what 4.4 and 4.5 append after it: bytes after
-        // the last field of its minor, refused.
+        // ... and the same bytes are a whole 4.3 payload (nothing
+        // recorded), listing 4.7's file: refused for it.
+        ("payload = payload[:-6]", "3", Some(not_stored)),
+        // A 4.3 payload with the scene options after it: bytes after the
+        // last field of its minor, refused.
         ("pass", "3", Some("after the last field")),
-        // Without them and ring_vpls a whole 4.2 payload, listing 4.5's
+        // Without them and ring_vpls a whole 4.2 payload, listing 4.7's
         // file: refused.
-        (
-            "payload = payload[:-8]",
-            "2",
-            Some("vpl_lower.bin, which the counts say is not stored"),
-        ),
+        ("payload = payload[:-7]", "2", Some(not_stored)),
         // Without view_rsms too a whole 4.0 payload, but one that lists
         // vpl_coherence.bin (4.2's file): refused, as a format's own file
         // the counts say is not stored.
         (
-            "payload = payload[:-9]",
+            "payload = payload[:-8]",
             "0",
             Some("vpl_coherence.bin, which the counts say is not stored"),
         ),
         // The same under 4.1: refused the same way.
         (
-            "payload = payload[:-8]",
+            "payload = payload[:-7]",
             "1",
             Some("vpl_coherence.bin, which the counts say is not stored"),
         ),
         // ring_vpls with more entries than lights: refused while decoding.
         (
-            "payload = payload[:-8] + b'\\x02\\x00\\x00' + payload[-7:]",
-            "5",
+            "payload = payload[:-7] + b'\\x02\\x00\\x00' + payload[-6:]",
+            "4",
             Some("ring_vpls holds 2 entries but there are only 1 lights"),
         ),
         // scene_options with an Option tag bincode does not define.
         (
-            "payload = payload[:-7] + b'\\x02' + payload[-1:]",
-            "5",
+            "payload = payload[:-6] + b'\\x02'",
+            "4",
             Some("scene_options: invalid Option tag 2"),
         ),
         // A sun on the horizon (elevation 0): refused.
         (
-            "payload = payload[:-7] + b'\\x01\\x01' + struct.pack('<6f', 10, 0, 1, 1, 1, 1) + b'\\x00\\x00\\x00\\x00' + payload[-1:]",
-            "5",
+            "payload = payload[:-6] + b'\\x01\\x01' + struct.pack('<6f', 10, 0, 1, 1, 1, 1) + b'\\x00\\x00\\x00\\x00'",
+            "4",
             Some("scene_options: sun elevation 0.0 is not in (0, 90]"),
         ),
         // A bake volume whose minimum is not below its maximum: refused.
         (
-            "payload = payload[:-7] + b'\\x01\\x00\\x00\\x00\\x01' + struct.pack('<6f', 0, 0, 0, 1, 0, 1) + b'\\x00' + payload[-1:]",
-            "5",
+            "payload = payload[:-6] + b'\\x01\\x00\\x00\\x00\\x01' + struct.pack('<6f', 0, 0, 0, 1, 0, 1) + b'\\x00'",
+            "4",
             Some("scene_options: bake volume"),
         ),
         // The lights cut short: refused.
-        ("payload = payload[:-47]", "5", Some("payload ends inside")),
+        ("payload = payload[:-46]", "4", Some("payload ends inside")),
         // A varint marker bincode does not define (254), as the first length.
         (
             "payload = b'\\xfe' + payload[1:]",
-            "5",
+            "4",
             Some("invalid varint marker"),
         ),
         // light_map_size 5 without views: refused.
         (
-            "payload = payload[:-10] + b'\\x05\\x00\\x00' + payload[-7:]",
-            "5",
+            "payload = payload[:-9] + b'\\x05\\x00\\x00' + payload[-6:]",
+            "4",
             Some("light_map_size is 5 but there are no views"),
         ),
-        // Control: re-sealed unchanged, accepted.
-        ("pass", "5", None),
+        // A whole 4.4 payload (swept bounds not recorded), listing 4.7's
+        // file: refused for it.
+        ("pass", "4", Some(not_stored)),
     ];
+    let mut reseal_cases: Vec<(String, &str, Option<&str>)> = cases_44
+        .iter()
+        .map(|(e, minor, r)| (format!("{to44}{e}"), *minor, *r))
+        .collect();
+    let nan = "b'\\xfc\\x00\\x00\\xc0\\x7f'";
+    let cases_45: [(String, &str, Option<&str>); 6] = [
+        // A whole 4.5 payload, listing 4.7's file: refused for it.
+        (to45.into(), "5", Some(not_stored)),
+        // One byte after the last field of 4.5: refused.
+        (
+            format!("{to45}payload += b'\\x01'"),
+            "5",
+            Some("after the last field"),
+        ),
+        // swept_bounds cut inside: refused.
+        (
+            format!("{to45}payload = payload[:-1]"),
+            "5",
+            Some("payload ends inside swept_bounds"),
+        ),
+        // A 4.4 payload read as 4.5: it ends where swept_bounds' count is.
+        (
+            to44.clone(),
+            "5",
+            Some("payload ends inside swept_bounds length"),
+        ),
+        // Three values, not six: refused.
+        (
+            format!("{to44}payload += b'\\x03\\x00\\x00\\x00'"),
+            "5",
+            Some("swept_bounds holds 3 values"),
+        ),
+        // A NaN: refused.
+        (
+            format!("{to44}payload += b'\\x06\\x00\\x00\\x00' + {nan} + b'\\x00\\x00'"),
+            "5",
+            Some("swept_bounds holds NaN"),
+        ),
+    ];
+    reseal_cases.extend(cases_45);
+    let cases_47: [(String, &str, Option<&str>); 5] = [
+        // Control: re-sealed unchanged, accepted.
+        ("pass".into(), "7", None),
+        // One byte after the last field, same minor: refused ...
+        (
+            "payload += b'\\x00'".into(),
+            "7",
+            Some("after the last field"),
+        ),
+        // ... and accepted from a newer minor (4.8), ignored.
+        ("payload += b'\\x00'".into(), "8", None),
+        // lower_map_count cut off: refused.
+        (
+            "payload = payload[:-1]".into(),
+            "7",
+            Some("payload ends inside lower_map_count"),
+        ),
+        // The same bytes are a whole 4.6 payload, but one that lists
+        // vpl_lower.bin (4.7's file): refused, as a format's own file the
+        // counts say is not stored.
+        ("payload = payload[:-1]".into(), "6", Some(not_stored)),
+    ];
+    reseal_cases.extend(cases_47);
     for (k, (edit, minor, refusal)) in reseal_cases.iter().enumerate() {
         let copy = copy_asset(&asset, work.path(), &format!("reseal{k}.gibake"));
         reseal(&py, &copy.join("manifest.bin"), edit, minor);
@@ -435,18 +507,18 @@ fn reader_refuses_damaged_assets() {
             ),
         }
     }
-    // A 4.4 asset, whose writer listed neither of 4.5's files: accepted,
+    // A 4.6 asset, whose writer listed neither of 4.7's files: accepted,
     // without second origins.
-    let copy = copy_asset(&asset, work.path(), "v44.gibake");
+    let copy = copy_asset(&asset, work.path(), "v46.gibake");
     std::fs::write(
         copy.join("manifest.bin"),
-        gibake_asset::testing::manifest_bytes_4_4(&m).unwrap(),
+        gibake_asset::testing::manifest_bytes_4_6(&m).unwrap(),
     )
     .unwrap();
     let r = read(&py, &copy);
     assert!(
         r.code == Some(0) && r.stdout.contains("no vpl_lower.bin"),
-        "a 4.4 asset must be accepted without second origins\n{r}"
+        "a 4.6 asset must be accepted without second origins\n{r}"
     );
 
     // A major version this reader does not know (5.0), and the previous
@@ -926,6 +998,10 @@ fn reader_reads_the_scene_options() {
         "--bake-volume=-3,-1,-3,3,3,3",
         "--max-texture-size",
         "1024",
+        // The first bounce alone: rewritten below as a 4.3 asset, which
+        // had no later bounces.
+        "--bounces",
+        "1",
     ]);
     let asset = bake_with(&common::data("occluded.glb"), work.path(), &flags);
     let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
@@ -946,6 +1022,7 @@ fn reader_reads_the_scene_options() {
     // The same asset as a 4.3 writer wrote it: nothing recorded.
     let mut old = m.clone();
     old.scene_options = None;
+    old.swept_bounds = None;
     let bytes = gibake_asset::testing::manifest_bytes_4_3(&old).unwrap();
     std::fs::write(asset.join(gibake_asset::FILE_MANIFEST), bytes).unwrap();
     let r = read(&py, &asset);
@@ -954,5 +1031,63 @@ fn reader_reads_the_scene_options() {
             && r.stdout.contains("gibake asset 4.3")
             && r.stdout.contains("  scene flags: not recorded"),
         "a 4.3 asset must be read with no scene flags\n{r}"
+    );
+}
+
+/// Format 4.6's later bounces: a default bake (the later VPLs the last of
+/// `vpls.bin`, no light's) is read, its record printed, the later VPLs'
+/// maps checked from their lifted origins; a record that claims one later
+/// VPL fewer (the lights' counts then do not add up) is refused by the
+/// reader as by `load`, and a 4.5 manifest of a first-bounce-alone bake
+/// reads as the first bounce alone.
+#[test]
+fn reader_reads_the_later_bounces() {
+    let py = python();
+    let work = tempfile::tempdir().unwrap();
+    let asset = bake_with(&common::data("occluded.glb"), work.path(), &SMALL);
+    let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
+    let later = m
+        .later
+        .clone()
+        .expect("the default bake records its bounces");
+    assert!(later.vpls > 0, "occluded.glb's later bounces were left out");
+    let r = read(&py, &asset);
+    assert!(
+        r.code == Some(0)
+            && r.stdout.contains("gibake asset 4.7")
+            && r.stdout.contains(&format!(
+                "later bounces (every bounce that matters, {} followed): the last {} VPLs",
+                later.per_bounce.len(),
+                later.vpls
+            ))
+            && r.stdout.trim_end().ends_with("OK"),
+        "the reader does not read the later bounces\n{r}"
+    );
+    // One later VPL fewer: the lights' counts and the later ones do not
+    // add up to vpl_count.
+    let bad = copy_asset(&asset, work.path(), "bad.gibake");
+    edit_manifest(&bad, &|m| m.later.as_mut().unwrap().vpls -= 1);
+    let r = read(&py, &bad);
+    assert!(
+        r.code != Some(0) && r.stderr.contains("and the later bounces' to"),
+        "the reader accepts later VPL counts that do not add up\n{r}"
+    );
+    assert!(gibake_asset::load(&bad).is_err());
+    // A first-bounce-alone bake as a 4.5 writer wrote it.
+    let one_dir = work.path().join("one");
+    std::fs::create_dir_all(&one_dir).unwrap();
+    let mut flags = SMALL.to_vec();
+    flags.extend(["--bounces", "1"]);
+    let one = bake_with(&common::data("occluded.glb"), &one_dir, &flags);
+    let m = gibake_asset::load_manifest(&one).unwrap();
+    assert!(m.later.is_none());
+    let bytes = gibake_asset::testing::manifest_bytes_4_5(&m).unwrap();
+    std::fs::write(one.join(gibake_asset::FILE_MANIFEST), bytes).unwrap();
+    let r = read(&py, &one);
+    assert!(
+        r.code == Some(0)
+            && r.stdout.contains("gibake asset 4.5")
+            && !r.stdout.contains("later bounces"),
+        "a 4.5 asset must read as the first bounce alone\n{r}"
     );
 }

@@ -337,8 +337,13 @@ fn run_case(name: &str, p: &Params) -> Outcome {
             &"-o",
             &out,
         ];
+        // The one-bounce reference: the method is judged against direct
+        // + one bounce until the later bounces are baked.
         if direct_only {
             args.push(&"--direct-only");
+        } else {
+            args.push(&"--bounces");
+            args.push(&"1");
         }
         ok(&gibake(&args));
         read(&out)

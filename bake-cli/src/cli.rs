@@ -225,12 +225,15 @@ pub enum Command {
     /// asset when it is re-baked. `--frames N --screenshot F.png` runs
     /// headless (still in a window); `--gpu-report` needs no window.
     View(ViewArgs),
-    /// Render the independent CPU reference (path tracer, direct + one
+    /// Render the independent CPU reference (path tracer: every bounce by
+    /// default, `--bounces N` for the first N, `--bounces 1` direct + one
     /// bounce). It reads no asset: give it the scene flags the bake was
     /// given (--sun, --dynamic, --light, --bake-volume; `gibake inspect
     /// ASSET` prints them).
     Reference(ReferenceArgs),
     /// Compare two baked assets: exit 0 equal (within tolerance), 1 different, 2 bad input.
+    /// With --scene, render both and compare what a player sees: exit 1 on
+    /// a visible change.
     Diff(DiffArgs),
     /// Describe a baked asset: counts, sizes, settings, provenance, VPL flux.
     Inspect(InspectArgs),
@@ -309,6 +312,24 @@ pub struct BakeArgs {
     /// budget (--max-memory) is checked again then, before any map is made.
     #[arg(long, value_name = "X", value_parser = threshold_value)]
     pub threshold: Option<f32>,
+    /// How many bounces of light the asset carries, in all (1 to 256), or
+    /// `all`. Default (`all`): every bounce that matters — the first bounce's VPLs (the
+    /// paper's method, shadowed by moving objects each frame) plus VPLs for
+    /// the later bounces of the static scene, gathered on surface samples
+    /// until a bounce carries under a thousandth of the light so far; left
+    /// out when they carry under 0.1% of the light the level's surfaces
+    /// reflect (outdoors). 1: the first bounce alone (the paper's method;
+    /// the asset of earlier versions). In interiors the later bounces carry
+    /// as much light again as the first or many times more
+    /// (docs/method.md, "Every bounce").
+    #[arg(long, value_name = "N|all", value_parser = bake_bounces_value)]
+    pub bounces: Option<gibake_bake::later::Bounces>,
+    /// The later bounces' VPLs (default: a quarter of the first bounce's,
+    /// at least 1). More: the later light nearer the truth where it
+    /// dominates (a white interior), a costlier frame.
+    #[arg(long, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    pub later_vpls: Option<u32>,
     /// Reflective shadow map resolution, 8 to 8192.
     #[arg(long, default_value_t = 512, value_name = "N",
           value_parser = clap::value_parser!(u32).range(8..=8192))]
@@ -585,8 +606,19 @@ pub struct ReferenceArgs {
     /// Samples per pixel.
     #[arg(long, default_value_t = 256)]
     pub spp: u32,
-    /// Direct light only (path depth 2) instead of direct + one bounce.
-    #[arg(long)]
+    /// Light bounces to follow: `all` (the default) is every bounce —
+    /// unbounded path depth, Russian roulette after the third bounce,
+    /// unbiased; a path is cut at 1024 bounces, which only a scene that
+    /// traps light reaches (albedo 1 in a closed space has no finite
+    /// answer), and a warning says how many were. N (0 to 1024): direct
+    /// light and the first N bounces exactly. `--bounces 1` is direct + one
+    /// bounce (path depth 3: light → surface → surface → eye, what the
+    /// paper's method computes and what this command rendered before every
+    /// bounce), bit for bit; `--bounces 0` is direct light only.
+    #[arg(long, value_name = "N|all", default_value = "all", value_parser = bounces_value)]
+    pub bounces: gibake_reference::Depth,
+    /// Direct light only (path depth 2): the same as `--bounces 0`.
+    #[arg(long, conflicts_with = "bounces")]
     pub direct_only: bool,
     /// Random seed (the image is deterministic for a given seed).
     #[arg(long, default_value_t = 0)]
@@ -594,6 +626,39 @@ pub struct ReferenceArgs {
     /// Output EXR (linear radiance) or PNG preview.
     #[arg(short, long, value_name = "REF.exr")]
     pub output: PathBuf,
+}
+
+/// Parses `bake --bounces`: `all` or 1 to 256 (the bake's cap,
+/// `gibake_bake::later::radiosity::MAX_BOUNCES`).
+fn bake_bounces_value(s: &str) -> Result<gibake_bake::later::Bounces, String> {
+    use gibake_bake::later::{Bounces, radiosity::MAX_BOUNCES};
+    match s.parse::<u32>() {
+        _ if s == "all" => Ok(Bounces::Every),
+        Ok(n @ 1..) if n <= MAX_BOUNCES => Ok(Bounces::Count(n)),
+        Ok(n) => Err(format!(
+            "{n} bounces: the bake carries 1 (the first bounce alone) to {MAX_BOUNCES}, or `all`"
+        )),
+        Err(_) => Err(format!(
+            "{s:?} is not a number of bounces (1 to {MAX_BOUNCES}) or `all`"
+        )),
+    }
+}
+
+/// Parses `--bounces`: `all` or 0 to 1024.
+fn bounces_value(s: &str) -> Result<gibake_reference::Depth, String> {
+    use gibake_reference::{Depth, MAX_BOUNCES};
+    match s.parse::<u32>() {
+        _ if s == "all" => Ok(Depth::Every),
+        Ok(0) => Ok(Depth::Direct),
+        Ok(1) => Ok(Depth::OneBounce),
+        Ok(n) if n <= MAX_BOUNCES => Ok(Depth::Bounces(n)),
+        Ok(n) => Err(format!(
+            "{n} is more bounces than the reference follows (at most {MAX_BOUNCES}; `all` for every bounce)"
+        )),
+        Err(_) => Err(format!(
+            "{s:?} is not a number of bounces (0 to {MAX_BOUNCES}) or `all`"
+        )),
+    }
 }
 
 /// `gibake diff`.
@@ -628,9 +693,72 @@ pub struct DiffArgs {
     /// Count provenance differences (adapter, driver, baker version) as differences.
     #[arg(long)]
     pub strict_provenance: bool,
-    /// Write |A−B| EXR images of the maps that differ into this directory.
+    /// Write |A−B| EXR images of the maps that differ into this directory
+    /// (created); with --scene also, per view, A's and B's frames and a heat
+    /// map as PNGs (`VIEW_a.png`, `VIEW_b.png`, `VIEW_heat.png`) and the
+    /// three side by side (`VIEW.png`).
     #[arg(long, value_name = "DIR")]
     pub images: Option<PathBuf>,
+    /// The image-space diff (what a player sees differently): render both
+    /// assets from the level's camera (or --view-camera / --view) and
+    /// compare the frames. Give the scene both were baked from, or twice:
+    /// A's scene, then B's (a level that changed). The verdict then comes
+    /// from the images (--max-image-relmse, --max-flip); the data diff is
+    /// still reported.
+    #[arg(long = "scene", value_name = "SCENE.glb", num_args = 1, action = clap::ArgAction::Append)]
+    pub scenes: Vec<PathBuf>,
+    /// With --scene: --sun, --dynamic, --bake-volume as `render` takes them
+    /// (each asset's recorded flags apply when none is given).
+    #[command(flatten)]
+    pub level: LevelArgs,
+    /// With --scene: only these lights (as `render --light`; repeatable).
+    #[arg(long = "light", value_name = "NAME")]
+    pub lights: Vec<String>,
+    /// With --scene: import budgets.
+    #[command(flatten)]
+    pub limits: crate::limits::LimitArgs,
+    /// With --scene: a view from the scene's camera of this name
+    /// (repeatable). Default: the scene's first camera.
+    #[arg(long = "view-camera", value_name = "NAME")]
+    pub view_cameras: Vec<String>,
+    /// With --scene: a view from a perspective camera at EYE looking at
+    /// TARGET, vertical field of view FOV degrees (default 60; repeatable;
+    /// write `--view=-2,1,…` when the first number is negative).
+    #[arg(long = "view", value_name = "EX,EY,EZ,TX,TY,TZ[,FOV]", value_parser = parse_look_at, allow_hyphen_values = true)]
+    pub views: Vec<[f32; 7]>,
+    /// With --scene: animation times to compare at, in seconds (repeatable;
+    /// default 0).
+    #[arg(long = "time", value_name = "T")]
+    pub times: Vec<f32>,
+    /// With --scene: frame width in pixels (small keeps a CI step fast).
+    #[arg(long, default_value_t = 320)]
+    pub width: u32,
+    /// With --scene: frame height in pixels.
+    #[arg(long, default_value_t = 180)]
+    pub height: u32,
+    /// With --scene: supersampling (render N× larger, box-filter down).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub ssaa: u32,
+    /// With --scene: primary shadow map resolution of the renders.
+    #[arg(long, default_value_t = 2048)]
+    pub shadow_map_size: u32,
+    /// With --scene: a view whose frames differ by more than this rel MSE
+    /// (per pixel and channel (b−a)²/(a²+0.01), averaged) is a visible
+    /// change (exit 1).
+    #[arg(long, value_name = "X", default_value_t = 0.002, value_parser = crate::limits::tolerance_f64("--max-image-relmse"))]
+    pub max_image_relmse: f64,
+    /// With --scene: a view whose frames differ by more than this mean FLIP
+    /// (NVIDIA's perceptual difference, 0 to 1) is a visible change.
+    #[arg(long, value_name = "X", default_value_t = 0.02, value_parser = crate::limits::tolerance_f64("--max-flip"))]
+    pub max_flip: f64,
+    /// Write a Markdown summary (verdict, a table per view, the pictures of
+    /// --images by paths relative to FILE's directory, the data diff) for a
+    /// CI job summary or a review comment.
+    #[arg(long, value_name = "FILE.md")]
+    pub markdown: Option<PathBuf>,
+    /// The GPU adapter of the renders (a substring of its name).
+    #[arg(long, value_name = "NAME")]
+    pub adapter: Option<String>,
 }
 
 /// Tolerance presets of `diff`.

@@ -317,31 +317,110 @@ pub(crate) fn reference(a: ReferenceArgs) -> anyhow::Result<ExitCode> {
         depth: if a.direct_only {
             gibake_reference::Depth::Direct
         } else {
-            gibake_reference::Depth::OneBounce
+            a.bounces
         },
         seed: a.seed,
     };
     let start = Instant::now();
-    let img = run_reference(&scene, &settings)?;
+    if settings.depth == gibake_reference::Depth::Every {
+        probe_every_bounce(&scene, &settings)?;
+    }
+    let (img, stats) = run_reference_with_stats(&scene, &settings)?;
     write_image_atomic(&img, &a.output, None)?;
     eprintln!(
-        "wrote {} ({:.2} s, {} spp)",
+        "wrote {} ({:.2} s, {} spp, {})",
         a.output.display(),
         start.elapsed().as_secs_f64(),
-        a.spp
+        a.spp,
+        depth_words(settings.depth, &stats)
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// What `depth` rendered, for the summary line.
+fn depth_words(depth: gibake_reference::Depth, stats: &gibake_reference::PathStats) -> String {
+    use gibake_reference::Depth;
+    match depth {
+        Depth::Direct => "direct light only".into(),
+        Depth::OneBounce => "direct + one bounce".into(),
+        Depth::Bounces(n) => format!(
+            "direct + {n} bounces, {:.1} bounce rays a path",
+            stats.mean_bounces()
+        ),
+        Depth::Every => format!(
+            "every bounce, {:.1} bounce rays a path",
+            stats.mean_bounces()
+        ),
+    }
+}
+
+/// The warning for paths cut at the cap of every bounce (none: `None`).
+fn cap_warning(stats: &gibake_reference::PathStats) -> Option<String> {
+    (stats.capped > 0).then(|| {
+        format!(
+            "warning: {} of {} paths ({:.3}%) reached {} bounces and were cut there: the scene \
+             traps light (albedo 1, or very near 1, in a closed space; with albedo 1 there is no \
+             finite answer). The image is the sum of the first {} bounces, too dark by the light \
+             those paths still carried; `--bounces N` sets the bounces instead (docs/reference.md, \
+             \"Every bounce\")",
+            stats.capped,
+            stats.paths,
+            100.0 * stats.capped_fraction(),
+            gibake_reference::MAX_BOUNCES,
+            gibake_reference::MAX_BOUNCES,
+        )
+    })
+}
+
+/// Before an every-bounce render, a quick one (1/8 the size, 1 spp) that
+/// warns when many paths run to the cap: such a render costs up to 1024
+/// bounce rays a sample, and the user may rather bound it now than wait.
+fn probe_every_bounce(scene: &Scene, s: &gibake_reference::Settings) -> anyhow::Result<()> {
+    let probe = gibake_reference::Settings {
+        width: s.width.div_ceil(8),
+        height: s.height.div_ceil(8),
+        spp: 1,
+        ..s.clone()
+    };
+    let (_, stats) = gibake_reference::render_with_stats(scene, &probe, &|_| {})
+        .with_context(|| format!("reference render of {}", scene.source.display()))?;
+    if stats.capped_fraction() >= 0.01 {
+        eprintln!(
+            "warning: {:.0}% of a quick probe's paths ({}×{}, 1 spp) reach the cap of {} \
+             bounces: this render follows them all that way ({:.0} bounce rays a path, against \
+             1 for `--bounces 1`), and will take long; `--bounces N` bounds it",
+            100.0 * stats.capped_fraction(),
+            probe.width,
+            probe.height,
+            gibake_reference::MAX_BOUNCES,
+            stats.mean_bounces()
+        );
+    }
+    Ok(())
 }
 
 pub(crate) fn run_reference(
     scene: &Scene,
     settings: &gibake_reference::Settings,
 ) -> anyhow::Result<gibake_image::Image> {
+    run_reference_with_stats(scene, settings).map(|(img, _)| img)
+}
+
+/// The reference render with a progress bar; warns when paths were cut at
+/// the cap of every bounce.
+fn run_reference_with_stats(
+    scene: &Scene,
+    settings: &gibake_reference::Settings,
+) -> anyhow::Result<(gibake_image::Image, gibake_reference::PathStats)> {
     let pb = bar(settings.height as u64, "reference");
-    let img = gibake_reference::render(scene, settings, &|rows| pb.set_position(rows))
-        .with_context(|| format!("reference render of {}", scene.source.display()))?;
+    let (img, stats) =
+        gibake_reference::render_with_stats(scene, settings, &|rows| pb.set_position(rows))
+            .with_context(|| format!("reference render of {}", scene.source.display()))?;
     pb.finish_and_clear();
-    Ok(img)
+    if let Some(w) = cap_warning(&stats) {
+        eprintln!("{w}");
+    }
+    Ok((img, stats))
 }
 
 /// indicatif progress for the bake's stages.
@@ -392,8 +471,33 @@ pub(crate) fn inspect(a: InspectArgs) -> anyhow::Result<ExitCode> {
 }
 
 pub(crate) fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
+    // Every output and every option checked before any work.
+    let inputs: Vec<&Path> = [&a.a, &a.b]
+        .into_iter()
+        .chain(&a.scenes)
+        .map(PathBuf::as_path)
+        .collect();
     if let Some(dir) = &a.images {
-        crate::output::check_not_input("--images", dir, &[&a.a, &a.b])?;
+        crate::output::check_not_input("--images", dir, &inputs)?;
+        crate::guard::check_dir_output("--images", dir)?;
+    }
+    if let Some(md) = &a.markdown {
+        crate::output::check_extension("--markdown", md, &["md", "markdown"])?;
+        crate::output::check_not_input("--markdown", md, &inputs)?;
+        crate::guard::check_file_output("--markdown", md)?;
+    }
+    if a.scenes.is_empty() {
+        for (given, flag) in [
+            (!a.views.is_empty(), "--view"),
+            (!a.view_cameras.is_empty(), "--view-camera"),
+            (!a.times.is_empty(), "--time"),
+        ] {
+            if given {
+                bail!("{flag} chooses what the image-space diff renders: give --scene LEVEL too");
+            }
+        }
+    } else {
+        crate::scene_diff::check_args(&a)?;
     }
     let asset_a = crate::limits::load_asset(&a.a)?;
     let asset_b = crate::limits::load_asset(&a.b)?;
@@ -415,10 +519,28 @@ pub(crate) fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
     }
     tol.strict_provenance |= a.strict_provenance;
     let report = gibake_asset::diff(&asset_a, &asset_b, &tol);
+    let images = if a.scenes.is_empty() {
+        None
+    } else {
+        Some(crate::scene_diff::run(&a, &asset_a, &asset_b)?)
+    };
+    let md_dir = a.markdown.as_deref().map(|m| {
+        m.parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."))
+            .to_owned()
+    });
     if a.json {
-        crate::output::print_stdout(&serde_json::to_string_pretty(&report)?)?;
+        let mut j = serde_json::to_value(&report)?;
+        if let Some(i) = &images {
+            j["image_diff"] = i.json(None);
+        }
+        crate::output::print_stdout(&serde_json::to_string_pretty(&j)?)?;
     } else {
         crate::output::print_stdout(&report.to_string())?;
+        if let Some(i) = &images {
+            crate::output::print_stdout(&i.text())?;
+        }
     }
     if let Some(dir) = &a.images {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -426,9 +548,37 @@ pub(crate) fn diff(a: DiffArgs) -> anyhow::Result<ExitCode> {
             eprintln!("wrote {}", p.display());
         }
     }
-    Ok(if report.equal() {
-        ExitCode::SUCCESS
-    } else {
+    if let (Some(md), Some(dir)) = (&a.markdown, &md_dir) {
+        let text = match &images {
+            Some(i) => i.markdown(&a.a, &a.b, dir, &report.to_string()),
+            None => data_markdown(&a, &report),
+        };
+        crate::output::write_atomic(md, text.as_bytes())?;
+        eprintln!("wrote {}", md.display());
+    }
+    let different = match &images {
+        Some(i) => i.visible(),
+        None => !report.equal(),
+    };
+    Ok(if different {
         ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
     })
+}
+
+/// The Markdown summary of a data diff alone (no --scene).
+fn data_markdown(a: &DiffArgs, report: &gibake_asset::DiffReport) -> String {
+    let name = |p: &Path| crate::guard::lossy(p.file_name().map_or(p, Path::new));
+    let (mark, words) = if report.equal() {
+        ("PASS", "equal within the tolerance")
+    } else {
+        ("FAIL", "different")
+    };
+    format!(
+        "## gibake diff: **{mark}**, {words}\n\n`{}` against `{}` (the baked data; give `--scene LEVEL` to compare what a player sees).\n\n```\n{}\n```\n",
+        name(&a.a),
+        name(&a.b),
+        report.to_string().trim_end()
+    )
 }

@@ -7,7 +7,7 @@
 //! The machinery itself (locks, temporaries, the one-step swap, signals)
 //! is `gibake-output`.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::bail;
 
@@ -77,8 +77,9 @@ pub fn check_file_output(flag: &str, path: &Path) -> anyhow::Result<()> {
 /// `bake -o` / `merge -o` of an asset: the name ends in `.gibake` (an asset
 /// is a directory; `-o new.png` would make a directory named `.png`), its
 /// directory exists, and what is there may be replaced (absent, empty, or
-/// a gibake asset).
-pub fn check_asset_output(flag: &str, path: &Path) -> anyhow::Result<()> {
+/// a gibake asset). Returns the directory to write: `path`, or where it
+/// points when it is a symbolic link to a directory ([`asset_target`]).
+pub fn check_asset_output(flag: &str, path: &Path) -> anyhow::Result<PathBuf> {
     let ext = path.extension().map(|e| e.to_string_lossy().to_lowercase());
     if ext.as_deref() != Some("gibake") {
         bail!(
@@ -90,8 +91,54 @@ pub fn check_asset_output(flag: &str, path: &Path) -> anyhow::Result<()> {
         );
     }
     check_parent(flag, path)?;
-    gibake_asset::check_output(path)?;
-    Ok(())
+    let target = asset_target(flag, path)?;
+    gibake_asset::check_output(&target)?;
+    Ok(target)
+}
+
+/// Where the asset output `path` is written. Itself, unless it is a
+/// symbolic link: to a user a link to an asset directory is that
+/// directory, so the asset is written (swapped in one step) where the link
+/// points, the link is kept, and a note says so. A link to anything but a
+/// directory, a dangling link or a loop is refused with a message that
+/// says it is a link and to what.
+pub fn asset_target(flag: &str, path: &Path) -> anyhow::Result<PathBuf> {
+    if !gibake_output::is_symlink(path) {
+        return Ok(path.to_owned());
+    }
+    let what = gibake_output::describe(path).unwrap_or_else(|| "a symbolic link".into());
+    match std::fs::canonicalize(path) {
+        Ok(real) if real.is_dir() => {
+            eprintln!(
+                "{}: {flag} is {what}: the asset is written there ({}); the link is kept",
+                path.display(),
+                real.display()
+            );
+            Ok(real)
+        }
+        Ok(_) => bail!(
+            "{}: {flag} is {what}, and an asset is a directory; refusing to replace it (give another -o, or remove the link)",
+            path.display()
+        ),
+        Err(_) => bail!(
+            "{}: {flag} is {what}; give the asset directory itself, or make the link point to one",
+            path.display()
+        ),
+    }
+}
+
+/// An output directory (`diff --images DIR`): absent (created) or a
+/// directory (a link to one is followed); anything else is refused, saying
+/// what it is.
+pub fn check_dir_output(flag: &str, dir: &Path) -> anyhow::Result<()> {
+    if std::fs::symlink_metadata(dir).is_err() || dir.is_dir() {
+        return Ok(());
+    }
+    let what = gibake_output::describe(dir).unwrap_or_default();
+    bail!(
+        "{}: {flag} names a directory to write into, but it is {what}",
+        dir.display()
+    )
 }
 
 /// `bake --shard K/N -o PART`: a file, not named like an asset or an image,

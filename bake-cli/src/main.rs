@@ -20,6 +20,7 @@ mod guard;
 mod limits;
 mod output;
 mod pipeline;
+mod scene_diff;
 mod view;
 
 use std::process::ExitCode;

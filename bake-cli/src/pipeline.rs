@@ -72,6 +72,8 @@ fn options(a: &BakeArgs) -> BakeOptions {
         vpl_map_size: a.vpl_map_size,
         shadow_map_size: a.shadow_map_size,
         target,
+        bounces: a.bounces.unwrap_or(gibake_bake::later::Bounces::Every),
+        later_vpls: a.later_vpls,
     }
 }
 
@@ -92,15 +94,22 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
             a.scenes.len()
         );
     };
-    if a.shard.is_some() {
+    // A link to an asset directory is written where it points.
+    let target = if a.shard.is_some() {
         crate::guard::check_part_output(&output)?;
+        output.clone()
     } else {
-        crate::guard::check_asset_output("-o", &output)?;
-    }
+        crate::guard::check_asset_output("-o", &output)?
+    };
     crate::output::check_not_input("-o", &output, &[scene_path])?;
     // One writer per output from here on: a second bake of the same output
-    // waits, then finds it up to date.
-    let _lock = crate::guard::lock_output(&output)?;
+    // waits, then finds it up to date. Where the lock cannot be taken (a
+    // read-only checkout), only the up-to-date check may go on: it reads.
+    let lock = if a.shard.is_some() {
+        Ok(crate::guard::lock_output(&output)?)
+    } else {
+        lock_and_tidy(&target)
+    };
     let opts = options(&a);
     let flags = recorded(&a);
     let total = Instant::now();
@@ -123,7 +132,7 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
     }
     // The up-to-date check needs only the adapter's identity, not a device.
     let record = GpuContext::adapter_record(&gpu)?;
-    let (freshness, check_s) = decide(&output, &scene, &opts, &flags, a.force, &record);
+    let (freshness, check_s) = decide(&target, &scene, &opts, &flags, a.force, &record, &lock)?;
     let o = match freshness {
         Freshness::UpToDate => Outcome {
             reasons: None,
@@ -141,7 +150,7 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
                 check_s,
                 load_s,
             };
-            bake_stale(&ctx, &scene, &output, &opts, &flags, stale, &progress)?
+            bake_stale(&ctx, &scene, &target, &opts, &flags, stale, &progress)?
         }
     };
     let total_s = total.elapsed().as_secs_f64();
@@ -156,7 +165,7 @@ pub fn bake(a: BakeArgs) -> anyhow::Result<ExitCode> {
         eprintln!("GPU: {record}");
         o.print(&output);
         if o.baked.is_some() {
-            eprintln!("  {:<12} {:>8.3} s", "total", total_s);
+            eprintln!("  {:<14} {:>8.3} s", "total", total_s);
         }
     }
     Ok(ExitCode::SUCCESS)
@@ -181,7 +190,16 @@ struct Baked {
     budget: Option<u32>,
     threshold: f32,
     has_dynamic: bool,
+    /// The later bounces' record (`None`: `--bounces 1`).
+    later: Option<gibake_asset::LaterRecord>,
     stages: Vec<(String, f64)>,
+}
+
+impl Baked {
+    /// The first bounce's VPLs (what `--vpls` budgets).
+    fn first_vpls(&self) -> u32 {
+        self.vpls - self.later.as_ref().map_or(0, |l| l.vpls)
+    }
 }
 
 impl Outcome {
@@ -202,6 +220,18 @@ impl Outcome {
         });
         if let Some(b) = &self.baked {
             j["vpls"] = json!(b.vpls);
+            j["first_bounce_vpls"] = json!(b.first_vpls());
+            j["later"] = match &b.later {
+                None => json!(null),
+                Some(l) => json!({
+                    "bounces": if l.bounces == 0 { json!("every") } else { json!(l.bounces) },
+                    "vpls": l.vpls,
+                    "left_out": l.left_out,
+                    "converged": l.converged,
+                    "share": l.later_share(),
+                    "bounces_followed": l.per_bounce.len(),
+                }),
+            };
             j["maps_stored"] = json!(b.maps);
             j["vpls_dropped"] = json!(b.dropped);
             j["threshold"] = json!(b.threshold);
@@ -225,17 +255,18 @@ impl Outcome {
             ),
             (Some(b), reasons) => {
                 let why = reasons.clone().unwrap_or_default().join("; ");
+                let first = b.first_vpls();
                 eprintln!(
-                    "baked {}: {} VPLs ({} maps stored{}{}), threshold {:.3e}; reason: {why}",
+                    "baked {}: {} VPLs ({} maps stored{}{}), threshold {:.3e}; {}; reason: {why}",
                     asset.display(),
                     b.vpls,
                     b.maps,
                     match b.budget {
                         // The budget holds within 2% (docs/method.md, bake
                         // section 3) unless the level cannot be cut finer.
-                        Some(n) if u64::from(b.vpls.abs_diff(n)) * 50 > u64::from(n) => format!(
+                        Some(n) if u64::from(first.abs_diff(n)) * 50 > u64::from(n) => format!(
                             "; --vpls {n} asked for: {}",
-                            if b.vpls < n {
+                            if first < n {
                                 "the level's light that reaches a surface cannot be split into more"
                             } else {
                                 "each light view whose bounce is not negligible keeps one VPL at least, and one split can add several depth layers"
@@ -248,19 +279,67 @@ impl Outcome {
                     } else {
                         String::new()
                     },
-                    b.threshold
+                    b.threshold,
+                    match &b.later {
+                        None => "the first bounce alone (--bounces 1)".to_string(),
+                        Some(l) if l.left_out => format!(
+                            "later bounces left out: they carry {:.2}% of the light the surfaces reflect",
+                            100.0 * l.later_share()
+                        ),
+                        Some(l) => format!(
+                            "{first} first-bounce VPLs + {} for {} later bounces{} ({:.1}% of the light the surfaces reflect)",
+                            l.vpls,
+                            l.per_bounce.len().saturating_sub(1),
+                            if l.tail != [0.0; 3] {
+                                " and their tail"
+                            } else {
+                                ""
+                            },
+                            100.0 * l.later_share()
+                        ),
+                    }
                 );
                 for (n, s) in &b.stages {
-                    eprintln!("  {n:<12} {s:>8.3} s");
+                    eprintln!("  {n:<14} {s:>8.3} s");
                 }
             }
         }
     }
 }
 
+/// Locks the asset output `target` for the rest of the command and removes
+/// the temporaries an earlier run left there when it was killed (even when
+/// this run then finds the asset up to date and writes nothing). An error
+/// (a read-only file system, a planted link in place of the lock file) is
+/// returned for [`decide`] to judge: an up-to-date check needs no lock.
+fn lock_and_tidy(target: &Path) -> anyhow::Result<gibake_output::OutputLock> {
+    let lock = crate::guard::lock_output(target)?;
+    let owned: Vec<std::ffi::OsString> = gibake_asset::owned_names(target)
+        .into_iter()
+        .map(Into::into)
+        .collect();
+    let removed = gibake_output::remove_stale(target, &owned, &lock);
+    if !removed.is_empty() {
+        eprintln!(
+            "{}: removed what an earlier run left when it was stopped: {}",
+            target.display(),
+            removed
+                .iter()
+                .map(|p| lossy(p.file_name().unwrap_or(p.as_os_str()).as_ref()))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(lock)
+}
+
 /// Whether `out` needs a (re-)bake, and how long deciding took: the bake
 /// library's check ([`gibake_bake::check_up_to_date`]), and whether the
-/// asset records the scene options `flags` ([`flags_change`]).
+/// asset records the scene options `flags` ([`flags_change`]). `lock` is
+/// the output's lock, or why it could not be taken: then only "up to date"
+/// is an answer (it writes nothing; a note says the check ran without the
+/// lock), and a needed bake is an error that gives the reasons and why the
+/// output cannot be written.
 fn decide(
     out: &Path,
     scene: &Scene,
@@ -268,7 +347,8 @@ fn decide(
     flags: &SceneOptions,
     force: bool,
     adapter: &gibake_gpu::AdapterRecord,
-) -> (Freshness, f64) {
+    lock: &anyhow::Result<gibake_output::OutputLock>,
+) -> anyhow::Result<(Freshness, f64)> {
     let check = Instant::now();
     let freshness = if force {
         Freshness::Stale(vec!["--force".into()])
@@ -285,7 +365,21 @@ fn decide(
             }
         }
     };
-    (freshness, check.elapsed().as_secs_f64())
+    let seconds = check.elapsed().as_secs_f64();
+    if let Err(e) = lock {
+        match &freshness {
+            Freshness::UpToDate => eprintln!(
+                "{}: checked without the output's lock, which cannot be taken ({e}); nothing needs writing",
+                out.display()
+            ),
+            Freshness::Stale(reasons) => bail!(
+                "{}: needs a bake ({}) but cannot be written: {e}",
+                out.display(),
+                reasons.join("; ")
+            ),
+        }
+    }
+    Ok((freshness, seconds))
 }
 
 /// Why the asset at `out` does not record the scene options `flags` a
@@ -329,7 +423,8 @@ fn bake_one(
     progress: &dyn BakeProgress,
     load_s: f64,
 ) -> anyhow::Result<Outcome> {
-    match decide(out, scene, opts, flags, force, &ctx.record) {
+    let lock = lock_and_tidy(out);
+    match decide(out, scene, opts, flags, force, &ctx.record, &lock)? {
         (Freshness::UpToDate, check_s) => Ok(Outcome {
             reasons: None,
             check_s,
@@ -387,6 +482,7 @@ fn bake_stale(
             },
             threshold: m.settings.threshold,
             has_dynamic: m.has_dynamic,
+            later: m.later.clone(),
             stages,
         }),
     })
@@ -511,8 +607,10 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
     }
     std::fs::create_dir_all(dir)
         .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
+    // Where each asset is written (a link to an asset directory: there).
+    let mut targets = Vec::new();
     for (_, out) in &outs {
-        crate::guard::check_asset_output("--out-dir", out)?;
+        targets.push(crate::guard::check_asset_output("--out-dir", out)?);
     }
     let opts = options(a);
     let flags = recorded(a);
@@ -532,15 +630,16 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
     };
     let mut results = Vec::new();
     let mut failed = Vec::new();
-    for (scene_path, out) in &outs {
+    for ((scene_path, out), target) in outs.iter().zip(&targets) {
         let t = Instant::now();
         let mut warnings = Vec::new();
         let r = (|| {
             let scene = load_scene(&scene_args(a, scene_path))?;
             warnings.clone_from(&scene.warnings);
             let load_s = t.elapsed().as_secs_f64();
-            let _lock = crate::guard::lock_output(out)?;
-            bake_one(&ctx, &scene, out, &opts, &flags, a.force, &progress, load_s)
+            bake_one(
+                &ctx, &scene, target, &opts, &flags, a.force, &progress, load_s,
+            )
         })();
         progress.end();
         let seconds = t.elapsed().as_secs_f64();
@@ -611,10 +710,10 @@ fn batch(a: &BakeArgs, dir: &Path) -> anyhow::Result<ExitCode> {
 
 /// `gibake merge PART... -o OUT.gibake`.
 pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
-    crate::guard::check_asset_output("-o", &a.output)?;
+    let target = crate::guard::check_asset_output("-o", &a.output)?;
     let inputs: Vec<&Path> = a.parts.iter().map(PathBuf::as_path).collect();
     crate::output::check_not_input("-o", &a.output, &inputs)?;
-    let _lock = crate::guard::lock_output(&a.output)?;
+    let _lock = lock_and_tidy(&target)?;
     let t = Instant::now();
     // One part's front data in memory at a time (plus every shard's maps).
     let mut merger = gibake_asset::Merger::default();
@@ -622,7 +721,7 @@ pub fn merge(a: MergeArgs) -> anyhow::Result<ExitCode> {
         merger.add(p.clone(), gibake_asset::load_part(p)?)?;
     }
     let asset = merger.finish()?;
-    gibake_asset::write(&asset, &a.output)?;
+    gibake_asset::write(&asset, &target)?;
     let seconds = t.elapsed().as_secs_f64();
     let m = &asset.manifest;
     if a.json {

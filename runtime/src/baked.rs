@@ -5,7 +5,7 @@
 //! static primary shadow map and, only for scenes with moving objects, the
 //! static RSM metric plus each texel's share of its VPL's flux (baked; for
 //! partial occlusion). The second maps of the VPLs with a second origin
-//! (format 4.5, `gibake_asset::LowerVpl`: the light below a VPL's horizon)
+//! (format 4.7, `gibake_asset::LowerVpl`: the light below a VPL's horizon)
 //! sit below the first maps' atlas in the same texture, in their own
 //! atlas's layout, also uploaded as it is.
 
@@ -252,10 +252,11 @@ impl BakedGpu {
         // Each VPL's lobes and facing shifts, from its tree with the
         // level-3 normals weighted by their texels' coherence
         // (`gibake_asset::tree_lobes`): sums over its texels.
-        // A VPL on a light's outer rings is lifted by one texel's radius
-        // (`Manifest::ring_vpls`, `hemisphere::record_origin`).
+        // A VPL on a light's outer rings or of the later bounces is lifted
+        // by one of its members' radius (`Manifest::origin_lift_flags`,
+        // `hemisphere::record_origin`).
         let lobes = asset.tree_lobes();
-        let ring = m.ring_flags();
+        let ring = m.origin_lift_flags();
         let vpls: Vec<GpuVpl> = asset
             .vpls
             .iter()
@@ -335,7 +336,7 @@ impl BakedGpu {
         // Each VPL's second map (shade.wgsl `lower_record`): its second
         // origin, the opposite of its normal, its tile in the second atlas
         // (NO_MAP: it sees no surface), `texels` 1; all zeros without one
-        // (an asset of format 4.4 or older has none).
+        // (an asset of format 4.6 or older has none).
         let lower: Vec<Option<(glam::Vec3, glam::Vec3)>> = (0..asset.vpls.len())
             .map(|i| {
                 let l = asset.vpl_lower.get(i).filter(|l| l.is_some())?;

@@ -23,7 +23,7 @@
 //!   objects, every frame, into a map of their own per cascade: shading
 //!   takes the minimum (the same z-min merge as the primary map);
 //! - **sampled** (`cascades.wgsl`) with the one `lv_visibility` of
-//!   `projection.wgsl` (same 2×2 PCF, normal offset and depth bias in
+//!   `projection.wgsl` (same 2×2 PCF and receiver-plane test, biases in
 //!   texel footprints): the finest cascade whose map holds the point, where
 //!   the primary map's texel there exceeds a quarter of the view's pixel
 //!   footprint (`CASCADE_PIXEL_FRACTION`), else the baked primary map.

@@ -3,7 +3,7 @@
 // cascade passes of cascades.rs: per cascade a map of the static draws and,
 // with moving objects, a map of them (min-merged here, as the primary map).
 // The finest cascade whose map holds the point (with a margin for the
-// normal offset and the 2×2 PCF) shadows it, through the one lv_visibility
+// offset lookup and the 2×2 PCF) shadows it, through the one lv_visibility
 // of projection.wgsl; none holds it: the caller uses the primary map.
 
 struct Cascades {         // GpuCascades in cascades.rs (must match)
@@ -28,8 +28,8 @@ struct Cascades {         // GpuCascades in cascades.rs (must match)
 // fraction of the camera pixel's footprint there (shade.wgsl).
 const CASCADE_PIXEL_FRACTION: f32 = 0.25;
 
-// Texels kept clear of a cascade's edge: the normal offset (at most one
-// texel) and the PCF footprint (two).
+// Texels kept clear of a cascade's edge: the offset lookup's normal offset
+// (at most one texel; lv_visibility) and the PCF footprint (two).
 const CASCADE_MARGIN: f32 = 3.0;
 
 // The finest cascade whose map holds p, or `cascades.count` if none does.

@@ -119,21 +119,20 @@ fn primary_visibility(p: vec3<f32>, ng: vec3<f32>, wi: vec3<f32>) -> f32 {
 // Direct light of one light with the shading normal's cosine, as engines
 // shade: a light behind the geometric plane but in front of the shading
 // normal (a smooth low-poly terminator) lights the point if the shadow map
-// says so; the shadow lookup offsets along the geometric normal on the
-// light's side. `other`: NONE for the primary light (its merged map and
-// cascades), else the index of a light after the first.
+// says so (lv_visibility treats such a receiver as the far side of a solid).
+// `other`: NONE for the primary light (its merged map and cascades), else
+// the index of a light after the first.
 fn light_radiance(l: PrimaryLight, other: u32, p: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
     let inc = light_incident(l, p);
     let cos_s = max(dot(ns, inc.wi), 0.0);
     if (cos_s <= 0.0 || all(inc.irradiance == vec3<f32>(0.0))) {
         return vec3<f32>(0.0);
     }
-    let ng_light = select(ng, -ng, dot(ng, inc.wi) < 0.0);
     var vis: f32;
     if (other == NONE) {
-        vis = primary_visibility(p, ng_light, inc.wi);
+        vis = primary_visibility(p, ng, inc.wi);
     } else {
-        vis = other_visibility(other, p, ng_light, inc.wi);
+        vis = other_visibility(other, p, ng, inc.wi);
     }
     return albedo * INV_PI * inc.irradiance * (cos_s * vis);
 }

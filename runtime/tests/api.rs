@@ -40,6 +40,9 @@ fn fixture() -> &'static Fixture {
             vpl_map_size: 16,
             shadow_map_size: 256,
             target: ClusterTarget::Count(64),
+            // The first bounce alone (what this checks).
+            bounces: gibake_bake::later::Bounces::Count(1),
+            later_vpls: None,
         };
         let asset = gibake_bake::bake(&ctx, &scene, &opts, &gibake_bake::NoProgress, "test")
             .expect("bake")

@@ -31,6 +31,9 @@ fn bake(ctx: &GpuContext, scene: &Scene, vpls: u32) -> Asset {
         vpl_map_size: 16,
         shadow_map_size: 256,
         target: ClusterTarget::Count(vpls),
+        // The first bounce alone (what this checks).
+        bounces: gibake_bake::later::Bounces::Count(1),
+        later_vpls: None,
     };
     gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "test")
         .expect("bake")

@@ -42,6 +42,9 @@ fn a_level_loads_with_the_options_its_asset_was_baked_with() {
         vpl_map_size: 8,
         shadow_map_size: 128,
         target: ClusterTarget::Count(16),
+        // The first bounce alone (what this checks).
+        bounces: gibake_bake::later::Bounces::Count(1),
+        later_vpls: None,
     };
     let mut asset = gibake_bake::bake(&ctx, &scene, &opts, &gibake_bake::NoProgress, "test")
         .expect("bake")

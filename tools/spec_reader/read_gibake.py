@@ -18,7 +18,7 @@ another language. It
   channels; pixels: no NaN, atlas tiles, RSM `vpl` indices), `light_maps.exr`
   included, and `view_rsms.exr` (4.1: the other lights' views' RSMs, each
   naming only its own light's VPLs),
-- reads `vpl_lower.bin` and `vpl_lower_maps.exr` (4.5: each VPL's second
+- reads `vpl_lower.bin` and `vpl_lower_maps.exr` (4.7: each VPL's second
   origin and second hemisphere map, around the opposite of its normal, for
   the light below its horizon): finite origins, zeros without one, the
   stored maps' tiles in record order, no NaN or negative distance, unused
@@ -32,6 +32,15 @@ another language. It
   a directional light; ring VPLs are left out of the light-view, RSM and
   light-map surface checks (no RSM texel may name them) and their hemisphere
   maps' origins are lifted by one texel's radius,
+- reads `swept_bounds` (4.5: the moving objects' swept box the bake used,
+  six f32 bit patterns, or none): nothing else depends on it, so it is
+  only checked for its length and NaN,
+- reads `later` (4.6: the bounces after the first — the bounces asked for,
+  0 for every one; the later VPLs, the last of vpls.bin after every
+  light's; whether they were left out; per bounce the light the surfaces
+  reflect): the later VPLs are counted with the lights' to make vpl_count,
+  and their hemisphere maps' origins are lifted by one member's radius, as
+  ring VPLs' are,
 - checks the RSM against the first light's VPLs (texel counts, flux shares
   adding up to each VPL, each position at its texel nearest to the
   flux-weighted centroid),
@@ -74,13 +83,13 @@ except ImportError as e:  # pragma: no cover - environment problem
 
 MAGIC = b"GIBAKE\x00\x01"
 READER_MAJOR = 4
-READER_MINOR = 5
+READER_MINOR = 7
 MAX_PAYLOAD = 16 * 1024 * 1024
 MAX_MAP_SIZE = 16384
 # Most texels of one map file (an atlas).
 MAX_TEXELS = 2**31
 NO_MAP = 0xFFFFFFFF
-# vpl_lower.bin's `map` of a VPL without a second origin (4.5).
+# vpl_lower.bin's `map` of a VPL without a second origin (4.7).
 NO_LOWER = 0xFFFFFFFE
 # LightRecord.kind.
 LIGHT_KINDS = {0: "directional", 1: "spot", 2: "point"}
@@ -179,6 +188,47 @@ class Decoder:
         if tag > 1:
             raise AssetError(f"manifest.bin: {what}: invalid Option tag {tag}")
         return tag == 1
+
+
+MAX_LATER_BOUNCES = 256
+
+
+def read_later(d: Decoder) -> dict | None:
+    """The manifest's `later` (4.6): an Option tag, then bounces (u32, 0 for
+    every bounce that matters, else N >= 2), vpl_budget (u32, 0 for the
+    default), vpls (u32: the last VPLs of vpls.bin), left_out (bool),
+    converged (bool), direct ([f32; 3]), per_bounce (Vec<[f32; 3]>, at most
+    256), tail ([f32; 3])."""
+    if not d.option("later"):
+        return None
+    r = {
+        "bounces": d.u32("later.bounces"),
+        "vpl_budget": d.u32("later.vpl_budget"),
+        "vpls": d.u32("later.vpls"),
+        "left_out": d.boolean("later.left_out"),
+        "converged": d.boolean("later.converged"),
+        "direct": d.f32s(3, "later.direct"),
+    }
+    n = d.u64("later.per_bounce length")
+    if n > MAX_LATER_BOUNCES:
+        raise AssetError(
+            f"manifest.bin: later.per_bounce holds {n} bounces (at most {MAX_LATER_BOUNCES})"
+        )
+    r["per_bounce"] = [d.f32s(3, f"later.per_bounce[{k}]") for k in range(n)]
+    r["tail"] = d.f32s(3, "later.tail")
+    if r["bounces"] == 1:
+        raise AssetError("manifest.bin: later.bounces = 1 (the first bounce alone has no record)")
+    if r["left_out"] and r["vpls"]:
+        raise AssetError(f"manifest.bin: later is left out, yet holds {r['vpls']} VPLs")
+    for v in [r["direct"], r["tail"], *r["per_bounce"]]:
+        if not all(x == x and 0.0 <= x < float("inf") for x in v):
+            raise AssetError("manifest.bin: later: a light total is negative or not finite")
+    return r
+
+
+def later_vpls(m: dict) -> int:
+    """The later bounces' VPLs (4.6), the last of vpls.bin; 0 without."""
+    return m["later"]["vpls"] if m.get("later") else 0
 
 
 def read_light_view(d: Decoder, what: str) -> dict:
@@ -419,9 +469,27 @@ def read_manifest(asset: str) -> dict:
     # bake applied); a 4.3 or older payload ends before it (None: not
     # recorded).
     m["scene_options"] = read_scene_options(d) if minor >= 4 else None
-    # 4.5 appends lower_map_count (u32 varint: the second hemisphere maps in
-    # vpl_lower_maps.exr); a 4.4 or older payload ends before it (0).
-    m["lower_map_count"] = d.u32("lower_map_count") if minor >= 5 else 0
+    # 4.5 appends swept_bounds (Vec<u32>: none, or the f32 bit patterns of
+    # the moving objects' swept box, min x y z then max x y z); a 4.4 or
+    # older payload ends before it (not recorded).
+    m["swept_bounds"] = None
+    if minor >= 5:
+        bits = appended("swept_bounds", 6, "box bounds")
+        if len(bits) not in (0, 6):
+            raise AssetError(
+                f"manifest.bin: swept_bounds holds {len(bits)} values (none, or the box's six)"
+            )
+        if bits:
+            box = [struct.unpack("<f", struct.pack("<I", b))[0] for b in bits]
+            if any(v != v for v in box):
+                raise AssetError("manifest.bin: swept_bounds holds NaN")
+            m["swept_bounds"] = box
+    # 4.6 appends later (Option<LaterRecord>: the bounces after the first);
+    # a 4.5 or older payload ends before it (the first bounce alone).
+    m["later"] = read_later(d) if minor >= 6 else None
+    # 4.7 appends lower_map_count (u32 varint: the second hemisphere maps in
+    # vpl_lower_maps.exr); a 4.6 or older payload ends before it (0).
+    m["lower_map_count"] = d.u32("lower_map_count") if minor >= 7 else 0
     extra = length - d.pos
     if extra and minor <= READER_MINOR:
         raise AssetError(
@@ -575,11 +643,15 @@ def ring_counts(m: dict) -> list[int]:
 
 
 def ring_mask(m: dict, ranges: list[tuple[int, int]]) -> np.ndarray:
-    """Per VPL record: whether it is a ring VPL (the last ring_vpls[k] of
-    light k's range)."""
+    """Per VPL record: whether its map origin is lifted by one member's
+    radius: a ring VPL (the last ring_vpls[k] of light k's range) or a later
+    bounce's (4.6: the last later.vpls of vpls.bin, after every light's)."""
     out = np.zeros(m["vpl_count"], dtype=bool)
     for (lo, hi), ring in zip(ranges, ring_counts(m)):
         out[hi - ring : hi] = True
+    later = later_vpls(m)
+    if later:
+        out[m["vpl_count"] - later :] = True
     return out
 
 
@@ -644,7 +716,7 @@ def check_manifest_values(m: dict) -> list[str]:
         required.append("light_maps.exr")
     if m["view_rsms"]:
         required.append("view_rsms.exr")
-    if m["minor"] >= 5 and m["vpl_count"] > 0:
+    if m["minor"] >= 7 and m["vpl_count"] > 0:
         required.append("vpl_lower.bin")
     if m["lower_map_count"] > 0:
         required.append("vpl_lower_maps.exr")
@@ -713,13 +785,19 @@ def light_vpl_ranges(m: dict) -> list[tuple[int, int]]:
     """Each light's VPLs in vpls.bin, [start, end): the lights' `vpls` counts,
     consecutive in light order (the first light's VPLs first). Without light
     records, every VPL is the primary light's."""
-    if not m["lights"]:
-        return [(0, m["vpl_count"])]
-    total = sum(light["vpls"] for light in m["lights"])
-    if total != m["vpl_count"]:
+    later = later_vpls(m)
+    if later > m["vpl_count"]:
         raise AssetError(
-            f"manifest.bin: the lights' VPL counts add up to {total} but vpl_count is "
-            f"{m['vpl_count']}"
+            f"manifest.bin: {later} later VPLs but vpl_count is {m['vpl_count']}"
+        )
+    if not m["lights"]:
+        return [(0, m["vpl_count"] - later)]
+    total = sum(light["vpls"] for light in m["lights"])
+    if total + later != m["vpl_count"]:
+        raise AssetError(
+            f"manifest.bin: the lights' VPL counts add up to {total}"
+            + (f" and the later bounces' to {later}" if later else "")
+            + f" but vpl_count is {m['vpl_count']}"
         )
     out, start = [], 0
     for light in m["lights"]:
@@ -806,14 +884,14 @@ def check_vpls(vpls: np.ndarray, m: dict) -> None:
 
 
 def check_lower(asset: str, m: dict, data: bytes | None) -> str:
-    """vpl_lower.bin and vpl_lower_maps.exr (4.5): per VPL a 16-byte record,
+    """vpl_lower.bin and vpl_lower_maps.exr (4.7): per VPL a 16-byte record,
     its second origin (three f32) and `map` (u32): NO_LOWER (0xFFFFFFFE)
     without a second origin (origin all zeros), NO_MAP when its second map
     sees no surface, else its tile; the stored maps' tiles 0, 1, … in record
     order, lower_map_count of them; the atlas in vpl_maps.exr's layout, no
     NaN or negative distance, unused tiles +inf, no stored map all +inf."""
     if data is None:
-        return "no vpl_lower.bin (format before 4.5, or no VPLs): no second origins"
+        return "no vpl_lower.bin (format before 4.7, or no VPLs): no second origins"
     rec = np.frombuffer(data, dtype=np.dtype([("origin", "<f4", 3), ("map", "<u4")]))
     if not np.isfinite(rec["origin"]).all():
         i = int(np.flatnonzero(~np.isfinite(rec["origin"]).all(axis=1))[0])
@@ -1730,6 +1808,15 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
         for k, r in enumerate(m["ring_vpls"])
         if r
     ]
+    if m.get("later"):
+        lt = m["later"]
+        asked = "every bounce that matters" if lt["bounces"] == 0 else f"{lt['bounces']} bounces"
+        out.append(
+            f"  later bounces ({asked}, {len(lt['per_bounce'])} followed"
+            + ("" if lt["converged"] else ", not converged")
+            + "): "
+            + ("left out" if lt["left_out"] else f"the last {lt['vpls']} VPLs, map origins one member's radius up")
+        )
     out += [
         f"  files (manifest order): {', '.join(names)}; all sizes and BLAKE3 hashes match",
         f"  vpl_nodes.bin: {len(nodes)} nodes, level sums match",

@@ -6,6 +6,7 @@
 
 use std::collections::HashMap;
 use std::fmt;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -192,7 +193,7 @@ pub struct TreeDiff {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MapDiff {
     /// `primary_depth`, `vpl_maps`, `vpl_lower_maps` (the second maps of
-    /// the matched VPLs, format 4.5; only when either asset stores one),
+    /// the matched VPLs, format 4.7; only when either asset stores one),
     /// `light_maps`, `rsm.D`, `rsm.share`,
     /// `rsm.vpl` (the RSM's VPL-index channel is compared through the VPL
     /// matching), `view_rsms.Z`, `view_rsms.share`, `view_rsms.vpl` (every
@@ -246,6 +247,10 @@ pub struct DiffReport {
     /// as the bake's flags), when they differ; a difference only when both
     /// assets record them (format 4.4), else reported only.
     pub scene_options: Option<FieldDiff>,
+    /// How the bounces after the first differ ([`crate::Manifest::later`],
+    /// format 4.6): what was asked and kept exactly, the light each bounce
+    /// carries within `vpl_flux_rel` of the largest.
+    pub later: Vec<FieldDiff>,
     /// Light view fields that differ beyond `map_rel`.
     pub light_view: Vec<FieldDiff>,
     /// The VPL sets.
@@ -883,7 +888,7 @@ fn compare_maps(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> Vec<MapD
             (r.worst_vpl, r.worst_layer_over, r.worst_layer_max_abs) = (Some(i), w.over, w.max_abs);
         }
         out.push(r);
-        // The second maps (format 4.5), where either side stores one for a
+        // The second maps (format 4.7), where either side stores one for a
         // matched pair (none: all +inf, as an open map reads).
         if !(a.vpl_lower_maps.is_empty() && b.vpl_lower_maps.is_empty()) {
             let (mut total, mut worst) = (Acc::default(), None::<(usize, Acc)>);
@@ -1186,6 +1191,47 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
         ));
     }
 
+    let mut later = Vec::new();
+    match (&ma.later, &mb.later) {
+        (None, None) => {}
+        (Some(x), Some(y)) => {
+            field(&mut later, "later.bounces", &x.bounces, &y.bounces);
+            field(&mut later, "later.vpl_budget", &x.vpl_budget, &y.vpl_budget);
+            field(&mut later, "later.vpls", &x.vpls, &y.vpls);
+            field(&mut later, "later.left_out", &x.left_out, &y.left_out);
+            field(&mut later, "later.converged", &x.converged, &y.converged);
+            let flat = |l: &crate::LaterRecord| -> Vec<f32> {
+                l.direct
+                    .iter()
+                    .chain(l.per_bounce.iter().flatten())
+                    .chain(&l.tail)
+                    .copied()
+                    .collect()
+            };
+            close_arrays(
+                &mut later,
+                "later light per bounce",
+                &flat(x),
+                &flat(y),
+                tol.vpl_flux_rel,
+            );
+        }
+        (x, y) => {
+            let what = |l: &Option<crate::LaterRecord>| match l {
+                None => "the first bounce alone".to_string(),
+                Some(l) => format!("{} later VPLs", l.vpls),
+            };
+            later.push(FieldDiff {
+                field: "later".into(),
+                a: what(x),
+                b: what(y),
+            });
+        }
+    }
+    for d in &later {
+        differences.push(format!("later bounces: {} {} vs {}", d.field, d.a, d.b));
+    }
+
     let mut light_view = Vec::new();
     let (la, lb) = (&ma.light_view, &mb.light_view);
     field(
@@ -1298,6 +1344,7 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
         static_scene_hash,
         lights,
         scene_options,
+        later,
         light_view,
         vpls,
         trees,
@@ -1369,6 +1416,7 @@ impl fmt::Display for DiffReport {
             None => writeln!(f, "scene flags: same")?,
             Some(d) => writeln!(f, "scene flags: {} vs {}", d.a, d.b)?,
         }
+        list(f, "later bounces", &self.later)?;
         list(f, "light view", &self.light_view)?;
         let v = &self.vpls;
         writeln!(
@@ -1499,7 +1547,13 @@ fn write_exr(
     let path = dir.join(name);
     let bytes = exrio::encode(w, h, channels)
         .map_err(|e| AssetError::invalid(&path, format!("cannot encode EXR: {e}")))?;
-    std::fs::write(&path, bytes).map_err(|e| AssetError::io(&path, e))?;
+    // Through a temporary sibling and a rename, as every output: a full
+    // disk leaves the old image (or none), never a short one under its name.
+    let mut out = gibake_output::FileWriter::create(&path, &mut |_| {})?;
+    out.file()
+        .write_all(&bytes)
+        .map_err(|e| AssetError::io(&path, e))?;
+    out.commit()?;
     Ok(path)
 }
 

@@ -36,10 +36,10 @@ pub const FILE_VIEW_RSMS: &str = "view_rsms.exr";
 /// VPL.
 pub const FILE_VPL_COHERENCE: &str = "vpl_coherence.bin";
 /// Each VPL's second visibility test for the light below its horizon,
-/// [`Asset::vpl_lower`] (format 4.5; only when there are VPLs): one
+/// [`Asset::vpl_lower`] (format 4.7; only when there are VPLs): one
 /// 16-byte [`crate::LowerVpl`] per VPL.
 pub const FILE_VPL_LOWER: &str = "vpl_lower.bin";
-/// The second hemisphere maps' atlas (format 4.5; only when
+/// The second hemisphere maps' atlas (format 4.7; only when
 /// `lower_map_count > 0`).
 pub const FILE_VPL_LOWER_MAPS: &str = "vpl_lower_maps.exr";
 
@@ -83,9 +83,11 @@ fn encode_manifest(manifest: &Manifest, path: &Path) -> Result<Vec<u8>, AssetErr
 /// (minor ≥ 1) `view_rsms` as a bincode `Vec<u32>` in the same
 /// configuration (varint count, varint indices), (minor ≥ 3) `ring_vpls`
 /// likewise, (minor ≥ 4) `scene_options` as a bincode (serde)
-/// `Option<SceneOptions>` and (minor ≥ 5) `lower_map_count` as a bincode
-/// `u32` (varint). An older minor lacks the later fields: they must be
-/// empty (`None`, 0).
+/// `Option<SceneOptions>`, (minor ≥ 5) `swept_bounds` as a bincode
+/// `Vec<u32>` (none or six `f32` bit patterns), (minor ≥ 6) `later` as a
+/// bincode (serde) `Option<LaterRecord>` and (minor ≥ 7) `lower_map_count`
+/// as a bincode `u32` (varint). An older minor lacks the later fields: they
+/// must be empty (`None`, 0).
 fn encode_manifest_as(manifest: &Manifest, minor: u16, path: &Path) -> Result<Vec<u8>, AssetError> {
     let cannot = |e: bincode::error::EncodeError| {
         AssetError::invalid(path, format!("cannot encode the manifest: {e}"))
@@ -124,6 +126,31 @@ fn encode_manifest_as(manifest: &Manifest, minor: u16, path: &Path) -> Result<Ve
         ));
     }
     if minor >= 5 {
+        let bits: Vec<u32> = manifest
+            .swept_bounds
+            .map(|b| b.map(f32::to_bits).to_vec())
+            .unwrap_or_default();
+        let appended = bincode::encode_to_vec(&bits, bincode_config()).map_err(cannot)?;
+        payload.extend_from_slice(&appended);
+    } else if manifest.swept_bounds.is_some() {
+        return Err(AssetError::invalid(
+            path,
+            format!("cannot encode the manifest: format 4.{minor} has no swept_bounds"),
+        ));
+    }
+    if minor >= 6 {
+        // An Option<LaterRecord> through serde: a tag byte, then the fields
+        // in order (docs/asset-format.md, `later`).
+        let appended =
+            bincode::serde::encode_to_vec(&manifest.later, bincode_config()).map_err(cannot)?;
+        payload.extend_from_slice(&appended);
+    } else if manifest.later.is_some() {
+        return Err(AssetError::invalid(
+            path,
+            format!("cannot encode the manifest: format 4.{minor} has no later bounces"),
+        ));
+    }
+    if minor >= 7 {
         let appended =
             bincode::encode_to_vec(manifest.lower_map_count, bincode_config()).map_err(cannot)?;
         payload.extend_from_slice(&appended);
@@ -214,7 +241,38 @@ fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetEr
         used += n;
     }
     if minor >= 5 {
-        // 4.5 appends `lower_map_count` (a u32) after it.
+        // 4.5 appends `swept_bounds`: none (not recorded) or the six f32
+        // bit patterns of the moving objects' swept box.
+        let (v, n) =
+            decode_appended(&payload[used..], "swept_bounds", 6, "box bounds").map_err(bad)?;
+        manifest.swept_bounds = match v.len() {
+            0 => None,
+            6 => {
+                let b: [f32; 6] = std::array::from_fn(|k| f32::from_bits(v[k]));
+                if b.iter().any(|x| x.is_nan()) {
+                    return Err(bad("swept_bounds holds NaN".into()));
+                }
+                Some(b)
+            }
+            k => {
+                return Err(bad(format!(
+                    "swept_bounds holds {k} values (none, or the box's six)"
+                )));
+            }
+        };
+        used += n;
+    }
+    if minor >= 6 {
+        // 4.6 appends `later` (an Option<LaterRecord>) after it; its list
+        // of bounces is bounded by the payload limit before it is read.
+        let (v, n): (Option<crate::LaterRecord>, usize) =
+            bincode::serde::decode_from_slice(&payload[used..], bincode_config())
+                .map_err(|e| bad(format!("damaged manifest payload: later: {e}")))?;
+        manifest.later = v;
+        used += n;
+    }
+    if minor >= 7 {
+        // 4.7 appends `lower_map_count` (a u32) after it.
         let (v, n): (u32, usize) =
             bincode::decode_from_slice(&payload[used..], bincode_config())
                 .map_err(|e| bad(format!("damaged manifest payload: lower_map_count: {e}")))?;
@@ -314,7 +372,7 @@ fn required_files(m: &Manifest, minor: u16) -> Vec<&'static str> {
     if m.map_count > 0 {
         v.push(FILE_VPL_MAPS);
     }
-    if minor >= 5 && m.vpl_count > 0 {
+    if minor >= 7 && m.vpl_count > 0 {
         v.push(FILE_VPL_LOWER);
     }
     if m.lower_map_count > 0 {
@@ -610,6 +668,9 @@ fn validate_manifest(
     if let Some(p) = m.scene_options.as_ref().and_then(|o| o.problem()) {
         return bad(format!("scene_options: {p}"));
     }
+    if let Some(p) = m.later.as_ref().and_then(|l| l.problem(m.vpl_count)) {
+        return bad(format!("later: {p}"));
+    }
     if let Err(e) = check_views(m) {
         return bad(e);
     }
@@ -724,17 +785,26 @@ fn validate_manifest(
     Ok(())
 }
 
-/// Whether the lights' VPL counts add up to `vpl_count` (checked once the
+/// Whether the lights' VPL counts (and the later bounces', format 4.6) add
+/// up to `vpl_count` (checked once the
 /// VPL records are read, so that a hostile count is named by its file),
 /// and `ring_vpls` fits them: empty or one entry per light, each at most
 /// the light's VPLs, and only a directional light's non-zero.
 fn check_light_vpls(m: &Manifest) -> Result<(), String> {
     let sum: u64 = m.lights.iter().map(|l| l.vpls as u64).sum();
-    if !m.lights.is_empty() && sum != m.vpl_count as u64 {
-        return Err(format!(
-            "the lights' VPL counts add up to {sum} but vpl_count is {}",
-            m.vpl_count
-        ));
+    let later = u64::from(m.later_vpls());
+    if !m.lights.is_empty() && sum + later != m.vpl_count as u64 {
+        return Err(if later > 0 {
+            format!(
+                "the lights' VPL counts add up to {sum} and the later bounces' to {later}, but vpl_count is {}",
+                m.vpl_count
+            )
+        } else {
+            format!(
+                "the lights' VPL counts add up to {sum} but vpl_count is {}",
+                m.vpl_count
+            )
+        });
     }
     if !m.ring_vpls.is_empty() && m.ring_vpls.len() != m.lights.len() {
         return Err(format!(
@@ -1095,7 +1165,7 @@ fn encode_coherence(coherence: &[f32]) -> Vec<u8> {
     coherence.iter().flat_map(|c| c.to_le_bytes()).collect()
 }
 
-/// `vpl_lower.bin` (empty bytes: none, an asset of format 4.4 or older;
+/// `vpl_lower.bin` (empty bytes: none, an asset of format 4.6 or older;
 /// the listed size was checked against `vpl_count`): one
 /// [`crate::LowerVpl`] per VPL, its origin finite, all zeros without a
 /// second origin ([`crate::NO_LOWER`]), its map [`NO_MAP`] or below
@@ -1712,7 +1782,9 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
 
 /// The names of the files an asset directory's format owns: the fixed names
 /// and, if the old manifest can be decoded, every plain name it lists.
-fn owned_names(dir: &Path) -> Vec<String> {
+/// Anything else in an asset directory is a user's (kept by every replace,
+/// never removed as a stale temporary's content).
+pub fn owned_names(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = [
         FILE_MANIFEST,
         FILE_VPLS,
@@ -1764,9 +1836,16 @@ fn check_target(dir: &Path) -> Result<(), AssetError> {
         Err(e) => return Err(AssetError::io(dir, e)),
     };
     if !meta.is_dir() {
+        // Say what is there: a link to an asset is a directory to its user.
+        let what = gibake_output::describe(dir).unwrap_or_else(|| "gone".into());
+        let hint = if meta.file_type().is_symlink() {
+            ": an asset is replaced by swapping directories, which would replace the link itself; give the directory it points to"
+        } else {
+            ", not a directory"
+        };
         return Err(AssetError::invalid(
             dir,
-            "exists and is not a directory; refusing to replace it with an asset",
+            format!("is {what}{hint}; refusing to replace it with an asset"),
         ));
     }
     let empty = fs::read_dir(dir)
@@ -1982,15 +2061,15 @@ pub mod testing {
     /// The bytes of `manifest.bin` for `manifest` as a format 4.0 writer
     /// wrote them (minor 0, the payload ends after `light_map_size`; its
     /// `view_rsms` must be empty; `vpl_coherence.bin`, format 4.2, and the
-    /// files of 4.5 not listed): to check that 4.0 assets still load.
+    /// files of 4.7 not listed): to check that 4.0 assets still load.
     pub fn manifest_bytes_4_0(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
         encode_manifest_as(&before_4_2(manifest), 0, Path::new(FILE_MANIFEST))
     }
 
-    /// `manifest` without what format 4.5 added: no second maps counted,
+    /// `manifest` without what format 4.7 added: no second maps counted,
     /// `vpl_lower.bin` and `vpl_lower_maps.exr` not listed (an older
     /// writer's manifest of the same asset).
-    fn before_4_5(manifest: &Manifest) -> Manifest {
+    fn before_4_7(manifest: &Manifest) -> Manifest {
         let mut m = manifest.clone();
         m.lower_map_count = 0;
         m.files
@@ -2000,38 +2079,53 @@ pub mod testing {
 
     /// The bytes of `manifest.bin` for `manifest` as a format 4.1 writer
     /// wrote them (minor 1; `vpl_coherence.bin`, format 4.2, and the files
-    /// of 4.5 not listed):
-    /// to check that 4.1 assets still load.
+    /// of 4.7 not listed): to check that 4.1 assets still load.
     pub fn manifest_bytes_4_1(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
         encode_manifest_as(&before_4_2(manifest), 1, Path::new(FILE_MANIFEST))
     }
 
     /// The bytes of `manifest.bin` for `manifest` as a format 4.2 writer
     /// wrote them (minor 2, the payload ends after `view_rsms`; its
-    /// `ring_vpls` must be empty, its `scene_options` `None`): to check
-    /// that 4.2 assets still load.
+    /// `ring_vpls` must be empty, its `scene_options` `None`; the files of
+    /// 4.7 not listed): to check that 4.2 assets still load.
     pub fn manifest_bytes_4_2(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
-        encode_manifest_as(&before_4_5(manifest), 2, Path::new(FILE_MANIFEST))
-    }
-
-    /// The bytes of `manifest.bin` for `manifest` as a format 4.4 writer
-    /// wrote them (minor 4, the payload ends after `scene_options`; the
-    /// files of 4.5 not listed, no second map counted): to check that 4.4
-    /// assets still load.
-    pub fn manifest_bytes_4_4(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
-        encode_manifest_as(&before_4_5(manifest), 4, Path::new(FILE_MANIFEST))
+        encode_manifest_as(&before_4_7(manifest), 2, Path::new(FILE_MANIFEST))
     }
 
     /// The bytes of `manifest.bin` for `manifest` as a format 4.3 writer
     /// wrote them (minor 3, the payload ends after `ring_vpls`; its
-    /// `scene_options` must be `None`): to check that 4.3 assets still
-    /// load.
+    /// `scene_options` and `swept_bounds` must be `None`; the files of 4.7
+    /// not listed): to check that 4.3 assets still load.
     pub fn manifest_bytes_4_3(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
-        encode_manifest_as(&before_4_5(manifest), 3, Path::new(FILE_MANIFEST))
+        encode_manifest_as(&before_4_7(manifest), 3, Path::new(FILE_MANIFEST))
+    }
+
+    /// The bytes of `manifest.bin` for `manifest` as a format 4.4 writer
+    /// wrote them (minor 4, the payload ends after `scene_options`; its
+    /// `swept_bounds` must be `None`; the files of 4.7 not listed, no
+    /// second map counted): to check that 4.4 assets still load.
+    pub fn manifest_bytes_4_4(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
+        encode_manifest_as(&before_4_7(manifest), 4, Path::new(FILE_MANIFEST))
+    }
+
+    /// The bytes of `manifest.bin` for `manifest` as a format 4.5 writer
+    /// wrote them (minor 5, the payload ends after `swept_bounds`; its
+    /// `later` must be `None`; the files of 4.7 not listed): to check that
+    /// 4.5 assets still load.
+    pub fn manifest_bytes_4_5(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
+        encode_manifest_as(&before_4_7(manifest), 5, Path::new(FILE_MANIFEST))
+    }
+
+    /// The bytes of `manifest.bin` for `manifest` as a format 4.6 writer
+    /// wrote them (minor 6, the payload ends after `later`; the files of
+    /// 4.7 not listed, no second map counted): to check that 4.6 assets
+    /// still load, every VPL without a second origin.
+    pub fn manifest_bytes_4_6(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
+        encode_manifest_as(&before_4_7(manifest), 6, Path::new(FILE_MANIFEST))
     }
 
     fn before_4_2(manifest: &Manifest) -> Manifest {
-        let mut m = before_4_5(manifest);
+        let mut m = before_4_7(manifest);
         m.files.retain(|f| f.name != FILE_VPL_COHERENCE);
         m
     }

@@ -128,6 +128,9 @@ pub struct Inspection {
     /// 'Cylinder*'`; empty for none; `None`: not recorded): what to give
     /// `gibake reference`, which takes no asset.
     pub scene_flags: Option<String>,
+    /// The bounces after the first (format 4.6, [`crate::Manifest::later`];
+    /// `None`: the first bounce alone).
+    pub later: Option<crate::LaterRecord>,
     /// Shadow-map views of the lights after the first (a point light's six
     /// faces, a spot's or sun's one).
     pub views: usize,
@@ -150,7 +153,7 @@ pub struct Inspection {
     /// VPLs whose map is not stored (it sees no surface).
     pub vpls_without_map: usize,
     /// VPLs with a second origin for the light below their horizon
-    /// (format 4.5, [`crate::LowerVpl`]).
+    /// (format 4.7, [`crate::LowerVpl`]).
     pub vpls_with_lower: usize,
     /// Second hemisphere maps stored (the others of those VPLs see no
     /// surface).
@@ -222,6 +225,7 @@ pub fn inspect(asset: &Asset) -> Inspection {
         ring_vpls: m.ring_vpls.clone(),
         scene_options: m.scene_options.clone(),
         scene_flags: m.scene_options.as_ref().map(|o| o.flags()),
+        later: m.later.clone(),
         views: m.views.len(),
         light_maps_stored: m.views.iter().filter(|v| v.tile != NO_MAP).count(),
         light_map_size: m.light_map_size,
@@ -344,6 +348,60 @@ impl fmt::Display for Inspection {
                 "  scene flags: {} (render and view apply them when given none)",
                 o.flags()
             )?,
+        }
+        match &self.later {
+            None => writeln!(
+                f,
+                "  bounces: the first alone (`--bounces 1`, or an asset before format 4.6)"
+            )?,
+            Some(l) => {
+                let sum = |v: &[f32; 3]| f64::from(v[0]) + f64::from(v[1]) + f64::from(v[2]);
+                let asked = match l.bounces {
+                    0 => "every bounce that matters".to_string(),
+                    n => format!("{n} in all"),
+                };
+                let what = if l.left_out {
+                    format!(
+                        "left out: they carry {:.2}% of the light the surfaces reflect",
+                        100.0 * l.later_share()
+                    )
+                } else {
+                    format!(
+                        "{} VPLs after the first bounce's, {:.1}% of the light the surfaces reflect",
+                        l.vpls,
+                        100.0 * l.later_share()
+                    )
+                };
+                writeln!(f, "  bounces: {asked}; the later ones {what}")?;
+                // Light per bounce against the light reflected straight
+                // from the lights.
+                let direct = sum(&l.direct).max(f64::MIN_POSITIVE);
+                let mut line =
+                    String::from("    light reflected after each bounce (× the direct light's):");
+                for (k, b) in l.per_bounce.iter().enumerate().take(8) {
+                    line.push_str(&format!(" {}: {:.3}", k + 1, sum(b) / direct));
+                }
+                if l.per_bounce.len() > 8 {
+                    let rest: f64 = l.per_bounce[8..].iter().map(sum).sum();
+                    line.push_str(&format!(
+                        " {}–{}: {:.3}",
+                        9,
+                        l.per_bounce.len(),
+                        rest / direct
+                    ));
+                }
+                if sum(&l.tail) > 0.0 {
+                    line.push_str(&format!(" rest: {:.3}", sum(&l.tail) / direct));
+                }
+                writeln!(f, "{line}")?;
+                if !l.converged {
+                    writeln!(
+                        f,
+                        "    the light did not die down (a closed level of albedo near 1): cut at {} bounces",
+                        l.per_bounce.len()
+                    )?;
+                }
+            }
         }
         let (o, d) = (self.light_origin, self.light_direction);
         writeln!(

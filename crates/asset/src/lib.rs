@@ -45,7 +45,7 @@ pub use format::{
     FILE_VIEW_RSMS, FILE_VPL_COHERENCE, FILE_VPL_LOWER, FILE_VPL_LOWER_MAPS, FILE_VPL_MAPS,
     FILE_VPL_NODES, FILE_VPLS, LOWER_RECORD_BYTES, MAX_MAP_SIZE, VPL_RECORD_BYTES, check_output,
     check_scene_hash, check_scene_hash_for, decoded_bytes, load, load_manifest, load_with_limit,
-    verify_files, write,
+    owned_names, verify_files, write,
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
 pub use scene_options::{
@@ -70,11 +70,14 @@ pub const FORMAT_MAJOR: u16 = 4;
 /// 4.3: [`Manifest::ring_vpls`] appended after `view_rsms`; an older asset
 /// reads with no ring VPLs. 4.4: [`Manifest::scene_options`] appended after
 /// `ring_vpls`; an older asset reads with none recorded. 4.5:
-/// [`Manifest::lower_map_count`] appended after `scene_options`,
+/// [`Manifest::swept_bounds`] appended after `scene_options`; an older
+/// asset reads with `None`. 4.6: [`Manifest::later`] appended after
+/// `swept_bounds`; an older asset reads with `None`, the first bounce
+/// alone. 4.7: [`Manifest::lower_map_count`] appended after `later`,
 /// `vpl_lower.bin` and `vpl_lower_maps.exr`, [`Asset::vpl_lower`]: each
 /// VPL's second visibility test for the light below its horizon; an older
 /// asset reads with none).
-pub const FORMAT_MINOR: u16 = 5;
+pub const FORMAT_MINOR: u16 = 7;
 
 /// One static VPL record. Stored as a little-endian array in `vpls.bin`
 /// (48 bytes each, fields in this order).
@@ -119,7 +122,7 @@ impl VplRecord {
 }
 
 /// A static VPL's second visibility test, for the light it sends below
-/// its own horizon (format 4.5, `vpl_lower.bin`: 16 bytes per VPL, the
+/// its own horizon (format 4.7, `vpl_lower.bin`: 16 bytes per VPL, the
 /// origin's three little-endian `f32`, then `map` as a `u32`). A cluster
 /// whose texels face several ways (a roof round a hole, a wall's face
 /// with a window's sill and jambs) lights receivers below its mean
@@ -605,14 +608,128 @@ pub struct Manifest {
     #[serde(skip)]
     pub scene_options: Option<SceneOptions>,
     /// Format 4.5, appended after [`Manifest::scene_options`] (an older
-    /// manifest ends before it: 0): the number of second hemisphere maps
-    /// stored in `vpl_lower_maps.exr` ([`LowerVpl`], [`Asset::vpl_lower`]).
-    /// Encoded by hand (see `format.rs`).
+    /// manifest ends before it: `None`, not recorded): the moving objects'
+    /// swept bounds the bake used, `[min x, min y, min z, max x, max y,
+    /// max z]` in world units (`Scene::dynamic_swept_bounds`; an empty box,
+    /// `+∞ … −∞`, for a scene without moving objects). The static-scene
+    /// hash leaves the moving objects out, yet the bake's bytes depend on
+    /// these bounds (the light views are fitted to them; the reach probe
+    /// aims rays at them and keeps the VPLs that light only them, which
+    /// moves a `--vpls` budget's threshold), so the up-to-date check
+    /// compares them bit for bit. Encoded by hand as the six values' f32
+    /// bit patterns in a bincode `Vec<u32>` (0 entries: not recorded).
+    #[serde(skip)]
+    pub swept_bounds: Option<[f32; 6]>,
+    /// Format 4.6, appended after [`Manifest::swept_bounds`] (an older
+    /// manifest ends before it: `None`): the bounces after the first, when
+    /// the bake followed them (`gibake bake --bounces`, default every
+    /// bounce that matters); `None`: the first bounce alone (`--bounces
+    /// 1`, or an older asset). Its VPLs are the last [`LaterRecord::vpls`]
+    /// of the asset's, after every light's. Encoded by hand as a bincode
+    /// (serde) `Option<LaterRecord>` (see `format.rs`).
+    #[serde(skip)]
+    pub later: Option<LaterRecord>,
+    /// Format 4.7, appended after [`Manifest::later`] (an older manifest
+    /// ends before it: 0): the number of second hemisphere maps stored in
+    /// `vpl_lower_maps.exr` ([`LowerVpl`], [`Asset::vpl_lower`]). Encoded
+    /// by hand (see `format.rs`).
     #[serde(skip)]
     pub lower_map_count: u32,
 }
 
+/// The bounces after the first, as a bake of format 4.6 followed them
+/// (`gibake_bake::later`; docs/method.md, "Every bounce").
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LaterRecord {
+    /// The bounces asked for: 0 for every bounce that matters (the
+    /// default), else `N ≥ 2` in all, the first included.
+    pub bounces: u32,
+    /// The later VPL budget asked for (`--later-vpls`); 0: the default, a
+    /// quarter of the first bounce's VPLs.
+    pub vpl_budget: u32,
+    /// The later bounces' VPLs: the last `vpls` of the asset's (0 when
+    /// they were left out).
+    pub vpls: u32,
+    /// Whether they were left out: under the default, they carried under
+    /// 0.1% of the light the level's surfaces reflect.
+    pub left_out: bool,
+    /// Whether the light died down (false: a closed level of albedo near
+    /// 1, cut at the bake's bounce cap; the bake warned).
+    pub converged: bool,
+    /// The light the level's surfaces reflect straight from the lights
+    /// (W, linear RGB), as the bake's surface samples measured it.
+    pub direct: [f32; 3],
+    /// The light they reflect after each bounce followed, `k = 1, 2, …`
+    /// (W, linear RGB); at most [`MAX_LATER_BOUNCES`] entries.
+    pub per_bounce: Vec<[f32; 3]>,
+    /// The light of the bounces beyond the last followed, added as the
+    /// rest of a geometric series (zero when none was added).
+    pub tail: [f32; 3],
+}
+
+/// The most bounces a [`LaterRecord`] lists (the bake's cap).
+pub const MAX_LATER_BOUNCES: usize = 256;
+
+impl LaterRecord {
+    /// The later bounces' light over all the light the surfaces reflect
+    /// (direct, first bounce and later): the share the bake left out when
+    /// it left them out.
+    pub fn later_share(&self) -> f64 {
+        let sum = |v: &[f32; 3]| f64::from(v[0]) + f64::from(v[1]) + f64::from(v[2]);
+        let later: f64 = self.per_bounce.iter().skip(1).map(sum).sum::<f64>() + sum(&self.tail);
+        let all =
+            sum(&self.direct) + self.per_bounce.iter().map(sum).sum::<f64>() + sum(&self.tail);
+        if all > 0.0 { later / all } else { 0.0 }
+    }
+
+    /// What is wrong with the record's values, if anything.
+    pub fn problem(&self, vpl_count: u32) -> Option<String> {
+        if self.bounces == 1 {
+            return Some("bounces = 1 (the first bounce alone has no later record)".into());
+        }
+        if self.vpls > vpl_count {
+            return Some(format!(
+                "{} later VPLs but the asset has {vpl_count}",
+                self.vpls
+            ));
+        }
+        if self.left_out && self.vpls != 0 {
+            return Some(format!("left out, yet {} later VPLs", self.vpls));
+        }
+        if self.per_bounce.len() > MAX_LATER_BOUNCES {
+            return Some(format!(
+                "{} bounces listed (at most {MAX_LATER_BOUNCES})",
+                self.per_bounce.len()
+            ));
+        }
+        let bad = |v: &[f32; 3]| v.iter().any(|x| !(x.is_finite() && *x >= 0.0));
+        if bad(&self.direct) || bad(&self.tail) || self.per_bounce.iter().any(bad) {
+            return Some("a light total is negative or not finite".into());
+        }
+        None
+    }
+}
+
 impl Manifest {
+    /// The later bounces' VPLs (the last of the asset's; 0 without).
+    pub fn later_vpls(&self) -> u32 {
+        self.later.as_ref().map_or(0, |l| l.vpls)
+    }
+
+    /// Per VPL record: whether its map origin is lifted by one member's
+    /// radius rather than its own (`gibake_gpu::hemisphere::record_origin`):
+    /// a VPL on a light's outer rings ([`Manifest::ring_flags`]) or of the
+    /// later bounces ([`Manifest::later`]); `vpl_count` entries.
+    pub fn origin_lift_flags(&self) -> Vec<bool> {
+        let mut out = self.ring_flags();
+        let later = self.later_vpls() as usize;
+        let n = out.len();
+        for f in out.iter_mut().skip(n.saturating_sub(later)) {
+            *f = true;
+        }
+        out
+    }
+
     /// Per VPL record: whether it lies on its light's outer rings
     /// ([`Manifest::ring_vpls`]); `vpl_count` entries.
     pub fn ring_flags(&self) -> Vec<bool> {
@@ -778,7 +895,7 @@ pub struct Asset {
     /// lobe). `vpl_coherence.bin`.
     pub vpl_coherence: Vec<f32>,
     /// Per VPL its second visibility test for the light below its horizon
-    /// ([`LowerVpl`]), in VPL order; empty for an asset of format 4.4 or
+    /// ([`LowerVpl`]), in VPL order; empty for an asset of format 4.6 or
     /// older (every VPL without one). `vpl_lower.bin`.
     pub vpl_lower: Vec<LowerVpl>,
     /// The second hemisphere maps ([`LowerVpl::map`]), each `vpl_map_size²`

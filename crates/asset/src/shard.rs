@@ -23,7 +23,10 @@ use crate::{
 /// Magic bytes at the start of a part file.
 pub const PART_MAGIC: [u8; 8] = *b"GIBKPART";
 /// Part format version: parts are transient, so any other version is refused.
-pub const PART_VERSION: u16 = 7;
+/// (7: the manifest's `swept_bounds`, which its serde encoding skips,
+/// follows `scene_options`; 8: and its `later`; 9: each VPL's second
+/// origin and the second hemisphere maps, format 4.7.)
+pub const PART_VERSION: u16 = 9;
 /// Largest shard count accepted.
 pub const MAX_SHARDS: u32 = 4096;
 /// Largest accepted part file (16 GiB).
@@ -152,8 +155,12 @@ struct PartPayload {
     /// encoding; part version 6: version 5 lost the ring VPLs).
     ring_vpls: Vec<u32>,
     scene_options: Option<crate::SceneOptions>,
+    /// The manifest's `swept_bounds` (part version 7).
+    swept_bounds: Option<[f32; 6]>,
+    /// The manifest's `later` (part version 8).
+    later: Option<crate::LaterRecord>,
     /// Per VPL its second origin and `map` ([`NO_MAP`] or [`NO_LOWER`]),
-    /// and the shard's second maps (part version 7).
+    /// and the shard's second maps (part version 9).
     vpl_lower: Vec<([f32; 3], u32)>,
     lower_maps: Vec<Option<Vec<f32>>>,
 }
@@ -392,6 +399,8 @@ fn encode_part(part: &ShardPart, path: &Path) -> Result<Vec<u8>, AssetError> {
         ),
         ring_vpls: a.manifest.ring_vpls.clone(),
         scene_options: a.manifest.scene_options.clone(),
+        swept_bounds: a.manifest.swept_bounds,
+        later: a.manifest.later.clone(),
         vpl_lower: a.vpl_lower.iter().map(|v| (v.origin, v.map)).collect(),
         lower_maps: part.lower_maps.clone(),
     };
@@ -449,6 +458,8 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
     manifest.view_rsms = view_rsm_list;
     manifest.ring_vpls = p.ring_vpls;
     manifest.scene_options = p.scene_options;
+    manifest.swept_bounds = p.swept_bounds;
+    manifest.later = p.later;
     let (lt, ln, lmaps) = p.light_maps;
     let light_maps = if ln == 0 {
         MapAtlas::empty(lt)
@@ -830,6 +841,8 @@ mod tests {
             view_rsms: Vec::new(),
             ring_vpls: Vec::new(),
             scene_options: None,
+            swept_bounds: None,
+            later: None,
             lower_map_count: 0,
         };
         let rec = VplRecord {

@@ -1,6 +1,6 @@
-//! Format 4.5: each VPL's second origin and second map, for the light it
+//! Format 4.7: each VPL's second origin and second map, for the light it
 //! sends below its horizon (`vpl_lower.bin`, `vpl_lower_maps.exr`,
-//! `Manifest::lower_map_count`): the documented layout, a 4.4 asset loads
+//! `Manifest::lower_map_count`): the documented layout, a 4.6 asset loads
 //! with none, damaged records are refused naming the file, the writer
 //! refuses inconsistent ones, and `diff` sees a changed second map.
 
@@ -54,27 +54,27 @@ fn second_origins_round_trip_in_the_documented_layout() {
 }
 
 #[test]
-fn a_4_4_manifest_loads_without_second_origins() {
+fn a_4_6_manifest_loads_without_second_origins() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = written(tmp.path(), &sample_asset(true));
     let current = load(&dir).unwrap();
-    let old = testing::manifest_bytes_4_4(&current.manifest).unwrap();
-    assert_eq!(u16::from_le_bytes([old[10], old[11]]), 4);
+    let old = testing::manifest_bytes_4_6(&current.manifest).unwrap();
+    assert_eq!(u16::from_le_bytes([old[10], old[11]]), 6);
     std::fs::write(dir.join(FILE_MANIFEST), &old).unwrap();
-    let loaded = load(&dir).expect("a 4.4 asset loads");
-    assert_eq!(loaded, without_4_5(&current));
+    let loaded = load(&dir).expect("a 4.6 asset loads");
+    assert_eq!(loaded, without_4_7(&current));
     assert!(loaded.vpl_lower.is_empty() && loaded.vpl_lower_map_of(0).is_none());
-    // Written again, it is a 4.5 asset whose VPLs have none.
+    // Written again, it is a 4.7 asset whose VPLs have none.
     let again = tmp.path().join("again.gibake");
     write(&loaded, &again).unwrap();
     let l = load(&again).unwrap();
     assert_eq!(l.vpl_lower, vec![LowerVpl::NONE; VPLS]);
     assert_eq!(l.manifest.lower_map_count, 0);
-    // A 4.4 manifest that lists vpl_lower.bin is refused: the counts say
+    // A 4.6 manifest that lists vpl_lower.bin is refused: the counts say
     // it is not stored.
     let m = load_manifest(&dir.join("../again.gibake")).unwrap();
     let mut bytes = testing::manifest_bytes(&m).unwrap();
-    bytes[10..12].copy_from_slice(&4u16.to_le_bytes());
+    bytes[10..12].copy_from_slice(&6u16.to_le_bytes());
     let bytes = with_payload_tail(
         &bytes,
         u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize - 1,

@@ -81,7 +81,8 @@ fn view_rsms_round_trip_in_the_documented_layout() {
     assert_eq!(names.last(), Some(&FILE_VIEW_RSMS));
     // The manifest payload ends with the appended vector: count 3, then
     // the indices (one-byte varints); then (4.3) no ring VPLs (`00`),
-    // (4.4) no scene options recorded (`00`) and (4.5) three second maps
+    // (4.4) no scene options recorded (`00`), (4.5) no swept bounds
+    // (`00`), (4.6) no later bounces (`00`) and (4.7) three second maps
     // (`03`).
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
     assert_eq!(
@@ -89,7 +90,10 @@ fn view_rsms_round_trip_in_the_documented_layout() {
         gibake_asset::FORMAT_MINOR
     );
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    assert_eq!(&bytes[20 + len - 7..20 + len], &[3, 1, 4, 5, 0, 0, 3]);
+    assert_eq!(
+        &bytes[20 + len - 9..20 + len],
+        &[3, 1, 4, 5, 0, 0, 0, 0, 3]
+    );
     // The atlas, read back as the spec lays it out.
     let (w, h, z, share, vpl) = atlas_of(&asset.view_rsms);
     assert_eq!((w, h), (2 * RSM as usize, 2 * RSM as usize));
@@ -129,8 +133,8 @@ fn a_4_0_manifest_loads_without_view_rsms() {
     let loaded = load(&dir).expect("a 4.0 asset loads");
     assert!(loaded.manifest.view_rsms.is_empty() && loaded.view_rsms.is_empty());
     // Without the level-3 coherences of format 4.2 (nor the second maps of
-    // 4.5): none.
-    let mut expected = without_4_5(&current);
+    // 4.7): none.
+    let mut expected = without_4_7(&current);
     expected.vpl_coherence.clear();
     expected
         .manifest
@@ -194,13 +198,13 @@ fn bad_view_rsm_lists_are_refused_naming_the_manifest() {
     }
     // A hostile count (2^40 entries) is refused before any allocation
     // (the payload ends with view_rsms, 4 bytes, then ring_vpls, 1,
-    // scene_options, 1, and lower_map_count, 1).
+    // scene_options, 1, swept_bounds, 1, later, 1, and lower_map_count, 1).
     let (dir, _) = fresh(tmp.path(), "huge.gibake");
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
     let mut tail = vec![253];
     tail.extend_from_slice(&(1u64 << 40).to_le_bytes());
-    let out = with_payload_tail(&bytes, len - 7, &tail);
+    let out = with_payload_tail(&bytes, len - 9, &tail);
     std::fs::write(dir.join(FILE_MANIFEST), &out).unwrap();
     let msg = load_manifest(&dir).unwrap_err().to_string();
     assert!(
@@ -208,7 +212,7 @@ fn bad_view_rsm_lists_are_refused_naming_the_manifest() {
         "{msg}"
     );
     // Cut inside the vector: damaged.
-    let out = with_payload_tail(&bytes, len - 4, &[]);
+    let out = with_payload_tail(&bytes, len - 6, &[]);
     std::fs::write(dir.join(FILE_MANIFEST), &out).unwrap();
     let msg = load_manifest(&dir).unwrap_err().to_string();
     assert!(

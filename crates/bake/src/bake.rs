@@ -5,8 +5,9 @@ use std::time::Instant;
 
 use crate::lights::ViewPlan;
 use gibake_asset::{
-    Asset, BakeSettings, MAX_SHARDS, Manifest, Map, MapAtlas, NO_MAP, Provenance, RsmData,
-    ShardMaps, ShardPart, VplRecord, assign_lower_tiles, assign_map_tiles, shard_range,
+    Asset, BakeSettings, LEVEL3_NODES, MAX_SHARDS, Manifest, Map, MapAtlas, NO_MAP, NODES_PER_VPL,
+    Provenance, RsmData, ShardMaps, ShardPart, VplRecord, assign_lower_tiles, assign_map_tiles,
+    shard_range,
 };
 use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::passes::light_maps::{self, LightMaps};
@@ -28,8 +29,15 @@ pub struct BakeOptions {
     pub vpl_map_size: u32,
     /// Primary shadow map resolution, default 2048.
     pub shadow_map_size: u32,
-    /// VPL count or clustering threshold.
+    /// VPL count or clustering threshold (the first bounce's VPLs).
     pub target: ClusterTarget,
+    /// How many bounces the asset carries ([`crate::later`]): every one
+    /// that matters (the default), or `Count(n)` in all; `Count(1)` is the
+    /// paper's method, the first bounce alone.
+    pub bounces: crate::later::Bounces,
+    /// The later bounces' VPLs (default: a quarter of the first bounce's,
+    /// [`crate::later::LATER_VPL_FRACTION`]).
+    pub later_vpls: Option<u32>,
 }
 
 impl Default for BakeOptions {
@@ -39,6 +47,8 @@ impl Default for BakeOptions {
             vpl_map_size: 128,
             shadow_map_size: 2048,
             target: ClusterTarget::Count(256),
+            bounces: crate::later::Bounces::Every,
+            later_vpls: None,
         }
     }
 }
@@ -755,6 +765,80 @@ fn bake_with(
         view_rsms,
         ..
     } = front;
+    // The bounces after the first (crate::later): more VPLs, after the
+    // first bounce's, lifted by one surfel's radius (as ring VPLs are).
+    let first_vpls = vpls.len();
+    let (mut vpl_nodes, mut vpl_coherence) = (vpl_nodes, vpl_coherence);
+    let mut vpl_lower = vpl_lower;
+    let mut rings = gibake_asset::ring_flags(&per_light, &ring_vpls);
+    let later = match opts.bounces {
+        crate::later::Bounces::Count(n) if n <= 1 => None,
+        bounces => {
+            progress.begin("later bounces", 0);
+            let n = opts.later_vpls.unwrap_or(
+                ((first_vpls as f64 * crate::later::LATER_VPL_FRACTION).ceil() as u32).max(1),
+            );
+            // The memory budget, checked before the later bounces are
+            // solved: a threshold that makes millions of VPLs is refused
+            // here, not after the solve (again below with the exact count).
+            if let Some(limit) = progress.memory_limit() {
+                let all = first_vpls as u64 + u64::from(n);
+                let mapped = match shard {
+                    Some(s) => shard_range(all as usize, s.index, s.count).len() as u64,
+                    None => all,
+                };
+                crate::budget::check_with(opts, all, mapped, limit)?;
+            }
+            let l = crate::later::later_bounces(
+                &rays,
+                &crate::later::LaterOptions {
+                    bounces,
+                    points: crate::later::surface_points(n),
+                    rays: crate::later::LATER_RAYS,
+                    vpls: n,
+                },
+            );
+            progress.end();
+            lap("later bounces", &mut stages);
+            if !l.converged {
+                let w = format!(
+                    "the later bounces do not die down (a closed level of albedo near 1): cut at {} bounces, the light of those after is missing",
+                    crate::later::radiosity::MAX_BOUNCES
+                );
+                tracing::warn!("{}: {w}", scene.source.display());
+                warnings.push(w);
+            }
+            let keep = bounces != crate::later::Bounces::Every
+                || l.later_share() >= crate::later::NEGLIGIBLE_LATER_SHARE;
+            if keep {
+                let reach = Reach::new(&rays, scene.dynamic_swept_bounds());
+                for (i, v) in l.vpls.iter().enumerate() {
+                    let c = crate::cluster::Cluster {
+                        position: glam::Vec3::from_array(v.position),
+                        anchor: glam::Vec3::from_array(v.position),
+                        normal: glam::Vec3::from_array(v.normal),
+                        flux: glam::Vec3::from_array(v.flux),
+                        area: v.area,
+                        texels: v.texels,
+                    };
+                    if !reach.sees_cluster(&c, true) {
+                        continue;
+                    }
+                    vpls.push(*v);
+                    vpl_nodes
+                        .extend_from_slice(&l.nodes[i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL]);
+                    vpl_coherence
+                        .extend_from_slice(&l.coherence[i * LEVEL3_NODES..(i + 1) * LEVEL3_NODES]);
+                    rings.push(true);
+                    // No second origin (crate::horizon works on the RSM's
+                    // texels; a later VPL has none): its light below the
+                    // horizon is answered by its map's rim.
+                    vpl_lower.push(None);
+                }
+            }
+            Some((l, keep))
+        }
+    };
     if let Some(limit) = progress.memory_limit() {
         let n = vpls.len();
         let mapped = match shard {
@@ -771,7 +855,6 @@ fn bake_with(
     };
     // Each VPL's map, then its second map (or none).
     progress.begin("VPL maps", 2 * range.len() as u64);
-    let rings = gibake_asset::ring_flags(&per_light, &ring_vpls);
     let each = crate::vplmap::render_each_vpl_map(
         &rays,
         &vpls[range.clone()],
@@ -882,6 +965,20 @@ fn bake_with(
         // The scene options the level was loaded with are the caller's to
         // record (`gibake bake` does; the `Scene` does not hold them).
         scene_options: None,
+        swept_bounds: Some(crate::uptodate::swept_record(scene)),
+        later: later.as_ref().map(|(l, keep)| gibake_asset::LaterRecord {
+            bounces: match opts.bounces {
+                crate::later::Bounces::Every => 0,
+                crate::later::Bounces::Count(n) => n,
+            },
+            vpl_budget: opts.later_vpls.unwrap_or(0),
+            vpls: (vpls.len() - first_vpls) as u32,
+            left_out: !keep,
+            converged: l.converged,
+            direct: l.direct.to_array(),
+            per_bounce: l.per_bounce.iter().map(|v| v.to_array()).collect(),
+            tail: l.tail.to_array(),
+        }),
         lower_map_count: lower_maps.count(),
     };
     let asset = Asset {

@@ -41,9 +41,23 @@ pub use radiosity::Bounces;
 /// first bounce alone (docs/method.md, "Every bounce").
 pub const LATER_VPL_FRACTION: f64 = 0.25;
 
-/// Surface points sampled for the later bounces (two surfels each where
-/// both sides see out).
+/// Surface points sampled for the later bounces at most (two surfels each
+/// where both sides see out): the default's (64 later VPLs at `--vpls 256`).
 pub const LATER_POINTS: u32 = 16384;
+
+/// Surface points per later VPL ([`surface_points`]).
+pub const POINTS_PER_LATER_VPL: u32 = 256;
+
+/// The surface points for `later_vpls` later VPLs: 256 a VPL (each VPL's
+/// light gathered from a few hundred surfels at least), from 1024 up to
+/// [`LATER_POINTS`]: a bake of a handful of VPLs (a preview, a test) does
+/// not pay the full solve; from 64 later VPLs (the default's at `--vpls
+/// 256`) on, every bake gets all of them.
+pub fn surface_points(later_vpls: u32) -> u32 {
+    later_vpls
+        .saturating_mul(POINTS_PER_LATER_VPL)
+        .clamp(1024, LATER_POINTS)
+}
 
 /// Rays per surfel.
 pub const LATER_RAYS: u32 = 64;
@@ -51,9 +65,12 @@ pub const LATER_RAYS: u32 = 64;
 /// Under [`Bounces::Every`] the later bounces are left out when they carry
 /// under this share of all the light the level's surfaces reflect
 /// ([`Later::later_share`]): outdoors, where direct light dominates (the
-/// town: 0.0%), the bake stores nothing for them and the frame has no VPL
-/// more; a room lit through a window carries 3%, a white arena 55%.
-pub const NEGLIGIBLE_LATER_SHARE: f64 = 0.0025;
+/// town: under 0.05%), the bake stores nothing for them and the frame has
+/// no VPL more; a room lit through a window carries 3%, a white arena 55%.
+/// The share is of the whole level's reflected light, and a camera may see
+/// mostly the indirectly lit part: the Japanese room's 0.2% is 5–8% of the
+/// indirect light its camera sees, so the bar is low.
+pub const NEGLIGIBLE_LATER_SHARE: f64 = 0.001;
 
 /// How the bake follows the later bounces.
 #[derive(Clone, Copy, Debug, PartialEq)]

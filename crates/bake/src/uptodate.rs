@@ -8,12 +8,20 @@
 //! its files are intact (sizes and BLAKE3 checksums as listed). Because the
 //! bake is deterministic, a re-bake would then write the same bytes.
 //!
-//! Three inputs the static-scene hash leaves out also shape the asset, so
-//! they are compared too: the primary light's view (fitted to the scene's
-//! bounds *including* the swept bounds of the moving objects), whether the
-//! scene has moving objects at all (then the static RSM is stored) and,
-//! with several lights, which other lights' views the moving objects can
-//! enter (their static RSMs are stored, format 4.1).
+//! The static-scene hash leaves the moving objects out (an asset stays
+//! valid for the runtime when they change), yet the bytes depend on them
+//! through one thing: their **swept bounds**, the box they fill over the
+//! animation. The primary light's view is fitted to it, the other lights'
+//! views it can enter store their static RSMs (format 4.1), and the reach
+//! probe aims rays at it and keeps the VPLs whose light only it receives —
+//! which moves the clustering threshold a `--vpls` budget searches. So the
+//! asset records the box it was baked with ([`Manifest::swept_bounds`],
+//! format 4.5) and the check compares it bit for bit, as it compares
+//! whether the scene has moving objects at all (then the static RSM is
+//! stored). An asset from before 4.5 does not record it: one of a level
+//! with moving objects is re-baked once (without them the box is empty
+//! and shapes nothing). "Up to date" then means a clean bake would write
+//! the same data (an older asset's manifest keeps its older minor).
 
 use std::path::Path;
 
@@ -35,6 +43,24 @@ pub enum Freshness {
 
 fn hex8(h: &[u8; 32]) -> String {
     h[..8].iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The moving objects' swept bounds as a bake of `scene` records them
+/// ([`Manifest::swept_bounds`]): `[min x, min y, min z, max x, max y,
+/// max z]`, an empty box (`+∞ … −∞`) without moving objects.
+pub fn swept_record(scene: &Scene) -> [f32; 6] {
+    let b = scene.dynamic_swept_bounds();
+    [b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z]
+}
+
+/// A recorded swept box for messages: `none` when empty, else
+/// `(x, y, z)–(x, y, z)` with 4 significant digits.
+fn show_box(b: &[f32; 6]) -> String {
+    if (0..3).any(|k| b[k] > b[k + 3]) {
+        return "none".into();
+    }
+    let p = |v: &[f32]| format!("({:.4}, {:.4}, {:.4})", v[0], v[1], v[2]);
+    format!("{}–{}", p(&b[..3]), p(&b[3..]))
 }
 
 /// Compares the asset at `dir` with what baking `scene` with `opts` on
@@ -124,6 +150,40 @@ pub fn differences(
         ),
         _ => {}
     }
+    // The bounces (format 4.6: none recorded is the first bounce alone).
+    let bounces = |b: u32| match b {
+        0 => "every bounce".to_string(),
+        1 => "1 (the first bounce alone)".to_string(),
+        n => n.to_string(),
+    };
+    let (was, was_budget) = m
+        .later
+        .as_ref()
+        .map_or((1, 0), |l| (l.bounces, l.vpl_budget));
+    let now = match opts.bounces {
+        crate::later::Bounces::Every => 0,
+        crate::later::Bounces::Count(n) => n.max(1),
+    };
+    if was != now {
+        r.push(format!(
+            "setting --bounces changed ({} → {})",
+            bounces(was),
+            bounces(now)
+        ));
+    } else if now != 1 && was_budget != opts.later_vpls.unwrap_or(0) {
+        let budget = |b: u32| {
+            if b == 0 {
+                "the default".to_string()
+            } else {
+                b.to_string()
+            }
+        };
+        r.push(format!(
+            "setting --later-vpls changed ({} → {})",
+            budget(was_budget),
+            budget(opts.later_vpls.unwrap_or(0))
+        ));
+    }
     let p = &m.provenance;
     // The asset records the scene's file name: the same content under a new
     // name would give other bytes, so it is not up to date either.
@@ -157,6 +217,25 @@ pub fn differences(
             "adapter changed ({} / {} / {} → {} / {} / {driver})",
             p.adapter, p.backend, p.driver, adapter.name, adapter.backend
         ));
+    }
+    // The moving objects' swept bounds, bit for bit (see the module docs).
+    let swept = swept_record(scene);
+    match &m.swept_bounds {
+        // Without moving objects the box is empty and shapes nothing.
+        None if (0..3).all(|k| swept[k] > swept[k + 3]) => {}
+        None => r.push(
+            "the asset does not record the moving objects' swept bounds (baked before format 4.5), on which its VPLs depend"
+                .into(),
+        ),
+        Some(b) if b.map(f32::to_bits) != swept.map(f32::to_bits) => {
+            let (was, now) = (show_box(b), show_box(&swept));
+            r.push(if was == now {
+                format!("the moving objects' swept bounds changed (in the last digits: {now})")
+            } else {
+                format!("the moving objects' swept bounds changed ({was} → {now})")
+            });
+        }
+        Some(_) => {}
     }
     // (A point light first has no primary map, so no primary RSM either.)
     let has_dynamic = !scene.dynamic_objects.is_empty()

@@ -65,6 +65,9 @@ fn small_options() -> BakeOptions {
         vpl_map_size: 64,
         shadow_map_size: 256,
         target: ClusterTarget::Count(128),
+        // The first bounce alone (what this checks).
+        bounces: gibake_bake::later::Bounces::Count(1),
+        later_vpls: None,
     }
 }
 
@@ -513,6 +516,9 @@ fn scaled_scenes_give_the_same_vpls() {
         vpl_map_size: 64,
         shadow_map_size: 256,
         target,
+        // The first bounce alone (what this checks).
+        bounces: gibake_bake::later::Bounces::Count(1),
+        later_vpls: None,
     };
     let unit = load_bytes(
         &gibake_scenegen::scaled("corner_bunny", 1.0).expect("corner_bunny"),
@@ -785,7 +791,14 @@ fn bake_of_664_vpls_at_default_sizes() {
         (512, 128, 2048)
     );
     let out = bake(gpu(), &scene, &opts, &NoProgress, "test").expect("bake");
-    let n = out.asset.vpls.len();
+    // The budget is the first bounce's; the later bounces' VPLs (a quarter
+    // of it by default) come after them.
+    let later = out.asset.manifest.later_vpls() as usize;
+    assert!(
+        later <= 166,
+        "{later} later VPLs: over the default budget, a quarter of 664"
+    );
+    let n = out.asset.vpls.len() - later;
     let stages: Vec<String> = out
         .stages
         .iter()
@@ -801,7 +814,7 @@ fn bake_of_664_vpls_at_default_sizes() {
         n.abs_diff(664) as f64 <= 0.02 * 664.0,
         "Count(664) gave {n} VPLs"
     );
-    assert_eq!(out.asset.manifest.vpl_count as usize, n);
+    assert_eq!(out.asset.manifest.vpl_count as usize, n + later);
     assert_eq!(out.asset.vpl_maps.count(), out.asset.manifest.map_count);
     assert_eq!(out.asset.vpl_maps.tile_size(), 128);
 }

@@ -37,6 +37,9 @@ fn options() -> BakeOptions {
         vpl_map_size: 32,
         shadow_map_size: 256,
         target: ClusterTarget::Count(96),
+        // The first bounce alone (what this checks).
+        bounces: gibake_bake::later::Bounces::Count(1),
+        later_vpls: None,
     }
 }
 

@@ -3,7 +3,7 @@
 //! below the roof's top, and sees the room under it; a flat cluster has
 //! none; on a convex corner it lies outside the solid, though the centroid
 //! of the texels that send the light is inside; the same at every scene
-//! scale. And a bake stores second origins and maps (format 4.5).
+//! scale. And a bake stores second origins and maps (format 4.7).
 
 use gibake_bake::horizon::{MIN_BELOW_SHARE, below_share, lower_origin};
 use gibake_bake::rsm::Rsm;

@@ -1,8 +1,13 @@
 //! The bake's method revision ([`gibake_bake::BAKE_METHOD`]) against what a
-//! bake writes: two small bakes of bundled scenes (a spot light; every light
-//! of a room with a spot and two point lights), their VPLs, near-field trees,
-//! hemisphere maps and second origins and maps hashed, held to the hash
-//! recorded for the current revision. These are the parts computed on the CPU by rays and the
+//! bake writes: small bakes of bundled scenes (a spot light; every light
+//! of a room with a spot and two point lights), each with the first bounce
+//! alone (`--bounces 1`, the paper's method) and with every bounce (the
+//! default), their VPLs, near-field trees, hemisphere maps and (revision 8)
+//! second origins and maps hashed, held to the hashes recorded for the
+//! current revision. The one-bounce VPLs, trees and first maps are still
+//! revision 6's: `--bounces 1` writes what the bake wrote before the later
+//! bounces (issue 50), and the second origins (revision 8) only add to it.
+//! These are the parts computed on the CPU by rays and the
 //! clustering, the same on every adapter; the GPU's shadow maps are left
 //! out.
 //!
@@ -23,19 +28,28 @@ use gibake_bake::{BAKE_METHOD, BakeOptions, NoProgress, bake};
 use gibake_gpu::GpuContext;
 use gibake_scene::LoadOptions;
 
-/// The revision these hashes belong to, and the hash of each scene's bake.
-const RECORDED: (u32, [(&str, &str); 2]) = (
-    7,
+/// The revision these hashes belong to, and the hash of each scene's bake:
+/// (scene, `--bounces 1`, the default).
+const RECORDED: (u32, [(&str, &str, &str); 2]) = (
+    8,
     [
-        ("corner_bunny", "ad06f89a3a899055"),
-        ("lamps", "f2576bce0fce70c7"),
+        ("corner_bunny", "ad06f89a3a899055", "b3e6aa19b8ef11f5"),
+        ("lamps", "f2576bce0fce70c7", "45248a111c4fe277"),
     ],
 );
 
+/// The first bounce alone's hashes before the later bounces (revision 6),
+/// without the second origins and maps: `--bounces 1` must still write
+/// them.
+const ONE_BOUNCE_BEFORE: [(&str, &str); 2] = [
+    ("corner_bunny", "468d0ace1f351ccc"),
+    ("lamps", "c7cf9c94ae279309"),
+];
+
 /// BLAKE3 of the VPL records, the near-field trees, their level-3
-/// coherences, the hemisphere maps and the second origins and maps, every
-/// float by its bits.
-fn hash(asset: &Asset) -> String {
+/// coherences, the hemisphere maps and, with `lower`, the second origins
+/// and maps, every float by its bits.
+fn hash(asset: &Asset, lower: bool) -> String {
     let mut h = blake3::Hasher::new();
     for v in asset.vpls.iter().chain(&asset.vpl_nodes) {
         for f in v
@@ -58,16 +72,18 @@ fn hash(asset: &Asset) -> String {
     for t in asset.vpl_maps.texels() {
         h.update(&t.to_bits().to_le_bytes());
     }
-    // Revision 7: the second origins and maps (crate::horizon).
-    for l in &asset.vpl_lower {
-        for f in l.origin {
-            h.update(&f.to_bits().to_le_bytes());
+    // Revision 8: the second origins and maps (gibake_bake::horizon).
+    if lower {
+        for l in &asset.vpl_lower {
+            for f in l.origin {
+                h.update(&f.to_bits().to_le_bytes());
+            }
+            h.update(&l.map.to_le_bytes());
         }
-        h.update(&l.map.to_le_bytes());
-    }
-    h.update(&asset.vpl_lower_maps.count().to_le_bytes());
-    for t in asset.vpl_lower_maps.texels() {
-        h.update(&t.to_bits().to_le_bytes());
+        h.update(&asset.vpl_lower_maps.count().to_le_bytes());
+        for t in asset.vpl_lower_maps.texels() {
+            h.update(&t.to_bits().to_le_bytes());
+        }
     }
     h.finalize().to_hex()[..16].to_string()
 }
@@ -80,26 +96,44 @@ fn the_bake_method_revision_matches_what_a_bake_writes() {
              `apt-get install mesa-vulkan-drivers` gives the lavapipe software GPU"
         )
     });
-    let opts = BakeOptions {
+    let one = BakeOptions {
         rsm_size: 128,
         vpl_map_size: 16,
         shadow_map_size: 256,
         target: ClusterTarget::Count(48),
+        bounces: gibake_bake::later::Bounces::Count(1),
+        later_vpls: None,
+    };
+    let every = BakeOptions {
+        bounces: gibake_bake::later::Bounces::Every,
+        ..one.clone()
     };
     let mut got = Vec::new();
-    for (name, _) in RECORDED.1 {
+    let mut firsts = Vec::new();
+    for (name, _, _) in RECORDED.1 {
         let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data"))
             .join(format!("{name}.glb"));
         let scene = gibake_scene::load(&path, &LoadOptions::default())
             .unwrap_or_else(|e| panic!("load {}: {e}", path.display()));
-        let asset = bake(&ctx, &scene, &opts, &NoProgress, "test")
-            .unwrap_or_else(|e| panic!("bake of {name}: {e}"))
-            .asset;
-        got.push((name, hash(&asset)));
+        let [(h1, first), (h, _)] = [&one, &every].map(|opts| {
+            let asset = bake(&ctx, &scene, opts, &NoProgress, "test")
+                .unwrap_or_else(|e| panic!("bake of {name}: {e}"))
+                .asset;
+            (hash(&asset, true), hash(&asset, false))
+        });
+        got.push((name, h1, h));
+        firsts.push(first);
+    }
+    for ((name, before), h1) in ONE_BOUNCE_BEFORE.iter().zip(&firsts) {
+        assert_eq!(
+            before, h1,
+            "--bounces 1 of data/{name}.glb no longer writes what the bake wrote before the \
+             later bounces (hash {h1}, recorded {before}): the first bounce changed"
+        );
     }
     let table: Vec<String> = got
         .iter()
-        .map(|(n, h)| format!("(\"{n}\", \"{h}\")"))
+        .map(|(n, h1, h)| format!("(\"{n}\", \"{h1}\", \"{h}\")"))
         .collect();
     assert_eq!(
         RECORDED.0,
@@ -109,10 +143,10 @@ fn the_bake_method_revision_matches_what_a_bake_writes() {
         RECORDED.0,
         table.join(", ")
     );
-    for ((name, want), (_, have)) in RECORDED.1.iter().zip(&got) {
+    for ((name, want1, want), (_, have1, have)) in RECORDED.1.iter().zip(&got) {
         assert_eq!(
-            want,
-            have,
+            (want1.to_string(), want.to_string()),
+            (have1.clone(), have.clone()),
             "the bake of data/{name}.glb changed (hash {have}, revision {BAKE_METHOD} recorded \
              {want}). If that was meant, bump gibake_bake::BAKE_METHOD (crates/bake/src/lib.rs) \
              so that assets of the older method re-bake, and record RECORDED = \

@@ -1,13 +1,13 @@
 //! The up-to-date comparison (`gibake_bake::uptodate::differences`) against
 //! a real bake's manifest: nothing differs for the same inputs, and each
 //! changed input is named — including the two the static-scene hash leaves
-//! out (the moving objects' presence and swept bounds, which shape the
-//! light view).
+//! out (the moving objects' presence and their swept bounds, recorded since
+//! format 4.5, which shape the light view and the VPLs).
 
 use std::path::Path;
 
 use gibake_bake::cluster::ClusterTarget;
-use gibake_bake::uptodate::differences;
+use gibake_bake::uptodate::{differences, swept_record};
 use gibake_bake::{BakeOptions, NoProgress, bake, static_only};
 use gibake_gpu::GpuContext;
 use gibake_scene::LoadOptions;
@@ -28,6 +28,9 @@ fn every_changed_input_is_named_and_nothing_else() {
         vpl_map_size: 16,
         shadow_map_size: 256,
         target: ClusterTarget::Count(32),
+        // The first bounce alone (what this checks).
+        bounces: gibake_bake::later::Bounces::Count(1),
+        later_vpls: None,
     };
     let asset = bake(&ctx, &scene, &opts, &NoProgress, "1.0.0")
         .expect("bake")
@@ -138,13 +141,57 @@ fn every_changed_input_is_named_and_nothing_else() {
         m.static_scene_hash,
         "moving objects are not part of the static-scene hash"
     );
-    one(diff(&big, &opts, "1.0.0"), "the light's view changed");
-
-    // No moving objects any more.
     one(
-        diff(&static_only(&scene), &opts, "1.0.0"),
-        "moving objects removed",
+        diff(&big, &opts, "1.0.0"),
+        "the moving objects' swept bounds changed",
     );
+    // The light view is compared too (it follows the box: a manifest that
+    // records the new box but the old view is named by its view).
+    let mut m2 = m.clone();
+    m2.swept_bounds = Some(swept_record(&big));
+    one(
+        differences(&m2, &big, &opts, &ctx.record, "1.0.0"),
+        "the light's view changed",
+    );
+    // Objects half as tall: a smaller box, the same static hash.
+    let mut lower = scene.clone();
+    for o in &mut lower.dynamic_objects {
+        o.local_bounds.max.y =
+            o.local_bounds.min.y + 0.5 * (o.local_bounds.max.y - o.local_bounds.min.y);
+    }
+    assert_ne!(swept_record(&lower), swept_record(&scene));
+    one(
+        diff(&lower, &opts, "1.0.0"),
+        "the moving objects' swept bounds changed",
+    );
+    // An asset from before format 4.5 does not record the box.
+    let mut old = m.clone();
+    old.swept_bounds = None;
+    one(
+        differences(&old, &scene, &opts, &ctx.record, "1.0.0"),
+        "does not record the moving objects' swept bounds",
+    );
+    // ... which matters only with moving objects: a static level's
+    // older asset is not re-baked for it.
+    let still = static_only(&scene);
+    let baked = bake(&ctx, &still, &opts, &NoProgress, "1.0.0")
+        .expect("bake")
+        .asset;
+    let mut old = baked.manifest.clone();
+    old.swept_bounds = None;
+    assert_eq!(
+        differences(&old, &still, &opts, &ctx.record, "1.0.0"),
+        Vec::<String>::new()
+    );
+
+    // No moving objects any more: the box is empty, and the RSM goes.
+    let r = diff(&static_only(&scene), &opts, "1.0.0");
+    assert_eq!(r.len(), 2, "{r:?}");
+    assert!(
+        r[0].contains("swept bounds changed") && r[0].ends_with("→ none)"),
+        "{r:?}"
+    );
+    assert!(r[1].contains("moving objects removed"), "{r:?}");
 }
 
 /// With several lights, which other lights' views the moving objects can
@@ -165,6 +212,9 @@ fn the_views_moving_objects_can_enter_are_compared() {
         vpl_map_size: 16,
         shadow_map_size: 256,
         target: ClusterTarget::Count(64),
+        // The first bounce alone (what this checks).
+        bounces: gibake_bake::later::Bounces::Count(1),
+        later_vpls: None,
     };
     let asset = bake(&ctx, &scene, &opts, &NoProgress, "1.0.0")
         .expect("bake")
@@ -179,7 +229,11 @@ fn the_views_moving_objects_can_enter_are_compared() {
         o.local_bounds.min *= 40.0;
         o.local_bounds.max *= 40.0;
     }
-    let r = diff(&big);
+    assert!(diff(&big)[0].contains("swept bounds changed"));
+    // The views are compared too (they follow the box).
+    let mut m2 = m.clone();
+    m2.swept_bounds = Some(swept_record(&big));
+    let r = differences(&m2, &big, &opts, &ctx.record, "1.0.0");
     assert!(
         r.iter()
             .any(|x| x.contains("views the moving objects can enter changed")),
@@ -197,7 +251,11 @@ fn the_views_moving_objects_can_enter_are_compared() {
     let m = &asset.manifest;
     let diff = |scene: &gibake_scene::Scene| differences(m, scene, &opts, &ctx.record, "1.0.0");
     assert_eq!(diff(&points), Vec::<String>::new());
-    let r = diff(&static_only(&points));
+    let gone = static_only(&points);
+    assert!(diff(&gone)[0].contains("swept bounds changed"));
+    let mut m2 = m.clone();
+    m2.swept_bounds = Some(swept_record(&gone));
+    let r = differences(&m2, &gone, &opts, &ctx.record, "1.0.0");
     assert!(
         r.iter()
             .any(|x| x.contains("views the moving objects can enter changed")),

@@ -197,11 +197,26 @@ impl Bench {
     /// Bakes `scene` with `vpls` VPLs and `map`² hemisphere maps; returns
     /// the bake and its wall seconds.
     fn bake(&self, scene: &Scene, vpls: u32, map: u32) -> Result<(gibake_bake::BakeOutput, f64)> {
+        self.bake_bounces(scene, vpls, map, gibake_bake::later::Bounces::Count(1))
+    }
+
+    /// [`Bench::bake`] with `bounces` (the benches' bakes are the first
+    /// bounce alone, the paper's method; `gibake bench quality` adds the
+    /// default, every bounce, beside it).
+    fn bake_bounces(
+        &self,
+        scene: &Scene,
+        vpls: u32,
+        map: u32,
+        bounces: gibake_bake::later::Bounces,
+    ) -> Result<(gibake_bake::BakeOutput, f64)> {
         let opts = BakeOptions {
             rsm_size: 512,
             vpl_map_size: map,
             shadow_map_size: 2048,
             target: ClusterTarget::Count(vpls),
+            bounces,
+            later_vpls: None,
         };
         let t = Instant::now();
         let out = gibake_bake::bake(

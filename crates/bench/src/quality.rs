@@ -3,7 +3,10 @@
 //! the bundled scenes and seeded random ones (`gibake_scenegen::random`),
 //! against the CPU reference, as rel MSE and mean FLIP of the whole image
 //! and of the indirect part, with the Pareto front (error against frame
-//! time) marked in the tables and ringed in the plots.
+//! time) marked in the tables and ringed in the plots. Every image is also
+//! scored against the every-bounce reference (issue 50), and each budget is
+//! baked a second time with every bounce (`gibake bake`'s default: the
+//! later bounces' VPLs after the first's), its `full` a row `full+later`.
 
 use std::time::Instant;
 
@@ -23,11 +26,13 @@ use crate::BenchScene;
 use crate::out::bar;
 
 /// The CPU reference of one scene: one bounce, direct only, and their
-/// difference (the indirect part).
+/// difference (the indirect part); every bounce and its indirect part.
 pub(super) struct Refs {
     pub(super) one: Image,
     pub(super) direct: Image,
     pub(super) indirect: Image,
+    pub(super) every: Image,
+    pub(super) every_indirect: Image,
     pub(super) seconds: f64,
 }
 
@@ -44,10 +49,13 @@ pub(super) fn references(scene: &Scene, name: &str, size: u32, spp: u32) -> crat
         1,
     )?;
     let direct = reference(scene, name, size, spp, gibake_reference::Depth::Direct, 1)?;
+    let every = reference(scene, name, size, spp, gibake_reference::Depth::Every, 1)?;
     Ok(Refs {
         indirect: one.sub(&direct),
+        every_indirect: every.sub(&direct),
         one,
         direct,
+        every,
         seconds: t.elapsed().as_secs_f64(),
     })
 }
@@ -85,6 +93,11 @@ pub(super) struct Scores {
     pub(super) indirect_rel_mse: f64,
     /// Mean FLIP of the indirect part.
     pub(super) indirect_flip: f64,
+    /// rel MSE of the whole image against the every-bounce reference (mode
+    /// `indirect`: against its indirect part).
+    pub(super) every_rel_mse: f64,
+    /// rel MSE of the indirect part against the every-bounce reference's.
+    pub(super) every_indirect_rel_mse: f64,
 }
 
 /// Scores `img`; `direct` is the same renderer's direct-only image (the
@@ -95,16 +108,18 @@ pub(super) fn score(img: &Image, direct: Option<&Image>, r: &Refs) -> crate::Res
         Some(d) => img.sub(d),
         None => img.clone(),
     };
-    let whole = if direct.is_some() {
-        &r.one
+    let (whole, every) = if direct.is_some() {
+        (&r.one, &r.every)
     } else {
-        &r.indirect
+        (&r.indirect, &r.every_indirect)
     };
     Ok(Scores {
         rel_mse: rel_mse(img, whole),
         flip: mean_flip(img, whole)?,
         indirect_rel_mse: rel_mse(&ind, &r.indirect),
         indirect_flip: mean_flip(&ind, &r.indirect)?,
+        every_rel_mse: rel_mse(img, every),
+        every_indirect_rel_mse: rel_mse(&ind, &r.every_indirect),
     })
 }
 
@@ -155,7 +170,10 @@ impl Row {
 
     /// Rows whose whole image is the full picture (on the whole-image fronts).
     fn whole(&self) -> bool {
-        matches!(self.mode.as_str(), "full" | "naive" | "rsm" | "direct")
+        matches!(
+            self.mode.as_str(),
+            "full" | "full+later" | "naive" | "rsm" | "direct"
+        )
     }
 
     /// Rows with an indirect part, for the indirect front (GPU only).
@@ -232,8 +250,10 @@ impl Grid {
             .iter()
             .map(|&(vpls, map)| {
                 let others = usize::from(Some(map) == first) + usize::from(Some(map) == last);
+                // (and `full+later` at the first map size)
                 (self.full_il.len()
                     + others * self.other_il.len()
+                    + usize::from(Some(map) == first)
                     + usize::from(vpls <= self.naive_max)) as u64
             })
             .sum()
@@ -376,6 +396,31 @@ pub(super) fn bench_quality(
                     let mut row = Row::gpu(mname, il, &st, sc);
                     row.vpl_budget = Some(vpls);
                     row.vpls = Some(asset.manifest.vpl_count);
+                    row.vpl_map_size = Some(map);
+                    row.bake_seconds = Some(bake_s);
+                    rows.push(row);
+                    pb.inc(1);
+                }
+                // The default bake (every bounce) beside it, at the first
+                // map size: `full` at interleave 1.
+                if Some(&map) == g.maps.first() {
+                    pb.set_message(format!("{name}: bake {vpls} VPLs, {map}², every bounce"));
+                    let (out, _) =
+                        b.bake_bounces(scene, vpls, map, gibake_bake::later::Bounces::Every)?;
+                    let bake_s: f64 = out.stages.iter().map(|s| s.seconds).sum();
+                    let (img, st) = render_measured(
+                        b,
+                        scene,
+                        Some(&out.asset),
+                        Mode::Full,
+                        g.size,
+                        g.ssaa,
+                        1,
+                        QUALITY_TIME,
+                    )?;
+                    let mut row = Row::gpu("full+later", 1, &st, score(&img, Some(dimg), &refs)?);
+                    row.vpl_budget = Some(vpls);
+                    row.vpls = Some(out.asset.manifest.vpl_count);
                     row.vpl_map_size = Some(map);
                     row.bake_seconds = Some(bake_s);
                     rows.push(row);
@@ -549,6 +594,9 @@ fn scene_table(
             "FLIP",
             "indirect rel MSE",
             "indirect FLIP",
+            "rel MSE vs every bounce",
+            "indirect rel MSE vs every bounce",
+            "bake (s)",
             "update (ms)",
             "shade+filter (ms)",
             "frame (ms)",
@@ -586,6 +634,9 @@ fn scene_table(
             sig(r.scores.flip),
             sig(r.scores.indirect_rel_mse),
             sig(r.scores.indirect_flip),
+            sig(r.scores.every_rel_mse),
+            sig(r.scores.every_indirect_rel_mse),
+            opt(r.bake_seconds),
             opt(r.update_ms),
             opt(r.shade_ms),
             if r.spp.is_some() {
@@ -597,7 +648,11 @@ fn scene_table(
         ]);
     }
     t.notes.push(format!(
-        "Reference: CPU path tracer at {0}×{0}, one bounce and direct only, {ref_spp} spp each ({1:.1} s). \
+        "Reference: CPU path tracer at {0}×{0}, one bounce, every bounce and direct only, {ref_spp} spp each ({1:.1} s). \
+         `full+later`: `full` of the default bake (every bounce: the later bounces' VPLs after the first's, \
+         a quarter as many; the VPL count includes them); the other rows bake the first bounce alone. \
+         \"vs every bounce\": the same images against the every-bounce reference (the light a path tracer \
+         users compare with shows). \
          rel MSE = mean of (x−r)²/(r²+0.01); FLIP = mean LDR-FLIP (nv-flip, NVIDIA's implementation) of the \
          images tone-mapped with the reference's exposure. Whole image: against the one-bounce reference \
          (mode `indirect`: its image against the reference's indirect part). Indirect part: image − the \

@@ -1,13 +1,24 @@
-//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--near-field-descent N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive] [--static-only] [--list LEVELS.json]`
+//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--shadow-map N] [--blur N] [--ssaa N] [--near-field-descent N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive] [--static-only] [--one-bounce-only] [--list LEVELS.json]`
 //! Judges the real levels of data/levels/levels.json, or of `--list`'s file
-//! (its levels' files relative to it; all, or those named)
-//! against the CPU reference; prints one line per level and, with --out,
-//! writes reference | full | rsm | error pictures (NAME.png) and the same
-//! for the indirect light alone (NAME_indirect.png); --markdown ends with
-//! the table of docs/results.md, "Real levels". `DUMP_EXR=1` with
+//! (its levels' files relative to it; all, or those named), against the
+//! CPU reference, one bounce and every bounce (`vs one bounce: …`, `vs
+//! every bounce ×R/G/B of one: …`: what the later bounces add and
+//! `full`'s bias against each; then `every-bounce bake`: the default bake,
+//! the later bounces' VPLs included, against the every-bounce reference;
+//! `--one-bounce-only` leaves the every-bounce reference and bake out,
+//! 1.5–20× the one-bounce reference's time); prints one
+//! line per level and, with --out,
+//! writes reference | full | rsm | error pictures (NAME.png), the same
+//! for the indirect light alone (NAME_indirect.png) and every-bounce
+//! reference | every-bounce bake | one-bounce bake | error
+//! (NAME_every.png); --markdown ends with
+//! the table of docs/results.md, "Real levels", and the every-bounce table
+//! of docs/reference.md, "Every bounce on the real levels". `DUMP_EXR=1` with
 //! `--out DIR` also writes the reference's, `full`'s and `rsm`'s indirect
-//! images and the direct light as EXR (`NAME_ref_ind.exr`, …), as
-//! `eval_lights` does. `--no-naive` leaves out
+//! images, the direct light and the reference's direct light as EXR
+//! (`NAME_ref_ind.exr`, …, `NAME_ref_direct.exr`), as `eval_lights` does.
+//! `--shadow-map N` bakes the primary shadow map at N² (default 2048, as
+//! `gibake bake`). `--no-naive` leaves out
 //! the `naive` render (every VPL map re-rendered: 90% of the time on
 //! lavapipe) and its naive~full figure. `--static-only` judges each level
 //! without its moving objects (bake, frames and reference alike), to tell
@@ -24,6 +35,8 @@ fn main() {
         spp: 512,
         blur: 4,
         ssaa: 4,
+        every_bounce: true,
+        every_bounce_bake: true,
         ..Default::default()
     };
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -34,6 +47,7 @@ fn main() {
     let mut static_only = false;
     let mut list = gibake_eval::levels::bundled_list();
     let mut rows = Vec::new();
+    let mut every_rows = Vec::new();
     while let Some(a) = it.next() {
         let mut num = || {
             it.next()
@@ -48,6 +62,7 @@ fn main() {
             "--blur" => s.blur = num(),
             "--rsm" => s.rsm_size = num(),
             "--map" => s.vpl_map_size = num(),
+            "--shadow-map" => s.shadow_map_size = num(),
             "--ssaa" => s.ssaa = num(),
             "--near-field-descent" => s.near_field_descent = num(),
             "--cascades" => {
@@ -60,6 +75,10 @@ fn main() {
             }
             "--markdown" => markdown = true,
             "--no-naive" => s.naive = false,
+            "--one-bounce-only" => {
+                s.every_bounce = false;
+                s.every_bounce_bake = false;
+            }
             "--static-only" => static_only = true,
             "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
             "--list" => list = std::path::PathBuf::from(it.next().expect("a levels.json")),
@@ -96,6 +115,7 @@ fn main() {
         let (e, images) = gibake_eval::levels::judge_level(&ctx, &scene, &spec.name, &s).unwrap();
         println!("{} ({:.0} s)", e.line(), t.elapsed().as_secs_f64());
         rows.push(e.markdown_row());
+        every_rows.extend(e.every_markdown_row());
         if let Some(d) = &out {
             std::fs::create_dir_all(d).unwrap();
             gibake_eval::levels::write_panel(&images, &d.join(format!("{}.png", spec.name)))
@@ -103,6 +123,11 @@ fn main() {
             gibake_eval::levels::write_indirect_panel(
                 &images,
                 &d.join(format!("{}_indirect.png", spec.name)),
+            )
+            .unwrap();
+            gibake_eval::levels::write_every_panel(
+                &images,
+                &d.join(format!("{}_every.png", spec.name)),
             )
             .unwrap();
             if std::env::var("DUMP_EXR").is_ok() {
@@ -114,6 +139,13 @@ fn main() {
         println!("{}", gibake_eval::levels::LevelEval::MARKDOWN_HEADER);
         for r in rows {
             println!("{r}");
+        }
+        if !every_rows.is_empty() {
+            println!();
+            println!("{}", gibake_eval::levels::LevelEval::EVERY_MARKDOWN_HEADER);
+            for r in every_rows {
+                println!("{r}");
+            }
         }
     }
 }

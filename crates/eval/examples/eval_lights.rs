@@ -3,10 +3,12 @@
 //! and judges them against the CPU reference lit by every light
 //! (`gibake_eval::levels::judge_level`: image and direct rel MSE, indirect
 //! bias per channel, full's blurred indirect error against rsm's, naive
-//! against full, FLIP).
+//! against full, FLIP), one bounce and every bounce (`vs one bounce: …`,
+//! `vs every bounce ×R/G/B of one: …`; `--one-bounce-only` leaves the
+//! every-bounce reference out).
 //!
 //! ```text
-//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--near-field-descent N] [--look-at EX,EY,EZ,TX,TY,TZ] [--no-light-bounce] [--balls-under-lamps R] [--out DIR] [--no-naive]
+//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--near-field-descent N] [--look-at EX,EY,EZ,TX,TY,TZ] [--no-light-bounce] [--balls-under-lamps R] [--out DIR] [--no-naive] [--one-bounce-only]
 //! ```
 //!
 //! `--no-naive` leaves out the `naive` render (every VPL map re-rendered:
@@ -30,7 +32,9 @@
 //! `DUMP_EXR=1` with `--out DIR`: also the reference's, `full`'s and
 //! `rsm`'s indirect images and the runtime's direct light as EXR
 //! (`NAME_ref_ind.exr`, `NAME_full_ind.exr`, `NAME_rsm_ind.exr`,
-//! `NAME_direct.exr`), for looking at where the indirect light is lost.
+//! `NAME_direct.exr`) and the reference's direct light
+//! (`NAME_ref_direct.exr`), for looking at where the indirect light is
+//! lost or the direct light's shadows leak.
 
 use gibake_scene::LoadOptions;
 
@@ -40,6 +44,8 @@ fn main() {
         spp: 512,
         blur: 4,
         ssaa: 4,
+        every_bounce: true,
+        every_bounce_bake: true,
         ..Default::default()
     };
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -88,6 +94,10 @@ fn main() {
             }
             "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
             "--no-naive" => s.naive = false,
+            "--one-bounce-only" => {
+                s.every_bounce = false;
+                s.every_bounce_bake = false;
+            }
             _ => scenes.push(a.clone()),
         }
     }

@@ -3,7 +3,7 @@
 //! visibility rules, in the CPU twin of the shading
 //! (`gibake_eval::transport`) against the CPU reference's one bounce at
 //! 48² pixel centres (`SIZE=N` for another size), static part, 664 VPLs:
-//! - `rim`: the first map's rim answer (the shading before format 4.5);
+//! - `rim`: the first map's rim answer (the shading before format 4.7);
 //! - `origin`: exact rays from the VPL's one map origin;
 //! - `second`: exact rays from its second origin where it has one
 //!   (`gibake_bake::horizon`), the rim answer elsewhere — what the second

@@ -15,73 +15,10 @@ use gibake_bake::later::{Bounces, LaterOptions, later_bounces};
 use gibake_bake::lights::every_light;
 use gibake_bake::reach::Reach;
 use gibake_eval::transport::TwinVpls;
-use gibake_reference::{Hit, RayScene};
+use gibake_reference::RayScene;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::f32::consts::PI;
-
-/// A uniform number in `[0, 1)` from `(p, s, k)` (SplitMix64 finaliser).
-fn rnd(p: u32, s: u32, k: u32) -> f32 {
-    let mut z = (u64::from(p) << 40) ^ (u64::from(s) << 20) ^ u64::from(k);
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^= z >> 31;
-    (z >> 40) as f32 / (1u64 << 24) as f32
-}
-
-fn every_bounce(rays: &RayScene<'_>, h: &Hit, seed: u32, side: u32) -> Vec3 {
-    let mut sum = Vec3::ZERO;
-    for s in 0..side * side {
-        let mut hit = *h;
-        let mut through = Vec3::ONE;
-        let mut k = 0u32;
-        loop {
-            let (t, b) = gibake_gpu::orthonormal_basis(hit.shading_normal);
-            let (u1, u2) = if k == 0 {
-                (
-                    ((s % side) as f32 + rnd(seed, s, 0)) / side as f32,
-                    ((s / side) as f32 + rnd(seed, s, 1)) / side as f32,
-                )
-            } else {
-                (rnd(seed, s, 3 * k), rnd(seed, s, 3 * k + 1))
-            };
-            let r = u1.sqrt();
-            let phi = 2.0 * PI * u2;
-            let dir = t * (r * phi.cos())
-                + b * (r * phi.sin())
-                + hit.shading_normal * (1.0 - u1).max(0.0).sqrt();
-            if hit.geometric_normal.dot(dir) <= 0.0 {
-                break;
-            }
-            let origin = rays.offset_point(hit.position, hit.geometric_normal);
-            let Some(y) = rays.intersect(origin, dir, f32::INFINITY) else {
-                break;
-            };
-            through *= y.albedo;
-            let e = gibake_reference::irradiance(
-                rays,
-                y.position,
-                y.geometric_normal,
-                y.shading_normal,
-            );
-            sum += through * e;
-            k += 1;
-            if k >= 3 {
-                let p = through.max_element().min(1.0);
-                if p <= 0.0 || rnd(seed, s, 3 * k + 2) >= p {
-                    break;
-                }
-                through /= p;
-            }
-            if k > 4096 {
-                break;
-            }
-            hit = y;
-        }
-    }
-    sum / (side * side) as f32
-}
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -163,11 +100,118 @@ fn main() {
         }
         eprintln!("  tail {:?}, direct {:?}", l.tail, l.direct);
     }
+    if std::env::var("DIAG").is_ok() {
+        // Per later VPL at the pixels where the VPLs most exceed their
+        // surfels' own light: what each sends against what its surfels do.
+        let em: Vec<Vec3> = (0..sf.len())
+            .map(|i| sf.albedo[i] * sol.indirect[i] * sf.area[i])
+            .collect();
+        let b = stat.static_bounds();
+        let sec = gibake_bake::later::secondary::cluster(
+            &rays,
+            &sf,
+            &em,
+            later,
+            (b.max - b.min).length(),
+        );
+        let flags = vec![true; sec.vpls.len()];
+        let tw = TwinVpls::new(&sec.vpls, &flags, &sec.nodes, &sec.coherence);
+        let cam = gibake_reference::View::from_scene(&scene, 0.0).expect("a camera");
+        let mut worst: Vec<(f32, u32, Vec<(usize, f32, f32)>)> = (0..size * size)
+            .into_par_iter()
+            .filter_map(|p| {
+                let (x, y) = (p % size, p / size);
+                let (o, d, t0) = cam.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
+                let h = rays.intersect_range(o, d, t0, f32::INFINITY)?;
+                let mut per = vec![(0f32, 0f32); sec.vpls.len()];
+                for (i, v) in sec.vpls.iter().enumerate() {
+                    let t = gibake_eval::transport::static_vpl_terms(
+                        v,
+                        tw.centres[i],
+                        tw.tree(i),
+                        &tw.lobes[i],
+                        h.position,
+                        h.shading_normal,
+                        h.geometric_normal,
+                    );
+                    let vis = !gibake_eval::transport::origin_in_front(
+                        tw.origins[i],
+                        h.position,
+                        h.geometric_normal,
+                    ) || rays.visible(
+                        tw.origins[i],
+                        Vec3::from_array(v.normal),
+                        h.position,
+                        h.geometric_normal,
+                    );
+                    per[i].0 = (if vis { t.total() } else { t.open }).element_sum();
+                }
+                for (k, &vv) in sec.surfel_vpl.iter().enumerate() {
+                    if vv == u32::MAX {
+                        continue;
+                    }
+                    let e = gibake_eval::transport::disk_irradiance(
+                        sf.position[k],
+                        sf.normal[k],
+                        sf.area[k],
+                        em[k],
+                        h.position,
+                        h.shading_normal,
+                        h.geometric_normal,
+                    );
+                    if e != Vec3::ZERO
+                        && rays.visible(
+                            sf.position[k],
+                            sf.normal[k],
+                            h.position,
+                            h.geometric_normal,
+                        )
+                    {
+                        per[vv as usize].1 += e.element_sum();
+                    }
+                }
+                let excess: f32 = per.iter().map(|(a, b)| a - b).sum();
+                Some((
+                    excess,
+                    p,
+                    per.into_iter()
+                        .enumerate()
+                        .map(|(i, (a, b))| (i, a, b))
+                        .collect(),
+                ))
+            })
+            .collect();
+        worst.sort_by(|a, b| b.0.total_cmp(&a.0));
+        for (excess, p, mut per) in worst.into_iter().take(3) {
+            println!("  pixel {p}: later VPLs exceed their surfels by {excess:.4}");
+            per.sort_by(|a, b| (b.1 - b.2).total_cmp(&(a.1 - a.2)));
+            for (i, a, b) in per.into_iter().take(3) {
+                let v = &sec.vpls[i];
+                let n = sec.surfel_vpl.iter().filter(|&&x| x == i as u32).count();
+                let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+                for (k, &x) in sec.surfel_vpl.iter().enumerate() {
+                    if x == i as u32 {
+                        lo = lo.min(sf.position[k]);
+                        hi = hi.max(sf.position[k]);
+                    }
+                }
+                println!(
+                    "    VPL {i}: {n} surfels, at {:.2?} normal {:.2?}, area {:.2}, extent {:.2?}, coherence {:.3}: sends {a:.4}, its surfels {b:.4}",
+                    v.position,
+                    v.normal,
+                    v.area,
+                    hi - lo,
+                    tw.lobes[i].vpl
+                );
+            }
+        }
+    }
     let records = every.vpl_records();
     let (nodes, coherence) = every.vpl_trees();
     let ring = every.ring_flags();
     let first = TwinVpls::new(&records, &ring, &nodes, &coherence);
-    let no_ring = vec![std::env::var("LIFT_ONE").is_ok(); l.vpls.len()];
+    // Lifted by one surfel's radius, as the bake does (a ring VPL's rule).
+    let no_ring = vec![true; l.vpls.len()];
     let second = TwinVpls::new(&l.vpls, &no_ring, &l.nodes, &l.coherence);
     let cam = gibake_reference::View::from_scene(&scene, 0.0).expect("a camera");
     let px: Vec<(Vec3, Vec3, Vec3, Vec3, Vec3)> = (0..size * size)
@@ -178,10 +222,16 @@ fn main() {
             let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
                 return (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
             };
-            let mut one = Vec3::ZERO;
-            gibake_eval::bounce::one_bounce_samples(&rays, &h, p, side, |_, l| one += l);
+            // The reference's one-bounce and every-bounce radiance at the
+            // pixel centre (gibake_eval::bounce, validated against Mitsuba 3).
+            let (mut one, mut all) = (Vec3::ZERO, Vec3::ZERO);
+            let mut stats = gibake_reference::PathStats::default();
+            gibake_eval::bounce::every_bounce_samples(&rays, &h, p, side, &mut stats, |_, d, e| {
+                one += d;
+                all += e;
+            });
             let one = h.albedo * one / (side * side) as f32;
-            let all = h.albedo / PI * every_bounce(&rays, &h, p, side);
+            let all = h.albedo * all / (side * side) as f32;
             let a = h.albedo / PI * first.irradiance(&rays, &h).visible;
             let b = h.albedo / PI * second.irradiance(&rays, &h).visible;
             let mut e = Vec3::ZERO;
@@ -243,7 +293,7 @@ fn main() {
     };
     let later_share: f64 = l.later_share();
     println!(
-        "{name}: {} first-bounce VPLs ({t1:.1} s), {} later VPLs from {} surfels ({t2:.1} s, {} bounces{}, converged {}), later share of reflected light {:.1}%",
+        "{name}: {} first-bounce VPLs ({t1:.1} s), {} later VPLs from {} surfels ({t2:.1} s, {} bounces{}, converged {}), later share of reflected light {:.2}%",
         records.len(),
         l.vpls.len(),
         l.surfels,

@@ -37,6 +37,10 @@
 //! draws each VPL from its map origin (the rule before session 10) and as
 //! its level-1 near-field nodes (`--split-level 2` or `3`: level 2 or 3).
 //!
+//! `--every-bounce`: also the bias against the every-bounce reference (one
+//! every-bounce path from each secondary hit) and the every-bounce ÷
+//! one-bounce indirect ratio.
+//!
 //! `--equal-split`: each light gets `N / lights` VPLs over its own views
 //! (the alternative to one budget spread by the light's bounce).
 //!
@@ -55,6 +59,7 @@ fn main() {
     let mut equal = false;
     let mut keep_negligible = false;
     let mut split = false;
+    let mut every_bounce = false;
     let mut split_level = 1u32;
     let mut only: Option<usize> = None;
     let mut rsm = 512u32;
@@ -75,6 +80,7 @@ fn main() {
             "--equal-split" => equal = true,
             "--keep-negligible" => keep_negligible = true,
             "--split" => split = true,
+            "--every-bounce" => every_bounce = true,
             "--split-level" => {
                 split_level = args[i + 1].parse().expect("--split-level 1|2|3");
                 assert!((1..=3).contains(&split_level), "--split-level 1|2|3");
@@ -143,7 +149,7 @@ fn main() {
                     (vpls, rsm, side),
                     size,
                     equal,
-                    (keep_negligible, split.then_some(split_level)),
+                    (keep_negligible, split.then_some(split_level), every_bounce),
                 ));
             }
             if all.len() > 1 {
@@ -181,7 +187,7 @@ fn main() {
                 (vpls, rsm, side),
                 size,
                 equal,
-                (keep_negligible, split.then_some(split_level)),
+                (keep_negligible, split.then_some(split_level), every_bounce),
             );
         }
     }
@@ -207,7 +213,7 @@ fn judge(
     (vpls, rsm_size, side): (u32, u32, u32),
     size: u32,
     equal: bool,
-    (keep_negligible, split): (bool, Option<u32>),
+    (keep_negligible, split, every_bounce): (bool, Option<u32>, bool),
 ) -> (DVec3, f64) {
     let budget = if equal {
         Budget::EqualSplit
@@ -224,6 +230,7 @@ fn judge(
             budget,
             keep_negligible,
             split,
+            every_bounce,
         },
     );
     println!(
@@ -252,6 +259,19 @@ fn judge(
         j.bias_sigma.max_element() * 100.0,
         j.blurred_error
     );
+    if let Some(e) = j.every_bounce {
+        println!(
+            "  vs every bounce: indirect ×{:.2}/{:.2}/{:.2} of one bounce, bias {:+.1}/{:+.1}/{:+.1}% (reference noise ±{:.1}%, {:.1} bounces a path from the secondary hits)",
+            e.ratio.x,
+            e.ratio.y,
+            e.ratio.z,
+            e.bias.x * 100.0,
+            e.bias.y * 100.0,
+            e.bias.z * 100.0,
+            e.bias_sigma.max_element() * 100.0,
+            e.stats.mean_bounces()
+        );
+    }
     if let Some(sp) = j.split {
         println!(
             "  split (no visibility, channels summed): clustered / texels {:+.1}% (transport), texels of kept VPLs / all {:+.1}%, visibility from one point per VPL {:+.1}%",

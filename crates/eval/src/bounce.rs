@@ -1,10 +1,13 @@
 //! The diagnostics' one-bounce estimator (`vpl_diag`, `rsm_ceiling`,
-//! `band_sources`): at a receiver, stratified cosine-distributed directions
-//! about its shading normal, each secondary hit's direct radiance from the
-//! reference (`gibake_reference::direct_radiance`). Deterministic: the
-//! jitter is a hash of the receiver's index and the sample's. And the
-//! kernel those diagnostics give one RSM texel as its own point VPL
-//! ([`texel_kernel`]).
+//! `band_sources`, [`crate::lights`]): at a receiver, stratified
+//! cosine-distributed directions about its shading normal, each secondary
+//! hit's direct radiance from the reference
+//! (`gibake_reference::direct_radiance`); and its every-bounce twin
+//! ([`every_bounce_samples`]: the same directions, each secondary hit's
+//! radiance with every bounce, one reference path from it).
+//! Deterministic: the jitter is a hash of the receiver's index and the
+//! sample's. And the kernel those diagnostics give one RSM texel as its
+//! own point VPL ([`texel_kernel`]).
 
 use gibake_reference::{Hit, RayScene, View};
 use glam::Vec3;
@@ -22,6 +25,50 @@ pub fn one_bounce_samples(
     side: u32,
     mut visit: impl FnMut(&Hit, Vec3),
 ) {
+    secondary_hits(rays, h, seed, side, |y, _| {
+        let radiance = gibake_reference::direct_radiance(rays, y);
+        visit(y, radiance);
+    });
+}
+
+/// [`one_bounce_samples`] with every bounce: the same directions and
+/// secondary hits, and `visit(secondary hit, its direct radiance, its
+/// radiance with every bounce)`, the last one reference path from the hit
+/// ([`gibake_reference::hit_radiance`], [`gibake_reference::Depth::Every`],
+/// seeded from the receiver's and the sample's index; `stats` adds what
+/// the paths did). The every-bounce indirect radiance at the receiver is
+/// `albedo · Σ every / side²`.
+pub fn every_bounce_samples(
+    rays: &RayScene<'_>,
+    h: &Hit,
+    seed: u32,
+    side: u32,
+    stats: &mut gibake_reference::PathStats,
+    mut visit: impl FnMut(&Hit, Vec3, Vec3),
+) {
+    secondary_hits(rays, h, seed, side, |y, k| {
+        let direct = gibake_reference::direct_radiance(rays, y);
+        let path_seed = u64::from(seed) << 32 | u64::from(k);
+        let every = gibake_reference::hit_radiance(
+            rays,
+            y,
+            gibake_reference::Depth::Every,
+            path_seed,
+            stats,
+        );
+        visit(y, direct, every);
+    });
+}
+
+/// Calls `visit(secondary hit, sample index)` for the stratified cosine
+/// samples of [`one_bounce_samples`] that hit a surface.
+fn secondary_hits(
+    rays: &RayScene<'_>,
+    h: &Hit,
+    seed: u32,
+    side: u32,
+    mut visit: impl FnMut(&Hit, u32),
+) {
     let (t, b) = gibake_gpu::orthonormal_basis(h.shading_normal);
     let origin = rays.offset_point(h.position, h.geometric_normal);
     for i in 0..side {
@@ -37,8 +84,7 @@ pub fn one_bounce_samples(
                 continue;
             }
             if let Some(y) = rays.intersect(origin, dir, f32::INFINITY) {
-                let radiance = gibake_reference::direct_radiance(rays, &y);
-                visit(&y, radiance);
+                visit(&y, i * side + j);
             }
         }
     }

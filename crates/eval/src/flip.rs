@@ -48,6 +48,34 @@ fn to_flip(img: &Image, exposure: f32) -> nv_flip::FlipImageRgb8 {
 /// Mean LDR-FLIP of `test` against `reference` (0 = identical, 1 = the
 /// largest difference), both tone-mapped with `exposure`.
 pub fn mean_flip_exposed(test: &Image, reference: &Image, exposure: f32) -> Result<f64, FlipError> {
+    flip_map_exposed(test, reference, exposure).map(|m| m.mean)
+}
+
+/// FLIP's per-pixel error map of `test` against `reference`, both
+/// tone-mapped with `exposure` (what [`mean_flip_exposed`] pools).
+#[derive(Clone, Debug)]
+pub struct FlipMap {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Per pixel, row-major from the top: 0 (identical) to 1.
+    pub values: Vec<f32>,
+    /// Their mean (FLIP's own pooling).
+    pub mean: f64,
+    /// The map through FLIP's magma colour map, 8-bit RGB (black: no
+    /// difference, through purple and orange to pale yellow): the heat map
+    /// FLIP's authors show.
+    pub magma_rgb8: Vec<u8>,
+}
+
+/// [`FlipMap`] of `test` against `reference`, both tone-mapped with
+/// `exposure`.
+pub fn flip_map_exposed(
+    test: &Image,
+    reference: &Image,
+    exposure: f32,
+) -> Result<FlipMap, FlipError> {
     if (test.width, test.height) != (reference.width, reference.height) {
         return Err(FlipError::SizeMismatch(
             test.width,
@@ -64,7 +92,13 @@ pub fn mean_flip_exposed(test: &Image, reference: &Image, exposure: f32) -> Resu
         to_flip(test, exposure),
         nv_flip::DEFAULT_PIXELS_PER_DEGREE,
     );
-    Ok(f64::from(nv_flip::FlipPool::from_image(&map).mean()))
+    Ok(FlipMap {
+        width: test.width,
+        height: test.height,
+        values: map.to_vec(),
+        mean: f64::from(nv_flip::FlipPool::from_image(&map).mean()),
+        magma_rgb8: map.apply_color_lut(&nv_flip::magma_lut()).to_vec(),
+    })
 }
 
 /// Mean LDR-FLIP of `test` against `reference`, both tone-mapped with the

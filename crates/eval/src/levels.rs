@@ -10,11 +10,14 @@
 //! LEVEL --sun … --dynamic …` passes to the importer, and
 //! [`LevelSpec::command_line`] prints those flags.
 //!
-//! [`judge_level`] renders the reference (direct + one bounce, direct only)
-//! and every mode, and reports per level ([`LevelEval`]): image rel MSE,
-//! direct rel MSE, the indirect part's mean bias per channel, `full`'s and
-//! `rsm`'s blurred indirect error, mean FLIP, `naive` against `full`, the
-//! bake time and VPL counts. [`write_panel`] writes the picture reference |
+//! [`judge_level`] renders the reference (direct + one bounce, direct only;
+//! every bounce too with [`EvalSettings::every_bounce`]) and every mode,
+//! and reports per level ([`LevelEval`]): image rel MSE, direct rel MSE,
+//! the indirect part's mean bias per channel, `full`'s and `rsm`'s blurred
+//! indirect error, mean FLIP, `naive` against `full`, the bake time and
+//! VPL counts; against the every-bounce reference, the every-bounce ÷
+//! one-bounce indirect ratio and `full`'s bias and error
+//! ([`crate::EveryBounceEval`], [`LevelEval::every_markdown_row`]). [`write_panel`] writes the picture reference |
 //! full | rsm | error that docs/results.md shows per level.
 
 use std::path::{Path, PathBuf};
@@ -320,6 +323,37 @@ impl LevelEval {
     }
 }
 
+impl LevelEval {
+    /// The header of [`LevelEval::every_markdown_row`]'s table.
+    pub const EVERY_MARKDOWN_HEADER: &'static str = "| level | every ÷ one bounce indirect (R/G/B) | bounces a path | one-bounce bake: full vs one bounce | full vs every bounce | rsm vs every bounce | full err vs every bounce | every-bounce bake (later VPLs): full vs every bounce | its err | its bake s |\n|---|---|---|---|---|---|---|---|---|---|";
+
+    /// One row of the table of what the later bounces add and `full`'s
+    /// bias against both references (docs/reference.md, "Every bounce on
+    /// the real levels"); `None` without the every-bounce reference.
+    pub fn every_markdown_row(&self) -> Option<String> {
+        let e = self.indirect.every.as_ref()?;
+        let pct = |b: [f32; 3]| b.map(|x| format!("{:+.1}", 100.0 * x)).join("/") + "%";
+        let (baked, baked_err, baked_s) = match &e.baked {
+            Some(b) => (
+                format!("{} ({})", pct(b.full_bias), b.later_vpls),
+                format!("{:.2}", b.full_err),
+                format!("{:.1}", b.bake_s),
+            ),
+            None => ("—".into(), "—".into(), "—".into()),
+        };
+        Some(format!(
+            "| {} | {} | {:.1} | {} | {} | {} | {:.2} | {baked} | {baked_err} | {baked_s} |",
+            self.indirect.name,
+            e.ratio.map(|r| format!("{r:.2}")).join("/"),
+            e.mean_bounces,
+            pct(self.indirect.full_bias),
+            pct(e.full_bias),
+            pct(e.rsm_bias),
+            e.full_err,
+        ))
+    }
+}
+
 /// The images of one level's judgement.
 pub struct LevelImages {
     /// The reference.
@@ -330,6 +364,9 @@ pub struct LevelImages {
     pub direct: Image,
     /// `rsm`.
     pub rsm: Image,
+    /// `full` of the default bake (every bounce), where
+    /// [`EvalSettings::every_bounce_bake`] rendered it.
+    pub every_full: Option<Image>,
 }
 
 /// rel MSE of `naive` against `full` for `scene` baked with `s` (the
@@ -407,7 +444,32 @@ pub fn judge_level(
         .into_iter()
         .flatten()
         .collect(),
+        every: reference.every.as_ref().map(|e| {
+            crate::EveryBounceEval::new(&full_ind, &rsm_ind, e, &reference.direct, rm, s.blur)
+        }),
     };
+    // The default bake (every bounce) against the every-bounce reference.
+    let mut indirect = indirect;
+    let mut every_full = None;
+    if let (Some(e), Some(judged), true) = (
+        reference.every.as_ref(),
+        indirect.every.take(),
+        s.every_bounce_bake,
+    ) {
+        let t = Instant::now();
+        let every = crate::bake_bounces(ctx, scene, s, gibake_bake::later::Bounces::Every)?;
+        let bake_s = t.elapsed().as_secs_f64();
+        let full = crate::render(ctx, scene, &every, Mode::Full, s)?;
+        indirect.every = Some(judged.with_bake(
+            &full.sub(&direct),
+            e,
+            &reference.direct,
+            &every,
+            bake_s,
+            s.blur,
+        ));
+        every_full = Some(full);
+    }
     let exposure = reference.one_bounce.auto_exposure();
     let eval = LevelEval {
         indirect,
@@ -429,8 +491,24 @@ pub fn judge_level(
             full,
             direct,
             rsm,
+            every_full,
         },
     ))
+}
+
+/// Writes `every-bounce reference | the default bake's full | the
+/// one-bounce bake's full | error` (the default bake's against the
+/// every-bounce reference, 4×) side by side as a PNG, with the every-bounce
+/// reference's exposure; nothing (`Ok(false)`) where the every-bounce
+/// images were not rendered.
+pub fn write_every_panel(
+    images: &LevelImages,
+    path: &Path,
+) -> Result<bool, gibake_image::ImageError> {
+    match (&images.reference.every, &images.every_full) {
+        (Some(e), Some(full)) => write_row(&e.image, full, &images.full, path).map(|()| true),
+        _ => Ok(false),
+    }
 }
 
 /// Writes `reference | full | rsm | error` side by side as a PNG, all with
@@ -456,8 +534,9 @@ pub fn write_indirect_panel(
 
 /// Writes the reference's, `full`'s and `rsm`'s indirect light and the
 /// direct light as EXR, `DIR/NAME_ref_ind.exr`, `NAME_full_ind.exr`,
-/// `NAME_rsm_ind.exr` and `NAME_direct.exr` (the examples' `DUMP_EXR=1`:
-/// for looking at where the indirect light is lost).
+/// `NAME_rsm_ind.exr`, `NAME_direct.exr` and the reference's direct light
+/// `NAME_ref_direct.exr` (the examples' `DUMP_EXR=1`: for looking at where
+/// the indirect light is lost, or where the direct light's shadows leak).
 pub fn write_exrs(
     images: &LevelImages,
     dir: &Path,
@@ -468,6 +547,7 @@ pub fn write_exrs(
         ("full_ind", images.full.sub(&images.direct)),
         ("rsm_ind", images.rsm.sub(&images.direct)),
         ("direct", images.direct.clone()),
+        ("ref_direct", images.reference.direct.clone()),
     ] {
         image.write_exr(&dir.join(format!("{name}_{part}.exr")))?;
     }

@@ -1,6 +1,8 @@
 //! The judge of the method's indirect light: for a scene, bake it, render
 //! `full`, `rsm`, `naive` and `direct`, render the independent CPU
-//! reference (one bounce and direct only), and compare the indirect parts.
+//! reference (one bounce and direct only; with
+//! [`EvalSettings::every_bounce`] also every bounce), and compare the
+//! indirect parts.
 //!
 //! Figures, per scene ([`IndirectEval`]):
 //! - **mean indirect bias** per channel: `mean(ours) / mean(reference) − 1`
@@ -11,16 +13,24 @@
 //!   not dominate, divided by the reference's mean indirect radiance
 //!   (dimensionless);
 //! - on scenes without moving objects, `naive` against `full` (they must
-//!   agree) and whether every mode has indirect light.
+//!   agree) and whether every mode has indirect light;
+//! - with [`EvalSettings::every_bounce`] ([`EveryBounceEval`]): the same
+//!   bias and error against the every-bounce reference (`every bounce −
+//!   direct only`), and the every-bounce ÷ one-bounce indirect ratio per
+//!   channel. The tests judge against the one-bounce reference (the
+//!   method's first bounce is the paper's; the later bounces are another
+//!   issue's), so it is off by default: an every-bounce reference costs
+//!   1.5–20× a one-bounce one (the bounces a path makes).
 //!
 //! Used by the tests (`tests/indirect_accuracy.rs`, 20 random seeds at a
 //! small size) and by `gibake bench accuracy` (more seeds, full size).
 //!
 //! Also the tools' helpers around the runtime that a game does not need:
 //! [`frame`] (render a scene's own frame, read an output back),
-//! [`transport`] (the CPU twin of the shading's VPL transport) and
+//! [`transport`] (the CPU twin of the shading's VPL transport),
 //! [`moving`] (what moving objects change in a level's indirect light,
-//! judged with correlated reference renders).
+//! judged with correlated reference renders) and [`view_diff`] (the
+//! image-space diff of two bakes of one level, `gibake diff --scene`).
 
 pub mod bounce;
 pub mod fit;
@@ -31,6 +41,7 @@ pub mod lights;
 pub mod moving;
 pub mod pareto;
 pub mod transport;
+pub mod view_diff;
 
 use gibake_asset::Asset;
 use gibake_gpu::GpuContext;
@@ -53,6 +64,8 @@ pub struct EvalSettings {
     pub rsm_size: u32,
     /// Hemisphere map resolution.
     pub vpl_map_size: u32,
+    /// Primary shadow map resolution (`gibake bake --shadow-map-size`).
+    pub shadow_map_size: u32,
     /// Scene time.
     pub time: f32,
     /// Box-blur radius in pixels for the error.
@@ -77,6 +90,18 @@ pub struct EvalSettings {
     /// The runtime's near-field descent
     /// ([`RenderSettings::near_field_descent`]).
     pub near_field_descent: u32,
+    /// Also render the every-bounce reference ([`ReferenceImages::every`],
+    /// same samples per pixel as the one-bounce image) and judge against
+    /// it too ([`IndirectEval::every`]). Off by default (the tests judge
+    /// the one-bounce method against the one-bounce reference); the eval
+    /// tools turn it on.
+    pub every_bounce: bool,
+    /// With [`EvalSettings::every_bounce`], also bake with every bounce
+    /// (the default of `gibake bake`) and judge its `full` against the
+    /// every-bounce reference ([`EveryBounceEval::baked`]); the figures
+    /// against one bounce stay those of the one-bounce bake. On in the
+    /// eval tools.
+    pub every_bounce_bake: bool,
 }
 
 impl Default for EvalSettings {
@@ -87,6 +112,7 @@ impl Default for EvalSettings {
             vpls: 664,
             rsm_size: 512,
             vpl_map_size: 128,
+            shadow_map_size: 2048,
             time: 0.5,
             blur: 1,
             ssaa: 2,
@@ -95,6 +121,8 @@ impl Default for EvalSettings {
             light_bounce: true,
             naive: true,
             near_field_descent: RenderSettings::default().near_field_descent,
+            every_bounce: false,
+            every_bounce_bake: false,
         }
     }
 }
@@ -141,6 +169,132 @@ pub struct IndirectEval {
     /// Per mode (`full`, `indirect`, `rsm`, and `naive` where rendered): mean indirect radiance
     /// (sum of channels) — all must be positive where the reference's is.
     pub mode_indirect: Vec<(String, f32)>,
+    /// The figures against the every-bounce reference
+    /// ([`EvalSettings::every_bounce`]; `None` when it was not rendered).
+    pub every: Option<EveryBounceEval>,
+}
+
+/// `full` and `rsm` judged against the every-bounce reference (`every
+/// bounce − direct only`), beside [`IndirectEval`]'s one-bounce figures.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct EveryBounceEval {
+    /// The every-bounce reference's mean indirect radiance (RGB).
+    pub ref_mean: [f32; 3],
+    /// Its standard error, relative, per channel (two halves of its samples).
+    pub ref_noise: [f32; 3],
+    /// Every-bounce indirect ÷ one-bounce indirect, per channel: what the
+    /// later bounces add (1: nothing).
+    pub ratio: [f32; 3],
+    /// `full`'s mean indirect bias against it, per channel.
+    pub full_bias: [f32; 3],
+    /// `rsm`'s mean indirect bias against it.
+    pub rsm_bias: [f32; 3],
+    /// `full`'s relative indirect error against it (blurred, as
+    /// [`IndirectEval::full_err`]).
+    pub full_err: f64,
+    /// Bounce rays a path of the every-bounce reference made.
+    pub mean_bounces: f64,
+    /// Its paths cut at [`gibake_reference::MAX_BOUNCES`].
+    pub capped: u64,
+    /// The default bake (every bounce, `gibake bake` without `--bounces`)
+    /// judged against it: `None` when not rendered.
+    pub baked: Option<EveryBounceBake>,
+}
+
+/// `full` of the default bake — the first bounce's VPLs and the later
+/// bounces' ([`gibake_bake::later`]) — against the every-bounce reference.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct EveryBounceBake {
+    /// Its VPLs, the later bounces' included.
+    pub vpls: usize,
+    /// The later bounces' VPLs (0: left out).
+    pub later_vpls: u32,
+    /// Its bake time, seconds (the later bounces included).
+    pub bake_s: f64,
+    /// `full`'s mean indirect bias against the every-bounce reference.
+    pub full_bias: [f32; 3],
+    /// `full`'s relative indirect error against it (blurred).
+    pub full_err: f64,
+}
+
+impl EveryBounceEval {
+    /// The figures of `full` and `rsm` (indirect parts) against
+    /// `reference` (the every-bounce reference's indirect part, with its
+    /// noise and path stats) and `one` (the one-bounce reference's mean
+    /// indirect radiance).
+    pub fn new(
+        full: &Image,
+        rsm: &Image,
+        reference: &EveryBounceImage,
+        direct: &Image,
+        one: Vec3,
+        blur: u32,
+    ) -> EveryBounceEval {
+        let ind = reference.image.sub(direct);
+        let rm = ind.mean();
+        let tiny = Vec3::splat(f32::MIN_POSITIVE);
+        EveryBounceEval {
+            ref_mean: rm.to_array(),
+            ref_noise: (reference.noise / rm.max(tiny)).to_array(),
+            ratio: (rm / one.max(tiny)).to_array(),
+            full_bias: bias(full.mean(), rm),
+            rsm_bias: bias(rsm.mean(), rm),
+            full_err: indirect_error(full, &ind, blur),
+            mean_bounces: reference.stats.mean_bounces(),
+            capped: reference.stats.capped,
+            baked: None,
+        }
+    }
+
+    /// Adds the default bake's `full` (indirect part) to the judgement.
+    pub fn with_bake(
+        mut self,
+        full: &Image,
+        reference: &EveryBounceImage,
+        direct: &Image,
+        asset: &Asset,
+        bake_s: f64,
+        blur: u32,
+    ) -> EveryBounceEval {
+        let ind = reference.image.sub(direct);
+        self.baked = Some(EveryBounceBake {
+            vpls: asset.vpls.len(),
+            later_vpls: asset.manifest.later_vpls(),
+            bake_s,
+            full_bias: bias(full.mean(), ind.mean()),
+            full_err: indirect_error(full, &ind, blur),
+        });
+        self
+    }
+
+    /// The part of [`IndirectEval::line`] it adds.
+    pub fn line(&self) -> String {
+        let pct =
+            |b: [f32; 3]| format!("{:+.1}/{:+.1}/{:+.1}%", b[0] * 1e2, b[1] * 1e2, b[2] * 1e2);
+        format!(
+            "every bounce ×{:.2}/{:.2}/{:.2} of one: bias full {} rsm {} (ref ±{:.1}%, {:.1} bounces a path{}) err full {:.4}",
+            self.ratio[0],
+            self.ratio[1],
+            self.ratio[2],
+            pct(self.full_bias),
+            pct(self.rsm_bias),
+            300.0 * self.ref_noise.iter().fold(0f32, |a, b| a.max(*b)),
+            self.mean_bounces,
+            if self.capped > 0 {
+                format!(", {} cut at the cap", self.capped)
+            } else {
+                String::new()
+            },
+            self.full_err,
+        ) + &self.baked.as_ref().map_or(String::new(), |b| {
+            format!(
+                "; every-bounce bake ({} later VPLs): bias {} err {:.4}",
+                b.later_vpls,
+                pct(b.full_bias),
+                b.full_err
+            )
+        })
+    }
 }
 
 impl IndirectEval {
@@ -156,12 +310,14 @@ impl IndirectEval {
         (0..3).all(|c| self.full_bias[c].abs() <= tol + 3.0 * self.ref_noise[c])
     }
 
-    /// One line for logs.
+    /// One line for logs: the figures against the one-bounce reference
+    /// ("bias full … rsm …"), then, where rendered, those against the
+    /// every-bounce reference ([`EveryBounceEval::line`]).
     pub fn line(&self) -> String {
         let pct =
             |b: [f32; 3]| format!("{:+.1}/{:+.1}/{:+.1}%", b[0] * 1e2, b[1] * 1e2, b[2] * 1e2);
         format!(
-            "{:<44} vpls {:>4} | bias full {} rsm {} (ref ±{:.1}%) | err full {:.4} rsm {:.4} ({:.2}×) | naive~full {}",
+            "{:<44} vpls {:>4} | vs one bounce: bias full {} rsm {} (ref ±{:.1}%) | err full {:.4} rsm {:.4} ({:.2}×) | naive~full {}{}",
             self.name,
             self.vpls,
             pct(self.full_bias),
@@ -174,7 +330,10 @@ impl IndirectEval {
                 "not rendered".to_string()
             } else {
                 format!("{:.1e}", self.naive_vs_full)
-            }
+            },
+            self.every
+                .as_ref()
+                .map_or(String::new(), |e| format!(" | vs {}", e.line()))
         )
     }
 }
@@ -216,11 +375,24 @@ pub fn random_scene(seed: u64) -> (Scene, String) {
 
 /// Bakes `scene` with the evaluation's settings.
 pub fn bake(ctx: &GpuContext, scene: &Scene, s: &EvalSettings) -> Result<Asset, EvalError> {
+    bake_bounces(ctx, scene, s, gibake_bake::later::Bounces::Count(1))
+}
+
+/// Bakes `scene` with the evaluation's settings and `bounces`
+/// ([`bake`]: the first bounce alone, what the one-bounce judge checks).
+pub fn bake_bounces(
+    ctx: &GpuContext,
+    scene: &Scene,
+    s: &EvalSettings,
+    bounces: gibake_bake::later::Bounces,
+) -> Result<Asset, EvalError> {
     let opts = gibake_bake::BakeOptions {
         rsm_size: s.rsm_size,
         vpl_map_size: s.vpl_map_size,
-        shadow_map_size: 2048,
+        shadow_map_size: s.shadow_map_size,
         target: gibake_bake::cluster::ClusterTarget::Count(s.vpls),
+        bounces,
+        later_vpls: None,
     };
     let asset = gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "eval")?.asset;
     Ok(if s.light_bounce {
@@ -280,7 +452,8 @@ pub fn render(
 /// The reference's images: direct + one bounce (the mean of two independent
 /// halves of the samples, seeds 0 and 1), direct only (seed 2), and the
 /// standard error of the one-bounce image's mean per channel, estimated
-/// from the two halves.
+/// from the two halves; with [`EvalSettings::every_bounce`], every bounce
+/// too ([`reference_every_bounce`]).
 pub struct ReferenceImages {
     /// Direct light plus one bounce (path depth 3).
     pub one_bounce: Image,
@@ -288,12 +461,33 @@ pub struct ReferenceImages {
     pub direct: Image,
     /// Standard error of `one_bounce`'s mean radiance per channel.
     pub noise: Vec3,
+    /// Direct light plus every bounce, where rendered.
+    pub every: Option<EveryBounceImage>,
+}
+
+/// The every-bounce reference image ([`reference_every_bounce`]).
+pub struct EveryBounceImage {
+    /// Direct light plus every bounce: the mean of two halves of the
+    /// samples, seeds 0 and 1 (the one-bounce halves' seeds: each path's
+    /// first bounce is the one-bounce image's, so the two differ by the
+    /// later bounces of the same paths, not by independent noise).
+    pub image: Image,
+    /// Standard error of its mean radiance per channel (the two halves).
+    pub noise: Vec3,
+    /// What its paths did (both halves).
+    pub stats: gibake_reference::PathStats,
 }
 
 impl ReferenceImages {
     /// The indirect part: one bounce minus direct only.
     pub fn indirect(&self) -> Image {
         self.one_bounce.sub(&self.direct)
+    }
+
+    /// The every-bounce indirect part: every bounce minus direct only
+    /// (`None` where it was not rendered).
+    pub fn indirect_every(&self) -> Option<Image> {
+        self.every.as_ref().map(|e| e.image.sub(&self.direct))
     }
 }
 
@@ -324,10 +518,10 @@ pub fn reference_renders(scene: &Scene, s: &EvalSettings) -> Result<[Image; 3], 
     ])
 }
 
-/// Renders the reference images of `scene` (see [`ReferenceImages`]).
-pub fn reference_images(scene: &Scene, s: &EvalSettings) -> Result<ReferenceImages, EvalError> {
-    let [a, b, direct] = reference_renders(scene, s)?;
-    let mut full = Image::new(s.size, s.size);
+/// The mean of two independent renders and the standard error of its mean
+/// radiance per channel.
+fn mean_of_halves(a: &Image, b: &Image) -> (Image, Vec3) {
+    let mut full = Image::new(a.width, a.height);
     let mut var = Vec3::ZERO;
     for (k, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         full.pixels[k] = (*p + *q) * 0.5;
@@ -335,10 +529,76 @@ pub fn reference_images(scene: &Scene, s: &EvalSettings) -> Result<ReferenceImag
         var += (*p - *q) * (*p - *q) * 0.25;
     }
     let n = a.pixels.len().max(1) as f32;
+    (full, (var / (n * n)).map(f32::sqrt))
+}
+
+/// The direct-only reference image of [`reference_renders`] alone (seed 2,
+/// a quarter of the samples, at least 16).
+fn reference_renders_direct(scene: &Scene, s: &EvalSettings) -> Result<Image, EvalError> {
+    Ok(gibake_reference::render(
+        scene,
+        &gibake_reference::Settings {
+            width: s.size,
+            height: s.size,
+            spp: (s.spp / 4).max(16),
+            time: s.time,
+            depth: gibake_reference::Depth::Direct,
+            seed: 2,
+        },
+        &|_| {},
+    )?)
+}
+
+/// Renders the reference images of `scene` (see [`ReferenceImages`]).
+pub fn reference_images(scene: &Scene, s: &EvalSettings) -> Result<ReferenceImages, EvalError> {
+    let [a, b, direct] = reference_renders(scene, s)?;
+    let (one_bounce, noise) = mean_of_halves(&a, &b);
+    let every = if s.every_bounce {
+        Some(reference_every_bounce(scene, s)?)
+    } else {
+        None
+    };
     Ok(ReferenceImages {
-        one_bounce: full,
+        one_bounce,
         direct,
-        noise: (var / (n * n)).map(f32::sqrt),
+        noise,
+        every,
+    })
+}
+
+/// The every-bounce reference of `scene`: two halves of `s.spp` samples
+/// per pixel ([`gibake_reference::Depth::Every`], seeds 0 and 1, as the
+/// one-bounce halves of [`reference_renders`]).
+pub fn reference_every_bounce(
+    scene: &Scene,
+    s: &EvalSettings,
+) -> Result<EveryBounceImage, EvalError> {
+    let half = (s.spp / 2).max(1);
+    let mut stats = gibake_reference::PathStats::default();
+    let mut r = |seed| -> Result<Image, EvalError> {
+        let (img, st) = gibake_reference::render_with_stats(
+            scene,
+            &gibake_reference::Settings {
+                width: s.size,
+                height: s.size,
+                spp: half,
+                time: s.time,
+                depth: gibake_reference::Depth::Every,
+                seed,
+            },
+            &|_| {},
+        )?;
+        stats.paths += st.paths;
+        stats.bounces += st.bounces;
+        stats.capped += st.capped;
+        Ok(img)
+    };
+    let (a, b) = (r(0)?, r(1)?);
+    let (image, noise) = mean_of_halves(&a, &b);
+    Ok(EveryBounceImage {
+        image,
+        noise,
+        stats,
     })
 }
 
@@ -444,6 +704,24 @@ fn evaluate_with(
         full.clone()
     };
     let rsm = render(ctx, scene, &asset, Mode::Rsm, s)?.sub(&direct);
+    let every = if s.every_bounce {
+        let e = reference_every_bounce(scene, s)?;
+        // The one-bounce indirect reference came as one image: its direct
+        // part is rendered again here (the same seed, so the same image).
+        let ref_direct = reference_renders_direct(scene, s)?;
+        let judged = EveryBounceEval::new(&full, &rsm, &e, &ref_direct, reference.mean(), s.blur);
+        Some(if s.every_bounce_bake {
+            let t = std::time::Instant::now();
+            let every = bake_bounces(ctx, scene, s, gibake_bake::later::Bounces::Every)?;
+            let bake_s = t.elapsed().as_secs_f64();
+            let full = render(ctx, scene, &every, Mode::Full, s)?.sub(&direct);
+            judged.with_bake(&full, &e, &ref_direct, &every, bake_s, s.blur)
+        } else {
+            judged
+        })
+    } else {
+        None
+    };
     // Naive re-renders every map each frame (slow); it must equal full.
     let naive = if with_naive && s.naive {
         Some(render(ctx, scene, &asset, Mode::Naive, s)?.sub(&direct))
@@ -476,5 +754,6 @@ fn evaluate_with(
         .into_iter()
         .chain(naive.as_ref().map(|n| ("naive".into(), sum(n))))
         .collect(),
+        every,
     })
 }

@@ -5,14 +5,16 @@
 //! CPU ([`crate::transport`]: near-field trees and far-field lobes) with
 //! exact visibility, against the reference's one-bounce indirect light
 //! from every light ([`crate::bounce`]), at the pixel centres of a small
-//! image from the scene's camera, static part only. Used by the
-//! `lights_twin` example and `tests/every_light.rs`.
+//! image from the scene's camera, static part only; with
+//! [`JudgeSettings::every_bounce`], against its every-bounce indirect light
+//! too ([`Judgement::every_bounce`]). Used by the `lights_twin` example and
+//! `tests/every_light.rs`.
 
 use gibake_bake::cluster::{ClusterTarget, cluster_joint};
 use gibake_bake::lights::{EveryLight, every_light_with};
 use gibake_bake::reach::Reach;
 use gibake_bake::rsm::Rsm;
-use gibake_reference::RayScene;
+use gibake_reference::{PathStats, RayScene};
 use gibake_scene::Scene;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -51,6 +53,27 @@ pub struct Judgement {
     /// variance; the samples are stratified, so this overestimates it). A
     /// bias within a few of these is not measured.
     pub bias_sigma: DVec3,
+    /// With [`JudgeSettings::every_bounce`]: the twin against the
+    /// every-bounce reference.
+    pub every_bounce: Option<EveryBounceJudgement>,
+}
+
+/// The twin against the every-bounce reference at the same receivers
+/// ([`crate::bounce::every_bounce_samples`]: the same directions, each
+/// secondary hit's radiance with every bounce).
+#[derive(Clone, Copy, Debug)]
+pub struct EveryBounceJudgement {
+    /// Mean indirect bias per channel: Σ twin / Σ every-bounce reference − 1.
+    pub bias: DVec3,
+    /// Σ every-bounce reference indirect radiance ÷ Σ one-bounce reference
+    /// indirect radiance, per channel.
+    pub ratio: DVec3,
+    /// Σ every-bounce reference indirect radiance per channel.
+    pub reference_sum: DVec3,
+    /// The standard error of its Σ over Σ (as [`Judgement::bias_sigma`]).
+    pub bias_sigma: DVec3,
+    /// What the reference's paths from the secondary hits did.
+    pub stats: gibake_reference::PathStats,
 }
 
 /// Where a light's indirect bias comes from (a diagnostic: no visibility
@@ -117,6 +140,11 @@ pub struct JudgeSettings {
     /// receiver: seconds to minutes), with its far field also drawn as
     /// each VPL's near-field nodes of this level (1, 2 or 3).
     pub split: Option<u32>,
+    /// Also judge against the every-bounce reference
+    /// ([`Judgement::every_bounce`]):
+    /// one every-bounce path from each secondary hit, a few times the
+    /// one-bounce reference's rays.
+    pub every_bounce: bool,
 }
 
 /// Judges `scene`'s every-light VPLs (see [`JudgeSettings`]).
@@ -129,6 +157,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
         budget,
         keep_negligible,
         split,
+        every_bounce,
     } = *j;
     let stat = gibake_bake::static_only(scene);
     let rays = RayScene::build(&stat, 0.0);
@@ -199,6 +228,7 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
         _ => 0..4,
     };
     let split_px = std::sync::Mutex::new(Split::default());
+    let every_px = std::sync::Mutex::new((DVec3::ZERO, DVec3::ZERO, PathStats::default()));
     let px: Vec<(Vec3, Vec3, DVec3)> = (0..size * size)
         .into_par_iter()
         .map(|p| {
@@ -207,15 +237,39 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
             let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
                 return (Vec3::ZERO, Vec3::ZERO, DVec3::ZERO);
             };
-            let (mut s, mut s2) = (Vec3::ZERO, DVec3::ZERO);
-            crate::bounce::one_bounce_samples(&rays, &h, p, side, |_, l| {
-                s += l;
-                s2 += (h.albedo * l).as_dvec3() * (h.albedo * l).as_dvec3();
-            });
             let n = f64::from(side * side);
-            let reference = h.albedo * s / (side * side) as f32;
-            let mean = reference.as_dvec3();
-            let var_mean = ((s2 / n - mean * mean) * (n / (n - 1.0).max(1.0)) / n).max(DVec3::ZERO);
+            // The receiver's albedo · mean, and the variance of that mean.
+            let estimate = |s: Vec3, s2: DVec3| {
+                let reference = h.albedo * s / (side * side) as f32;
+                let mean = reference.as_dvec3();
+                let var = ((s2 / n - mean * mean) * (n / (n - 1.0).max(1.0)) / n).max(DVec3::ZERO);
+                (reference, var)
+            };
+            let (mut s, mut s2) = (Vec3::ZERO, DVec3::ZERO);
+            let sq = |l: Vec3| (h.albedo * l).as_dvec3() * (h.albedo * l).as_dvec3();
+            if every_bounce {
+                let (mut e, mut e2) = (Vec3::ZERO, DVec3::ZERO);
+                let mut stats = PathStats::default();
+                crate::bounce::every_bounce_samples(&rays, &h, p, side, &mut stats, |_, l, le| {
+                    s += l;
+                    s2 += sq(l);
+                    e += le;
+                    e2 += sq(le);
+                });
+                let (every, var) = estimate(e, e2);
+                let mut ep = every_px.lock().expect("no panics while held");
+                ep.0 += every.as_dvec3();
+                ep.1 += var;
+                ep.2.paths += stats.paths;
+                ep.2.bounces += stats.bounces;
+                ep.2.capped += stats.capped;
+            } else {
+                crate::bounce::one_bounce_samples(&rays, &h, p, side, |_, l| {
+                    s += l;
+                    s2 += sq(l);
+                });
+            }
+            let (reference, var_mean) = estimate(s, s2);
             let twin = twin_vpls.irradiance(&rays, &h);
             if split.is_some() {
                 let (x, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
@@ -311,5 +365,16 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
         split: split.map(|_| split_px.into_inner().expect("no panics while held")),
         reference_sum: sr,
         bias_sigma: DVec3::select(sr.cmpgt(DVec3::ZERO), var.sqrt() / sr, DVec3::NAN),
+        every_bounce: every_bounce.then(|| {
+            let (se, var_e, stats) = every_px.into_inner().expect("no panics while held");
+            let lit = se.cmpgt(DVec3::ZERO);
+            EveryBounceJudgement {
+                bias: DVec3::select(lit, st / se - 1.0, DVec3::NAN),
+                ratio: DVec3::select(sr.cmpgt(DVec3::ZERO), se / sr, DVec3::NAN),
+                reference_sum: se,
+                bias_sigma: DVec3::select(lit, var_e.sqrt() / se, DVec3::NAN),
+                stats,
+            }
+        }),
     }
 }

@@ -522,7 +522,7 @@ impl<'a> TwinVpls<'a> {
     pub fn of_asset(asset: &'a gibake_asset::Asset) -> Self {
         Self::new(
             &asset.vpls,
-            &asset.manifest.ring_flags(),
+            &asset.manifest.origin_lift_flags(),
             &asset.vpl_nodes,
             &asset.vpl_coherence,
         )

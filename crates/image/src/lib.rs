@@ -175,6 +175,14 @@ impl Image {
     #[cfg(feature = "png")]
     pub fn write_png(&self, path: &Path, exposure: Option<f32>) -> Result<(), ImageError> {
         let exposure = exposure.unwrap_or_else(|| self.auto_exposure());
+        write_rgb8_png(path, self.width, self.height, &self.preview_rgb8(exposure))
+    }
+
+    /// The tone-mapped sRGB preview [`Image::write_png`] writes, as 8-bit
+    /// RGB bytes (rows top to bottom): radiance × `exposure`, the ACES
+    /// curve, sRGB encoding. (Cargo feature `png`, on by default.)
+    #[cfg(feature = "png")]
+    pub fn preview_rgb8(&self, exposure: f32) -> Vec<u8> {
         let mut bytes = Vec::with_capacity(self.pixels.len() * 3);
         for p in &self.pixels {
             for c in p.to_array() {
@@ -182,7 +190,7 @@ impl Image {
                 bytes.push((linear_to_srgb(v) * 255.0 + 0.5) as u8);
             }
         }
-        write_rgb8_png(path, self.width, self.height, &bytes)
+        bytes
     }
 
     /// Writes EXR or PNG depending on the extension (`.png` → preview, anything else → EXR).

@@ -140,7 +140,10 @@ impl DirWriter {
                 return Err(OutputError::new(
                     &target,
                     "cannot replace it with a directory",
-                    std::io::Error::other("it exists and is not a directory"),
+                    std::io::Error::other(format!(
+                        "it is {}, not a directory",
+                        crate::describe(&target).unwrap_or_else(|| "gone".into())
+                    )),
                 ));
             }
             Err(_) => false,

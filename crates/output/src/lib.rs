@@ -29,6 +29,8 @@
 //!   file system cannot exchange, two renames are used; a crash between
 //!   them leaves the old directory under a `.old` name, which the next
 //!   writer puts back.
+//! - **Messages** say what a refused path is ([`describe`]: a file, a
+//!   directory, a symbolic link and what it points to).
 //! - **Readers** ([`read_stable`]) retry a read that failed while the
 //!   directory at the path was swapped under them.
 //! - **Signals** (feature `signals`, [`signals::install`]): SIGINT, SIGTERM
@@ -39,6 +41,7 @@ use std::path::{Path, PathBuf};
 
 mod dir;
 mod file;
+mod kind;
 mod lock;
 mod names;
 mod read;
@@ -49,6 +52,7 @@ mod stale;
 
 pub use dir::{DirWriter, NO_EXCHANGE_ENV, Swap};
 pub use file::FileWriter;
+pub use kind::{describe, is_symlink};
 pub use lock::OutputLock;
 pub use names::{MAX_KEY_BYTES, lock_path};
 pub use read::read_stable;

@@ -104,6 +104,28 @@ fn bvh_direction(d: Vec3A) -> Vec3A {
     )
 }
 
+/// obvhs 0.4's box test ignores the ray's `tmin` and starts every box at
+/// `EPSILON = 10⁻⁴` (in the scene's normalised units, `cwbvh/node.rs`): a
+/// box the ray leaves before that is skipped, so a ray that starts within
+/// 10⁻⁴ of the scene's size of a surface it points at (a bounce from near a
+/// corner, a VPL's map origin beside a wall) went through it. The traversal
+/// runs on the ray started this far behind its origin (its `t` range moved
+/// by as much), and the exact triangle test on the ray itself: every box
+/// the ray enters at `t ≥ 0` is entered past the epsilon.
+const PULL_BACK: f32 = 4e-4;
+
+/// The BVH traversal ray for `origin + t·dir`, `t ∈ (t_min, t_max)`
+/// (scaled space), started [`PULL_BACK`] behind the origin, and how far
+/// back in `t` units.
+fn pulled_back(o: Vec3A, d: Vec3A, t_min: f32, t_max: f32) -> (Ray, f32) {
+    let back = PULL_BACK / d.length();
+    let back = if back.is_finite() { back } else { 0.0 };
+    (
+        Ray::new(o - d * back, bvh_direction(d), t_min + back, t_max + back),
+        back,
+    )
+}
+
 /// One triangle as stored for shading.
 #[derive(Clone, Copy, Debug)]
 struct Tri {
@@ -450,14 +472,14 @@ impl<'s> RayScene<'s> {
             return None;
         }
         let wt = WatertightRay::new(o, d);
-        let ray = Ray::new(o, bvh_direction(d), t_min, t_max);
+        let (ray, back) = pulled_back(o, d, t_min, t_max);
         let mut best: Option<(usize, f32, Vec3)> = None;
         let mut hit = obvhs::ray::RayHit::none();
         bvh.ray_traverse(ray, &mut hit, |r, id| {
-            match wt.intersect(&self.tris[id].v, t_min, r.tmax) {
+            match wt.intersect(&self.tris[id].v, t_min, r.tmax - back) {
                 Some((t, b)) if self.alpha_keeps(id, b) => {
                     best = Some((id, t, b));
-                    t
+                    t + back
                 }
                 _ => f32::INFINITY,
             }
@@ -545,10 +567,10 @@ impl<'s> RayScene<'s> {
             return false;
         }
         let wt = WatertightRay::new(o, d);
-        let ray = Ray::new(o, bvh_direction(d), 0.0, t_max);
+        let (ray, back) = pulled_back(o, d, 0.0, t_max);
         !bvh.ray_traverse_miss(ray, |r, id| {
-            match wt.intersect(&self.tris[id].v, 0.0, r.tmax) {
-                Some((t, b)) if self.alpha_keeps(id, b) => t,
+            match wt.intersect(&self.tris[id].v, 0.0, r.tmax - back) {
+                Some((t, b)) if self.alpha_keeps(id, b) => t + back,
                 _ => f32::INFINITY,
             }
         })

@@ -4,4 +4,5 @@
 //! gibake-raycast --test integration FILE::`.
 
 mod analytic;
+mod near_origin;
 mod negative_zero;

@@ -3,8 +3,8 @@
 //!
 //! ```text
 //! cargo run -p gibake-reference --release --example export_obj -- OUT_DIR \
-//!     [--scene SCENE.glb] [--time T] [--size N] [--spp N] [--segments N] [--seed S]
-//!     [--spot | --multi]
+//!     [--scene SCENE.glb [--sun AZ,EL,E] [--look-at EX,EY,EZ,TX,TY,TZ,FOV]] [--time T]
+//!     [--size N] [--spp N] [--segments N] [--seed S] [--spot | --multi | --room] [--every-bounce]
 //! ```
 //!
 //! Without `--scene` the hand-built validation corner
@@ -12,13 +12,21 @@
 //! its directional light by a hard-edged spot (glTF inner = outer = 35°,
 //! 6 W/sr), which Mitsuba's `spot` emitter reproduces up to a 0.1°-wide rim;
 //! `--multi` uses `validation_corner_multi` (the corner's directional light,
-//! a point light and a hard-edged spot, distinct colours). With `--scene`,
+//! a point light and a hard-edged spot, distinct colours); `--room` uses
+//! `validation_room` (a closed room lit by a sun through a window, for
+//! every bounce). With `--scene`, `--sun` and `--look-at` are `gibake`'s
+//! (a level exported without a light or camera: the bundled levels'
+//! values are in data/levels/levels.json); textures and alpha masks are
+//! not exported, so both renderers get the base colour factors alone (the
+//! gibake renders drop them too, with a warning). With `--scene`,
 //! every glTF light of the file is imported, point lights included
 //! (`--all-lights`, once needed for that, is still accepted). Writes to
 //! `OUT_DIR`: one OBJ per mesh (world space at time T, positions and vertex
 //! normals), `scene.json` (camera, `lights` — every light of the scene —,
 //! meshes with albedo, image size, spp, timings) and `gibake_direct.exr` /
-//! `gibake_one_bounce.exr` (N × N, `spp` samples).
+//! `gibake_one_bounce.exr` (N × N, `spp` samples); with `--every-bounce`
+//! also `gibake_every_bounce.exr` (`Depth::Every`, the same spp and seed;
+//! its bounce rays a path and paths cut at the cap in `scene.json`).
 //!
 //! A light with a glTF `range` is refused (exit status 2, before anything is
 //! written): Mitsuba's emitters have no range window, so the comparison
@@ -31,15 +39,24 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use gibake_reference::{Depth, RayScene, Settings, View, render_view, scenes};
+use gibake_reference::{Depth, RayScene, Settings, View, render_view_with_stats, scenes};
 use gibake_scene::{Light, LightKind, LoadOptions, Projection, Scene};
 use glam::Vec3;
 
 fn usage() -> ! {
     eprintln!(
-        "usage: export_obj OUT_DIR [--scene SCENE.glb] [--time T] [--size N] [--spp N] [--segments N] [--seed S] [--spot | --multi]"
+        "usage: export_obj OUT_DIR [--scene SCENE.glb [--sun AZ,EL,E] [--look-at EX,EY,EZ,TX,TY,TZ,FOV]] [--time T] [--size N] [--spp N] [--segments N] [--seed S] [--spot | --multi | --room] [--every-bounce]"
     );
     std::process::exit(2);
+}
+
+/// `n` comma-separated numbers, or the usage.
+fn numbers(s: &str, n: usize) -> Vec<f32> {
+    let v: Vec<f32> = s.split(',').filter_map(|x| x.trim().parse().ok()).collect();
+    if v.len() != n {
+        usage();
+    }
+    v
 }
 
 fn v3(v: Vec3) -> String {
@@ -50,7 +67,8 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let mut out: Option<PathBuf> = None;
     let mut scene_path: Option<PathBuf> = None;
-    let (mut use_spot, mut multi) = (false, false);
+    let (mut use_spot, mut multi, mut room, mut every) = (false, false, false, false);
+    let mut options = LoadOptions::default();
     let (mut time, mut size, mut spp, mut segments, mut seed) =
         (0.0f32, 128u32, 1024u32, 48u32, 0u64);
     while let Some(a) = args.next() {
@@ -64,21 +82,40 @@ fn main() {
             "--seed" => seed = val().parse().unwrap_or_else(|_| usage()),
             "--spot" => use_spot = true,
             "--multi" => multi = true,
+            "--room" => room = true,
+            "--sun" => {
+                let v = numbers(&val(), 3);
+                options.sun = Some(gibake_scene::Sun {
+                    azimuth_deg: v[0],
+                    elevation_deg: v[1],
+                    irradiance: v[2],
+                    color: Vec3::ONE,
+                });
+            }
+            "--look-at" => {
+                let v = numbers(&val(), 7);
+                options.camera = gibake_scene::CameraChoice::LookAt {
+                    eye: Vec3::new(v[0], v[1], v[2]),
+                    target: Vec3::new(v[3], v[4], v[5]),
+                    yfov_deg: v[6],
+                };
+            }
+            "--every-bounce" => every = true,
             "--all-lights" => {}
             s if s.starts_with("--") => usage(),
             s => out = Some(s.into()),
         }
     }
     let out = out.unwrap_or_else(|| usage());
-    if use_spot && multi || scene_path.is_some() && (use_spot || multi) {
-        eprintln!(
-            "--spot and --multi choose a light for the built-in corner: use one, without --scene"
-        );
+    let built_in = [use_spot, multi, room].iter().filter(|&&b| b).count();
+    if built_in > 1 || scene_path.is_some() && built_in > 0 {
+        eprintln!("--spot, --multi and --room choose a built-in scene: use one, without --scene");
         std::process::exit(2);
     }
 
     let (scene, view): (Scene, View) = match &scene_path {
         None if multi => scenes::validation_corner_multi(segments),
+        None if room => scenes::validation_room(segments),
         None => {
             let (mut scene, view) = scenes::validation_corner(segments);
             if use_spot {
@@ -95,10 +132,22 @@ fn main() {
             (scene, view)
         }
         Some(p) => {
-            let scene = gibake_scene::load(p, &LoadOptions::default()).unwrap_or_else(|e| {
+            let mut scene = gibake_scene::load(p, &options).unwrap_or_else(|e| {
                 eprintln!("{e}");
                 std::process::exit(2)
             });
+            // Mitsuba gets the base colour factors: so does gibake here.
+            if !scene.textures.is_empty() || scene.materials.iter().any(|m| m.cutoff().is_some()) {
+                eprintln!(
+                    "warning: textures and alpha masks are not exported; both renderers get the \
+                     base colour factors alone"
+                );
+                for m in &mut scene.materials {
+                    m.texture = None;
+                    m.alpha_mode = gibake_scene::AlphaMode::Opaque;
+                }
+                scene.textures.clear();
+            }
             let view = View::from_scene(&scene, time).unwrap_or_else(|e| {
                 eprintln!("{e}");
                 std::process::exit(2)
@@ -117,9 +166,6 @@ fn main() {
         std::process::exit(2);
     }
     std::fs::create_dir_all(&out).expect("create OUT_DIR");
-    if !scene.textures.is_empty() {
-        eprintln!("warning: textures are not exported; Mitsuba gets the base colour factors only");
-    }
 
     // Meshes, in world space at `time`.
     let mut meshes_json = Vec::new();
@@ -175,7 +221,11 @@ fn main() {
     // gibake reference renders.
     let rs = RayScene::build(&scene, time);
     let mut renders = Vec::new();
-    for (depth, name) in [(Depth::Direct, "direct"), (Depth::OneBounce, "one_bounce")] {
+    let mut depths = vec![(Depth::Direct, "direct"), (Depth::OneBounce, "one_bounce")];
+    if every {
+        depths.push((Depth::Every, "every_bounce"));
+    }
+    for (depth, name) in depths {
         let settings = Settings {
             width: size,
             height: size,
@@ -185,16 +235,20 @@ fn main() {
             seed,
         };
         let t0 = Instant::now();
-        let img = render_view(&rs, &view, &settings, &|_| {}).expect("render");
+        let (img, stats) = render_view_with_stats(&rs, &view, &settings, &|_| {}).expect("render");
         let secs = t0.elapsed().as_secs_f64();
         let file = format!("gibake_{name}.exr");
         img.write_exr(&out.join(&file)).expect("write EXR");
         eprintln!(
-            "gibake {name}: {size}×{size}, {spp} spp, {secs:.2} s, mean {}",
-            img.mean()
+            "gibake {name}: {size}×{size}, {spp} spp, {secs:.2} s, mean {}, {:.2} bounce rays a path, {} cut at the cap",
+            img.mean(),
+            stats.mean_bounces(),
+            stats.capped
         );
         renders.push(format!(
-            "    \"{name}\": {{\"file\": \"{file}\", \"seconds\": {secs:.3}}}"
+            "    \"{name}\": {{\"file\": \"{file}\", \"seconds\": {secs:.3}, \"mean_bounces\": {:.4}, \"capped\": {}}}",
+            stats.mean_bounces(),
+            stats.capped
         ));
     }
 

@@ -1,6 +1,7 @@
 //! Hand-built scenes for tests and for the Mitsuba validation: meshes (quads,
 //! boxes, spheres), lights (spot, point, directional), a scene wrapper, and
-//! the validation scenes (one light, and three of different kinds).
+//! the validation scenes (one light, three of different kinds, and a closed
+//! room lit through a window for every bounce).
 //!
 //! Scenes built here have no camera node (the importer's node hierarchy is
 //! not needed); they are rendered with [`crate::render_view`] and an explicit
@@ -302,6 +303,122 @@ pub fn validation_corner_multi(sphere_segments: u32) -> (Scene, View) {
             cone,
         ),
     ];
+    (scene, view)
+}
+
+/// The every-bounce validation scene: a closed room (4 × 2.5 × 4 units:
+/// floor, ceiling and four walls, single two-sided quads) lit only by a sun
+/// through a 1.2 × 1 window in its +X wall, with a red block and a blue
+/// sphere (`sphere_segments` around) on the floor, seen from inside by a
+/// 60° perspective camera facing the sunlit floor and the far corner.
+/// Most of what the camera sees is lit by bounces alone, and the later
+/// bounces add about as much again as the first (albedos 0.5–0.85).
+pub fn validation_room(sphere_segments: u32) -> (Scene, View) {
+    let materials = vec![
+        material("floor", Vec3::new(0.6, 0.5, 0.4)),
+        material("walls", Vec3::new(0.8, 0.8, 0.75)),
+        material("ceiling", Vec3::new(0.85, 0.85, 0.85)),
+        material("block", Vec3::new(0.7, 0.2, 0.15)),
+        material("sphere", Vec3::new(0.3, 0.5, 0.8)),
+    ];
+    let (h, w) = (2.5f32, 2.0f32);
+    // The window in the x = +2 wall: z in [−0.6, 0.6], y in [0.8, 1.8].
+    let (wz, wy0, wy1) = (0.6f32, 0.8f32, 1.8f32);
+    let x = Vec3::X;
+    let mut meshes = vec![
+        quad(
+            "floor",
+            Vec3::new(-w, 0.0, w),
+            2.0 * w * x,
+            Vec3::new(0.0, 0.0, -2.0 * w),
+            0,
+        ),
+        quad(
+            "ceiling",
+            Vec3::new(-w, h, -w),
+            2.0 * w * x,
+            Vec3::new(0.0, 0.0, 2.0 * w),
+            2,
+        ),
+        quad(
+            "back",
+            Vec3::new(-w, 0.0, -w),
+            2.0 * w * x,
+            Vec3::new(0.0, h, 0.0),
+            1,
+        ),
+        quad(
+            "front",
+            Vec3::new(w, 0.0, w),
+            -2.0 * w * x,
+            Vec3::new(0.0, h, 0.0),
+            1,
+        ),
+        quad(
+            "left",
+            Vec3::new(-w, 0.0, w),
+            Vec3::new(0.0, 0.0, -2.0 * w),
+            Vec3::new(0.0, h, 0.0),
+            1,
+        ),
+    ];
+    // The window wall in four pieces around the opening.
+    let zn = Vec3::NEG_Z;
+    meshes.push(quad(
+        "wall_below",
+        Vec3::new(w, 0.0, w),
+        zn * 2.0 * w,
+        Vec3::new(0.0, wy0, 0.0),
+        1,
+    ));
+    meshes.push(quad(
+        "wall_above",
+        Vec3::new(w, wy1, w),
+        zn * 2.0 * w,
+        Vec3::new(0.0, h - wy1, 0.0),
+        1,
+    ));
+    meshes.push(quad(
+        "wall_side_a",
+        Vec3::new(w, wy0, w),
+        zn * (w - wz),
+        Vec3::new(0.0, wy1 - wy0, 0.0),
+        1,
+    ));
+    meshes.push(quad(
+        "wall_side_b",
+        Vec3::new(w, wy0, -wz),
+        zn * (w - wz),
+        Vec3::new(0.0, wy1 - wy0, 0.0),
+        1,
+    ));
+    meshes.push(cuboid(
+        "block",
+        Vec3::new(-1.2, 0.0, -1.4),
+        Vec3::new(-0.4, 0.9, -0.6),
+        3,
+    ));
+    meshes.push(uv_sphere(
+        "sphere",
+        Vec3::new(-1.1, 0.45, 0.9),
+        0.45,
+        sphere_segments,
+        (sphere_segments / 2).max(2),
+        4,
+    ));
+    // The sun through the window, onto the floor's middle.
+    let light = directional(Vec3::new(-1.0, -0.55, 0.15), Vec3::splat(4.0));
+    let scene = static_scene("validation_room", light, materials, meshes);
+    let view = View::look_at(
+        Vec3::new(1.6, 1.6, 1.7),
+        Vec3::new(-1.2, 0.4, -1.0),
+        Vec3::Y,
+        Projection::Perspective {
+            yfov: 60f32.to_radians(),
+            znear: 0.05,
+            zfar: None,
+        },
+    );
     (scene, view)
 }
 

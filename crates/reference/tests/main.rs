@@ -5,5 +5,6 @@
 
 mod bundled;
 mod common;
+mod every_bounce;
 mod many_lights;
 mod physics;

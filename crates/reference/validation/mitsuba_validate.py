@@ -3,8 +3,9 @@
 
 Usage:
     pip install mitsuba numpy
-    cargo run -p gibake-reference --release --example export_obj -- OUT_DIR --size 128 --spp 1024 [--multi]
+    cargo run -p gibake-reference --release --example export_obj -- OUT_DIR --size 128 --spp 1024 [--multi] [--every-bounce]
     python3 crates/reference/validation/mitsuba_validate.py OUT_DIR [--spp N] [--variant scalar_rgb]
+        [--rr-depth N] [--max-depth N]
 
 Reads OUT_DIR/scene.json and the OBJ meshes written by the example, renders
 the same scene with Mitsuba's `path` integrator (max_depth 2 = direct light
@@ -23,6 +24,18 @@ gibake_one_bounce.exr:
 and, as the noise floor of that comparison, the rel MSE of a second Mitsuba
 render (another seed) against the first. Writes mitsuba_*.exr next to the
 inputs and a summary in OUT_DIR/validation.json.
+
+Every bounce (when scene.json has `every_bounce`, export_obj --every-bounce):
+Mitsuba's `path` with unbounded depth (`max_depth` -1) and Russian roulette
+from `--rr-depth` (default 8, as issue 50's measurement), against
+gibake_every_bounce.exr; the same figures, and the every-bounce ÷ one-bounce
+ratio of the indirect light (mean of every − direct over mean of one bounce
+− direct, per channel) of each renderer. Mitsuba's roulette keeps a path
+with probability min(0.95, max throughput): where the albedo is near 1 its
+weights grow by 1/0.95 a bounce and its estimate is heavy-tailed (infinite
+variance once a path stays in for more than ~20 bounces); `--rr-depth 1026
+--max-depth 1026` turns its roulette off and cuts at gibake's cap (1024
+bounces, path depth 1026) instead, for such scenes.
 """
 
 import argparse
@@ -101,14 +114,15 @@ def emitter(mi, light):
     }
 
 
-def scene_dict(mi, desc, out_dir, max_depth, spp, seed):
+def scene_dict(mi, desc, out_dir, max_depth, spp, seed, rr_depth=5):
     cam = desc["camera"]
     pos = np.array(cam["position"], dtype=float)
     fwd = np.array(cam["forward"], dtype=float)
     up = np.array(cam["up"], dtype=float)
     d = {
         "type": "scene",
-        "integrator": {"type": "path", "max_depth": max_depth, "hide_emitters": True},
+        "integrator": {"type": "path", "max_depth": max_depth, "rr_depth": rr_depth,
+                       "hide_emitters": True},
         "sensor": {
             "type": "perspective",
             "fov_axis": "y",
@@ -144,8 +158,8 @@ def scene_dict(mi, desc, out_dir, max_depth, spp, seed):
     return d
 
 
-def render(mi, desc, out_dir, max_depth, spp, seed):
-    scene = mi.load_dict(scene_dict(mi, desc, out_dir, max_depth, spp, seed))
+def render(mi, desc, out_dir, max_depth, spp, seed, rr_depth=5):
+    scene = mi.load_dict(scene_dict(mi, desc, out_dir, max_depth, spp, seed, rr_depth))
     t0 = time.time()
     img = mi.render(scene, spp=spp, seed=seed)
     secs = time.time() - t0
@@ -172,6 +186,10 @@ def main():
     ap.add_argument("--spp", type=int, default=None, help="Mitsuba spp (default: the gibake spp)")
     ap.add_argument("--variant", default="scalar_rgb")
     ap.add_argument("--no-noise-floor", action="store_true", help="skip the second Mitsuba render per depth")
+    ap.add_argument("--rr-depth", type=int, default=8,
+                    help="every bounce: Mitsuba's rr_depth (path depth where Russian roulette starts; default 8)")
+    ap.add_argument("--max-depth", type=int, default=-1,
+                    help="every bounce: Mitsuba's max_depth (default -1, unbounded)")
     args = ap.parse_args()
 
     mi = load_mitsuba(args.variant)
@@ -184,14 +202,20 @@ def main():
           f"gibake {desc['spp']} spp, Mitsuba {mi.__version__} {args.variant} {spp} spp")
     results = {"mitsuba_version": mi.__version__, "variant": args.variant, "mitsuba_spp": spp,
                "gibake_spp": desc["spp"], "width": desc["width"], "height": desc["height"]}
-    for name, max_depth in [("direct", 2), ("one_bounce", 3)]:
+    depths = [("direct", 2, 5), ("one_bounce", 3, 5)]
+    if "every_bounce" in desc["gibake"]:
+        depths.append(("every_bounce", args.max_depth, args.rr_depth))
+    means = {}
+    for name, max_depth, rr_depth in depths:
         ours = read_exr(mi, os.path.join(args.out_dir, desc["gibake"][name]["file"]))
-        ref, secs = render(mi, desc, args.out_dir, max_depth, spp, seed=0)
+        ref, secs = render(mi, desc, args.out_dir, max_depth, spp, seed=0, rr_depth=rr_depth)
         write_exr(mi, os.path.join(args.out_dir, f"mitsuba_{name}.exr"), ref)
         if ours.shape != ref.shape:
             sys.exit(f"size mismatch: gibake {ours.shape} vs Mitsuba {ref.shape}")
+        means[name] = (ours.mean(axis=(0, 1)), ref.mean(axis=(0, 1)))
         r = {
             "max_depth": max_depth,
+            "rr_depth": rr_depth,
             "rel_mse": rel_mse(ours, ref),
             "mean_ratio": (ours.mean(axis=(0, 1)) / ref.mean(axis=(0, 1))).tolist(),
             "gibake_mean": ours.mean(axis=(0, 1)).tolist(),
@@ -200,14 +224,28 @@ def main():
             "mitsuba_seconds": secs,
         }
         if not args.no_noise_floor:
-            ref2, _ = render(mi, desc, args.out_dir, max_depth, spp, seed=1)
+            ref2, _ = render(mi, desc, args.out_dir, max_depth, spp, seed=1, rr_depth=rr_depth)
             r["noise_floor_rel_mse"] = rel_mse(ref2, ref)
         results[name] = r
         ratio = ", ".join(f"{v:.4f}" for v in r["mean_ratio"])
         floor = f", Mitsuba seed-to-seed {r['noise_floor_rel_mse']:.2e}" if "noise_floor_rel_mse" in r else ""
-        print(f"{name:>10} (max_depth {max_depth}): rel MSE {r['rel_mse']:.2e}{floor}; "
+        print(f"{name:>12} (max_depth {max_depth}): rel MSE {r['rel_mse']:.2e}{floor}; "
               f"mean ratio gibake/Mitsuba (R, G, B) = ({ratio}); "
               f"gibake {r['gibake_seconds']:.1f} s, Mitsuba {secs:.1f} s")
+    if "every_bounce" in means:
+        # What the later bounces add: every-bounce indirect over one-bounce indirect.
+        for who, k in [("gibake", 0), ("Mitsuba", 1)]:
+            ind_every = means["every_bounce"][k] - means["direct"][k]
+            ind_one = means["one_bounce"][k] - means["direct"][k]
+            ratio = (ind_every / ind_one).tolist()
+            results["every_bounce"][f"{who.lower()}_every_over_one"] = ratio
+            print(f"{who:>12}: every-bounce / one-bounce indirect (R, G, B) = "
+                  f"({', '.join(f'{v:.4f}' for v in ratio)})")
+        g = results["every_bounce"]["gibake_every_over_one"]
+        m = results["every_bounce"]["mitsuba_every_over_one"]
+        print(f"{'':>12}  gibake / Mitsuba: ({', '.join(f'{a / b:.4f}' for a, b in zip(g, m))}); "
+              f"gibake {desc['gibake']['every_bounce'].get('mean_bounces', float('nan')):.2f} "
+              f"bounce rays a path, {desc['gibake']['every_bounce'].get('capped', 0)} cut at the cap")
     with open(os.path.join(args.out_dir, "validation.json"), "w") as f:
         json.dump(results, f, indent=2)
 

@@ -136,7 +136,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
             .collect();
         RsmData::from_flux(RSM, metric, &flux, vpl, VPLS)
     });
-    // Second origins (format 4.5): VPLs 0, 4 and 8 with a second map,
+    // Second origins (format 4.7): VPLs 0, 4 and 8 with a second map,
     // 2 and 6 with one that sees no surface, the others none.
     let mut lrng = Rng::new(11);
     let mut lower_texels: Vec<f32> = Vec::new();
@@ -239,6 +239,8 @@ pub fn sample_asset(dynamic: bool) -> Asset {
             view_rsms: Vec::new(),
             ring_vpls: Vec::new(),
             scene_options: None,
+            swept_bounds: None,
+            later: None,
             lower_map_count: 0,
         },
         vpl_coherence: vec![1.0; vpls.len() * gibake_asset::LEVEL3_NODES],
@@ -310,10 +312,10 @@ pub fn as_written(asset: &Asset, loaded: &Asset) -> Asset {
     a
 }
 
-/// `asset` as it loads from a manifest of format 4.4 or older (what
-/// `testing::manifest_bytes_4_4` and the older writers list): no second
-/// origins or maps (format 4.5), their files not listed.
-pub fn without_4_5(asset: &Asset) -> Asset {
+/// `asset` as it loads from a manifest of format 4.6 or older (what
+/// `testing::manifest_bytes_4_6` and the older writers list): no second
+/// origins or maps (format 4.7), their files not listed.
+pub fn without_4_7(asset: &Asset) -> Asset {
     let mut a = asset.clone();
     a.vpl_lower.clear();
     a.vpl_lower_maps = MapAtlas::empty(a.manifest.settings.vpl_map_size);

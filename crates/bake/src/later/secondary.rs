@@ -34,6 +34,9 @@ pub struct Secondary {
     pub nodes: Vec<VplRecord>,
     /// Their level-3 nodes' coherences.
     pub coherence: Vec<f32>,
+    /// Per surfel: its VPL (an index into `vpls`), or `u32::MAX` (no light,
+    /// or its VPL was empty).
+    pub surfel_vpl: Vec<u32>,
 }
 
 #[derive(Clone, Copy, Default)]
@@ -127,6 +130,7 @@ pub fn cluster(
         vpls: Vec::new(),
         nodes: Vec::new(),
         coherence: Vec::new(),
+        surfel_vpl: vec![u32::MAX; surfels.len()],
     };
     if order.is_empty() || budget == 0 {
         return empty;
@@ -352,6 +356,9 @@ pub fn cluster(
             cells[cj * 8 + ci].push(p, surfels.normal[i], emitted[i], surfels.area[i]);
         }
         let (nodes, coherence) = tree_of_cells(cells);
+        for &i in ids {
+            out.surfel_vpl[i as usize] = out.vpls.len() as u32;
+        }
         out.vpls.push(record);
         out.nodes.extend(nodes);
         out.coherence.extend(coherence);

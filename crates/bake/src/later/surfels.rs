@@ -126,7 +126,10 @@ pub fn place(rays: &RayScene<'_>, points: u32) -> Surfels {
                     // A ray back onto the point from half the spacing off
                     // it: the surface there and its side, or none where an
                     // alpha mask cuts a hole or something lies closer (the
-                    // side is covered).
+                    // side is covered). Half the spacing: with a tenth, the
+                    // sides sandwiched between a diorama's coincident and
+                    // overlapping faces got surfels, and light (the city's
+                    // later share 12.6% → 26.3%).
                     let origin = p + side * lift;
                     let Some(h) = rays.intersect(origin, -side, 2.0 * lift) else {
                         continue;

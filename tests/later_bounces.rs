@@ -1,0 +1,202 @@
+//! `gibake bake --bounces` (issue 50): the default bake carries the later
+//! bounces as VPLs after the first bounce's, `--bounces 1` the first bounce
+//! alone (the paper's method); the asset records which, `inspect`, `--json`
+//! and the up-to-date check say so, bad values are refused naming the
+//! flag, the later light is there in a render (more indirect light than
+//! the first bounce alone, finite), and a level lit from outside (the
+//! bundled town) leaves them out.
+
+use crate::common;
+
+use std::path::Path;
+
+use common::{Run, gibake, run_command};
+
+fn bake(scene: &Path, out: &Path, extra: &[&str]) -> (Run, serde_json::Value) {
+    let mut c = gibake();
+    c.arg("bake")
+        .arg(scene)
+        .arg("-o")
+        .arg(out)
+        .args([
+            "--vpls",
+            "64",
+            "--rsm-size",
+            "128",
+            "--vpl-map-size",
+            "32",
+            "--shadow-map-size",
+            "512",
+        ])
+        .args(extra)
+        .arg("--json");
+    let r = run_command(c);
+    assert_eq!(r.code, Some(0), "{r}");
+    let j = serde_json::from_str(&r.stdout).unwrap_or_else(|e| panic!("not JSON: {e}\n{r}"));
+    (r, j)
+}
+
+fn indirect_mean(scene: &Path, asset: &Path, out: &Path) -> glam::Vec3 {
+    let mut c = gibake();
+    c.arg("render")
+        .arg(scene)
+        .arg("--bake")
+        .arg(asset)
+        .args([
+            "--mode", "indirect", "--width", "48", "--height", "48", "--ssaa", "1", "-o",
+        ])
+        .arg(out);
+    let r = run_command(c);
+    assert_eq!(r.code, Some(0), "{r}");
+    let img = gibake_image::Image::read_exr(out).expect("the render reads back");
+    assert!(img.all_finite(), "{} is not finite", out.display());
+    img.mean()
+}
+
+#[test]
+fn bounces_flag_records_inspects_and_is_checked_up_to_date() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = common::data("corner_bunny.glb");
+    let every = tmp.path().join("every.gibake");
+    let one = tmp.path().join("one.gibake");
+    // The default: every bounce that matters.
+    let (r, j) = bake(&scene, &every, &[]);
+    let later = &j["later"];
+    assert_eq!(later["bounces"], "every", "{r}");
+    assert_eq!(later["left_out"], false, "{r}");
+    assert_eq!(later["converged"], true, "{r}");
+    let n_later = later["vpls"].as_u64().unwrap();
+    assert!((1..=16).contains(&n_later), "a quarter of 64 at most: {r}");
+    assert_eq!(
+        j["first_bounce_vpls"].as_u64().unwrap() + n_later,
+        j["vpls"].as_u64().unwrap(),
+        "{r}"
+    );
+    assert!(later["share"].as_f64().unwrap() > 0.001, "{r}");
+    // `--bounces 1`: the first bounce alone, no record.
+    let (r, j1) = bake(&scene, &one, &["--bounces", "1"]);
+    assert!(j1["later"].is_null(), "{r}");
+    assert_eq!(j1["vpls"], j1["first_bounce_vpls"], "{r}");
+    // The first bounce is the same VPLs either way.
+    assert_eq!(j1["vpls"], j["first_bounce_vpls"], "{r}");
+    // `--bounces all` is the default: up to date.
+    let (r, j) = bake(&scene, &every, &["--bounces", "all"]);
+    assert_eq!(j["decision"], "up_to_date", "{r}");
+    // Another bounce count re-bakes, and says why.
+    let (r, j) = bake(&scene, &every, &["--bounces", "1"]);
+    assert_eq!(j["decision"], "baked", "{r}");
+    let why = j["reasons"].to_string();
+    assert!(
+        why.contains("setting --bounces changed (every bounce → 1 (the first bounce alone))"),
+        "{r}"
+    );
+    let (r, j) = bake(&scene, &every, &["--bounces", "1"]);
+    assert_eq!(j["decision"], "up_to_date", "{r}");
+    let (r, j) = bake(&scene, &every, &["--later-vpls", "8"]);
+    assert_eq!(j["decision"], "baked", "{r}");
+    assert!(j["later"]["vpls"].as_u64().unwrap() <= 8, "{r}");
+    let (r, j) = bake(&scene, &every, &["--later-vpls", "4"]);
+    assert!(
+        j["reasons"]
+            .to_string()
+            .contains("setting --later-vpls changed (8 → 4)"),
+        "{r}"
+    );
+    // `inspect` says what the asset carries.
+    let mut c = gibake();
+    c.arg("inspect").arg(&every);
+    let r = run_command(c);
+    assert_eq!(r.code, Some(0), "{r}");
+    assert!(
+        r.stdout
+            .contains("bounces: every bounce that matters; the later ones"),
+        "{r}"
+    );
+    assert!(
+        r.stdout
+            .contains("light reflected after each bounce (× the direct light's): 1:"),
+        "{r}"
+    );
+    let mut c = gibake();
+    c.arg("inspect").arg(&one);
+    let r = run_command(c);
+    assert!(r.stdout.contains("bounces: the first alone"), "{r}");
+}
+
+#[test]
+fn bad_bounce_values_are_refused_naming_the_flag() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = common::data("corner_bunny.glb");
+    for (value, what) in [
+        (
+            "0",
+            "0 bounces: the bake carries 1 (the first bounce alone) to 256",
+        ),
+        ("257", "257 bounces"),
+        ("two", "not a number of bounces (1 to 256) or `all`"),
+        ("-1", "--bounces"),
+    ] {
+        let out = tmp.path().join("x.gibake");
+        let mut c = gibake();
+        c.arg("bake")
+            .arg(&scene)
+            .arg("-o")
+            .arg(&out)
+            .arg(format!("--bounces={value}"));
+        let r = run_command(c);
+        assert_eq!(r.code, Some(2), "{r}");
+        assert!(r.stderr.contains(what), "{value}: {r}");
+        assert!(!out.exists(), "nothing is written: {r}");
+    }
+    let mut c = gibake();
+    c.arg("bake")
+        .arg(&scene)
+        .arg("-o")
+        .arg(tmp.path().join("y.gibake"))
+        .arg("--later-vpls=0");
+    let r = run_command(c);
+    assert_eq!(r.code, Some(2), "{r}");
+    assert!(r.stderr.contains("--later-vpls"), "{r}");
+}
+
+/// The later light is in the picture: a room lit from outside gets more
+/// indirect light with the default than with `--bounces 1`, finite.
+#[test]
+fn the_later_bounces_add_light_in_an_interior() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = common::data("occluded.glb");
+    let every = tmp.path().join("every.gibake");
+    let one = tmp.path().join("one.gibake");
+    let (r, j) = bake(&scene, &every, &[]);
+    assert!(j["later"]["vpls"].as_u64().unwrap() > 0, "{r}");
+    bake(&scene, &one, &["--bounces", "1"]);
+    let e = indirect_mean(&scene, &every, &tmp.path().join("every.exr"));
+    let o = indirect_mean(&scene, &one, &tmp.path().join("one.exr"));
+    let ratio = e / o;
+    eprintln!("occluded: indirect with every bounce ÷ the first alone: {ratio}");
+    assert!(ratio.min_element() > 1.02, "{ratio}");
+    assert!(ratio.max_element() < 3.0, "{ratio}");
+}
+
+/// Outdoors the later bounces carry next to nothing: the bundled town
+/// (a real level) stores no later VPL under the default, and says so.
+#[test]
+fn a_level_lit_from_outside_leaves_the_later_bounces_out() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = common::root().join("data/levels/town/town_model.gltf");
+    let out = tmp.path().join("town.gibake");
+    let (r, j) = bake(&scene, &out, &["--sun", "300,55", "--sun-irradiance", "3"]);
+    let later = &j["later"];
+    assert_eq!(later["left_out"], true, "{r}");
+    assert_eq!(later["vpls"], 0, "{r}");
+    assert!(later["share"].as_f64().unwrap() < 0.001, "{r}");
+    assert_eq!(j["vpls"], j["first_bounce_vpls"], "{r}");
+    assert!(r.stderr.is_empty() || !r.stderr.contains("panicked"), "{r}");
+    let mut c = gibake();
+    c.arg("inspect").arg(&out);
+    let r = run_command(c);
+    assert!(
+        r.stdout.contains("the later ones left out: they carry 0.0"),
+        "{r}"
+    );
+}
