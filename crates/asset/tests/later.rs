@@ -96,7 +96,9 @@ fn a_4_5_manifest_loads_as_the_first_bounce_alone() {
     // One byte shorter than 4.6's: its `later`, none.
     assert_eq!(
         old.len() + 1,
-        testing::manifest_bytes_4_6(&current.manifest).unwrap().len()
+        testing::manifest_bytes_4_6(&current.manifest)
+            .unwrap()
+            .len()
     );
     std::fs::write(dir.join(FILE_MANIFEST), &old).unwrap();
     let loaded = load(&dir).expect("a 4.5 asset loads");

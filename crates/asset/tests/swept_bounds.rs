@@ -32,7 +32,10 @@ fn swept_bounds_round_trip_in_the_documented_layout() {
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
     // (then 4.6's `later`, none: `00`, and 4.7's lower_map_count, one byte)
     assert_eq!(bytes[20 + len - 2], 0);
-    assert_eq!(u32::from(bytes[20 + len - 1]), loaded.manifest.lower_map_count);
+    assert_eq!(
+        u32::from(bytes[20 + len - 1]),
+        loaded.manifest.lower_map_count
+    );
     let tail = &bytes[20 + len - 33..20 + len - 2];
     assert_eq!(tail[0], 6);
     for (k, v) in BOX.iter().enumerate() {
@@ -74,7 +77,10 @@ fn a_4_4_manifest_loads_without_swept_bounds() {
     let old = testing::manifest_bytes_4_4(&m).unwrap();
     assert_eq!(u16::from_le_bytes([old[10], old[11]]), 4);
     // One byte for the empty box, one for 4.6's `later` (none).
-    assert_eq!(old.len() + 2, testing::manifest_bytes_4_6(&m).unwrap().len());
+    assert_eq!(
+        old.len() + 2,
+        testing::manifest_bytes_4_6(&m).unwrap().len()
+    );
     std::fs::write(dir.join(FILE_MANIFEST), &old).unwrap();
     let loaded = load(&dir).expect("a 4.4 asset loads");
     assert_eq!(loaded.manifest.swept_bounds, None);

@@ -90,10 +90,7 @@ fn view_rsms_round_trip_in_the_documented_layout() {
         gibake_asset::FORMAT_MINOR
     );
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    assert_eq!(
-        &bytes[20 + len - 9..20 + len],
-        &[3, 1, 4, 5, 0, 0, 0, 0, 3]
-    );
+    assert_eq!(&bytes[20 + len - 9..20 + len], &[3, 1, 4, 5, 0, 0, 0, 0, 3]);
     // The atlas, read back as the spec lays it out.
     let (w, h, z, share, vpl) = atlas_of(&asset.view_rsms);
     assert_eq!((w, h), (2 * RSM as usize, 2 * RSM as usize));
