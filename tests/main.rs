@@ -6,6 +6,7 @@
 //! `cargo test --release -p gibake --test end_to_end real_levels::`.
 
 mod bake_flags;
+mod below_horizon;
 mod bench_quick;
 mod bench_small;
 mod budget;

@@ -243,19 +243,24 @@ fn reader_accepts_walls_edge_on_to_the_sun() {
 fn reader_refuses_damaged_assets() {
     let py = python();
     let work = tempfile::tempdir().unwrap();
-    // The first bounce alone (`--bounces 1`): its manifest ends with
-    // 4.6's `later` tag `00`, which the re-sealed cases below build on.
+    // The first bounce alone: the re-sealed cases below cut the payload's
+    // end, and a later bounces' record there would cut the VPLs' count.
     let mut flags = common::TINY_BAKE.to_vec();
     flags.extend(["--bounces", "1"]);
     let asset = bake_with(&common::data("corner_bunny.glb"), work.path(), &flags);
     let intact = read(&py, &asset);
     assert_eq!(intact.code, Some(0), "the intact asset must pass\n{intact}");
+    assert!(
+        intact.stdout.contains("VPLs with a second origin"),
+        "the reader reads vpl_lower.bin (4.7)\n{intact}"
+    );
 
     // (file flipped, byte offset, the file the message must name)
     type Damage = (&'static str, fn(usize) -> usize, &'static str);
-    let cases: [Damage; 6] = [
+    let cases: [Damage; 7] = [
         ("vpl_maps.exr", |n| n / 2, "vpl_maps.exr"),
         ("vpl_coherence.bin", |n| n / 2, "vpl_coherence.bin"),
+        ("vpl_lower.bin", |n| n / 2, "vpl_lower.bin"),
         ("primary_depth.exr", |n| n - 1, "primary_depth.exr"),
         ("vpls.bin", |_| 3, "vpls.bin"),
         // Inside the payload (the scene name) and in the BLAKE3 trailer.
@@ -278,19 +283,23 @@ fn reader_refuses_damaged_assets() {
 
     // Re-sealed manifests (payload edited, length and BLAKE3 trailer
     // recomputed): what the spec says a reader must refuse or accept.
-    // The bake writes the current minor (4.6: the views, light_map_size,
-    // the appended view_rsms, ring_vpls, scene_options, swept_bounds and
-    // later end the payload; `later` is the one byte `00` here (the first
-    // bounce alone), dropped first for the 4.5 cases (`to45`); a one-light asset without rings baked with no scene
-    // flag has no views, so before swept_bounds its last nine bytes are the
-    // view count 0, light_map_size 0, the view_rsms count 0, the ring_vpls
-    // count 0 and the scene options `01 00 00 00 00 00`: recorded, none
-    // given; 4.2 added a file, not payload bytes). The 4.4 cases below
-    // first drop swept_bounds (`to44`): a whole 4.4 payload.
+    // The bake (the first bounce alone) writes the current minor (4.7: the
+    // views, light_map_size, the appended view_rsms, ring_vpls,
+    // scene_options, swept_bounds, later and lower_map_count end the
+    // payload; a one-light asset without rings baked with no scene flag has
+    // no views, so before swept_bounds its last ten bytes are the view
+    // count 0, light_map_size 0, the view_rsms count 0, the ring_vpls count
+    // 0 and the scene options `01 00 00 00 00 00`: recorded, none given;
+    // 4.2 added a file, not payload bytes; after swept_bounds come the
+    // `later` tag `00` and the second maps' count, one byte). The 4.4 cases
+    // below first drop what 4.5 to 4.7 append (`to44`): a whole 4.4 payload,
+    // but one whose file list names vpl_lower.bin (4.7's file), so the
+    // older minors that would read it refuse that file; a 4.6 asset whose
+    // writer did not list it is accepted below.
     assert_eq!(
         (gibake_asset::FORMAT_MAJOR, gibake_asset::FORMAT_MINOR),
-        (4, 6),
-        "the re-sealed cases below are written for format 4.6"
+        (4, 7),
+        "the re-sealed cases below are written for format 4.7"
     );
     let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
     assert!(
@@ -299,8 +308,12 @@ fn reader_refuses_damaged_assets() {
             && m.ring_vpls.is_empty()
             && m.scene_options == Some(Default::default())
             && m.later.is_none(),
-        "corner_bunny.glb: one light, no views, no ring VPLs, no scene flags\n{m:#?}"
+        "corner_bunny.glb: one light, no views, no ring VPLs, no scene flags, the first bounce alone\n{m:#?}"
     );
+    let lower = u8::try_from(m.lower_map_count)
+        .ok()
+        .filter(|&n| n < 251)
+        .expect("a one-byte varint of second maps");
     // swept_bounds: a count, then six varints (1 byte below 251, 3 below
     // 2^16, else 5).
     let swept = m.swept_bounds.expect("the bake records its sweep");
@@ -309,13 +322,15 @@ fn reader_refuses_damaged_assets() {
         251..=65535 => 3,
         _ => 5,
     };
-    let tail: usize = 1 + swept.iter().map(|v| varint(v.to_bits())).sum::<usize>();
+    let swept_len: usize = 1 + swept.iter().map(|v| varint(v.to_bits())).sum::<usize>();
     let bytes = std::fs::read(asset.join(gibake_asset::FILE_MANIFEST)).unwrap();
-    assert_eq!(bytes[bytes.len() - 33], 0, "later: none");
-    let before_swept = &bytes[..bytes.len() - 33 - tail];
+    let payload_end = bytes.len() - 32;
+    assert_eq!(&bytes[payload_end - 2..payload_end], &[0, lower]);
+    let before_swept = &bytes[..payload_end - 2 - swept_len];
     assert!(before_swept.ends_with(&[0, 0, 0, 0, 1, 0, 0, 0, 0, 0]));
-    let to44 = format!("payload = payload[:-{}]; ", tail + 1);
-    let to45 = "payload = payload[:-1]; ";
+    let to44 = format!("payload = payload[:-{}]; ", swept_len + 2);
+    let to45 = "payload = payload[:-2]; ";
+    let not_stored = "vpl_lower.bin, which the counts say is not stored";
     let cases_44: [(&str, &str, Option<&str>); 19] = [
         // One byte after the last field, same minor: refused.
         ("payload += b'\\x00'", "4", Some("after the last field")),
@@ -349,13 +364,14 @@ fn reader_refuses_damaged_assets() {
             Some("payload ends inside scene_options.max_texture_size tag"),
         ),
         // ... and the same bytes are a whole 4.3 payload (nothing
-        // recorded): accepted, as a 4.3 asset.
-        ("payload = payload[:-6]", "3", None),
+        // recorded), listing 4.7's file: refused for it.
+        ("payload = payload[:-6]", "3", Some(not_stored)),
         // A 4.3 payload with the scene options after it: bytes after the
         // last field of its minor, refused.
         ("pass", "3", Some("after the last field")),
-        // Without them and ring_vpls a whole 4.2 payload: accepted.
-        ("payload = payload[:-7]", "2", None),
+        // Without them and ring_vpls a whole 4.2 payload, listing 4.7's
+        // file: refused.
+        ("payload = payload[:-7]", "2", Some(not_stored)),
         // Without view_rsms too a whole 4.0 payload, but one that lists
         // vpl_coherence.bin (4.2's file): refused, as a format's own file
         // the counts say is not stored.
@@ -408,25 +424,24 @@ fn reader_refuses_damaged_assets() {
             "4",
             Some("light_map_size is 5 but there are no views"),
         ),
-        // Control: a whole 4.4 payload (swept bounds not recorded): accepted.
-        ("pass", "4", None),
+        // A whole 4.4 payload (swept bounds not recorded), listing 4.7's
+        // file: refused for it.
+        ("pass", "4", Some(not_stored)),
     ];
     let mut reseal_cases: Vec<(String, &str, Option<&str>)> = cases_44
         .iter()
         .map(|(e, minor, r)| (format!("{to44}{e}"), *minor, *r))
         .collect();
     let nan = "b'\\xfc\\x00\\x00\\xc0\\x7f'";
-    let cases_45: [(String, &str, Option<&str>); 7] = [
-        // Control: a whole 4.5 payload, accepted.
-        (format!("{to45}pass"), "5", None),
-        // One byte after the last field of 4.5: refused ...
+    let cases_45: [(String, &str, Option<&str>); 6] = [
+        // A whole 4.5 payload, listing 4.7's file: refused for it.
+        (to45.into(), "5", Some(not_stored)),
+        // One byte after the last field of 4.5: refused.
         (
-            format!("{to45}payload += b'\\x02'"),
+            format!("{to45}payload += b'\\x01'"),
             "5",
             Some("after the last field"),
         ),
-        // ... and accepted from a newer minor (4.7), ignored.
-        ("payload += b'\\x02'".into(), "7", None),
         // swept_bounds cut inside: refused.
         (
             format!("{to45}payload = payload[:-1]"),
@@ -453,36 +468,29 @@ fn reader_refuses_damaged_assets() {
         ),
     ];
     reseal_cases.extend(cases_45);
-    let cases_46: [(String, &str, Option<&str>); 5] = [
+    let cases_47: [(String, &str, Option<&str>); 5] = [
         // Control: re-sealed unchanged, accepted.
-        ("pass".into(), "6", None),
-        // A 4.5 payload read as 4.6: it ends where later's tag is.
-        (to45.into(), "6", Some("payload ends inside later tag")),
-        // An Option tag bincode does not define.
+        ("pass".into(), "7", None),
+        // One byte after the last field, same minor: refused ...
         (
-            format!("{to45}payload += b'\\x02'"),
-            "6",
-            Some("later: invalid Option tag 2"),
+            "payload += b'\\x00'".into(),
+            "7",
+            Some("after the last field"),
         ),
-        // A record of one bounce (the first alone has none): refused.
+        // ... and accepted from a newer minor (4.8), ignored.
+        ("payload += b'\\x00'".into(), "8", None),
+        // lower_map_count cut off: refused.
         (
-            format!(
-                "{to45}payload += b'\\x01\\x01\\x00\\x00\\x00\\x01' + struct.pack('<3f', 1, 1, 1) + b'\\x00' + struct.pack('<3f', 0, 0, 0)"
-            ),
-            "6",
-            Some("later.bounces = 1"),
+            "payload = payload[:-1]".into(),
+            "7",
+            Some("payload ends inside lower_map_count"),
         ),
-        // More bounces listed than the cap (a hostile count): refused
-        // before reading them.
-        (
-            format!(
-                "{to45}payload += b'\\x01\\x00\\x00\\x00\\x00\\x01' + struct.pack('<3f', 1, 1, 1) + b'\\xfb\\x01\\x01'"
-            ),
-            "6",
-            Some("later.per_bounce holds 257 bounces"),
-        ),
+        // The same bytes are a whole 4.6 payload, but one that lists
+        // vpl_lower.bin (4.7's file): refused, as a format's own file the
+        // counts say is not stored.
+        ("payload = payload[:-1]".into(), "6", Some(not_stored)),
     ];
-    reseal_cases.extend(cases_46);
+    reseal_cases.extend(cases_47);
     for (k, (edit, minor, refusal)) in reseal_cases.iter().enumerate() {
         let copy = copy_asset(&asset, work.path(), &format!("reseal{k}.gibake"));
         reseal(&py, &copy.join("manifest.bin"), edit, minor);
@@ -499,6 +507,19 @@ fn reader_refuses_damaged_assets() {
             ),
         }
     }
+    // A 4.6 asset, whose writer listed neither of 4.7's files: accepted,
+    // without second origins.
+    let copy = copy_asset(&asset, work.path(), "v46.gibake");
+    std::fs::write(
+        copy.join("manifest.bin"),
+        gibake_asset::testing::manifest_bytes_4_6(&m).unwrap(),
+    )
+    .unwrap();
+    let r = read(&py, &copy);
+    assert!(
+        r.code == Some(0) && r.stdout.contains("no vpl_lower.bin"),
+        "a 4.6 asset must be accepted without second origins\n{r}"
+    );
 
     // A major version this reader does not know (5.0), and the previous
     // one (3.1: its assets are re-baked).
@@ -804,10 +825,11 @@ fn reader_accepts_a_point_light_first() {
         r.code == Some(0) && r.stdout.trim_end().ends_with("OK"),
         "a point light first must pass the reader\n{r}"
     );
-    // (the later bounces' VPLs, format 4.6, are no light's)
+    // The lights' VPLs: the later bounces' (format 4.6, the last of
+    // vpls.bin) are no light's and lie on no view.
     let every = format!(
         "{} VPLs of every light (lights[0] is a point light) on their views' map surfaces",
-        m.vpl_count - m.later.as_ref().map_or(0, |l| l.vpls)
+        m.vpl_count - m.later_vpls()
     );
     assert!(
         r.stdout
@@ -1034,7 +1056,7 @@ fn reader_reads_the_later_bounces() {
     let r = read(&py, &asset);
     assert!(
         r.code == Some(0)
-            && r.stdout.contains("gibake asset 4.6")
+            && r.stdout.contains("gibake asset 4.7")
             && r.stdout.contains(&format!(
                 "later bounces (every bounce that matters, {} followed): the last {} VPLs",
                 later.per_bounce.len(),

@@ -4,7 +4,10 @@
 //! 2D atlas in the asset's own tile layout, `gibake_asset::atlas_grid`), the
 //! static primary shadow map and, only for scenes with moving objects, the
 //! static RSM metric plus each texel's share of its VPL's flux (baked; for
-//! partial occlusion).
+//! partial occlusion). The second maps of the VPLs with a second origin
+//! (format 4.7, `gibake_asset::LowerVpl`: the light below a VPL's horizon)
+//! sit below the first maps' atlas in the same texture, in their own
+//! atlas's layout, also uploaded as it is.
 
 use gibake_asset::{Asset, LEVEL3_NODES, NODES_PER_VPL, VplRecord};
 use gibake_gpu::LightView;
@@ -35,13 +38,26 @@ pub(crate) struct BakedGpu {
     /// VPL (its own with `position` its far-field centre,
     /// `gibake_asset::far_field_centre`, and its facing shift,
     /// `gibake_asset::facing`), then its level-1 and level-2 nodes' facing
-    /// shifts (`gibake_asset::FACINGS_PER_VPL − 1` records per VPL)
-    /// (storage).
+    /// shifts (`gibake_asset::FACINGS_PER_VPL − 1` records per VPL), then
+    /// one second-map record per VPL (`position` its second origin,
+    /// `normal` the opposite of its normal, `map` its second map's tile or
+    /// `NO_MAP`, `texels` 1, or all zeros for a VPL without a second
+    /// origin; shade.wgsl `lower_record`) (storage).
     pub vpl_buf: wgpu::Buffer,
-    /// Baked hemisphere maps, one 2D atlas (one +inf tile when none is stored).
+    /// Baked hemisphere maps, one 2D atlas (one +inf tile when none is
+    /// stored), the second maps' atlas below it from row
+    /// [`BakedGpu::lower_row`].
     pub static_maps: wgpu::TextureView,
-    /// Tiles per row of [`BakedGpu::static_maps`].
+    /// Tiles per row of [`BakedGpu::static_maps`]'s first atlas.
     pub static_cols: u32,
+    /// Tiles per row of the second maps' atlas (1 when there is none).
+    pub lower_cols: u32,
+    /// The texel row where the second maps' atlas starts.
+    pub lower_row: u32,
+    /// Per static VPL: its second map's frame (origin, normal: the
+    /// opposite of the VPL's), where it has a second origin (for the
+    /// merge).
+    pub lower: Vec<Option<(glam::Vec3, glam::Vec3)>>,
     /// Hemisphere map size.
     pub map_size: u32,
     /// Static primary shadow map.
@@ -129,8 +145,82 @@ impl BakedGpu {
             )));
         };
         let (w, h) = (cols * s, rows * s);
-        let static_maps = r32_texture(device, queue, "baked VPL maps", w, h, atlas)
-            .create_view(&Default::default());
+        // The second maps' atlas, below the first.
+        let lm = &asset.vpl_lower_maps;
+        let lower_count = m.lower_map_count;
+        if lm.count() != lower_count || (lower_count > 0 && lm.tile_size() != s) {
+            return Err(RuntimeError::InvalidSetting(format!(
+                "the asset holds {} second maps of {}² for {lower_count} maps of {s}²",
+                lm.count(),
+                lm.tile_size()
+            )));
+        }
+        let (lower_cols, lower_rows) = if lower_count == 0 {
+            (1, 0)
+        } else {
+            crate::atlas::layout(
+                device,
+                "the asset's second VPL map atlas (bake fewer VPLs or smaller maps)",
+                lower_count,
+                s,
+            )?
+        };
+        let (tw, th) = (w.max(lower_cols * s), h + lower_rows * s);
+        if th > max {
+            return Err(RuntimeError::DeviceLimit {
+                what: format!(
+                    "the asset's VPL maps and second maps in one texture ({} and {lower_count} maps of {s}²; bake fewer VPLs or smaller maps)",
+                    m.map_count
+                ),
+                needed: u64::from(th),
+                limit: u64::from(max),
+            });
+        }
+        let static_maps = if lower_count == 0 {
+            r32_texture(device, queue, "baked VPL maps", w, h, atlas)
+        } else {
+            let t = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("baked VPL maps and second maps"),
+                size: wgpu::Extent3d {
+                    width: tw,
+                    height: th,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::R32Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            });
+            for (texels, width, height, row) in
+                [(atlas, w, h, 0), (lm.texels(), lm.width(), lm.height(), h)]
+            {
+                queue.write_texture(
+                    wgpu::TexelCopyTextureInfo {
+                        texture: &t,
+                        mip_level: 0,
+                        origin: wgpu::Origin3d { x: 0, y: row, z: 0 },
+                        aspect: wgpu::TextureAspect::All,
+                    },
+                    bytemuck::cast_slice(texels),
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(4 * width),
+                        rows_per_image: Some(height),
+                    },
+                    wgpu::Extent3d {
+                        width,
+                        height,
+                        depth_or_array_layers: 1,
+                    },
+                );
+            }
+            t
+        }
+        .create_view(&Default::default());
         let pd = &asset.primary_depth;
         let rsm_size = asset.rsm.as_ref().map(|r| r.size).unwrap_or(0);
         for (what, size) in [
@@ -243,14 +333,45 @@ impl BakedGpu {
                 })
             })
             .collect();
+        // Each VPL's second map (shade.wgsl `lower_record`): its second
+        // origin, the opposite of its normal, its tile in the second atlas
+        // (NO_MAP: it sees no surface), `texels` 1; all zeros without one
+        // (an asset of format 4.6 or older has none).
+        let lower: Vec<Option<(glam::Vec3, glam::Vec3)>> = (0..asset.vpls.len())
+            .map(|i| {
+                let l = asset.vpl_lower.get(i).filter(|l| l.is_some())?;
+                let n = -glam::Vec3::from_array(asset.vpls[i].normal);
+                Some((glam::Vec3::from_array(l.origin), n))
+            })
+            .collect();
+        let lower_records: Vec<GpuVpl> = lower
+            .iter()
+            .enumerate()
+            .map(|(i, l)| match l {
+                Some((o, n)) => GpuVpl {
+                    position: o.to_array(),
+                    area: 0.0,
+                    normal: n.to_array(),
+                    texels: 1,
+                    flux: [0.0; 3],
+                    map: match asset.vpl_lower[i].map {
+                        t if t < lower_count => t,
+                        _ => NO_MAP,
+                    },
+                },
+                None => GpuVpl::default(),
+            })
+            .collect();
         // The VPLs, then their near-field trees (NODES_PER_VPL records per
         // VPL, as stored), then their far-field records, then their nodes'
-        // facing shifts, in one storage buffer: shading binds four.
+        // facing shifts, then their second maps' records, in one storage
+        // buffer: shading binds four.
         let records = [
             vpls.as_slice(),
             nodes.as_slice(),
             far.as_slice(),
             node_facings.as_slice(),
+            lower_records.as_slice(),
         ]
         .concat();
         let vpl_bytes = std::mem::size_of_val(records.as_slice()) as u64;
@@ -258,7 +379,7 @@ impl BakedGpu {
         if vpl_bytes > max_binding {
             return Err(RuntimeError::DeviceLimit {
                 what: format!(
-                    "the asset's {} VPLs, their near-field nodes, far-field and facing records (bytes in one storage binding; bake fewer VPLs)",
+                    "the asset's {} VPLs, their near-field nodes, far-field, facing and second-map records (bytes in one storage binding; bake fewer VPLs)",
                     vpls.len()
                 ),
                 needed: vpl_bytes,
@@ -274,7 +395,8 @@ impl BakedGpu {
             },
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let mut bytes = (atlas.len() * 4 + pd.data.len() * 4) as u64 + vpl_bytes;
+        let mut bytes =
+            (atlas.len() * 4 + lm.texels().len() * 4 + pd.data.len() * 4) as u64 + vpl_bytes;
         let rsm = asset.rsm.as_ref().map(|r| {
             let g = rsm_gpu(device, queue, r, vpls.len(), light_view(asset, r.size), 0);
             bytes += g.1;
@@ -299,6 +421,9 @@ impl BakedGpu {
             vpl_buf,
             static_maps,
             static_cols: cols,
+            lower_cols,
+            lower_row: h,
+            lower,
             map_size: s,
             primary,
             view: light_view(asset, pd.size),

@@ -11,7 +11,12 @@
 //! uploads the tables (the atlas in the layout of [`crate::atlas`]);
 //! [`VplMerge::record`] only records the one pass.
 //!
-//! In `naive` mode every VPL gets a tile and every draw (static ones too) is
+//! A VPL with a second map (the light below its horizon,
+//! `gibake_asset::LowerVpl`) has a second frame, its second origin and the
+//! opposite of its normal, merged the same way: the tile table holds the
+//! first maps' tiles, then the second maps' (`n_static + i` for VPL `i`).
+//!
+//! In `naive` mode every map gets a tile and every draw (static ones too) is
 //! rasterized into it: the same code re-renders every map (the cost
 //! baseline).
 
@@ -27,14 +32,17 @@ use crate::baked::BakedGpu;
 
 /// Merge state of one renderer.
 pub(crate) struct VplMerge {
-    /// Per static VPL: (map origin, normal), as uploaded ([`BakedGpu::vpls`]).
-    frames: Vec<(Vec3, Vec3)>,
+    /// Per static VPL: (map origin, normal), as uploaded ([`BakedGpu::vpls`]);
+    /// then per static VPL its second map's frame, where it has one
+    /// ([`BakedGpu::lower`]).
+    frames: Vec<Option<(Vec3, Vec3)>>,
     /// Every map is re-rendered from all geometry (`naive`).
     naive: bool,
     map_size: u32,
     pass: HemiRasterPass,
     atlas: HemiAtlas,
-    /// Per static VPL: its atlas tile, or `u32::MAX` (baked map alone).
+    /// Per frame (static VPLs' maps, then their second maps): its atlas
+    /// tile, or `u32::MAX` (baked map alone).
     tile_buf: wgpu::Buffer,
     jobs: Vec<GpuHemiJob>,
     tiles: Vec<u32>,
@@ -63,8 +71,15 @@ impl VplMerge {
         scene_diagonal: f32,
         naive: bool,
     ) -> Result<VplMerge, RuntimeError> {
-        let n = baked.vpls.len() as u32;
-        let capacity = if naive { n } else { n.min(64) };
+        let frames: Vec<Option<(Vec3, Vec3)>> = baked
+            .vpls
+            .iter()
+            .map(|v| Some((v.position(), v.normal())))
+            .chain(baked.lower.iter().copied())
+            .collect();
+        let n = frames.len() as u32;
+        let maps = frames.iter().flatten().count() as u32;
+        let capacity = if naive { maps } else { maps.min(64) };
         let atlas = checked_atlas(device, baked.map_size, capacity)?;
         let diag = scene_diagonal.max(f32::MIN_POSITIVE);
         let pass = HemiRasterPass::new(device, scene_gpu, 1.0 / (4.0 * diag));
@@ -74,11 +89,6 @@ impl VplMerge {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let frames = baked
-            .vpls
-            .iter()
-            .map(|v| (v.position(), v.normal()))
-            .collect();
         Ok(VplMerge {
             frames,
             naive,
@@ -145,21 +155,27 @@ impl VplMerge {
                 None => d.bounds,
             })
             .collect();
-        // masks[v][k]: faces of VPL v's map that draw k can touch.
+        // masks[v][k]: faces of frame v's map that draw k can touch (none
+        // for a VPL without a second map).
         let masks: Vec<Vec<u32>> = self
             .frames
             .iter()
-            .map(|(o, n)| boxes.iter().map(|bx| face_mask(bx, *o, *n)).collect())
+            .map(|f| match f {
+                Some((o, n)) => boxes.iter().map(|bx| face_mask(bx, *o, *n)).collect(),
+                None => vec![0; boxes.len()],
+            })
             .collect();
-        // Full: only VPLs some moving object reaches get a tile.
+        // Full: only maps some moving object reaches get a tile.
         let chosen: Vec<u32> = (0..self.frames.len() as u32)
-            .filter(|&v| self.naive || masks[v as usize].iter().any(|&m| m != 0))
+            .filter(|&v| {
+                self.frames[v as usize].is_some()
+                    && (self.naive || masks[v as usize].iter().any(|&m| m != 0))
+            })
             .collect();
         // Plan everything first; nothing changes unless it all fits.
         let atlas = if chosen.len() as u32 > self.atlas.capacity {
-            let cap = (chosen.len() as u32)
-                .next_power_of_two()
-                .min(self.frames.len() as u32);
+            let maps = self.frames.iter().flatten().count() as u32;
+            let cap = (chosen.len() as u32).next_power_of_two().min(maps);
             Some(checked_atlas(device, self.map_size, cap)?)
         } else {
             None
@@ -168,7 +184,9 @@ impl VplMerge {
         let mut jobs = Vec::with_capacity(chosen.len());
         let mut tiles = vec![u32::MAX; self.frames.len()];
         for (slot, &v) in chosen.iter().enumerate() {
-            let (o, n) = self.frames[v as usize];
+            let Some((o, n)) = self.frames[v as usize] else {
+                continue;
+            };
             let t = layout.tile_origin(slot as u32);
             jobs.push(GpuHemiJob {
                 origin: o.extend(0.0).to_array(),
@@ -186,12 +204,8 @@ impl VplMerge {
                 .iter()
                 .map(|&v| {
                     if d.object.is_some() {
-                        lod_for(
-                            &boxes[k],
-                            self.frames[v as usize].0,
-                            self.map_size,
-                            d.lods.len(),
-                        )
+                        let o = self.frames[v as usize].map_or(Vec3::ZERO, |f| f.0);
+                        lod_for(&boxes[k], o, self.map_size, d.lods.len())
                     } else {
                         0
                     }

@@ -217,10 +217,23 @@ impl Requirements {
         let (cols, rows) = atlas_grid(m.map_count.max(1));
         let side = u64::from(cols.max(rows)) * u64::from(s);
         self.need(Limit::Texture2d, "the asset's VPL map atlas", side);
-        let atlas = u64::from(cols) * u64::from(rows) * sq(s);
-        // The VPLs, their near-field trees, their far-field records and
-        // their nodes' facing records (baked.rs).
-        let per_vpl = 1 + gibake_asset::FACINGS_PER_VPL;
+        let mut atlas = u64::from(cols) * u64::from(rows) * sq(s);
+        // The second maps' atlas, below the first in the same texture.
+        if m.lower_map_count > 0 {
+            let (lc, lr) = atlas_grid(m.lower_map_count);
+            let side = u64::from(lc.max(lr)) * u64::from(s);
+            self.need(Limit::Texture2d, "the asset's second VPL map atlas", side);
+            let height = u64::from(rows + lr) * u64::from(s);
+            self.need(
+                Limit::Texture2d,
+                "the asset's VPL maps and second maps in one texture",
+                height,
+            );
+            atlas += u64::from(lc) * u64::from(lr) * sq(s);
+        }
+        // The VPLs, their near-field trees, their far-field records, their
+        // nodes' facing records and their second maps' records (baked.rs).
+        let per_vpl = 2 + gibake_asset::FACINGS_PER_VPL;
         let records = (per_vpl * a.vpls.len() + a.vpl_nodes.len()) as u64 * VPL_BYTES;
         self.need(
             Limit::StorageBinding,

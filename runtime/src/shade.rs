@@ -75,6 +75,13 @@ pub(crate) struct GpuGiParams {
     /// The near-field descent in disk radii
     /// ([`crate::RenderSettings::near_field_descent`]).
     pub descent: u32,
+    /// Tiles per row of the second maps' atlas (below the first in the
+    /// baked map texture).
+    pub lower_cols: u32,
+    /// The texel row where the second maps' atlas starts.
+    pub lower_row: u32,
+    /// Padding to 16 bytes.
+    pub _pad: [u32; 2],
 }
 
 /// A shading pipeline and its group-1 layout: the one-light variant, or the
@@ -470,6 +477,9 @@ impl ShadeGi {
             static_cols: s.baked.map_or(1, |b| b.static_cols),
             n_other_lights: s.other_lights.map_or(0, |o| o.count),
             descent: s.plan.near_field_descent(),
+            lower_cols: s.baked.map_or(1, |b| b.lower_cols),
+            lower_row: s.baked.map_or(0, |b| b.lower_row),
+            _pad: [0; 2],
         };
         let params_buf = uniform(device, "shade gi params", &params);
         let group = Self::group(device, shade, s, &params_buf);

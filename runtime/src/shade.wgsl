@@ -36,6 +36,10 @@ struct GiParams {         // GpuGiParams in shade.rs
     static_cols: u32,     // tiles per row of the baked map atlas
     n_other_lights: u32,  // lights after the first (other_lights)
     descent: u32,         // near-field descent in disk radii (RenderSettings::near_field_descent)
+    lower_cols: u32,      // tiles per row of the second maps' atlas
+    lower_row: u32,       // texel row of static_maps where the second maps' atlas starts
+    _pad0: u32,
+    _pad1: u32,
 }
 
 const NONE: u32 = 0xffffffffu;
@@ -138,14 +142,20 @@ fn direct_radiance(p: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>, albedo: vec3<f32>
     return light_radiance(light, NONE, p, ns, ng, albedo) + other_lights_radiance(p, ns, ng, albedo);
 }
 
-// Distance stored for VPL i in direction texel c (min of its static map and
-// its moving-object tile; +inf when neither exists).
-fn vpl_map_distance(i: u32, map: u32, tile: u32, c: vec2<i32>) -> f32 {
+// Distance stored in direction texel c of a map (min of its baked map,
+// tile `map` of the first maps' atlas or, `lower`, of the second maps' atlas
+// below it, and its moving-object tile; +inf when neither exists).
+fn vpl_map_distance(map: u32, tile: u32, lower: bool, c: vec2<i32>) -> f32 {
     var s = 3.0e38;
     let n = i32(params.map_size);
     if (map != NONE && !has(FLAG_ATLAS_ONLY)) {
-        let scols = i32(params.static_cols);
-        let origin = vec2<i32>(i32(map) % scols, i32(map) / scols) * n;
+        var scols = i32(params.static_cols);
+        var row = 0;
+        if (lower) {
+            scols = i32(params.lower_cols);
+            row = i32(params.lower_row);
+        }
+        let origin = vec2<i32>(i32(map) % scols, i32(map) / scols) * n + vec2<i32>(0, row);
         s = textureLoad(static_maps, origin + c, 0).r;
     }
     if (tile != NONE) {
@@ -171,15 +181,59 @@ fn vpl_map_distance(i: u32, map: u32, tile: u32, c: vec2<i32>) -> f32 {
 // footprint of a concave crease is partly shadowed by the tap that sees
 // the crease's other side (as before, somewhat more). A receiver whose
 // plane has the origin behind it is not map-tested (below). A receiver below the
-// VPL's horizon (lit only by near-field nodes facing it) is looked up on the
-// map's rim: the map holds nothing below its horizon. CPU twin:
-// gibake_eval::transport::map_visibility.
+// VPL's horizon is looked up in its second map where it has one
+// (lower_record); else on the map's rim: the map holds nothing below its
+// horizon. CPU twin: gibake_eval::transport::map_visibility.
 fn vpl_visibility(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ng: vec3<f32>) -> f32 {
+    // The map to look up: the first, or below the horizon the second where
+    // the VPL has one (lower_record), chosen first so that one lookup runs
+    // whichever it is (no divergent second lookup in a SIMD group).
+    var map = v.map;
+    var slot = i;
+    var lower = false;
+    var normal = v.normal;
+    var o = origin;
+    if (dot(v.normal, x - origin) < 0.0) {
+        let lo = lower_record(i);
+        if (lo.texels != 0u) {
+            map = lo.map;
+            slot = params.n_static + i;
+            lower = true;
+            normal = lo.normal;
+            o = lo.position;
+        }
+    }
     var tile = NONE;
     if (has(FLAG_TILES)) {
-        tile = vpl_tile[i];
+        tile = vpl_tile[slot];
     }
-    if ((v.map == NONE || has(FLAG_ATLAS_ONLY)) && tile == NONE) {
+    return hemi_visibility(map, tile, lower, normal, o, x, ng);
+}
+
+// A static VPL's second-map record (baked.rs): after the VPLs, their trees,
+// far-field records and nodes' facing records; `position` its second
+// origin, `normal` the opposite of its normal, `map` its tile in the second
+// maps' atlas (NONE: it sees no surface), `texels` 0 for a VPL without one.
+// The light a cluster sends below its own horizon leaves from its texels
+// tilted away from its normal (a roof's with the walls of a hole in it, a
+// wall face's with a window's sill and jambs), which see what its lifted
+// map origin does not: through the hole, the window. A VPL with enough of
+// it has a second origin on those texels and a second map around the
+// opposite of its normal from there (gibake_bake::horizon), which
+// vpl_visibility looks up for a receiver below the VPL's horizon: the
+// first map's rim sees the open sky along the roof (over-lit), and its
+// origin's exact ray crosses the roof (over-darkened). Its moving-object
+// tile is the merge's `n_static + i`. Measured in docs/method.md, "Below
+// the horizon". CPU twin: gibake_eval::transport::TwinMaps::visibility.
+fn lower_record(i: u32) -> Vpl {
+    return vpls[params.n_static * (2u + NODES_PER_VPL + FACING_NODES) + i];
+}
+
+// Fraction of the light of a map (baked tile `map`, of the second maps'
+// atlas with `lower`; moving-object tile `tile`) centred at `origin` around
+// `normal` that reaches x (geometric normal ng): vpl_visibility's test.
+fn hemi_visibility(map: u32, tile: u32, lower: bool, normal: vec3<f32>, origin: vec3<f32>, x: vec3<f32>, ng: vec3<f32>) -> f32 {
+    if ((map == NONE || has(FLAG_ATLAS_ONLY)) && tile == NONE) {
         return 1.0;
     }
     let n = f32(params.map_size);
@@ -202,11 +256,11 @@ fn vpl_visibility(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ng: vec3<f32>
     if (!(h > 0.0)) {
         return 1.0;
     }
-    let tc = hemi_texel_coords(v.normal, dx / d, n) - vec2<f32>(0.5);
+    let tc = hemi_texel_coords(normal, dx / d, n) - vec2<f32>(0.5);
     let i0 = vec2<i32>(floor(tc));
     let f = tc - floor(tc);
-    let tb = basis_t(v.normal);
-    let bb = basis_b(v.normal);
+    let tb = basis_t(normal);
+    let bb = basis_b(normal);
     let t_min = d - w * VPL_MAX_SLOPE;
     var lit = vec4<f32>(0.0);
     let offs = array<vec2<i32>, 4>(vec2<i32>(0, 0), vec2<i32>(1, 0), vec2<i32>(0, 1), vec2<i32>(1, 1));
@@ -215,13 +269,13 @@ fn vpl_visibility(i: u32, v: Vpl, origin: vec3<f32>, x: vec3<f32>, ng: vec3<f32>
         let c = clamp(i0 + offs[k], vec2<i32>(0), vec2<i32>(size - 1));
         // The tap's ray (through its texel centre) and where it meets the plane.
         let l = hemi_decode((vec2<f32>(c) + vec2<f32>(0.5)) * (2.0 / n) - vec2<f32>(1.0));
-        let u = tb * l.x + bb * l.y + v.normal * l.z;
+        let u = tb * l.x + bb * l.y + normal * l.z;
         let cu = -dot(u, ng);
         var t = d;
         if (h > 0.0 && cu * d > h) {
             t = max(h / cu, t_min);
         }
-        lit[k] = select(0.0, 1.0, t <= vpl_map_distance(i, v.map, tile, c) + w * VPL_DEPTH_BIAS);
+        lit[k] = select(0.0, 1.0, t <= vpl_map_distance(map, tile, lower, c) + w * VPL_DEPTH_BIAS);
     }
     return mix(mix(lit.x, lit.y, f.x), mix(lit.z, lit.w, f.x), f.y);
 }

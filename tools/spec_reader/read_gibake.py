@@ -18,6 +18,11 @@ another language. It
   channels; pixels: no NaN, atlas tiles, RSM `vpl` indices), `light_maps.exr`
   included, and `view_rsms.exr` (4.1: the other lights' views' RSMs, each
   naming only its own light's VPLs),
+- reads `vpl_lower.bin` and `vpl_lower_maps.exr` (4.7: each VPL's second
+  origin and second hemisphere map, around the opposite of its normal, for
+  the light below its horizon): finite origins, zeros without one, the
+  stored maps' tiles in record order, no NaN or negative distance, unused
+  tiles +inf, no stored map that sees no surface,
 - reads `scene_options` (4.4: the `--sun`, `--dynamic`, `--light`,
   `--bake-volume` and `--max-texture-size` the bake applied; `None`: not
   recorded) and checks their values, printing them as the bake's flags,
@@ -78,12 +83,14 @@ except ImportError as e:  # pragma: no cover - environment problem
 
 MAGIC = b"GIBAKE\x00\x01"
 READER_MAJOR = 4
-READER_MINOR = 6
+READER_MINOR = 7
 MAX_PAYLOAD = 16 * 1024 * 1024
 MAX_MAP_SIZE = 16384
 # Most texels of one map file (an atlas).
 MAX_TEXELS = 2**31
 NO_MAP = 0xFFFFFFFF
+# vpl_lower.bin's `map` of a VPL without a second origin (4.7).
+NO_LOWER = 0xFFFFFFFE
 # LightRecord.kind.
 LIGHT_KINDS = {0: "directional", 1: "spot", 2: "point"}
 LIGHT_POINT = 2
@@ -480,6 +487,9 @@ def read_manifest(asset: str) -> dict:
     # 4.6 appends later (Option<LaterRecord>: the bounces after the first);
     # a 4.5 or older payload ends before it (the first bounce alone).
     m["later"] = read_later(d) if minor >= 6 else None
+    # 4.7 appends lower_map_count (u32 varint: the second hemisphere maps in
+    # vpl_lower_maps.exr); a 4.6 or older payload ends before it (0).
+    m["lower_map_count"] = d.u32("lower_map_count") if minor >= 7 else 0
     extra = length - d.pos
     if extra and minor <= READER_MINOR:
         raise AssetError(
@@ -686,6 +696,15 @@ def check_manifest_values(m: dict) -> list[str]:
         texels = cols * rows * s["vpl_map_size"] ** 2
         if texels > MAX_TEXELS:
             raise AssetError(f"manifest.bin: atlas of {texels} texels exceeds 2^31")
+    if m["lower_map_count"] > m["vpl_count"]:
+        raise AssetError(
+            f"manifest.bin: lower_map_count {m['lower_map_count']} > vpl_count {m['vpl_count']}"
+        )
+    if m["lower_map_count"] > 0:
+        cols, rows = atlas_grid(m["lower_map_count"])
+        texels = cols * rows * s["vpl_map_size"] ** 2
+        if texels > MAX_TEXELS:
+            raise AssetError(f"manifest.bin: second-map atlas of {texels} texels exceeds 2^31")
     required = ["vpls.bin", "vpl_nodes.bin", "primary_depth.exr"]
     if m["minor"] >= 2 and m["vpl_count"] > 0:
         required.append("vpl_coherence.bin")
@@ -697,6 +716,10 @@ def check_manifest_values(m: dict) -> list[str]:
         required.append("light_maps.exr")
     if m["view_rsms"]:
         required.append("view_rsms.exr")
+    if m["minor"] >= 7 and m["vpl_count"] > 0:
+        required.append("vpl_lower.bin")
+    if m["lower_map_count"] > 0:
+        required.append("vpl_lower_maps.exr")
     # The format's own names: listed exactly when required (whatever the minor).
     own = [
         "manifest.bin",
@@ -708,6 +731,8 @@ def check_manifest_values(m: dict) -> list[str]:
         "light_maps.exr",
         "view_rsms.exr",
         "vpl_coherence.bin",
+        "vpl_lower.bin",
+        "vpl_lower_maps.exr",
     ]
     names = [f[0] for f in m["files"]]
     for name in names:
@@ -725,7 +750,8 @@ def check_manifest_values(m: dict) -> list[str]:
             raise AssetError(
                 f"manifest.bin: file list holds {name}, which the counts say is not stored "
                 f"(format {m['major']}.{m['minor']}, vpl_count {m['vpl_count']}, "
-                f"map_count {m['map_count']}, has_dynamic {m['has_dynamic']}, "
+                f"map_count {m['map_count']}, lower_map_count {m['lower_map_count']}, "
+                f"has_dynamic {m['has_dynamic']}, "
                 f"stored light maps {stored_light_maps(m)}, view RSMs {len(m['view_rsms'])})"
             )
     unknown = [n for n in names if n not in required]
@@ -746,6 +772,11 @@ def check_manifest_values(m: dict) -> list[str]:
         raise AssetError(
             f"manifest.bin: vpl_coherence.bin listed as {sizes['vpl_coherence.bin']} bytes, "
             f"expected 4 · 64 · {m['vpl_count']}"
+        )
+    if "vpl_lower.bin" in sizes and sizes["vpl_lower.bin"] != 16 * m["vpl_count"]:
+        raise AssetError(
+            f"manifest.bin: vpl_lower.bin listed as {sizes['vpl_lower.bin']} bytes, "
+            f"expected 16 · {m['vpl_count']}"
         )
     return names
 
@@ -850,6 +881,49 @@ def check_vpls(vpls: np.ndarray, m: dict) -> None:
         )
     if (vpls["flux"].sum(axis=1) <= 0).any():
         raise AssetError("vpls.bin: a VPL with zero flux (the baker drops those)")
+
+
+def check_lower(asset: str, m: dict, data: bytes | None) -> str:
+    """vpl_lower.bin and vpl_lower_maps.exr (4.7): per VPL a 16-byte record,
+    its second origin (three f32) and `map` (u32): NO_LOWER (0xFFFFFFFE)
+    without a second origin (origin all zeros), NO_MAP when its second map
+    sees no surface, else its tile; the stored maps' tiles 0, 1, … in record
+    order, lower_map_count of them; the atlas in vpl_maps.exr's layout, no
+    NaN or negative distance, unused tiles +inf, no stored map all +inf."""
+    if data is None:
+        return "no vpl_lower.bin (format before 4.7, or no VPLs): no second origins"
+    rec = np.frombuffer(data, dtype=np.dtype([("origin", "<f4", 3), ("map", "<u4")]))
+    if not np.isfinite(rec["origin"]).all():
+        i = int(np.flatnonzero(~np.isfinite(rec["origin"]).all(axis=1))[0])
+        raise AssetError(f"vpl_lower.bin: VPL {i}'s second origin is not finite")
+    none = rec["map"] == NO_LOWER
+    if (rec["origin"][none] != 0).any():
+        i = int(np.flatnonzero(none & (rec["origin"] != 0).any(axis=1))[0])
+        raise AssetError(f"vpl_lower.bin: VPL {i} has no second origin but a non-zero origin")
+    stored = rec["map"][(~none) & (rec["map"] != NO_MAP)]
+    if not np.array_equal(stored, np.arange(len(stored), dtype=np.uint32)):
+        raise AssetError("vpl_lower.bin: the stored second maps' tiles are not 0, 1, 2, … in order")
+    if len(stored) != m["lower_map_count"]:
+        raise AssetError(
+            f"vpl_lower.bin: {len(stored)} VPLs store a second map but lower_map_count is "
+            f"{m['lower_map_count']}"
+        )
+    note = f"vpl_lower.bin: {int((~none).sum())} VPLs with a second origin, {len(stored)} second maps"
+    if len(stored) == 0:
+        return note
+    s = m["settings"]["vpl_map_size"]
+    cols, rows = atlas_grid(len(stored))
+    atlas = read_exr(asset, "vpl_lower_maps.exr", cols * s, rows * s, {"Z": "f32"})["Z"]
+    if (atlas < 0).any():
+        raise AssetError("vpl_lower_maps.exr: a negative distance")
+    for k in range(cols * rows):
+        col, row = k % cols, k // cols
+        tile = atlas[row * s : (row + 1) * s, col * s : (col + 1) * s]
+        if k >= len(stored) and not np.isposinf(tile).all():
+            raise AssetError(f"vpl_lower_maps.exr: unused tile {k} is not all +inf")
+        if k < len(stored) and np.isposinf(tile).all():
+            raise AssetError(f"vpl_lower_maps.exr: tile {k} sees no surface; it must be NO_MAP")
+    return note + f" ({cols * s}×{rows * s} atlas)"
 
 
 def check_coherence(data: bytes | None, nodes: np.ndarray) -> str:
@@ -1629,6 +1703,7 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
     ranges = light_vpl_ranges(m)
     check_nodes(nodes, vpls)
     coherence_note = check_coherence(contents.get("vpl_coherence.bin"), nodes)
+    lower_note = check_lower(asset, m, contents.get("vpl_lower.bin"))
     ss = s["shadow_map_size"]
     primary = read_exr(asset, "primary_depth.exr", ss, ss, {"Z": "f32"})["Z"]
     atlas = None
@@ -1746,6 +1821,7 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
         f"  files (manifest order): {', '.join(names)}; all sizes and BLAKE3 hashes match",
         f"  vpl_nodes.bin: {len(nodes)} nodes, level sums match",
         f"  {coherence_note}",
+        f"  {lower_note}",
         f"  {rsm_note}",
         f"  light view: {lv_note}",
     ]

@@ -192,7 +192,9 @@ pub struct TreeDiff {
 /// Comparison of one map (or one RSM channel, or all hemisphere maps).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MapDiff {
-    /// `primary_depth`, `vpl_maps`, `light_maps`, `rsm.D`, `rsm.share`,
+    /// `primary_depth`, `vpl_maps`, `vpl_lower_maps` (the second maps of
+    /// the matched VPLs, format 4.7; only when either asset stores one),
+    /// `light_maps`, `rsm.D`, `rsm.share`,
     /// `rsm.vpl` (the RSM's VPL-index channel is compared through the VPL
     /// matching), `view_rsms.Z`, `view_rsms.share`, `view_rsms.vpl` (every
     /// view RSM, tile by tile; `view_rsms` when not comparable).
@@ -211,11 +213,14 @@ pub struct MapDiff {
     pub over_fraction: f64,
     /// Texels infinite (no surface) in one and finite in the other.
     pub inf_mismatch: u64,
-    /// For `vpl_maps`: the A index of the VPL whose map is worst.
+    /// For `vpl_maps` (`vpl_lower_maps`): the A index of the VPL whose
+    /// map is worst.
     pub worst_vpl: Option<usize>,
-    /// For `vpl_maps`: texels over tolerance in that worst map.
+    /// For `vpl_maps` (`vpl_lower_maps`): texels over tolerance in that
+    /// worst map.
     pub worst_layer_over: u64,
-    /// For `vpl_maps`: largest absolute difference in that worst map.
+    /// For `vpl_maps` (`vpl_lower_maps`): largest absolute difference in
+    /// that worst map.
     pub worst_layer_max_abs: f64,
     /// Why not comparable, if so.
     pub note: String,
@@ -883,6 +888,30 @@ fn compare_maps(a: &Asset, b: &Asset, m: &Matching, tol: &Tolerance) -> Vec<MapD
             (r.worst_vpl, r.worst_layer_over, r.worst_layer_max_abs) = (Some(i), w.over, w.max_abs);
         }
         out.push(r);
+        // The second maps (format 4.7), where either side stores one for a
+        // matched pair (none: all +inf, as an open map reads).
+        if !(a.vpl_lower_maps.is_empty() && b.vpl_lower_maps.is_empty()) {
+            let (mut total, mut worst) = (Acc::default(), None::<(usize, Acc)>);
+            for &(i, j) in &m.pairs {
+                let (ma, mb) = (a.vpl_lower_map_of(i), b.vpl_lower_map_of(j));
+                if ma.is_none() && mb.is_none() {
+                    continue;
+                }
+                let (ma, mb) = (ma.as_deref().unwrap_or(&inf), mb.as_deref().unwrap_or(&inf));
+                let acc = compare_slices(ma, mb, tol);
+                total.merge(&acc);
+                let better = |w: &(usize, Acc)| (acc.over, acc.max_abs) > (w.1.over, w.1.max_abs);
+                if worst.as_ref().is_none_or(better) {
+                    worst = Some((i, acc));
+                }
+            }
+            let mut r = total.report("vpl_lower_maps", tol);
+            if let Some((i, w)) = worst.filter(|(_, w)| w.over > 0 || w.max_abs > 0.0) {
+                (r.worst_vpl, r.worst_layer_over, r.worst_layer_max_abs) =
+                    (Some(i), w.over, w.max_abs);
+            }
+            out.push(r);
+        }
     }
 
     // The other lights' shadow maps, view by view (a view that stores no

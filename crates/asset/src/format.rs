@@ -35,9 +35,18 @@ pub const FILE_VIEW_RSMS: &str = "view_rsms.exr";
 /// 4.2; only when there are VPLs): `LEVEL3_NODES` little-endian `f32` per
 /// VPL.
 pub const FILE_VPL_COHERENCE: &str = "vpl_coherence.bin";
+/// Each VPL's second visibility test for the light below its horizon,
+/// [`Asset::vpl_lower`] (format 4.7; only when there are VPLs): one
+/// 16-byte [`crate::LowerVpl`] per VPL.
+pub const FILE_VPL_LOWER: &str = "vpl_lower.bin";
+/// The second hemisphere maps' atlas (format 4.7; only when
+/// `lower_map_count > 0`).
+pub const FILE_VPL_LOWER_MAPS: &str = "vpl_lower_maps.exr";
 
 /// Size of one [`VplRecord`] in `vpls.bin`.
 pub const VPL_RECORD_BYTES: usize = 48;
+/// Size of one [`crate::LowerVpl`] in `vpl_lower.bin`.
+pub const LOWER_RECORD_BYTES: usize = 16;
 /// Largest accepted map resolution (RSM, primary shadow map, hemisphere map).
 pub const MAX_MAP_SIZE: u32 = 16384;
 /// Largest accepted number of texels in one map file (the atlas): 2³¹
@@ -73,9 +82,12 @@ fn encode_manifest(manifest: &Manifest, path: &Path) -> Result<Vec<u8>, AssetErr
 /// The manifest as format `4.minor` writes it: the serde fields, then
 /// (minor ≥ 1) `view_rsms` as a bincode `Vec<u32>` in the same
 /// configuration (varint count, varint indices), (minor ≥ 3) `ring_vpls`
-/// likewise and (minor ≥ 4) `scene_options` as a bincode (serde)
-/// `Option<SceneOptions>`. An older minor lacks the later fields: they must
-/// be empty (`None`).
+/// likewise, (minor ≥ 4) `scene_options` as a bincode (serde)
+/// `Option<SceneOptions>`, (minor ≥ 5) `swept_bounds` as a bincode
+/// `Vec<u32>` (none or six `f32` bit patterns), (minor ≥ 6) `later` as a
+/// bincode (serde) `Option<LaterRecord>` and (minor ≥ 7) `lower_map_count`
+/// as a bincode `u32` (varint). An older minor lacks the later fields: they
+/// must be empty (`None`, 0).
 fn encode_manifest_as(manifest: &Manifest, minor: u16, path: &Path) -> Result<Vec<u8>, AssetError> {
     let cannot = |e: bincode::error::EncodeError| {
         AssetError::invalid(path, format!("cannot encode the manifest: {e}"))
@@ -136,6 +148,16 @@ fn encode_manifest_as(manifest: &Manifest, minor: u16, path: &Path) -> Result<Ve
         return Err(AssetError::invalid(
             path,
             format!("cannot encode the manifest: format 4.{minor} has no later bounces"),
+        ));
+    }
+    if minor >= 7 {
+        let appended =
+            bincode::encode_to_vec(manifest.lower_map_count, bincode_config()).map_err(cannot)?;
+        payload.extend_from_slice(&appended);
+    } else if manifest.lower_map_count != 0 {
+        return Err(AssetError::invalid(
+            path,
+            format!("cannot encode the manifest: format 4.{minor} has no lower_map_count"),
         ));
     }
     let mut out = Vec::with_capacity(HEADER_BYTES + payload.len() + TRAILER_BYTES);
@@ -249,6 +271,14 @@ fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetEr
         manifest.later = v;
         used += n;
     }
+    if minor >= 7 {
+        // 4.7 appends `lower_map_count` (a u32) after it.
+        let (v, n): (u32, usize) =
+            bincode::decode_from_slice(&payload[used..], bincode_config())
+                .map_err(|e| bad(format!("damaged manifest payload: lower_map_count: {e}")))?;
+        manifest.lower_map_count = v;
+        used += n;
+    }
     if used != payload.len() && !is_newer_minor(minor) {
         return Err(bad(format!(
             "{} unexpected bytes after the manifest payload",
@@ -341,6 +371,12 @@ fn required_files(m: &Manifest, minor: u16) -> Vec<&'static str> {
     }
     if m.map_count > 0 {
         v.push(FILE_VPL_MAPS);
+    }
+    if minor >= 7 && m.vpl_count > 0 {
+        v.push(FILE_VPL_LOWER);
+    }
+    if m.lower_map_count > 0 {
+        v.push(FILE_VPL_LOWER_MAPS);
     }
     if m.has_dynamic {
         v.push(FILE_RSM);
@@ -486,6 +522,13 @@ pub(crate) fn check_view_rsms(m: &Manifest, rsms: &[RsmData]) -> Result<(), Stri
 
 fn atlas_dims(m: &Manifest) -> (u64, u64) {
     let (cols, rows) = atlas_grid(m.map_count);
+    let s = m.settings.vpl_map_size as u64;
+    (cols as u64 * s, rows as u64 * s)
+}
+
+/// The size of `vpl_lower_maps.exr`.
+fn lower_atlas_dims(m: &Manifest) -> (u64, u64) {
+    let (cols, rows) = atlas_grid(m.lower_map_count);
     let s = m.settings.vpl_map_size as u64;
     (cols as u64 * s, rows as u64 * s)
 }
@@ -647,6 +690,19 @@ fn validate_manifest(
             m.map_count, s.vpl_map_size
         ));
     }
+    if m.lower_map_count > m.vpl_count {
+        return bad(format!(
+            "lower_map_count {} is larger than vpl_count {} (each stored second map belongs to one VPL)",
+            m.lower_map_count, m.vpl_count
+        ));
+    }
+    let (w, h) = lower_atlas_dims(m);
+    if w * h > MAX_TEXELS || w > i32::MAX as u64 || h > i32::MAX as u64 {
+        return bad(format!(
+            "{} second hemisphere maps of {}² make an absurdly large atlas ({w}x{h})",
+            m.lower_map_count, s.vpl_map_size
+        ));
+    }
     if !check_files {
         return Ok(());
     }
@@ -664,15 +720,18 @@ fn validate_manifest(
             FILE_LIGHT_MAPS,
             FILE_VIEW_RSMS,
             FILE_VPL_COHERENCE,
+            FILE_VPL_LOWER,
+            FILE_VPL_LOWER_MAPS,
             FILE_MANIFEST,
         ];
         if known.contains(&f.name.as_str()) {
             if !required.contains(&f.name.as_str()) {
                 return bad(format!(
-                    "file `{}` is listed but the counts say it is not stored (format 4.{minor}, vpl_count {}, map_count {}, has_dynamic {}, stored light maps {}, view RSMs {})",
+                    "file `{}` is listed but the counts say it is not stored (format 4.{minor}, vpl_count {}, map_count {}, lower_map_count {}, has_dynamic {}, stored light maps {}, view RSMs {})",
                     f.name,
                     m.vpl_count,
                     m.map_count,
+                    m.lower_map_count,
                     m.has_dynamic,
                     light_map_count(m),
                     m.view_rsms.len()
@@ -711,6 +770,15 @@ fn validate_manifest(
     {
         return bad(format!(
             "`{FILE_VPL_COHERENCE}` is listed with {} bytes but vpl_count {} needs {coherence_size}",
+            f.size, m.vpl_count
+        ));
+    }
+    let lower_size = m.vpl_count as u64 * LOWER_RECORD_BYTES as u64;
+    if let Some(f) = m.files.iter().find(|f| f.name == FILE_VPL_LOWER)
+        && f.size != lower_size
+    {
+        return bad(format!(
+            "`{FILE_VPL_LOWER}` is listed with {} bytes but vpl_count {} needs {lower_size}",
             f.size, m.vpl_count
         ));
     }
@@ -1097,6 +1165,93 @@ fn encode_coherence(coherence: &[f32]) -> Vec<u8> {
     coherence.iter().flat_map(|c| c.to_le_bytes()).collect()
 }
 
+/// `vpl_lower.bin` (empty bytes: none, an asset of format 4.6 or older;
+/// the listed size was checked against `vpl_count`): one
+/// [`crate::LowerVpl`] per VPL, its origin finite, all zeros without a
+/// second origin ([`crate::NO_LOWER`]), its map [`NO_MAP`] or below
+/// `lower_map_count`.
+fn decode_lower(
+    bytes: &[u8],
+    path: &Path,
+    lower_map_count: u32,
+) -> Result<Vec<crate::LowerVpl>, AssetError> {
+    let mut out = Vec::with_capacity(bytes.len() / LOWER_RECORD_BYTES);
+    for (i, c) in bytes.chunks_exact(LOWER_RECORD_BYTES).enumerate() {
+        let w = |k: usize| u32::from_le_bytes([c[4 * k], c[4 * k + 1], c[4 * k + 2], c[4 * k + 3]]);
+        let rec = crate::LowerVpl {
+            origin: [
+                f32::from_bits(w(0)),
+                f32::from_bits(w(1)),
+                f32::from_bits(w(2)),
+            ],
+            map: w(3),
+        };
+        check_lower(&rec, i, lower_map_count).map_err(|m| AssetError::invalid(path, m))?;
+        out.push(rec);
+    }
+    Ok(out)
+}
+
+fn check_lower(rec: &crate::LowerVpl, i: usize, lower_map_count: u32) -> Result<(), String> {
+    if let Some(v) = rec.origin.iter().find(|v| !v.is_finite()) {
+        return Err(format!("VPL {i}'s second origin holds {v} (not finite)"));
+    }
+    if rec.map == crate::NO_LOWER {
+        if rec.origin != [0.0; 3] {
+            return Err(format!(
+                "VPL {i} has no second origin (map {}) but its origin is {:?}, not zeros",
+                crate::NO_LOWER,
+                rec.origin
+            ));
+        }
+    } else if rec.map != NO_MAP && rec.map >= lower_map_count {
+        return Err(format!(
+            "VPL {i} refers to second hemisphere map {} but only {lower_map_count} are stored",
+            rec.map
+        ));
+    }
+    Ok(())
+}
+
+/// The second maps' tile rule, as [`check_tiles`]'s: the VPLs that store
+/// one hold the tiles `0, 1, …, lower_map_count − 1` in record order.
+fn check_lower_tiles(lower: &[crate::LowerVpl], lower_map_count: u32) -> Result<(), String> {
+    let mut next = 0u32;
+    for (i, v) in lower.iter().enumerate() {
+        if v.map == NO_MAP || v.map == crate::NO_LOWER {
+            continue;
+        }
+        if v.map != next {
+            return Err(format!(
+                "VPL {i} uses second hemisphere map tile {}, but the VPLs with second maps must use tiles 0, 1, 2, … in record order (expected {next})",
+                v.map
+            ));
+        }
+        next += 1;
+    }
+    if next != lower_map_count {
+        return Err(format!(
+            "{next} VPLs use a second hemisphere map but lower_map_count is {lower_map_count}"
+        ));
+    }
+    Ok(())
+}
+
+fn encode_lower(lower: &[crate::LowerVpl]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(lower.len() * LOWER_RECORD_BYTES);
+    for r in lower {
+        for w in [
+            r.origin[0].to_bits(),
+            r.origin[1].to_bits(),
+            r.origin[2].to_bits(),
+            r.map,
+        ] {
+            out.extend_from_slice(&w.to_le_bytes());
+        }
+    }
+    out
+}
+
 /// The first texel whose flux share is over [`SHARE_ONE`], or not 0
 /// though it belongs to no VPL.
 fn share_problem(share: &[u32], vpl: &[u32]) -> Option<usize> {
@@ -1140,6 +1295,8 @@ pub fn decoded_bytes(m: &Manifest) -> u64 {
     if m.map_count > 0 {
         samples = samples.saturating_add(aw.saturating_mul(ah));
     }
+    let (lw, lh) = lower_atlas_dims(m);
+    samples = samples.saturating_add(lw.saturating_mul(lh));
     if m.has_dynamic {
         samples = samples.saturating_add(sq(s.rsm_size).saturating_mul(3));
     }
@@ -1203,6 +1360,10 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
         ),
         (FILE_VPL_MAPS, {
             let (w, h) = atlas_dims(&manifest);
+            4 * w * h
+        }),
+        (FILE_VPL_LOWER_MAPS, {
+            let (w, h) = lower_atlas_dims(&manifest);
             4 * w * h
         }),
         // Z, share, vpl: 4 bytes each.
@@ -1298,11 +1459,24 @@ fn load_once(dir: &Path, max_decoded_bytes: u64) -> Result<Asset, AssetError> {
 
     let view_rsms = decode_view_rsms(take(FILE_VIEW_RSMS), &dir.join(FILE_VIEW_RSMS), &manifest)?;
 
+    let path = dir.join(FILE_VPL_LOWER);
+    let vpl_lower = decode_lower(take(FILE_VPL_LOWER), &path, manifest.lower_map_count)?;
+    check_lower_tiles(&vpl_lower, manifest.lower_map_count)
+        .map_err(|m| AssetError::invalid(&path, m))?;
+    let vpl_lower_maps = decode_atlas(
+        take(FILE_VPL_LOWER_MAPS),
+        &dir.join(FILE_VPL_LOWER_MAPS),
+        s.vpl_map_size,
+        manifest.lower_map_count,
+        lower_atlas_dims(&manifest),
+    )?;
     Ok(Asset {
         manifest,
         vpls,
         vpl_nodes,
         vpl_coherence,
+        vpl_lower,
+        vpl_lower_maps,
         primary_depth,
         vpl_maps,
         rsm,
@@ -1487,6 +1661,34 @@ fn prepare_manifest(asset: &Asset, dir: &Path) -> Result<Manifest, AssetError> {
     let map_count = maps.count();
     m.vpl_count = vpl_count;
     m.map_count = map_count;
+    let lower_maps = &asset.vpl_lower_maps;
+    if !lower_maps.is_empty() && lower_maps.tile_size() != s.vpl_map_size {
+        return bad(format!(
+            "vpl_lower_maps holds maps of {}² but settings.vpl_map_size is {}",
+            lower_maps.tile_size(),
+            s.vpl_map_size
+        ));
+    }
+    m.lower_map_count = lower_maps.count();
+    if !asset.vpl_lower.is_empty() && asset.vpl_lower.len() != asset.vpls.len() {
+        return bad(format!(
+            "vpl_lower holds {} records but there are {} VPLs (one each, or none)",
+            asset.vpl_lower.len(),
+            asset.vpls.len()
+        ));
+    }
+    for (i, r) in asset.vpl_lower.iter().enumerate() {
+        check_lower(r, i, m.lower_map_count)
+            .map_err(|e| AssetError::invalid(dir, format!("cannot write: {e}")))?;
+    }
+    check_lower_tiles(&asset.vpl_lower, m.lower_map_count)
+        .map_err(|e| AssetError::invalid(dir, format!("cannot write: {e}")))?;
+    if lower_maps.texels().iter().any(|x| x.is_nan()) {
+        return bad("vpl_lower_maps holds NaN".into());
+    }
+    if let Some(e) = unused_tile_message(lower_maps) {
+        return bad(format!("vpl_lower_maps: {e}"));
+    }
     m.has_dynamic = asset.rsm.is_some();
     let coherence = asset.vpl_coherence.len();
     if coherence != 0 && coherence != asset.vpls.len() * LEVEL3_NODES {
@@ -1593,6 +1795,8 @@ pub fn owned_names(dir: &Path) -> Vec<String> {
         FILE_LIGHT_MAPS,
         FILE_VIEW_RSMS,
         FILE_VPL_COHERENCE,
+        FILE_VPL_LOWER,
+        FILE_VPL_LOWER_MAPS,
     ]
     .iter()
     .map(|s| s.to_string())
@@ -1738,6 +1942,12 @@ fn write_into(
                 encode_coherence(&vec![1.0; asset.vpls.len() * LEVEL3_NODES])
             }
             FILE_VPL_COHERENCE => encode_coherence(&asset.vpl_coherence),
+            // None (an asset read from an older format): no VPL has a
+            // second origin.
+            FILE_VPL_LOWER if asset.vpl_lower.is_empty() => {
+                encode_lower(&vec![crate::LowerVpl::NONE; asset.vpls.len()])
+            }
+            FILE_VPL_LOWER => encode_lower(&asset.vpl_lower),
             FILE_PRIMARY_DEPTH => {
                 let n = s.shadow_map_size as usize;
                 let d = asset.primary_depth.data.clone();
@@ -1745,6 +1955,12 @@ fn write_into(
             }
             FILE_VPL_MAPS => {
                 let m = &asset.vpl_maps;
+                let texels = Samples::F32(m.texels().to_vec());
+                let (w, h) = (m.width() as usize, m.height() as usize);
+                exrio::encode(w, h, vec![("Z", texels)]).map_err(exr_err)?
+            }
+            FILE_VPL_LOWER_MAPS => {
+                let m = &asset.vpl_lower_maps;
                 let texels = Samples::F32(m.texels().to_vec());
                 let (w, h) = (m.width() as usize, m.height() as usize);
                 exrio::encode(w, h, vec![("Z", texels)]).map_err(exr_err)?
@@ -1844,51 +2060,72 @@ pub mod testing {
 
     /// The bytes of `manifest.bin` for `manifest` as a format 4.0 writer
     /// wrote them (minor 0, the payload ends after `light_map_size`; its
-    /// `view_rsms` must be empty; `vpl_coherence.bin`, format 4.2, not
-    /// listed): to check that 4.0 assets still load.
+    /// `view_rsms` must be empty; `vpl_coherence.bin`, format 4.2, and the
+    /// files of 4.7 not listed): to check that 4.0 assets still load.
     pub fn manifest_bytes_4_0(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
         encode_manifest_as(&before_4_2(manifest), 0, Path::new(FILE_MANIFEST))
     }
 
+    /// `manifest` without what format 4.7 added: no second maps counted,
+    /// `vpl_lower.bin` and `vpl_lower_maps.exr` not listed (an older
+    /// writer's manifest of the same asset).
+    fn before_4_7(manifest: &Manifest) -> Manifest {
+        let mut m = manifest.clone();
+        m.lower_map_count = 0;
+        m.files
+            .retain(|f| f.name != FILE_VPL_LOWER && f.name != FILE_VPL_LOWER_MAPS);
+        m
+    }
+
     /// The bytes of `manifest.bin` for `manifest` as a format 4.1 writer
-    /// wrote them (minor 1; `vpl_coherence.bin`, format 4.2, not listed):
-    /// to check that 4.1 assets still load.
+    /// wrote them (minor 1; `vpl_coherence.bin`, format 4.2, and the files
+    /// of 4.7 not listed): to check that 4.1 assets still load.
     pub fn manifest_bytes_4_1(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
         encode_manifest_as(&before_4_2(manifest), 1, Path::new(FILE_MANIFEST))
     }
 
     /// The bytes of `manifest.bin` for `manifest` as a format 4.2 writer
     /// wrote them (minor 2, the payload ends after `view_rsms`; its
-    /// `ring_vpls` must be empty, its `scene_options` `None`): to check
-    /// that 4.2 assets still load.
+    /// `ring_vpls` must be empty, its `scene_options` `None`; the files of
+    /// 4.7 not listed): to check that 4.2 assets still load.
     pub fn manifest_bytes_4_2(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
-        encode_manifest_as(manifest, 2, Path::new(FILE_MANIFEST))
+        encode_manifest_as(&before_4_7(manifest), 2, Path::new(FILE_MANIFEST))
     }
 
     /// The bytes of `manifest.bin` for `manifest` as a format 4.3 writer
     /// wrote them (minor 3, the payload ends after `ring_vpls`; its
-    /// `scene_options` and `swept_bounds` must be `None`): to check that
-    /// 4.3 assets still load.
+    /// `scene_options` and `swept_bounds` must be `None`; the files of 4.7
+    /// not listed): to check that 4.3 assets still load.
     pub fn manifest_bytes_4_3(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
-        encode_manifest_as(manifest, 3, Path::new(FILE_MANIFEST))
+        encode_manifest_as(&before_4_7(manifest), 3, Path::new(FILE_MANIFEST))
     }
 
     /// The bytes of `manifest.bin` for `manifest` as a format 4.4 writer
     /// wrote them (minor 4, the payload ends after `scene_options`; its
-    /// `swept_bounds` must be `None`): to check that 4.4 assets still load.
+    /// `swept_bounds` must be `None`; the files of 4.7 not listed, no
+    /// second map counted): to check that 4.4 assets still load.
     pub fn manifest_bytes_4_4(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
-        encode_manifest_as(manifest, 4, Path::new(FILE_MANIFEST))
+        encode_manifest_as(&before_4_7(manifest), 4, Path::new(FILE_MANIFEST))
     }
 
     /// The bytes of `manifest.bin` for `manifest` as a format 4.5 writer
     /// wrote them (minor 5, the payload ends after `swept_bounds`; its
-    /// `later` must be `None`): to check that 4.5 assets still load.
+    /// `later` must be `None`; the files of 4.7 not listed): to check that
+    /// 4.5 assets still load.
     pub fn manifest_bytes_4_5(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
-        encode_manifest_as(manifest, 5, Path::new(FILE_MANIFEST))
+        encode_manifest_as(&before_4_7(manifest), 5, Path::new(FILE_MANIFEST))
+    }
+
+    /// The bytes of `manifest.bin` for `manifest` as a format 4.6 writer
+    /// wrote them (minor 6, the payload ends after `later`; the files of
+    /// 4.7 not listed, no second map counted): to check that 4.6 assets
+    /// still load, every VPL without a second origin.
+    pub fn manifest_bytes_4_6(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
+        encode_manifest_as(&before_4_7(manifest), 6, Path::new(FILE_MANIFEST))
     }
 
     fn before_4_2(manifest: &Manifest) -> Manifest {
-        let mut m = manifest.clone();
+        let mut m = before_4_7(manifest);
         m.files.retain(|f| f.name != FILE_VPL_COHERENCE);
         m
     }

@@ -152,6 +152,12 @@ pub struct Inspection {
     pub map_count: usize,
     /// VPLs whose map is not stored (it sees no surface).
     pub vpls_without_map: usize,
+    /// VPLs with a second origin for the light below their horizon
+    /// (format 4.7, [`crate::LowerVpl`]).
+    pub vpls_with_lower: usize,
+    /// Second hemisphere maps stored (the others of those VPLs see no
+    /// surface).
+    pub lower_map_count: usize,
     /// Whether the scene has moving objects (RSM stored).
     pub has_dynamic: bool,
     /// Size of every file, `manifest.bin` first (empty list of data files if
@@ -234,6 +240,8 @@ pub fn inspect(asset: &Asset) -> Inspection {
         vpl_count: asset.vpls.len(),
         map_count,
         vpls_without_map: asset.vpls.iter().filter(|v| v.map == NO_MAP).count(),
+        vpls_with_lower: asset.vpl_lower.iter().filter(|l| l.is_some()).count(),
+        lower_map_count: asset.vpl_lower_maps.count() as usize,
         has_dynamic: asset.rsm.is_some(),
         files,
         total_bytes,
@@ -454,6 +462,11 @@ impl fmt::Display for Inspection {
             f,
             "VPLs: {} ({} hemisphere maps stored, {} VPLs see no surface and store none)",
             self.vpl_count, self.map_count, self.vpls_without_map
+        )?;
+        writeln!(
+            f,
+            "  second origins    {} VPLs (light below their horizon), {} second maps stored",
+            self.vpls_with_lower, self.lower_map_count
         )?;
         let t = self.total_flux;
         writeln!(

@@ -42,9 +42,10 @@ pub use error::AssetError;
 pub use format::testing;
 pub use format::{
     DEFAULT_MAX_DECODED_BYTES, FILE_LIGHT_MAPS, FILE_MANIFEST, FILE_PRIMARY_DEPTH, FILE_RSM,
-    FILE_VIEW_RSMS, FILE_VPL_COHERENCE, FILE_VPL_MAPS, FILE_VPL_NODES, FILE_VPLS, MAX_MAP_SIZE,
-    VPL_RECORD_BYTES, check_output, check_scene_hash, check_scene_hash_for, decoded_bytes, load,
-    load_manifest, load_with_limit, owned_names, verify_files, write,
+    FILE_VIEW_RSMS, FILE_VPL_COHERENCE, FILE_VPL_LOWER, FILE_VPL_LOWER_MAPS, FILE_VPL_MAPS,
+    FILE_VPL_NODES, FILE_VPLS, LOWER_RECORD_BYTES, MAX_MAP_SIZE, VPL_RECORD_BYTES, check_output,
+    check_scene_hash, check_scene_hash_for, decoded_bytes, load, load_manifest, load_with_limit,
+    owned_names, verify_files, write,
 };
 pub use inspect::{FileSize, Inspection, MapStats, Stats, inspect};
 pub use scene_options::{
@@ -53,7 +54,7 @@ pub use scene_options::{
 };
 pub use shard::{
     MAX_SHARDS, MergeError, Merger, PART_MAGIC, PART_VERSION, ShardMaps, ShardPart,
-    assign_map_tiles, load_part, merge, shard_range, write_part,
+    assign_lower_tiles, assign_map_tiles, load_part, merge, shard_range, write_part,
 };
 pub use tolerance::{MAX_TOLERANCE, ToleranceError, parse_tolerance};
 
@@ -72,8 +73,11 @@ pub const FORMAT_MAJOR: u16 = 4;
 /// [`Manifest::swept_bounds`] appended after `scene_options`; an older
 /// asset reads with `None`. 4.6: [`Manifest::later`] appended after
 /// `swept_bounds`; an older asset reads with `None`, the first bounce
-/// alone).
-pub const FORMAT_MINOR: u16 = 6;
+/// alone. 4.7: [`Manifest::lower_map_count`] appended after `later`,
+/// `vpl_lower.bin` and `vpl_lower_maps.exr`, [`Asset::vpl_lower`]: each
+/// VPL's second visibility test for the light below its horizon; an older
+/// asset reads with none).
+pub const FORMAT_MINOR: u16 = 7;
 
 /// One static VPL record. Stored as a little-endian array in `vpls.bin`
 /// (48 bytes each, fields in this order).
@@ -116,6 +120,43 @@ impl VplRecord {
         }
     }
 }
+
+/// A static VPL's second visibility test, for the light it sends below
+/// its own horizon (format 4.7, `vpl_lower.bin`: 16 bytes per VPL, the
+/// origin's three little-endian `f32`, then `map` as a `u32`). A cluster
+/// whose texels face several ways (a roof round a hole, a wall's face
+/// with a window's sill and jambs) lights receivers below its mean
+/// normal's horizon from the texels tilted away from it, which see what
+/// the VPL's lifted map origin does not; such a VPL has a second origin on
+/// those texels and a hemisphere map around the opposite of its normal
+/// from there (docs/method.md, "Below the horizon").
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LowerVpl {
+    /// Where the second map is centred (world units); all zeros for
+    /// [`NO_LOWER`].
+    pub origin: [f32; 3],
+    /// Tile of its map in `vpl_lower_maps.exr`, [`NO_MAP`] when the map
+    /// sees no surface (every direction open), or [`NO_LOWER`] when the VPL
+    /// has no second origin (its light below the horizon is small: the
+    /// first map's rim answers for it).
+    pub map: u32,
+}
+
+impl LowerVpl {
+    /// A VPL without a second origin.
+    pub const NONE: LowerVpl = LowerVpl {
+        origin: [0.0; 3],
+        map: NO_LOWER,
+    };
+
+    /// Whether the VPL has a second origin.
+    pub fn is_some(&self) -> bool {
+        self.map != NO_LOWER
+    }
+}
+
+/// [`LowerVpl::map`] of a VPL without a second origin.
+pub const NO_LOWER: u32 = u32::MAX - 1;
 
 /// Levels of each VPL's near-field tree in `vpl_nodes.bin` (below the VPL
 /// itself, which is level 0).
@@ -588,6 +629,12 @@ pub struct Manifest {
     /// (serde) `Option<LaterRecord>` (see `format.rs`).
     #[serde(skip)]
     pub later: Option<LaterRecord>,
+    /// Format 4.7, appended after [`Manifest::later`] (an older manifest
+    /// ends before it: 0): the number of second hemisphere maps stored in
+    /// `vpl_lower_maps.exr` ([`LowerVpl`], [`Asset::vpl_lower`]). Encoded
+    /// by hand (see `format.rs`).
+    #[serde(skip)]
+    pub lower_map_count: u32,
 }
 
 /// The bounces after the first, as a bake of format 4.6 followed them
@@ -847,6 +894,14 @@ pub struct Asset {
     /// Empty for an asset of format 4.1 or older (every node a cosine
     /// lobe). `vpl_coherence.bin`.
     pub vpl_coherence: Vec<f32>,
+    /// Per VPL its second visibility test for the light below its horizon
+    /// ([`LowerVpl`]), in VPL order; empty for an asset of format 4.6 or
+    /// older (every VPL without one). `vpl_lower.bin`.
+    pub vpl_lower: Vec<LowerVpl>,
+    /// The second hemisphere maps ([`LowerVpl::map`]), each `vpl_map_size²`
+    /// distances around the opposite of its VPL's normal, in the atlas
+    /// layout of `vpl_lower_maps.exr` ([`MapAtlas`]).
+    pub vpl_lower_maps: MapAtlas,
     /// Static primary shadow map (metric, shadow_map_size²).
     pub primary_depth: Map,
     /// Hemisphere maps, `map_count` maps of `vpl_map_size²` distances
@@ -938,6 +993,18 @@ impl Asset {
             None
         } else {
             self.vpl_map(rec.map)
+        }
+    }
+
+    /// A copy of the second hemisphere map of VPL `vpl` ([`LowerVpl`]), or
+    /// `None` when it has none stored (no second origin, or its map sees no
+    /// surface) or the index is out of range.
+    pub fn vpl_lower_map_of(&self, vpl: usize) -> Option<Vec<f32>> {
+        let rec = self.vpl_lower.get(vpl)?;
+        if rec.map == NO_MAP || rec.map == NO_LOWER {
+            None
+        } else {
+            self.vpl_lower_maps.map(rec.map)
         }
     }
 }

@@ -16,14 +16,17 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::{Asset, AssetError, Manifest, Map, MapAtlas, NO_MAP, RsmData, VplRecord};
+use crate::{
+    Asset, AssetError, LowerVpl, Manifest, Map, MapAtlas, NO_LOWER, NO_MAP, RsmData, VplRecord,
+};
 
 /// Magic bytes at the start of a part file.
 pub const PART_MAGIC: [u8; 8] = *b"GIBKPART";
 /// Part format version: parts are transient, so any other version is refused.
 /// (7: the manifest's `swept_bounds`, which its serde encoding skips,
-/// follows `scene_options`; 8: and its `later`.)
-pub const PART_VERSION: u16 = 8;
+/// follows `scene_options`; 8: and its `later`; 9: each VPL's second
+/// origin and the second hemisphere maps, format 4.7.)
+pub const PART_VERSION: u16 = 9;
 /// Largest shard count accepted.
 pub const MAX_SHARDS: u32 = 4096;
 /// Largest accepted part file (16 GiB).
@@ -76,6 +79,33 @@ pub fn assign_map_tiles(
     MapAtlas::from_maps(tile, stored.iter().map(|m| m.as_slice()))
 }
 
+/// Gives each VPL with a second origin and a second map (`Some`, `tile²`
+/// values) the next tile of the second maps' atlas, in VPL order, and every
+/// other VPL with a second origin [`NO_MAP`] (its map sees no surface);
+/// VPLs without one ([`NO_LOWER`]) keep it. Returns the stored maps as the
+/// atlas, as [`assign_map_tiles`] does for the first maps. `None` when a
+/// map does not hold `tile²` values or belongs to a VPL without a second
+/// origin.
+pub fn assign_lower_tiles(
+    lower: &mut [LowerVpl],
+    tile: u32,
+    maps: impl IntoIterator<Item = Option<Vec<f32>>>,
+) -> Option<MapAtlas> {
+    let mut stored = Vec::new();
+    for (v, m) in lower.iter_mut().zip(maps) {
+        match (v.is_some(), m) {
+            (true, Some(m)) => {
+                v.map = stored.len() as u32;
+                stored.push(m);
+            }
+            (true, None) => v.map = NO_MAP,
+            (false, None) => {}
+            (false, Some(_)) => return None,
+        }
+    }
+    MapAtlas::from_maps(tile, stored.iter().map(|m| m.as_slice()))
+}
+
 /// A shard's hemisphere maps, one per VPL of its range (`None`: not stored).
 pub type ShardMaps = Vec<Option<Vec<f32>>>;
 
@@ -94,6 +124,12 @@ pub struct ShardPart {
     /// The maps of the VPLs in `shard_range(vpls, shard, shards)`, in order;
     /// `None` for a VPL whose map sees no surface (not stored).
     pub maps: ShardMaps,
+    /// The second maps of the same VPLs ([`LowerVpl`]), in order; `None`
+    /// for a VPL without a second origin or whose second map sees no
+    /// surface. The front's [`Asset::vpl_lower`] holds their origins, each
+    /// with `map` [`NO_MAP`] or [`NO_LOWER`] until the merge numbers the
+    /// tiles.
+    pub lower_maps: ShardMaps,
 }
 
 /// The serialized form (private: the layout is the doc's, not serde's choice).
@@ -123,6 +159,10 @@ struct PartPayload {
     swept_bounds: Option<[f32; 6]>,
     /// The manifest's `later` (part version 8).
     later: Option<crate::LaterRecord>,
+    /// Per VPL its second origin and `map` ([`NO_MAP`] or [`NO_LOWER`]),
+    /// and the shard's second maps (part version 9).
+    vpl_lower: Vec<([f32; 3], u32)>,
+    lower_maps: Vec<Option<Vec<f32>>>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -196,6 +236,29 @@ fn check_part(part: &ShardPart, path: &Path) -> Result<(), AssetError> {
     if !a.vpl_maps.is_empty() || a.vpls.iter().any(|v| v.map != NO_MAP) {
         return bad("the front part holds hemisphere maps; a part keeps them apart".into());
     }
+    if !a.vpl_lower_maps.is_empty()
+        || a.vpl_lower
+            .iter()
+            .any(|v| v.map != NO_MAP && v.map != NO_LOWER)
+    {
+        return bad("the front part holds second hemisphere maps; a part keeps them apart".into());
+    }
+    if !a.vpl_lower.is_empty() && a.vpl_lower.len() != a.vpls.len() {
+        return bad(format!(
+            "{} second-origin records for {} VPLs",
+            a.vpl_lower.len(),
+            a.vpls.len()
+        ));
+    }
+    for (i, v) in a.vpl_lower.iter().enumerate() {
+        let zero = v.map != NO_LOWER || v.origin == [0.0; 3];
+        if !(v.origin.iter().all(|x| x.is_finite()) && zero) {
+            return bad(format!(
+                "VPL {i}'s second origin {:?} is not finite (or not zeros without one)",
+                v.origin
+            ));
+        }
+    }
     if a.vpls.len() != a.manifest.vpl_count as usize {
         return bad(format!(
             "{} VPL records but vpl_count {}",
@@ -248,7 +311,32 @@ fn check_part(part: &ShardPart, path: &Path) -> Result<(), AssetError> {
             range.len()
         ));
     }
+    if part.lower_maps.len() != range.len() {
+        return bad(format!(
+            "holds {} second hemisphere map slots but shard {}/{} of {} VPLs owns {}",
+            part.lower_maps.len(),
+            part.shard,
+            part.shards,
+            a.vpls.len(),
+            range.len()
+        ));
+    }
     let texels = s.vpl_map_size as usize * s.vpl_map_size as usize;
+    for (i, m) in part.lower_maps.iter().enumerate() {
+        let Some(m) = m else { continue };
+        let vpl = range.start + i;
+        if !a.vpl_lower.get(vpl).is_some_and(LowerVpl::is_some) {
+            return bad(format!(
+                "holds a second hemisphere map for VPL {vpl}, which has no second origin"
+            ));
+        }
+        if m.len() != texels || m.iter().any(|x| x.is_nan()) {
+            return bad(format!(
+                "second hemisphere map of VPL {vpl} has {} texels (vpl_map_size² = {texels}) or holds NaN",
+                m.len()
+            ));
+        }
+    }
     for (i, m) in part.maps.iter().enumerate() {
         if let Some(m) = m {
             if m.len() != texels {
@@ -313,6 +401,8 @@ fn encode_part(part: &ShardPart, path: &Path) -> Result<Vec<u8>, AssetError> {
         scene_options: a.manifest.scene_options.clone(),
         swept_bounds: a.manifest.swept_bounds,
         later: a.manifest.later.clone(),
+        vpl_lower: a.vpl_lower.iter().map(|v| (v.origin, v.map)).collect(),
+        lower_maps: part.lower_maps.clone(),
     };
     let body = bincode::serde::encode_to_vec(&payload, part_config())
         .map_err(|e| AssetError::invalid(path, format!("cannot encode the part: {e}")))?;
@@ -385,6 +475,12 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
             vpls: p.vpls,
             vpl_nodes: p.vpl_nodes,
             vpl_coherence: p.vpl_coherence,
+            vpl_lower: p
+                .vpl_lower
+                .into_iter()
+                .map(|(origin, map)| LowerVpl { origin, map })
+                .collect(),
+            vpl_lower_maps: MapAtlas::empty(tile),
             primary_depth: Map {
                 size: p.primary_size,
                 data: p.primary,
@@ -395,6 +491,7 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
             view_rsms: view_rsms.into_iter().map(rsm_data).collect(),
         },
         maps: p.maps,
+        lower_maps: p.lower_maps,
     };
     check_part(&part, path)?;
     Ok(part)
@@ -470,6 +567,12 @@ fn front_hash(a: &Asset) -> [u8; 32] {
     h.update(bytemuck::cast_slice(&a.vpls));
     h.update(bytemuck::cast_slice(&a.vpl_nodes));
     h.update(bytemuck::cast_slice(&a.vpl_coherence));
+    h.update(b"vpl_lower");
+    h.update(&(a.vpl_lower.len() as u64).to_le_bytes());
+    for v in &a.vpl_lower {
+        h.update(bytemuck::cast_slice(&v.origin));
+        h.update(&v.map.to_le_bytes());
+    }
     h.update(&a.primary_depth.size.to_le_bytes());
     h.update(bytemuck::cast_slice(&a.primary_depth.data));
     h.update(&a.light_maps.tile_size().to_le_bytes());
@@ -578,8 +681,8 @@ pub struct Merger {
     /// The first part: its path, front data and that data's hash.
     first: Option<(PathBuf, Asset, [u8; 32])>,
     shards: u32,
-    /// Per shard: the part's path and its maps.
-    slots: Vec<Option<(PathBuf, ShardMaps)>>,
+    /// Per shard: the part's path, its maps and its second maps.
+    slots: Vec<Option<(PathBuf, ShardMaps, ShardMaps)>>,
     /// Every part added, for messages.
     paths: Vec<PathBuf>,
 }
@@ -594,12 +697,13 @@ impl Merger {
             shards,
             front,
             maps,
+            lower_maps,
         } = part;
         let hash = front_hash(&front);
         let Some((first_path, first, first_hash)) = &self.first else {
             self.shards = shards;
             self.slots = vec![None; shards as usize];
-            self.slots[shard as usize] = Some((path.clone(), maps));
+            self.slots[shard as usize] = Some((path.clone(), maps, lower_maps));
             self.paths.push(path.clone());
             self.first = Some((path, front, hash));
             return Ok(());
@@ -624,7 +728,7 @@ impl Merger {
             ));
         }
         let slot = &mut self.slots[shard as usize];
-        if let Some((other, _)) = slot {
+        if let Some((other, _, _)) = slot {
             return Err(MergeError::Repeated {
                 a: other.clone(),
                 b: path,
@@ -632,7 +736,7 @@ impl Merger {
                 shards,
             });
         }
-        *slot = Some((path.clone(), maps));
+        *slot = Some((path.clone(), maps, lower_maps));
         self.paths.push(path);
         Ok(())
     }
@@ -656,14 +760,28 @@ impl Merger {
             });
         }
         // Shard order is VPL order: the ranges are contiguous and ordered.
-        let maps = self.slots.into_iter().flatten().flat_map(|(_, m)| m);
+        let (maps, lower): (Vec<ShardMaps>, Vec<ShardMaps>) = self
+            .slots
+            .into_iter()
+            .flatten()
+            .map(|(_, m, l)| (m, l))
+            .unzip();
         let tile = asset.manifest.settings.vpl_map_size;
-        asset.vpl_maps = assign_map_tiles(&mut asset.vpls, tile, maps).ok_or_else(|| {
-            AssetError::invalid(
-                &first,
-                "a hemisphere map does not have vpl_map_size² texels",
-            )
-        })?;
+        asset.vpl_maps = assign_map_tiles(&mut asset.vpls, tile, maps.into_iter().flatten())
+            .ok_or_else(|| {
+                AssetError::invalid(
+                    &first,
+                    "a hemisphere map does not have vpl_map_size² texels",
+                )
+            })?;
+        asset.vpl_lower_maps =
+            assign_lower_tiles(&mut asset.vpl_lower, tile, lower.into_iter().flatten())
+                .ok_or_else(|| {
+                    AssetError::invalid(
+                        &first,
+                        "a second hemisphere map does not have vpl_map_size² texels or has no second origin",
+                    )
+                })?;
         Ok(asset)
     }
 }
@@ -725,6 +843,7 @@ mod tests {
             scene_options: None,
             swept_bounds: None,
             later: None,
+            lower_map_count: 0,
         };
         let rec = VplRecord {
             position: [0.0; 3],
@@ -751,6 +870,8 @@ mod tests {
                     3 * crate::NODES_PER_VPL
                 ],
                 vpl_coherence: vec![1.0; 3 * crate::LEVEL3_NODES],
+                vpl_lower: Vec::new(),
+                vpl_lower_maps: MapAtlas::empty(2),
                 primary_depth: Map {
                     size: 2,
                     data: vec![1.0; 4],
@@ -760,6 +881,7 @@ mod tests {
                 light_maps: MapAtlas::empty(0),
                 view_rsms: Vec::new(),
             },
+            lower_maps: vec![None; range.len()],
             maps: range.map(|i| (i != 1).then(|| vec![i as f32; 4])).collect(),
         }
     }

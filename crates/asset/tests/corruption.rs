@@ -271,9 +271,22 @@ fn hostile_counts_are_refused_without_huge_allocations() {
                 m.files[1].size = u32::MAX as u64 * 48 * 84;
                 let c = m.files.iter_mut().find(|f| f.name == "vpl_coherence.bin");
                 c.expect("listed").size = u32::MAX as u64 * 4 * 64;
+                let l = m.files.iter_mut().find(|f| f.name == "vpl_lower.bin");
+                l.expect("listed").size = u32::MAX as u64 * 16;
             }),
         ),
         ("map_count", Box::new(|m| m.map_count = m.vpl_count + 1)),
+        (
+            "lower_map_count",
+            Box::new(|m| m.lower_map_count = m.vpl_count + 1),
+        ),
+        (
+            "vpl_lower.bin",
+            Box::new(|m| {
+                let l = m.files.iter_mut().find(|f| f.name == "vpl_lower.bin");
+                l.expect("listed").size += 16;
+            }),
+        ),
         ("vpl_map_size", Box::new(|m| m.settings.vpl_map_size = 0)),
         (
             "shadow_map_size",

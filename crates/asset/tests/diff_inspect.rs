@@ -20,6 +20,7 @@ fn identical_assets_are_equal() {
             [
                 "primary_depth",
                 "vpl_maps",
+                "vpl_lower_maps",
                 "light_maps",
                 "rsm.D",
                 "rsm.share",
@@ -414,8 +415,10 @@ fn inspect_reports_counts_sizes_and_statistics() {
         .map(|n| std::fs::metadata(dir.join(n)).unwrap().len())
         .sum();
     assert_eq!(i.total_bytes, on_disk);
-    assert_eq!(i.files.len(), 8);
+    assert_eq!(i.files.len(), 10);
     assert!(i.files.iter().any(|f| f.name == "light_maps.exr"));
+    assert!(i.files.iter().any(|f| f.name == "vpl_lower_maps.exr"));
+    assert_eq!((i.vpls_with_lower, i.lower_map_count), (5, 3));
     assert!(i.files.iter().any(|f| f.name == "vpl_coherence.bin"));
     assert_eq!((i.views, i.light_maps_stored), (6, 4));
     assert_eq!(i.files[0].name, "manifest.bin");

@@ -49,11 +49,12 @@ fn later_round_trips_in_the_documented_layout() {
     assert_eq!(loaded, as_written(&with_later(), &loaded));
     assert_eq!(loaded.manifest.later, Some(record()));
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
-    assert_eq!(FORMAT_MINOR, 6);
-    assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), 6);
+    assert_eq!(FORMAT_MINOR, 7);
+    assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), 7);
     // The payload ends with the Option tag `01`, then bounces, vpl_budget
     // and vpls (varints), left_out and converged (a byte each), direct
-    // (three f32), per_bounce (a varint count, three f32 each) and tail.
+    // (three f32), per_bounce (a varint count, three f32 each) and tail;
+    // then (4.7) lower_map_count, one byte here.
     let mut tail = vec![1u8, 0, 0, LATER as u8, 0, 1];
     let f32s = |t: &mut Vec<u8>, v: &[f32]| {
         for x in v {
@@ -64,6 +65,7 @@ fn later_round_trips_in_the_documented_layout() {
     tail.push(2);
     f32s(&mut tail, &[1.0, 0.5, 0.25, 0.5, 0.25, 0.125]);
     f32s(&mut tail, &[0.0; 3]);
+    tail.push(u8::try_from(loaded.manifest.lower_map_count).unwrap());
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
     assert_eq!(&bytes[20 + len - tail.len()..20 + len], &tail[..]);
     // The later VPLs' map origins are lifted by one member's radius, the
@@ -91,10 +93,12 @@ fn a_4_5_manifest_loads_as_the_first_bounce_alone() {
     let current = load(&dir).unwrap();
     let old = testing::manifest_bytes_4_5(&current.manifest).unwrap();
     assert_eq!(u16::from_le_bytes([old[10], old[11]]), 5);
-    // One byte shorter: 4.6's `later`, none.
+    // One byte shorter than 4.6's: its `later`, none.
     assert_eq!(
         old.len() + 1,
-        testing::manifest_bytes(&current.manifest).unwrap().len()
+        testing::manifest_bytes_4_6(&current.manifest)
+            .unwrap()
+            .len()
     );
     std::fs::write(dir.join(FILE_MANIFEST), &old).unwrap();
     let loaded = load(&dir).expect("a 4.5 asset loads");

@@ -8,6 +8,7 @@ mod corruption;
 mod diff_inspect;
 mod fuzz_regressions;
 mod later;
+mod lower;
 mod owned_files;
 mod ring_vpls;
 mod roundtrip;

@@ -15,12 +15,15 @@ fn round_trip_static_and_dynamic() {
         assert_eq!(loaded, as_written(&asset, &loaded));
         assert_eq!(loaded.manifest.vpl_count, VPLS as u32);
         assert_eq!(loaded.manifest.map_count, 7);
+        assert_eq!(loaded.manifest.lower_map_count, 3);
         assert_eq!(loaded.manifest.has_dynamic, dynamic);
         let mut expect = vec![
             "light_maps.exr",
             "manifest.bin",
             "primary_depth.exr",
             "vpl_coherence.bin",
+            "vpl_lower.bin",
+            "vpl_lower_maps.exr",
             "vpl_maps.exr",
             "vpl_nodes.bin",
             "vpls.bin",
@@ -42,12 +45,13 @@ fn counts_are_filled_in_from_the_data() {
     let mut asset = sample_asset(true);
     asset.manifest.vpl_count = 999;
     asset.manifest.map_count = 3;
+    asset.manifest.lower_map_count = 9;
     asset.manifest.has_dynamic = false;
     let dir = written(tmp.path(), &asset);
     let m = load_manifest(&dir).unwrap();
     assert_eq!(
-        (m.vpl_count, m.map_count, m.has_dynamic),
-        (VPLS as u32, 7, true)
+        (m.vpl_count, m.map_count, m.lower_map_count, m.has_dynamic),
+        (VPLS as u32, 7, 3, true)
     );
     let names: Vec<&str> = m.files.iter().map(|f| f.name.as_str()).collect();
     assert_eq!(
@@ -58,6 +62,8 @@ fn counts_are_filled_in_from_the_data() {
             "primary_depth.exr",
             "vpl_coherence.bin",
             "vpl_maps.exr",
+            "vpl_lower.bin",
+            "vpl_lower_maps.exr",
             "rsm.exr",
             "light_maps.exr"
         ]
@@ -82,6 +88,11 @@ fn nothing_stored_that_is_not_needed() {
         v.tile = NO_MAP;
     }
     asset.light_maps = MapAtlas::empty(asset.manifest.light_map_size);
+    // Second origins whose maps see no surface: no second map file.
+    asset.vpl_lower_maps = MapAtlas::empty(asset.manifest.settings.vpl_map_size);
+    for l in asset.vpl_lower.iter_mut().filter(|l| l.is_some()) {
+        l.map = NO_MAP;
+    }
     let dir = written(tmp.path(), &asset);
     assert_eq!(
         file_names(&dir),
@@ -89,12 +100,14 @@ fn nothing_stored_that_is_not_needed() {
             "manifest.bin",
             "primary_depth.exr",
             "vpl_coherence.bin",
+            "vpl_lower.bin",
             "vpl_nodes.bin",
             "vpls.bin"
         ]
     );
     let loaded = load(&dir).unwrap();
     assert_eq!(loaded.manifest.map_count, 0);
+    assert_eq!(loaded.manifest.lower_map_count, 0);
     assert!(loaded.vpl_maps.is_empty() && loaded.rsm.is_none());
     assert!(loaded.light_maps.is_empty());
     assert_eq!(loaded.manifest.views.len(), 6, "the views are kept");
@@ -107,6 +120,8 @@ fn empty_vpl_set_round_trips() {
     asset.vpls.clear();
     asset.vpl_nodes.clear();
     asset.vpl_coherence.clear();
+    asset.vpl_lower.clear();
+    asset.vpl_lower_maps = MapAtlas::empty(asset.manifest.settings.vpl_map_size);
     for l in &mut asset.manifest.lights {
         l.vpls = 0;
     }
@@ -333,14 +348,20 @@ fn manifest_bin_has_the_documented_layout() {
     // indices; then (4.3) ring_vpls: a varint count (0 here) and counts;
     // then (4.4) scene_options: an Option tag (0 here: not recorded);
     // then (4.5) swept_bounds: a varint count (0 here: not recorded);
-    // then (4.6) later: an Option tag (0 here: the first bounce alone).
-    assert_eq!(end_of_lights + 1 + view_bytes + 1 + 1 + 1 + 1 + 1 + 1, len);
-    assert_eq!(u32::from(p[len - 6]), m.light_map_size);
-    assert_eq!(p[len - 5], 0, "no view RSMs");
-    assert_eq!(p[len - 4], 0, "no ring VPLs");
-    assert_eq!(p[len - 3], 0, "no scene options recorded");
-    assert_eq!(p[len - 2], 0, "no swept bounds");
-    assert_eq!(p[len - 1], 0, "no later bounces");
+    // then (4.6) later: an Option tag (0 here: the first bounce alone);
+    // then (4.7) lower_map_count, a varint (3 here).
+    assert_eq!(
+        end_of_lights + 1 + view_bytes + 1 + 1 + 1 + 1 + 1 + 1 + 1,
+        len
+    );
+    assert_eq!(u32::from(p[len - 7]), m.light_map_size);
+    assert_eq!(p[len - 6], 0, "no view RSMs");
+    assert_eq!(p[len - 5], 0, "no ring VPLs");
+    assert_eq!(p[len - 4], 0, "no scene options recorded");
+    assert_eq!(p[len - 3], 0, "no swept bounds");
+    assert_eq!(p[len - 2], 0, "no later bounces");
+    assert_eq!(u32::from(p[len - 1]), m.lower_map_count);
+    assert_eq!(m.lower_map_count, 3);
     assert_eq!(m.views, asset.manifest.views);
 }
 

@@ -28,11 +28,15 @@ fn swept_bounds_round_trip_in_the_documented_layout() {
     // pattern as a varint u32 (`FC` and four little-endian bytes for the
     // patterns of these values, all at or above 2^16).
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
-    assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), 6);
+    assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), 7);
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    // (then 4.6's `later`, none: `00`)
-    assert_eq!(bytes[20 + len - 1], 0);
-    let tail = &bytes[20 + len - 32..20 + len - 1];
+    // (then 4.6's `later`, none: `00`, and 4.7's lower_map_count, one byte)
+    assert_eq!(bytes[20 + len - 2], 0);
+    assert_eq!(
+        u32::from(bytes[20 + len - 1]),
+        loaded.manifest.lower_map_count
+    );
+    let tail = &bytes[20 + len - 33..20 + len - 2];
     assert_eq!(tail[0], 6);
     for (k, v) in BOX.iter().enumerate() {
         let at = 1 + 5 * k;
@@ -73,7 +77,10 @@ fn a_4_4_manifest_loads_without_swept_bounds() {
     let old = testing::manifest_bytes_4_4(&m).unwrap();
     assert_eq!(u16::from_le_bytes([old[10], old[11]]), 4);
     // One byte for the empty box, one for 4.6's `later` (none).
-    assert_eq!(old.len() + 2, testing::manifest_bytes(&m).unwrap().len());
+    assert_eq!(
+        old.len() + 2,
+        testing::manifest_bytes_4_6(&m).unwrap().len()
+    );
     std::fs::write(dir.join(FILE_MANIFEST), &old).unwrap();
     let loaded = load(&dir).expect("a 4.4 asset loads");
     assert_eq!(loaded.manifest.swept_bounds, None);
@@ -85,7 +92,7 @@ fn bad_swept_bounds_are_refused_naming_the_manifest() {
     let dir = written(tmp.path(), &with_sweep());
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    let keep = len - 32;
+    let keep = len - 33;
     let nan = f32::NAN.to_bits();
     let three = vec![3u8, 0, 0, 0];
     let mut with_nan = vec![6u8];

@@ -80,16 +80,17 @@ fn view_rsms_round_trip_in_the_documented_layout() {
         .collect();
     assert_eq!(names.last(), Some(&FILE_VIEW_RSMS));
     // The manifest payload ends with the appended vector: count 3, then
-    // the indices (one-byte varints); then (4.3) no ring VPLs (`00`) and
+    // the indices (one-byte varints); then (4.3) no ring VPLs (`00`),
     // (4.4) no scene options recorded (`00`), (4.5) no swept bounds
-    // (`00`) and (4.6) no later bounces (`00`).
+    // (`00`), (4.6) no later bounces (`00`) and (4.7) three second maps
+    // (`03`).
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
     assert_eq!(
         u16::from_le_bytes([bytes[10], bytes[11]]),
         gibake_asset::FORMAT_MINOR
     );
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    assert_eq!(&bytes[20 + len - 8..20 + len], &[3, 1, 4, 5, 0, 0, 0, 0]);
+    assert_eq!(&bytes[20 + len - 9..20 + len], &[3, 1, 4, 5, 0, 0, 0, 0, 3]);
     // The atlas, read back as the spec lays it out.
     let (w, h, z, share, vpl) = atlas_of(&asset.view_rsms);
     assert_eq!((w, h), (2 * RSM as usize, 2 * RSM as usize));
@@ -128,8 +129,9 @@ fn a_4_0_manifest_loads_without_view_rsms() {
     std::fs::write(dir.join(FILE_MANIFEST), &old).unwrap();
     let loaded = load(&dir).expect("a 4.0 asset loads");
     assert!(loaded.manifest.view_rsms.is_empty() && loaded.view_rsms.is_empty());
-    // Without the level-3 coherences of format 4.2: none.
-    let mut expected = current.clone();
+    // Without the level-3 coherences of format 4.2 (nor the second maps of
+    // 4.7): none.
+    let mut expected = without_4_7(&current);
     expected.vpl_coherence.clear();
     expected
         .manifest
@@ -192,14 +194,14 @@ fn bad_view_rsm_lists_are_refused_naming_the_manifest() {
         }
     }
     // A hostile count (2^40 entries) is refused before any allocation
-    // (the payload ends with view_rsms, 4 bytes, then ring_vpls, 1, and
-    // scene_options, 1).
+    // (the payload ends with view_rsms, 4 bytes, then ring_vpls, 1,
+    // scene_options, 1, swept_bounds, 1, later, 1, and lower_map_count, 1).
     let (dir, _) = fresh(tmp.path(), "huge.gibake");
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
     let mut tail = vec![253];
     tail.extend_from_slice(&(1u64 << 40).to_le_bytes());
-    let out = with_payload_tail(&bytes, len - 8, &tail);
+    let out = with_payload_tail(&bytes, len - 9, &tail);
     std::fs::write(dir.join(FILE_MANIFEST), &out).unwrap();
     let msg = load_manifest(&dir).unwrap_err().to_string();
     assert!(
@@ -207,7 +209,7 @@ fn bad_view_rsm_lists_are_refused_naming_the_manifest() {
         "{msg}"
     );
     // Cut inside the vector: damaged.
-    let out = with_payload_tail(&bytes, len - 5, &[]);
+    let out = with_payload_tail(&bytes, len - 6, &[]);
     std::fs::write(dir.join(FILE_MANIFEST), &out).unwrap();
     let msg = load_manifest(&dir).unwrap_err().to_string();
     assert!(
@@ -336,6 +338,11 @@ fn parts(asset: &Asset, n: u32) -> Vec<ShardPart> {
     for v in &mut front.vpls {
         v.map = NO_MAP;
     }
+    front.manifest.lower_map_count = 0;
+    front.vpl_lower_maps = MapAtlas::empty(VPL_MAP);
+    for l in front.vpl_lower.iter_mut().filter(|l| l.is_some()) {
+        l.map = NO_MAP;
+    }
     (0..n)
         .map(|k| ShardPart {
             shard: k,
@@ -343,6 +350,9 @@ fn parts(asset: &Asset, n: u32) -> Vec<ShardPart> {
             front: front.clone(),
             maps: shard_range(asset.vpls.len(), k, n)
                 .map(|i| asset.vpl_map_of(i))
+                .collect(),
+            lower_maps: shard_range(asset.vpls.len(), k, n)
+                .map(|i| asset.vpl_lower_map_of(i))
                 .collect(),
         })
         .collect()

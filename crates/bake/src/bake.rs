@@ -6,7 +6,8 @@ use std::time::Instant;
 use crate::lights::ViewPlan;
 use gibake_asset::{
     Asset, BakeSettings, LEVEL3_NODES, MAX_SHARDS, Manifest, Map, MapAtlas, NO_MAP, NODES_PER_VPL,
-    Provenance, RsmData, ShardMaps, ShardPart, VplRecord, assign_map_tiles, shard_range,
+    Provenance, RsmData, ShardMaps, ShardPart, VplRecord, assign_lower_tiles, assign_map_tiles,
+    shard_range,
 };
 use gibake_gpu::mesh::SceneGpu;
 use gibake_gpu::passes::light_maps::{self, LightMaps};
@@ -254,7 +255,7 @@ pub fn bake(
     progress: &dyn BakeProgress,
     baker_version: &str,
 ) -> Result<BakeOutput, BakeError> {
-    bake_with(ctx, scene, opts, progress, baker_version, None).map(|(out, _)| out)
+    bake_with(ctx, scene, opts, progress, baker_version, None).map(|(out, _, _)| out)
 }
 
 /// One shard of a distributed bake: shard `index` of `count` (0-based).
@@ -292,13 +293,15 @@ pub fn bake_shard(
             shard.index, shard.count, shard.count
         )));
     }
-    let (out, maps) = bake_with(ctx, scene, opts, progress, baker_version, Some(shard))?;
+    let (out, maps, lower_maps) =
+        bake_with(ctx, scene, opts, progress, baker_version, Some(shard))?;
     Ok(ShardOutput {
         part: ShardPart {
             shard: shard.index,
             shards: shard.count,
             front: out.asset,
             maps,
+            lower_maps,
         },
         stages: out.stages,
     })
@@ -353,6 +356,9 @@ struct Front {
     vpls: Vec<VplRecord>,
     vpl_nodes: Vec<VplRecord>,
     vpl_coherence: Vec<f32>,
+    /// Per VPL, its second origin for the light below its horizon
+    /// ([`crate::horizon`]).
+    vpl_lower: Vec<Option<glam::Vec3>>,
     /// VPLs per light, in light order (the VPLs are in that order).
     per_light: Vec<u32>,
     /// Per light, its VPLs on its outer rings (the last of its VPLs);
@@ -516,6 +522,7 @@ fn every_light_front(
         .collect();
     let vpls = every.vpl_records();
     let (vpl_nodes, vpl_coherence) = every.vpl_trees();
+    let vpl_lower = crate::horizon::lower_origins_of_every(reach.rays, &every);
     // The first light's RSM (one view: a spot or directional light); when
     // its bounce was left out as negligible, rendered for the dynamic merge
     // with no texel of any VPL.
@@ -551,6 +558,7 @@ fn every_light_front(
         vpls,
         vpl_nodes,
         vpl_coherence,
+        vpl_lower,
         per_light,
         ring_vpls,
         made,
@@ -571,7 +579,7 @@ fn bake_with(
     progress: &dyn BakeProgress,
     baker_version: &str,
     shard: Option<Shard>,
-) -> Result<(BakeOutput, ShardMaps), BakeError> {
+) -> Result<(BakeOutput, ShardMaps, ShardMaps), BakeError> {
     let max_tex = ctx.device.limits().max_texture_dimension_2d;
     check("--rsm-size", opts.rsm_size, 8192)?;
     check("--vpl-map-size", opts.vpl_map_size, 2048)?;
@@ -720,7 +728,11 @@ fn bake_with(
             vpl_nodes.extend(t);
             vpl_coherence.extend(k);
         }
+        let vpl_lower = (0..clusters.vpls.len())
+            .map(|i| crate::horizon::lower_origin_of(&rays, &rsm, &clusters, i))
+            .collect();
         Front {
+            vpl_lower,
             per_light: vec![vpls.len() as u32],
             ring_vpls: Vec::new(),
             vpls,
@@ -743,6 +755,7 @@ fn bake_with(
         mut vpls,
         vpl_nodes,
         vpl_coherence,
+        vpl_lower,
         per_light,
         ring_vpls,
         dropped,
@@ -756,6 +769,7 @@ fn bake_with(
     // first bounce's, lifted by one surfel's radius (as ring VPLs are).
     let first_vpls = vpls.len();
     let (mut vpl_nodes, mut vpl_coherence) = (vpl_nodes, vpl_coherence);
+    let mut vpl_lower = vpl_lower;
     let mut rings = gibake_asset::ring_flags(&per_light, &ring_vpls);
     let later = match opts.bounces {
         crate::later::Bounces::Count(n) if n <= 1 => None,
@@ -816,6 +830,10 @@ fn bake_with(
                     vpl_coherence
                         .extend_from_slice(&l.coherence[i * LEVEL3_NODES..(i + 1) * LEVEL3_NODES]);
                     rings.push(true);
+                    // No second origin (crate::horizon works on the RSM's
+                    // texels; a later VPL has none): its light below the
+                    // horizon is answered by its map's rim.
+                    vpl_lower.push(None);
                 }
             }
             Some((l, keep))
@@ -835,21 +853,47 @@ fn bake_with(
         Some(s) => shard_range(vpls.len(), s.index, s.count),
         None => 0..vpls.len(),
     };
-    progress.begin("VPL maps", range.len() as u64);
+    // Each VPL's map, then its second map (or none).
+    progress.begin("VPL maps", 2 * range.len() as u64);
     let each = crate::vplmap::render_each_vpl_map(
         &rays,
         &vpls[range.clone()],
-        &rings[range],
+        &rings[range.clone()],
         opts.vpl_map_size,
         &|| progress.advance(1),
     );
-    let (maps, shard_maps) = match shard {
-        Some(_) => (MapAtlas::empty(opts.vpl_map_size), each),
+    // The second maps, for the light below the VPLs' horizons
+    // (crate::horizon), alike.
+    let each_lower = crate::vplmap::render_each_lower_map(
+        &rays,
+        &vpls[range.clone()],
+        &vpl_lower[range],
+        opts.vpl_map_size,
+        &|| progress.advance(1),
+    );
+    let mut vpl_lower: Vec<gibake_asset::LowerVpl> = vpl_lower
+        .iter()
+        .map(|o| match o {
+            Some(o) => gibake_asset::LowerVpl {
+                origin: o.to_array(),
+                map: NO_MAP,
+            },
+            None => gibake_asset::LowerVpl::NONE,
+        })
+        .collect();
+    let full = || BakeError::InvalidSetting("the VPL maps do not fit one atlas in memory".into());
+    let (maps, lower_maps, shard_maps, shard_lower) = match shard {
+        Some(_) => (
+            MapAtlas::empty(opts.vpl_map_size),
+            MapAtlas::empty(opts.vpl_map_size),
+            each,
+            each_lower,
+        ),
         None => {
-            let atlas = assign_map_tiles(&mut vpls, opts.vpl_map_size, each).ok_or_else(|| {
-                BakeError::InvalidSetting("the VPL maps do not fit one atlas in memory".into())
-            })?;
-            (atlas, Vec::new())
+            let atlas = assign_map_tiles(&mut vpls, opts.vpl_map_size, each).ok_or_else(full)?;
+            let lower = assign_lower_tiles(&mut vpl_lower, opts.vpl_map_size, each_lower)
+                .ok_or_else(full)?;
+            (atlas, lower, Vec::new(), Vec::new())
         }
     };
     progress.end();
@@ -935,12 +979,15 @@ fn bake_with(
             per_bounce: l.per_bounce.iter().map(|v| v.to_array()).collect(),
             tail: l.tail.to_array(),
         }),
+        lower_map_count: lower_maps.count(),
     };
     let asset = Asset {
         manifest,
         vpls,
         vpl_nodes,
         vpl_coherence,
+        vpl_lower,
+        vpl_lower_maps: lower_maps,
         primary_depth: Map {
             size: opts.shadow_map_size,
             data: primary,
@@ -958,5 +1005,6 @@ fn bake_with(
             warnings,
         },
         shard_maps,
+        shard_lower,
     ))
 }

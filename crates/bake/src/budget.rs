@@ -6,7 +6,7 @@
 //! | part | bytes |
 //! |---|---|
 //! | RSM (metric, position, normal, flux, area) and the clustering pyramid | 64 × rsm², per view of a bake of several lights (at the view's own resolution: `lights::ViewPlan`) |
-//! | hemisphere maps: the layers, the atlas copy and its EXR encoding | 12 × VPLs × map² |
+//! | hemisphere maps: the layers, the atlas copy and its EXR encoding, for the first maps and at most as many second maps (`crate::horizon`) | 24 × VPLs × map² |
 //! | primary shadow map: read-back, map and EXR encoding | 12 × shadow² |
 //! | the other lights' shadow maps: the same | 12 × views × light map² |
 //!
@@ -116,7 +116,7 @@ pub fn estimate(opts: &BakeOptions) -> MemoryEstimate {
         rsm: sq(opts.rsm_size).saturating_mul(64),
         vpl_maps: assumed_vpls(opts)
             .saturating_mul(sq(opts.vpl_map_size))
-            .saturating_mul(12),
+            .saturating_mul(MAP_BYTES_PER_TEXEL),
         shadow_map: sq(opts.shadow_map_size).saturating_mul(12),
     }
 }
@@ -132,6 +132,10 @@ pub fn check(opts: &BakeOptions, limit: u64) -> Result<MemoryEstimate, Box<OverB
         (1, sq(opts.rsm_size)),
     )
 }
+
+/// Bytes per texel of a VPL's maps: 4 each for the map, the atlas copy and
+/// its EXR encoding, for its first map and at most one second map.
+const MAP_BYTES_PER_TEXEL: u64 = 2 * 12;
 
 fn sq(n: u32) -> u64 {
     u64::from(n) * u64::from(n)
@@ -185,7 +189,7 @@ pub fn estimate_with(opts: &BakeOptions, vpls: u64, mapped: u64) -> MemoryEstima
         rsm: e.rsm.saturating_add(vpls.saturating_mul(BYTES_PER_VPL)),
         vpl_maps: mapped
             .saturating_mul(sq(opts.vpl_map_size))
-            .saturating_mul(12),
+            .saturating_mul(MAP_BYTES_PER_TEXEL),
         shadow_map: e.shadow_map,
     }
 }

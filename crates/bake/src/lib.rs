@@ -5,7 +5,9 @@
 //! 2. [`cluster`]: scale-invariant quadtree clustering of RSM texels into VPLs.
 //! 3. [`near_field`]: each VPL's near-field tree (sub-clusters that shading
 //!    uses for receivers close to the VPL).
-//! 4. [`vplmap`]: a hemisphere distance map per VPL (one ray per texel).
+//! 4. [`vplmap`]: a hemisphere distance map per VPL (one ray per texel),
+//!    and a second one for the light below its horizon from the second
+//!    origin [`horizon`] places on the texels that send it.
 //!
 //! plus the static primary shadow map (GPU, the runtime's own pass) and the
 //! static-scene hash ([`gibake_scene::static_scene_hash`]). [`bake()`] runs them all and returns a
@@ -16,6 +18,7 @@
 pub mod bake;
 pub mod budget;
 pub mod cluster;
+pub mod horizon;
 pub mod later;
 pub mod lights;
 pub mod near_field;
@@ -41,7 +44,7 @@ pub use uptodate::{Freshness, check_up_to_date};
 /// `crates/bake/tests/method_revision.rs` holds the VPLs of two small bakes
 /// to a hash per revision and says when it is due. A change to the runtime alone (how the
 /// same asset is shaded) needs no bump.
-pub const BAKE_METHOD: u32 = 7;
+pub const BAKE_METHOD: u32 = 8;
 
 /// The baker version to record in an asset and to compare with an existing
 /// one: this crate's version with the method revision as build metadata,

@@ -6,6 +6,7 @@
 mod bake;
 mod bake_lights;
 mod cluster;
+mod horizon;
 mod later;
 mod lights;
 mod method_revision;

@@ -1,4 +1,4 @@
-//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--shadow-map N] [--blur N] [--ssaa N] [--near-field-descent N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive] [--static-only] [--one-bounce-only] [--list LEVELS.json]`
+//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--shadow-map N] [--blur N] [--ssaa N] [--near-field-descent N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive] [--static-only] [--one-bounce-only] [--no-second-maps] [--list LEVELS.json]`
 //! Judges the real levels of data/levels/levels.json, or of `--list`'s file
 //! (its levels' files relative to it; all, or those named), against the
 //! CPU reference, one bounce and every bounce (`vs one bounce: …`, `vs
@@ -18,7 +18,9 @@
 //! images, the direct light and the reference's direct light as EXR
 //! (`NAME_ref_ind.exr`, …, `NAME_ref_direct.exr`), as `eval_lights` does.
 //! `--shadow-map N` bakes the primary shadow map at N² (default 2048, as
-//! `gibake bake`). `--no-naive` leaves out
+//! `gibake bake`). `--no-second-maps` renders the bakes without their
+//! VPLs' second origins and maps, as a format 4.6 asset did (what they
+//! change; docs/method.md, "Below the horizon"). `--no-naive` leaves out
 //! the `naive` render (every VPL map re-rendered: 90% of the time on
 //! lavapipe) and its naive~full figure. `--static-only` judges each level
 //! without its moving objects (bake, frames and reference alike), to tell
@@ -75,6 +77,7 @@ fn main() {
             }
             "--markdown" => markdown = true,
             "--no-naive" => s.naive = false,
+            "--no-second-maps" => s.second_maps = false,
             "--one-bounce-only" => {
                 s.every_bounce = false;
                 s.every_bounce_bake = false;

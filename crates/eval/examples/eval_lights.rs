@@ -5,10 +5,11 @@
 //! bias per channel, full's blurred indirect error against rsm's, naive
 //! against full, FLIP), one bounce and every bounce (`vs one bounce: …`,
 //! `vs every bounce ×R/G/B of one: …`; `--one-bounce-only` leaves the
-//! every-bounce reference out).
+//! every-bounce reference out; `--no-second-maps` renders the bakes as a
+//! format 4.6 asset did, without the VPLs' second origins and maps).
 //!
 //! ```text
-//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--near-field-descent N] [--look-at EX,EY,EZ,TX,TY,TZ] [--no-light-bounce] [--balls-under-lamps R] [--out DIR] [--no-naive] [--one-bounce-only]
+//! cargo run --release -p gibake-eval --example eval_lights -- SCENE... [--size N] [--spp N] [--vpls N] [--blur N] [--ssaa N] [--near-field-descent N] [--look-at EX,EY,EZ,TX,TY,TZ] [--no-light-bounce] [--balls-under-lamps R] [--out DIR] [--no-naive] [--one-bounce-only] [--no-second-maps]
 //! ```
 //!
 //! `--no-naive` leaves out the `naive` render (every VPL map re-rendered:
@@ -94,6 +95,7 @@ fn main() {
             }
             "--out" => out = Some(std::path::PathBuf::from(it.next().expect("a directory"))),
             "--no-naive" => s.naive = false,
+            "--no-second-maps" => s.second_maps = false,
             "--one-bounce-only" => {
                 s.every_bounce = false;
                 s.every_bounce_bake = false;

@@ -15,9 +15,13 @@
 //! the maps emulated on the CPU (`gibake_eval::transport::map_visibility`,
 //! the shader's lookup on the asset's maps; its ratio to the rays should
 //! match the GPU's), and where their excess over the rays lies — light to
-//! receivers below the VPL's horizon (lit only by near-field nodes facing
-//! them; the map holds nothing there and answers from its rim) or above
-//! it — as shares of the rays' total.
+//! receivers below the VPL's horizon (its second map's, from its second
+//! origin, where it has one: `gibake_bake::horizon`; else the first map's
+//! rim) or above it — as shares of the rays' total. The twin's exact rays
+//! are cast from the same origins as the maps
+//! (`TwinVpls::visibility_frame`). A fifth line: the GPU again without the
+//! second maps (`gibake_eval::without_second_maps`, as a format 4.6 asset
+//! renders: the first map's rim below the horizon).
 use gibake_runtime::{Mode, RenderSettings};
 fn main() {
     let names: Vec<String> = std::env::args().skip(1).collect();
@@ -66,6 +70,18 @@ fn main() {
             1,
         )
         .unwrap();
+        let without = gibake_eval::without_second_maps(asset.clone());
+        let gpu_rim = gibake_eval::frame::render_image(
+            &ctx.device,
+            &ctx.queue,
+            &scene,
+            Some(&without),
+            &settings,
+            time,
+            1,
+        )
+        .unwrap();
+        let mut sg_rim = 0.0f64;
         let rays = gibake_reference::RayScene::build(&scene, time);
         let view = gibake_reference::View::from_scene(&scene, time).unwrap();
         let twin = gibake_eval::transport::TwinVpls::of_asset(&asset);
@@ -92,7 +108,12 @@ fn main() {
                 for (i, t) in twin.terms(p, ns, ng) {
                     let nv = glam::Vec3::from_array(asset.vpls[i].normal);
                     let origin = twin.origins[i];
-                    let exact = f64::from(u8::from(rays.visible(origin, nv, p, ng)));
+                    let (o, n, _) = twin.visibility_frame(i, p);
+                    let exact = if gibake_eval::transport::origin_in_front(o, p, ng) {
+                        f64::from(u8::from(rays.visible(o, n, p, ng)))
+                    } else {
+                        1.0
+                    };
                     let m = maps.visibility(&twin, i, p, ng);
                     // The open part (finest nodes, near) is not map-tested.
                     let r = radiance(t.shadowed);
@@ -105,6 +126,8 @@ fn main() {
                 }
                 let g = gpu.get(x, y);
                 sg += (g.x + g.y + g.z) as f64;
+                let g = gpu_rim.get(x, y);
+                sg_rim += (g.x + g.y + g.z) as f64;
                 let mut l = glam::Vec3::ZERO;
                 gibake_eval::bounce::one_bounce_samples(&rays, &h, y * size + x, 16, |_, r| l += r);
                 sr += (h.albedo * l / 256.0).element_sum() as f64;
@@ -135,6 +158,13 @@ fn main() {
             sm / sv,
             below / sv * 100.0,
             above / sv * 100.0
+        );
+        let with = asset.vpl_lower.iter().filter(|l| l.is_some()).count();
+        println!(
+            "  GPU without the second maps (a 4.6 asset) {:.4e}: {:+.1}% against the reference ({with} of {} VPLs have a second origin)",
+            sg_rim,
+            (sg_rim / sr - 1.0) * 100.0,
+            asset.vpls.len()
         );
     }
 }

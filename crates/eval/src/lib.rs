@@ -102,6 +102,11 @@ pub struct EvalSettings {
     /// against one bounce stay those of the one-bounce bake. On in the
     /// eval tools.
     pub every_bounce_bake: bool,
+    /// Whether the asset keeps its VPLs' second origins and maps (format
+    /// 4.7, `gibake_bake::horizon`); false renders it as a 4.6 asset did
+    /// (a receiver below a VPL's horizon answered by its first map's rim):
+    /// what they change is measured against this ([`without_second_maps`]).
+    pub second_maps: bool,
 }
 
 impl Default for EvalSettings {
@@ -123,6 +128,7 @@ impl Default for EvalSettings {
             near_field_descent: RenderSettings::default().near_field_descent,
             every_bounce: false,
             every_bounce_bake: false,
+            second_maps: true,
         }
     }
 }
@@ -395,11 +401,26 @@ pub fn bake_bounces(
         later_vpls: None,
     };
     let asset = gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "eval")?.asset;
+    let asset = if s.second_maps {
+        asset
+    } else {
+        without_second_maps(asset)
+    };
     Ok(if s.light_bounce {
         asset
     } else {
         without_view_rsms(asset)
     })
+}
+
+/// `asset` without its VPLs' second origins and maps (format 4.7), as a
+/// 4.6 asset renders: a receiver below a VPL's horizon is looked up on its
+/// first map's rim. What they change is measured against this.
+pub fn without_second_maps(mut asset: Asset) -> Asset {
+    asset.vpl_lower.clear();
+    asset.vpl_lower_maps = gibake_asset::MapAtlas::empty(asset.manifest.settings.vpl_map_size);
+    asset.manifest.lower_map_count = 0;
+    asset
 }
 
 /// `asset` without the other lights' view RSMs (format 4.1), as a 4.0

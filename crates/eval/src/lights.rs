@@ -196,7 +196,8 @@ pub fn judge(scene: &Scene, j: &JudgeSettings) -> Judgement {
     let records = every.vpl_records();
     let (nodes, coherence) = every.vpl_trees();
     let ring = every.ring_flags();
-    let twin_vpls = crate::transport::TwinVpls::new(&records, &ring, &nodes, &coherence);
+    let twin_vpls = crate::transport::TwinVpls::new(&records, &ring, &nodes, &coherence)
+        .with_lower(gibake_bake::horizon::lower_origins_of_every(&rays, &every));
     let per_light = every.vpls_per_light(scene.lights.len());
     let cam = gibake_reference::View::from_scene(scene, 0.0).expect("the scene has a camera");
     // Per pixel: (reference, twin) indirect radiance, and the variance of

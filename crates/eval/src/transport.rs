@@ -454,7 +454,9 @@ pub struct TwinIrradiance {
 /// Static VPLs as shading holds them after load (`baked.rs`): each VPL's
 /// record and near-field tree, and, computed once per VPL, its lobe
 /// coherences ([`VplLobes`]), its map origin (where its
-/// visibility is tested) and its far-field centre
+/// visibility is tested), its second origin where it has one (where the
+/// visibility of a receiver below its horizon is tested:
+/// [`gibake_asset::LowerVpl`]) and its far-field centre
 /// ([`gibake_asset::far_field_centre`], where its transport is drawn from;
 /// its map origin without a full tree).
 pub struct TwinVpls<'a> {
@@ -468,6 +470,9 @@ pub struct TwinVpls<'a> {
     pub origins: Vec<Vec3>,
     /// Per VPL: its far-field centre.
     pub centres: Vec<Vec3>,
+    /// Per VPL: its second origin, where it has one (empty: none has;
+    /// [`TwinVpls::with_lower`]).
+    pub lower: Vec<Option<Vec3>>,
 }
 
 impl<'a> TwinVpls<'a> {
@@ -494,6 +499,7 @@ impl<'a> TwinVpls<'a> {
             lobes: Vec::new(),
             origins,
             centres: Vec::new(),
+            lower: Vec::new(),
         };
         twin.lobes = (0..vpls.len())
             .map(|i| {
@@ -512,7 +518,7 @@ impl<'a> TwinVpls<'a> {
         twin
     }
 
-    /// The static VPLs of `asset`.
+    /// The static VPLs of `asset`, with their second origins.
     pub fn of_asset(asset: &'a gibake_asset::Asset) -> Self {
         Self::new(
             &asset.vpls,
@@ -520,6 +526,42 @@ impl<'a> TwinVpls<'a> {
             &asset.vpl_nodes,
             &asset.vpl_coherence,
         )
+        .with_lower(
+            asset
+                .vpl_lower
+                .iter()
+                .map(|l| l.is_some().then(|| Vec3::from_array(l.origin)))
+                .collect(),
+        )
+    }
+
+    /// The same VPLs with second origins `lower` (one per VPL, or none:
+    /// every VPL without; `gibake_bake::horizon::lower_origin`).
+    pub fn with_lower(mut self, lower: Vec<Option<Vec3>>) -> Self {
+        assert!(
+            lower.is_empty() || lower.len() == self.vpls.len(),
+            "one second origin (or none) per VPL"
+        );
+        self.lower = lower;
+        self
+    }
+
+    /// VPL `i`'s second origin, if it has one.
+    pub fn lower_origin(&self, i: usize) -> Option<Vec3> {
+        self.lower.get(i).copied().flatten()
+    }
+
+    /// Where VPL `i`'s visibility of a receiver at `x` is tested from, and
+    /// about which normal: from its second origin about the opposite of its
+    /// normal where `x` is below its horizon (the plane through its map
+    /// origin) and it has a second origin, else from its map origin
+    /// (shade.wgsl, the static VPLs' loop).
+    pub fn visibility_frame(&self, i: usize, x: Vec3) -> (Vec3, Vec3, bool) {
+        let (o, n) = (self.origins[i], Vec3::from_array(self.vpls[i].normal));
+        match self.lower_origin(i) {
+            Some(l) if n.dot(x - o) < 0.0 => (l, -n, true),
+            _ => (o, n, false),
+        }
     }
 
     /// VPL `i`'s near-field tree (empty where the asset has none).
@@ -562,9 +604,8 @@ impl<'a> TwinVpls<'a> {
                 continue;
             }
             sum.unshadowed += near.total();
-            if !origin_in_front(self.origins[i], x, ng)
-                || rays.visible(self.origins[i], Vec3::from_array(v.normal), x, ng)
-            {
+            let (o, n, _) = self.visibility_frame(i, x);
+            if !origin_in_front(o, x, ng) || rays.visible(o, n, x, ng) {
                 sum.visible += near.total();
                 sum.visible_disk += disk;
             } else {
@@ -592,6 +633,8 @@ pub fn origin_in_front(origin: Vec3, x: Vec3, ng: Vec3) -> bool {
 pub struct TwinMaps {
     /// Per VPL its map (`None`: no stored map, every direction open).
     pub maps: Vec<Option<Vec<f32>>>,
+    /// Per VPL its second map (`None`: none stored; empty: no VPL has one).
+    pub lower: Vec<Option<Vec<f32>>>,
     /// The maps' side.
     pub size: u32,
 }
@@ -601,17 +644,24 @@ impl TwinMaps {
     pub fn of_asset(asset: &gibake_asset::Asset) -> Self {
         TwinMaps {
             maps: (0..asset.vpls.len()).map(|i| asset.vpl_map_of(i)).collect(),
+            lower: (0..asset.vpls.len())
+                .map(|i| asset.vpl_lower_map_of(i))
+                .collect(),
             size: asset.manifest.settings.vpl_map_size,
         }
     }
 
     /// The shader's visibility of VPL `i` of `twin` (the same VPLs) at `x`
-    /// (geometric normal `ng`).
+    /// (geometric normal `ng`): its map's, or below its horizon its second
+    /// map's where it has a second origin ([`TwinVpls::visibility_frame`]).
     pub fn visibility(&self, twin: &TwinVpls<'_>, i: usize, x: Vec3, ng: Vec3) -> f32 {
-        self.maps[i].as_deref().map_or(1.0, |map| {
-            let nv = Vec3::from_array(twin.vpls[i].normal);
-            map_visibility(map, self.size, nv, twin.origins[i], x, ng)
-        })
+        let (o, n, lower) = twin.visibility_frame(i, x);
+        let map = if lower {
+            self.lower.get(i).and_then(Option::as_deref)
+        } else {
+            self.maps[i].as_deref()
+        };
+        map.map_or(1.0, |map| map_visibility(map, self.size, n, o, x, ng))
     }
 }
 

@@ -136,6 +136,37 @@ pub fn sample_asset(dynamic: bool) -> Asset {
             .collect();
         RsmData::from_flux(RSM, metric, &flux, vpl, VPLS)
     });
+    // Second origins (format 4.7): VPLs 0, 4 and 8 with a second map,
+    // 2 and 6 with one that sees no surface, the others none.
+    let mut lrng = Rng::new(11);
+    let mut lower_texels: Vec<f32> = Vec::new();
+    let vpl_lower: Vec<gibake_asset::LowerVpl> = vpls
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let origin = [v.position[0], v.position[1] - 0.05, v.position[2]];
+            match i % 4 {
+                0 => {
+                    let map = (lower_texels.len() / texels) as u32;
+                    lower_texels.extend((0..texels).map(|_| {
+                        if lrng.f32() < 0.4 {
+                            f32::INFINITY
+                        } else {
+                            0.2 + lrng.f32() * 3.0
+                        }
+                    }));
+                    gibake_asset::LowerVpl { origin, map }
+                }
+                2 => gibake_asset::LowerVpl {
+                    origin,
+                    map: NO_MAP,
+                },
+                _ => gibake_asset::LowerVpl::NONE,
+            }
+        })
+        .collect();
+    let vpl_lower_maps =
+        MapAtlas::from_maps(VPL_MAP, lower_texels.chunks(texels)).expect("maps of VPL_MAP²");
     Asset {
         manifest: Manifest {
             provenance: Provenance {
@@ -210,8 +241,11 @@ pub fn sample_asset(dynamic: bool) -> Asset {
             scene_options: None,
             swept_bounds: None,
             later: None,
+            lower_map_count: 0,
         },
         vpl_coherence: vec![1.0; vpls.len() * gibake_asset::LEVEL3_NODES],
+        vpl_lower,
+        vpl_lower_maps,
         vpls,
         vpl_nodes,
         primary_depth: Map {
@@ -272,8 +306,23 @@ pub fn as_written(asset: &Asset, loaded: &Asset) -> Asset {
     let mut a = asset.clone();
     a.manifest.vpl_count = a.vpls.len() as u32;
     a.manifest.map_count = a.stored_map_count() as u32;
+    a.manifest.lower_map_count = a.vpl_lower_maps.count();
     a.manifest.has_dynamic = a.rsm.is_some();
     a.manifest.files = loaded.manifest.files.clone();
+    a
+}
+
+/// `asset` as it loads from a manifest of format 4.6 or older (what
+/// `testing::manifest_bytes_4_6` and the older writers list): no second
+/// origins or maps (format 4.7), their files not listed.
+pub fn without_4_7(asset: &Asset) -> Asset {
+    let mut a = asset.clone();
+    a.vpl_lower.clear();
+    a.vpl_lower_maps = MapAtlas::empty(a.manifest.settings.vpl_map_size);
+    a.manifest.lower_map_count = 0;
+    a.manifest
+        .files
+        .retain(|f| f.name != FILE_VPL_LOWER && f.name != FILE_VPL_LOWER_MAPS);
     a
 }
 
