@@ -79,6 +79,8 @@ struct Params {
     partition: bool,
     /// The reference's samples per pixel.
     reference_spp: u32,
+    /// Bake with every bounce (the default) instead of `--bounces 1`.
+    every_bounce: bool,
 }
 
 impl Default for Params {
@@ -96,6 +98,7 @@ impl Default for Params {
             one_triangle: false,
             partition: false,
             reference_spp: 64,
+            every_bounce: false,
         }
     }
 }
@@ -291,7 +294,13 @@ fn run_case(name: &str, p: &Params) -> Outcome {
     let asset = dir.path().join("a.gibake");
     let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> =
         vec![&"bake", &scene, &"-o", &asset, &"--json"];
-    for a in &BAKE {
+    // BAKE ends with `--bounces 1`.
+    let bake_flags = if p.every_bounce {
+        &BAKE[..BAKE.len() - 2]
+    } else {
+        &BAKE[..]
+    };
+    for a in bake_flags {
         args.push(a);
     }
     let bake = gibake(&args);
@@ -606,6 +615,42 @@ fn a_moving_object_covering_the_light() {
         "covered light still lights: {left} vs {lit}"
     );
     assert!(full <= 0.01 && direct <= 0.001, "covered: {full} {direct}");
+}
+
+/// The same with every bounce (the default bake): the later bounces' VPLs
+/// lose the share of the first bounce's light the moving box takes
+/// (`later_occlusion.wgsl`); without that they kept 9% of the uncovered
+/// light.
+#[test]
+fn a_moving_object_covering_the_light_darkens_the_later_bounces() {
+    let every = |p: Params| Params {
+        every_bounce: true,
+        ..p
+    };
+    let open = run_case("open_every", &every(Params::default()));
+    let o = run_case(
+        "covered_every",
+        &every(Params {
+            cover_light: true,
+            ..Params::default()
+        }),
+    );
+    ok(&open.bake);
+    ok(&o.bake);
+    let later = |r: &Run| {
+        serde_json::from_str::<serde_json::Value>(&r.stdout)
+            .ok()
+            .and_then(|v| v["later"]["vpls"].as_u64())
+            .unwrap_or(0)
+    };
+    assert!(later(&o.bake) > 0, "no later VPL to test: {}", o.bake);
+    let lit = open.image("full").mean().max_element();
+    let left = o.image("full").mean().max_element();
+    eprintln!("covered, every bounce: full mean {left:.3e} against {lit:.3e} uncovered");
+    assert!(
+        left <= 0.02 * lit,
+        "covered light still lights through the later bounces: {left} vs {lit}"
+    );
 }
 
 #[test]

@@ -33,6 +33,9 @@ pub(crate) struct BakedGpu {
     /// The VPLs as uploaded (CPU copy, for choosing the affected maps):
     /// `position` is the map origin.
     pub vpls: Vec<GpuVpl>,
+    /// The later bounces' VPLs (format 4.6): the last of [`BakedGpu::vpls`]
+    /// (`gibake_asset::Manifest::later_vpls`).
+    pub later: u32,
     /// [`BakedGpu::vpls`], then their near-field trees (`NODES_PER_VPL`
     /// [`GpuVpl`]s per VPL, in VPL order), then one far-field record per
     /// VPL (its own with `position` its far-field centre,
@@ -417,6 +420,7 @@ impl BakedGpu {
             })
             .collect();
         Ok(BakedGpu {
+            later: m.later_vpls(),
             vpls,
             vpl_buf,
             static_maps,

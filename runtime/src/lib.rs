@@ -64,6 +64,7 @@ mod frame;
 mod gbuffer;
 mod gbuffer_depth;
 mod interleave;
+mod later_occlusion;
 mod light;
 mod merge;
 mod moving;

@@ -110,6 +110,9 @@ struct BounceView {
 pub(crate) struct MovingPasses {
     primary: Option<ShadowPass>,
     rsm: Option<(DynamicRsmPass, OcclusionPass)>,
+    /// The later bounces' VPLs' share of the occlusion (an asset with
+    /// later VPLs, format 4.6).
+    later_occlusion: Option<crate::later_occlusion::LaterOcclusionPass>,
     vpls: Option<DynamicVplPass>,
     /// Every view the bounce is computed in, the primary light's first (the
     /// order of the dynamic VPLs' slot ranges).
@@ -260,9 +263,22 @@ impl MovingPasses {
             )?),
             _ => None,
         };
+        let later_occlusion = match (i.baked, &rsm) {
+            (Some(b), Some((_, occ))) => {
+                let fluxes: Vec<[f32; 3]> = b.vpls.iter().map(|v| v.flux).collect();
+                crate::later_occlusion::LaterOcclusionPass::new(
+                    device,
+                    &fluxes,
+                    b.later,
+                    &occ.occluded,
+                )
+            }
+            _ => None,
+        };
         Ok(MovingPasses {
             primary,
             rsm,
+            later_occlusion,
             vpls,
             bounce,
             merge,
@@ -481,6 +497,10 @@ impl MovingPasses {
                     };
                     d.encode_from(encoder, v, &b.windows, ts);
                 }
+            }
+            // Every view's occlusion is summed: the later VPLs' share.
+            if let Some(l) = &self.later_occlusion {
+                l.encode(encoder);
             }
         }
         if let Some(m) = &self.merge {

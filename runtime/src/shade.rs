@@ -567,6 +567,10 @@ mod tests {
                 "occlusion.wgsl",
                 compose(crate::dynamic_rsm::OCCLUSION_WGSL),
             ),
+            (
+                "later_occlusion.wgsl",
+                compose(crate::later_occlusion::LATER_OCCLUSION_WGSL),
+            ),
             ("interleave.wgsl", compose(include_str!("interleave.wgsl"))),
         ] {
             if let Err(e) = validate(&src) {
