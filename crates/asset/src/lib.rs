@@ -667,6 +667,29 @@ pub struct LaterRecord {
     pub tail: [f32; 3],
 }
 
+/// The light of the bounces after the first over all the light the
+/// surfaces reflect: `direct` straight from the lights, `per_bounce` after
+/// bounce 1, 2, …, `tail` beyond the last followed (W, linear RGB; 0 when
+/// nothing is reflected). [`LaterRecord::later_share`] and the bake's
+/// decision to leave the later bounces out (`gibake_bake::later`).
+pub fn later_share(
+    direct: [f32; 3],
+    per_bounce: impl IntoIterator<Item = [f32; 3]>,
+    tail: [f32; 3],
+) -> f64 {
+    let sum = |v: [f32; 3]| f64::from(v[0]) + f64::from(v[1]) + f64::from(v[2]);
+    let (mut first, mut later) = (0.0, sum(tail));
+    for (k, b) in per_bounce.into_iter().enumerate() {
+        if k == 0 {
+            first += sum(b);
+        } else {
+            later += sum(b);
+        }
+    }
+    let all = sum(direct) + first + later;
+    if all > 0.0 { later / all } else { 0.0 }
+}
+
 /// The most bounces a [`LaterRecord`] lists (the bake's cap).
 pub const MAX_LATER_BOUNCES: usize = 256;
 
@@ -675,11 +698,7 @@ impl LaterRecord {
     /// (direct, first bounce and later): the share the bake left out when
     /// it left them out.
     pub fn later_share(&self) -> f64 {
-        let sum = |v: &[f32; 3]| f64::from(v[0]) + f64::from(v[1]) + f64::from(v[2]);
-        let later: f64 = self.per_bounce.iter().skip(1).map(sum).sum::<f64>() + sum(&self.tail);
-        let all =
-            sum(&self.direct) + self.per_bounce.iter().map(sum).sum::<f64>() + sum(&self.tail);
-        if all > 0.0 { later / all } else { 0.0 }
+        later_share(self.direct, self.per_bounce.iter().copied(), self.tail)
     }
 
     /// What is wrong with the record's values, if anything.

@@ -771,6 +771,17 @@ fn bake_with(
     let (mut vpl_nodes, mut vpl_coherence) = (vpl_nodes, vpl_coherence);
     let mut vpl_lower = vpl_lower;
     let mut rings = gibake_asset::ring_flags(&per_light, &ring_vpls);
+    // The memory budget for `n` VPLs' maps (this shard's share of them).
+    let check_memory = |n: usize| -> Result<(), BakeError> {
+        if let Some(limit) = progress.memory_limit() {
+            let mapped = match shard {
+                Some(s) => shard_range(n, s.index, s.count).len(),
+                None => n,
+            };
+            crate::budget::check_with(opts, n as u64, mapped as u64, limit)?;
+        }
+        Ok(())
+    };
     let later = match opts.bounces {
         crate::later::Bounces::Count(n) if n <= 1 => None,
         bounces => {
@@ -781,14 +792,7 @@ fn bake_with(
             // The memory budget, checked before the later bounces are
             // solved: a threshold that makes millions of VPLs is refused
             // here, not after the solve (again below with the exact count).
-            if let Some(limit) = progress.memory_limit() {
-                let all = first_vpls as u64 + u64::from(n);
-                let mapped = match shard {
-                    Some(s) => shard_range(all as usize, s.index, s.count).len() as u64,
-                    None => all,
-                };
-                crate::budget::check_with(opts, all, mapped, limit)?;
-            }
+            check_memory(first_vpls + n as usize)?;
             let l = crate::later::later_bounces(
                 &rays,
                 &crate::later::LaterOptions {
@@ -811,7 +815,6 @@ fn bake_with(
             let keep = bounces != crate::later::Bounces::Every
                 || l.later_share() >= crate::later::NEGLIGIBLE_LATER_SHARE;
             if keep {
-                let reach = Reach::new(&rays, scene.dynamic_swept_bounds());
                 for (i, v) in l.vpls.iter().enumerate() {
                     let c = crate::cluster::Cluster {
                         position: glam::Vec3::from_array(v.position),
@@ -839,14 +842,7 @@ fn bake_with(
             Some((l, keep))
         }
     };
-    if let Some(limit) = progress.memory_limit() {
-        let n = vpls.len();
-        let mapped = match shard {
-            Some(s) => shard_range(n, s.index, s.count).len(),
-            None => n,
-        };
-        crate::budget::check_with(opts, n as u64, mapped as u64, limit)?;
-    }
+    check_memory(vpls.len())?;
 
     // Hemisphere maps by ray casting (a shard: only its VPLs', kept apart).
     let range = match shard {

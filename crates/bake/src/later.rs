@@ -114,13 +114,11 @@ impl Later {
     /// surfaces reflect (direct, first bounce and later): the share a bake
     /// leaves out when it leaves them out.
     pub fn later_share(&self) -> f64 {
-        let sum = |v: Vec3| f64::from(v.x) + f64::from(v.y) + f64::from(v.z);
-        let later: f64 =
-            self.per_bounce.iter().skip(1).map(|v| sum(*v)).sum::<f64>() + sum(self.tail);
-        let all = sum(self.direct)
-            + self.per_bounce.iter().map(|v| sum(*v)).sum::<f64>()
-            + sum(self.tail);
-        if all > 0.0 { later / all } else { 0.0 }
+        gibake_asset::later_share(
+            self.direct.to_array(),
+            self.per_bounce.iter().map(|v| v.to_array()),
+            self.tail.to_array(),
+        )
     }
 }
 

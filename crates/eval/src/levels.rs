@@ -456,18 +456,9 @@ pub fn judge_level(
         indirect.every.take(),
         s.every_bounce_bake,
     ) {
-        let t = Instant::now();
-        let every = crate::bake_bounces(ctx, scene, s, gibake_bake::later::Bounces::Every)?;
-        let bake_s = t.elapsed().as_secs_f64();
-        let full = crate::render(ctx, scene, &every, Mode::Full, s)?;
-        indirect.every = Some(judged.with_bake(
-            &full.sub(&direct),
-            e,
-            &reference.direct,
-            &every,
-            bake_s,
-            s.blur,
-        ));
+        let (judged, full) =
+            judged.with_default_bake(ctx, scene, s, e, &reference.direct, &direct)?;
+        indirect.every = Some(judged);
         every_full = Some(full);
     }
     let exposure = reference.one_bounce.auto_exposure();

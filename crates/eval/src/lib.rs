@@ -252,25 +252,33 @@ impl EveryBounceEval {
         }
     }
 
-    /// Adds the default bake's `full` (indirect part) to the judgement.
-    pub fn with_bake(
+    /// Bakes `scene` with every bounce (the default of `gibake bake`),
+    /// renders its `full` and adds it to the judgement against `reference`
+    /// (`ref_direct`: the reference's direct light, `direct`: the
+    /// renderer's, subtracted from `full`). Returns the judgement and the
+    /// `full` image.
+    pub fn with_default_bake(
         mut self,
-        full: &Image,
+        ctx: &GpuContext,
+        scene: &Scene,
+        s: &EvalSettings,
         reference: &EveryBounceImage,
+        ref_direct: &Image,
         direct: &Image,
-        asset: &Asset,
-        bake_s: f64,
-        blur: u32,
-    ) -> EveryBounceEval {
-        let ind = reference.image.sub(direct);
+    ) -> Result<(EveryBounceEval, Image), EvalError> {
+        let t = std::time::Instant::now();
+        let asset = bake_bounces(ctx, scene, s, gibake_bake::later::Bounces::Every)?;
+        let bake_s = t.elapsed().as_secs_f64();
+        let full = render(ctx, scene, &asset, Mode::Full, s)?;
+        let (ind, ref_ind) = (full.sub(direct), reference.image.sub(ref_direct));
         self.baked = Some(EveryBounceBake {
             vpls: asset.vpls.len(),
             later_vpls: asset.manifest.later_vpls(),
             bake_s,
-            full_bias: bias(full.mean(), ind.mean()),
-            full_err: indirect_error(full, &ind, blur),
+            full_bias: bias(ind.mean(), ref_ind.mean()),
+            full_err: indirect_error(&ind, &ref_ind, s.blur),
         });
-        self
+        Ok((self, full))
     }
 
     /// The part of [`IndirectEval::line`] it adds.
@@ -732,11 +740,9 @@ fn evaluate_with(
         let ref_direct = reference_renders_direct(scene, s)?;
         let judged = EveryBounceEval::new(&full, &rsm, &e, &ref_direct, reference.mean(), s.blur);
         Some(if s.every_bounce_bake {
-            let t = std::time::Instant::now();
-            let every = bake_bounces(ctx, scene, s, gibake_bake::later::Bounces::Every)?;
-            let bake_s = t.elapsed().as_secs_f64();
-            let full = render(ctx, scene, &every, Mode::Full, s)?.sub(&direct);
-            judged.with_bake(&full, &e, &ref_direct, &every, bake_s, s.blur)
+            judged
+                .with_default_bake(ctx, scene, s, &e, &ref_direct, &direct)?
+                .0
         } else {
             judged
         })
