@@ -521,6 +521,13 @@ pub struct RenderArgs {
     /// face different ways (docs/method.md, "Descent ratio").
     #[arg(long, default_value_t = 8, value_name = "N", value_parser = clap::value_parser!(u32).range(4..=32))]
     pub near_field_descent: u32,
+    /// Near-field descent of the later bounces' VPLs (an asset baked with
+    /// every bounce), in disk radii (0–32; 0: each drawn as one disk). A
+    /// later VPL stands for a wide stretch of the walls, so its tree
+    /// descends at most pixels of a room: the later bounces' share of the
+    /// shading follows this (docs/method.md, "Every bounce").
+    #[arg(long, default_value_t = gibake_runtime::DEFAULT_LATER_NEAR_FIELD_DESCENT, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=32))]
+    pub later_near_field_descent: u32,
     /// GPU adapter to use (substring of its name; default: GIBAKE_ADAPTER or the first real GPU).
     #[arg(long)]
     pub adapter: Option<String>,

@@ -199,6 +199,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         light_culling: !a.no_light_culling,
         split_windows: !a.no_split_windows,
         near_field_descent: a.near_field_descent,
+        later_near_field_descent: a.later_near_field_descent,
     };
     let t0 = Instant::now();
     // The scene's camera, checked before any GPU work.

@@ -103,7 +103,9 @@ pub use plan::{FramePlan, Pass, PassSet, ShadeFlag};
 pub use requirements::Requirements;
 #[cfg(feature = "gltf-import")]
 pub use scene_options::{load_options_for, load_scene_for};
-pub use settings::{Cascades, Mode, RenderSettings};
+pub use settings::{
+    Cascades, DEFAULT_LATER_NEAR_FIELD_DESCENT, DEFAULT_NEAR_FIELD_DESCENT, Mode, RenderSettings,
+};
 pub use stats::{FRAMES_IN_FLIGHT, FrameStats, Timing};
 pub use view::{OutputTarget, ViewId};
 pub use {glam, wgpu};

@@ -222,6 +222,8 @@ pub struct FramePlan {
     flags: u32,
     cascades: Option<CascadeLayout>,
     descent: u32,
+    /// [`RenderSettings::later_near_field_descent`].
+    later_descent: u32,
 }
 
 impl FramePlan {
@@ -345,6 +347,7 @@ impl FramePlan {
             flags,
             cascades,
             descent: settings.near_field_descent,
+            later_descent: settings.later_near_field_descent,
         })
     }
 
@@ -352,6 +355,12 @@ impl FramePlan {
     /// ([`RenderSettings::near_field_descent`]).
     pub fn near_field_descent(&self) -> u32 {
         self.descent
+    }
+
+    /// The later bounces' VPLs' near-field descent in disk radii, 0: one
+    /// disk each ([`RenderSettings::later_near_field_descent`]).
+    pub fn later_near_field_descent(&self) -> u32 {
+        self.later_descent
     }
 
     /// The mode planned for.

@@ -115,11 +115,25 @@ pub struct RenderSettings {
     /// against −6.8% red; docs/results.md, "Real levels"). From 4 to 32,
     /// else [`RuntimeError::InvalidSetting`].
     pub near_field_descent: u32,
+    /// The later bounces' VPLs' near-field descent (an asset baked with
+    /// every bounce, format 4.6), as [`RenderSettings::near_field_descent`]
+    /// for the first bounce's; 0 draws each as one disk with its far-field
+    /// lobe at every receiver. A later VPL gathers the light of a wide
+    /// stretch of the static surfaces (radii of a metre in a living room),
+    /// so at the first bounce's descent its tree descends at nearly every
+    /// pixel of the room: each cost about 3.5× a first-bounce VPL's shading.
+    /// Its light is smooth; what its tree buys is measured in
+    /// docs/method.md, "Every bounce" → "Frame cost". From 0 to 32, else
+    /// [`RuntimeError::InvalidSetting`].
+    pub later_near_field_descent: u32,
 }
 
 /// [`RenderSettings::near_field_descent`] by default (the CPU twin's
 /// `gibake_eval::transport::DESCENT_RATIO`).
 pub const DEFAULT_NEAR_FIELD_DESCENT: u32 = 8;
+
+/// [`RenderSettings::later_near_field_descent`] by default.
+pub const DEFAULT_LATER_NEAR_FIELD_DESCENT: u32 = 4;
 
 impl Default for RenderSettings {
     fn default() -> Self {
@@ -137,6 +151,7 @@ impl Default for RenderSettings {
             light_culling: true,
             split_windows: true,
             near_field_descent: DEFAULT_NEAR_FIELD_DESCENT,
+            later_near_field_descent: DEFAULT_LATER_NEAR_FIELD_DESCENT,
         }
     }
 }
@@ -155,6 +170,12 @@ impl RenderSettings {
             return Err(RuntimeError::InvalidSetting(format!(
                 "near-field descent {} must be from 4 to 32 disk radii",
                 self.near_field_descent
+            )));
+        }
+        if self.later_near_field_descent > 32 {
+            return Err(RuntimeError::InvalidSetting(format!(
+                "the later bounces' near-field descent {} must be from 0 to 32 disk radii",
+                self.later_near_field_descent
             )));
         }
         crate::view::check_size(device, self.width, self.height, self.interleave)?;

@@ -80,8 +80,12 @@ pub(crate) struct GpuGiParams {
     pub lower_cols: u32,
     /// The texel row where the second maps' atlas starts.
     pub lower_row: u32,
-    /// Padding to 16 bytes.
-    pub _pad: [u32; 2],
+    /// Index of the first later-bounce VPL (`n_static` without any: they
+    /// are the last static VPLs).
+    pub first_later: u32,
+    /// The later VPLs' near-field descent in disk radii, 0: one disk each
+    /// ([`crate::RenderSettings::later_near_field_descent`]).
+    pub later_descent: u32,
 }
 
 /// A shading pipeline and its group-1 layout: the one-light variant, or the
@@ -479,7 +483,10 @@ impl ShadeGi {
             descent: s.plan.near_field_descent(),
             lower_cols: s.baked.map_or(1, |b| b.lower_cols),
             lower_row: s.baked.map_or(0, |b| b.lower_row),
-            _pad: [0; 2],
+            first_later: s
+                .baked
+                .map_or(0, |b| (b.vpls.len() as u32).saturating_sub(b.later)),
+            later_descent: s.plan.later_near_field_descent(),
         };
         let params_buf = uniform(device, "shade gi params", &params);
         let group = Self::group(device, shade, s, &params_buf);

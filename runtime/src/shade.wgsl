@@ -38,8 +38,8 @@ struct GiParams {         // GpuGiParams in shade.rs
     descent: u32,         // near-field descent in disk radii (RenderSettings::near_field_descent)
     lower_cols: u32,      // tiles per row of the second maps' atlas
     lower_row: u32,       // texel row of static_maps where the second maps' atlas starts
-    _pad0: u32,
-    _pad1: u32,
+    first_later: u32,     // index of the first later-bounce VPL (n_static: none)
+    later_descent: u32,   // their near-field descent (RenderSettings::later_near_field_descent; 0: one disk)
 }
 
 const NONE: u32 = 0xffffffffu;
@@ -347,15 +347,25 @@ fn is_near(x: vec3<f32>, p: vec3<f32>, a: f32) -> bool {
     return within(x, p, a, NEAR_FIELD_RATIO);
 }
 
-// Whether a level-1 or level-2 node is drawn as its children at x.
-fn descends(x: vec3<f32>, p: vec3<f32>, a: f32) -> bool {
-    return within(x, p, a, f32(params.descent));
+// Whether a level-1 or level-2 node is drawn as its children at x
+// (descent: in its radii).
+fn descends(x: vec3<f32>, p: vec3<f32>, a: f32, descent: f32) -> bool {
+    return within(x, p, a, descent);
 }
 
 // Whether a static VPL is drawn as its tree at x (twice the descent: its
-// level-1 nodes stand for it out there).
-fn in_far_field(x: vec3<f32>, p: vec3<f32>, a: f32) -> bool {
-    return !within(x, p, a, 2.0 * f32(params.descent));
+// level-1 nodes stand for it out there; descent 0: never).
+fn in_far_field(x: vec3<f32>, p: vec3<f32>, a: f32, descent: f32) -> bool {
+    return !within(x, p, a, 2.0 * descent);
+}
+
+// Static VPL i's near-field descent: the first bounce's, or the later
+// bounces' for their VPLs (the last ones).
+fn vpl_descent(i: u32) -> f32 {
+    if (i >= params.first_later) {
+        return f32(params.later_descent);
+    }
+    return f32(params.descent);
 }
 
 // A level-1 or level-2 node beyond its own near field: its disk with the
@@ -535,7 +545,8 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
     var t = VplTerms(vec3<f32>(0.0), vec3<f32>(0.0));
     let far = vpls[params.n_static * (1u + NODES_PER_VPL) + i];
     let centre = far.position;
-    if (in_far_field(x, centre, v.area)) {
+    let dr = vpl_descent(i);
+    if (in_far_field(x, centre, v.area, dr)) {
         // A static VPL's own record carries its lobe coherence in `texels`
         // (gibake_gpu::vpl::GpuVpl::texels), fixed point.
         let p = facing_point(centre, far_facing(far), x);
@@ -550,7 +561,7 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
         if (n1.texels == 0u) {
             continue;
         }
-        if (!descends(x, n1.position, n1.area)) {
+        if (!descends(x, n1.position, n1.area, dr)) {
             var m1 = n1;
             m1.position = facing_point(n1.position, node_facing(i, j1 * 2u + i1), x);
             t.shadowed += node_lobe_irradiance(m1, x, ns, ng);
@@ -563,7 +574,7 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
             if (n2.texels == 0u) {
                 continue;
             }
-            if (!descends(x, n2.position, n2.area)) {
+            if (!descends(x, n2.position, n2.area, dr)) {
                 var m2 = n2;
                 m2.position = facing_point(n2.position, node_facing(i, 4u + j2 * 4u + i2), x);
                 t.shadowed += node_lobe_irradiance(m2, x, ns, ng);

@@ -317,6 +317,18 @@ fn bad_settings_and_a_missing_or_foreign_asset_are_errors() {
         assert!(e.to_string().contains("near-field descent"), "{e}");
         errors.push(e);
     }
+    let later = RenderSettings {
+        later_near_field_descent: 33,
+        ..settings(8, 8)
+    };
+    let e = Renderer::new(d, q, &f.scene, Some(&f.asset), &later)
+        .err()
+        .expect("later-bounce descent 33 accepted");
+    assert!(
+        e.to_string().contains("later bounces' near-field descent"),
+        "{e}"
+    );
+    errors.push(e);
     for e in &errors {
         assert!(matches!(e, RuntimeError::InvalidSetting(_)), "{e}");
     }

@@ -1,4 +1,4 @@
-//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--shadow-map N] [--blur N] [--ssaa N] [--near-field-descent N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive] [--static-only] [--one-bounce-only] [--no-second-maps] [--list LEVELS.json]`
+//! `cargo run --release -p gibake-eval --example eval_levels -- [NAME]... [--size N] [--spp N] [--vpls N] [--shadow-map N] [--blur N] [--ssaa N] [--near-field-descent N] [--later-near-field-descent N] [--later-descent-sweep N,N,…] [--later-vpls N] [--cascades auto|on|off] [--out DIR] [--markdown] [--no-naive] [--static-only] [--one-bounce-only] [--no-second-maps] [--list LEVELS.json]`
 //! Judges the real levels of data/levels/levels.json, or of `--list`'s file
 //! (its levels' files relative to it; all, or those named), against the
 //! CPU reference, one bounce and every bounce (`vs one bounce: …`, `vs
@@ -67,6 +67,16 @@ fn main() {
             "--shadow-map" => s.shadow_map_size = num(),
             "--ssaa" => s.ssaa = num(),
             "--near-field-descent" => s.near_field_descent = num(),
+            "--later-near-field-descent" => s.later_near_field_descent = num(),
+            "--later-vpls" => s.later_vpls = Some(num()),
+            "--later-descent-sweep" => {
+                s.later_descent_sweep = it
+                    .next()
+                    .expect("a list")
+                    .split(',')
+                    .map(|v| v.parse().expect("a number"))
+                    .collect()
+            }
             "--cascades" => {
                 s.cascades = match it.next().map(String::as_str) {
                     Some("on") => gibake_runtime::Cascades::On,

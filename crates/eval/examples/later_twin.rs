@@ -127,7 +127,7 @@ fn main() {
                 let h = rays.intersect_range(o, d, t0, f32::INFINITY)?;
                 let mut per = vec![(0f32, 0f32); sec.vpls.len()];
                 for (i, v) in sec.vpls.iter().enumerate() {
-                    let t = gibake_eval::transport::static_vpl_terms(
+                    let t = gibake_eval::transport::static_vpl_terms_at(
                         v,
                         tw.centres[i],
                         tw.tree(i),
@@ -135,6 +135,7 @@ fn main() {
                         h.position,
                         h.shading_normal,
                         h.geometric_normal,
+                        gibake_eval::transport::LATER_DESCENT_RATIO,
                     );
                     let vis = !gibake_eval::transport::origin_in_front(
                         tw.origins[i],
@@ -214,7 +215,7 @@ fn main() {
     let first = TwinVpls::new(&records, &ring, &nodes, &coherence);
     // Lifted by one surfel's radius, as the bake does (a ring VPL's rule).
     let no_ring = vec![true; l.vpls.len()];
-    let second = TwinVpls::new(&l.vpls, &no_ring, &l.nodes, &l.coherence);
+    let second = TwinVpls::new(&l.vpls, &no_ring, &l.nodes, &l.coherence).with_later(l.vpls.len());
     let cam = gibake_reference::View::from_scene(&scene, 0.0).expect("a camera");
     let px: Vec<(Vec3, Vec3, Vec3, Vec3, Vec3)> = (0..size * size)
         .into_par_iter()

@@ -90,6 +90,18 @@ pub struct EvalSettings {
     /// The runtime's near-field descent
     /// ([`RenderSettings::near_field_descent`]).
     pub near_field_descent: u32,
+    /// The runtime's later-bounce near-field descent
+    /// ([`RenderSettings::later_near_field_descent`]).
+    pub later_near_field_descent: u32,
+    /// With [`EvalSettings::every_bounce_bake`], also render the default
+    /// bake at each of these later-bounce descents and judge each against
+    /// the every-bounce reference ([`EveryBounceBake::later_descents`]):
+    /// what the later VPLs' near-field trees buy.
+    pub later_descent_sweep: Vec<u32>,
+    /// The later bounces' VPL budget of the every-bounce bake (`gibake
+    /// bake --later-vpls`; `None`: the default, a quarter of the first
+    /// bounce's).
+    pub later_vpls: Option<u32>,
     /// Also render the every-bounce reference ([`ReferenceImages::every`],
     /// same samples per pixel as the one-bounce image) and judge against
     /// it too ([`IndirectEval::every`]). Off by default (the tests judge
@@ -126,6 +138,9 @@ impl Default for EvalSettings {
             light_bounce: true,
             naive: true,
             near_field_descent: RenderSettings::default().near_field_descent,
+            later_near_field_descent: RenderSettings::default().later_near_field_descent,
+            later_descent_sweep: Vec::new(),
+            later_vpls: None,
             every_bounce: false,
             every_bounce_bake: false,
             second_maps: true,
@@ -221,6 +236,9 @@ pub struct EveryBounceBake {
     pub full_bias: [f32; 3],
     /// `full`'s relative indirect error against it (blurred).
     pub full_err: f64,
+    /// [`EvalSettings::later_descent_sweep`]: per later-bounce descent,
+    /// `full`'s bias and error as above.
+    pub later_descents: Vec<(u32, [f32; 3], f64)>,
 }
 
 impl EveryBounceEval {
@@ -271,12 +289,26 @@ impl EveryBounceEval {
         let bake_s = t.elapsed().as_secs_f64();
         let full = render(ctx, scene, &asset, Mode::Full, s)?;
         let (ind, ref_ind) = (full.sub(direct), reference.image.sub(ref_direct));
+        let mut later_descents = Vec::new();
+        for &d in &s.later_descent_sweep {
+            let sd = EvalSettings {
+                later_near_field_descent: d,
+                ..s.clone()
+            };
+            let ind = render(ctx, scene, &asset, Mode::Full, &sd)?.sub(direct);
+            later_descents.push((
+                d,
+                bias(ind.mean(), ref_ind.mean()),
+                indirect_error(&ind, &ref_ind, s.blur),
+            ));
+        }
         self.baked = Some(EveryBounceBake {
             vpls: asset.vpls.len(),
             later_vpls: asset.manifest.later_vpls(),
             bake_s,
             full_bias: bias(ind.mean(), ref_ind.mean()),
             full_err: indirect_error(&ind, &ref_ind, s.blur),
+            later_descents,
         });
         Ok((self, full))
     }
@@ -306,7 +338,11 @@ impl EveryBounceEval {
                 b.later_vpls,
                 pct(b.full_bias),
                 b.full_err
-            )
+            ) + &b
+                .later_descents
+                .iter()
+                .map(|(d, bi, e)| format!("; later descent {d}: bias {} err {e:.4}", pct(*bi)))
+                .collect::<String>()
         })
     }
 }
@@ -406,7 +442,7 @@ pub fn bake_bounces(
         shadow_map_size: s.shadow_map_size,
         target: gibake_bake::cluster::ClusterTarget::Count(s.vpls),
         bounces,
-        later_vpls: None,
+        later_vpls: s.later_vpls,
     };
     let asset = gibake_bake::bake(ctx, scene, &opts, &gibake_bake::NoProgress, "eval")?.asset;
     let asset = if s.second_maps {
@@ -465,6 +501,7 @@ pub fn render(
         max_dynamic_vpls: s.max_dynamic_vpls,
         cascades: s.cascades,
         near_field_descent: s.near_field_descent,
+        later_near_field_descent: s.later_near_field_descent,
         ..Default::default()
     };
     Ok(frame::render_image(

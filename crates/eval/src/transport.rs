@@ -36,6 +36,15 @@ pub const DESCENT_RATIO: f32 = 2.0 * NEAR_FIELD_RATIO;
 /// (docs/method.md, "Node lobes").
 pub const FAR_FIELD_RATIO: f32 = 2.0 * DESCENT_RATIO;
 
+/// [`DESCENT_RATIO`] for the later bounces' VPLs (the runtime's default
+/// `RenderSettings::later_near_field_descent`, checked by the constants
+/// test below): half the first bounce's. A later VPL stands for a wide
+/// stretch of wall, so at the first bounce's descent its tree descends at
+/// nearly every pixel of a room; at half of it the every-bounce figures of
+/// the real levels stay within a point of it for 0.6–0.7× the later
+/// VPLs' shading (docs/method.md, "Every bounce" → "Frame cost").
+pub const LATER_DESCENT_RATIO: f32 = 0.5 * DESCENT_RATIO;
+
 /// Irradiance at `x` (shading normal `ns`, geometric `ng`) from a disk-like
 /// emitter at `origin` with normal `nv`, area `a`, flux `phi`:
 /// `Φ/π · cosθ_v cosθ_r / √(d⁴ + (A/π)²)` (shade.wgsl `vpl_irradiance`).
@@ -109,6 +118,11 @@ pub fn is_near(x: Vec3, p: Vec3, a: f32) -> bool {
 /// `x` ([`DESCENT_RATIO`]; shade.wgsl `descends`).
 pub fn descends(x: Vec3, p: Vec3, a: f32) -> bool {
     within(x, p, a, DESCENT_RATIO)
+}
+
+/// [`descends`] at another descent ratio.
+fn descends_at(x: Vec3, p: Vec3, a: f32, descent: f32) -> bool {
+    within(x, p, a, descent)
 }
 
 /// Whether a static VPL of area `a` drawn from `p` is one disk at `x`
@@ -390,9 +404,26 @@ pub fn static_vpl_terms(
     ns: Vec3,
     ng: Vec3,
 ) -> VplTerms {
+    static_vpl_terms_at(v, origin, nodes, lobes, x, ns, ng, DESCENT_RATIO)
+}
+
+/// [`static_vpl_terms`] at near-field descent `descent` (radii; 0: one
+/// disk everywhere): [`LATER_DESCENT_RATIO`] for a later bounce's VPL
+/// (shade.wgsl `vpl_descent`).
+#[allow(clippy::too_many_arguments)]
+pub fn static_vpl_terms_at(
+    v: &VplRecord,
+    origin: Vec3,
+    nodes: &[VplRecord],
+    lobes: &VplLobes,
+    x: Vec3,
+    ns: Vec3,
+    ng: Vec3,
+    descent: f32,
+) -> VplTerms {
     let nv = Vec3::from_array(v.normal);
     let mut t = VplTerms::default();
-    if is_far(x, origin, v.area) || nodes.len() < NODES_PER_VPL {
+    if !within(x, origin, v.area, 2.0 * descent) || nodes.len() < NODES_PER_VPL {
         let phi = Vec3::from_array(v.flux);
         let p = facing_point(origin, &lobes.facings[0], x);
         t.shadowed = lobe_irradiance(p, nv, lobes.vpl, v.area, phi, x, ns, ng);
@@ -404,7 +435,7 @@ pub fn static_vpl_terms(
         if n1.texels == 0 {
             continue;
         }
-        if !descends(x, Vec3::from_array(n1.position), n1.area) {
+        if !descends_at(x, Vec3::from_array(n1.position), n1.area, descent) {
             let k1 = j1 * 2 + i1;
             let n = facing_node(n1, &lobes.facings[1 + k1], x);
             t.shadowed += node_lobe_irradiance(&n, lobes.nodes[k1], x, ns, ng);
@@ -416,7 +447,7 @@ pub fn static_vpl_terms(
             if n2.texels == 0 {
                 continue;
             }
-            if !descends(x, Vec3::from_array(n2.position), n2.area) {
+            if !descends_at(x, Vec3::from_array(n2.position), n2.area, descent) {
                 let k2 = 4 + j2 * 4 + i2;
                 let n = facing_node(n2, &lobes.facings[1 + k2], x);
                 t.shadowed += node_lobe_irradiance(&n, lobes.nodes[k2], x, ns, ng);
@@ -473,6 +504,10 @@ pub struct TwinVpls<'a> {
     /// Per VPL: its second origin, where it has one (empty: none has;
     /// [`TwinVpls::with_lower`]).
     pub lower: Vec<Option<Vec3>>,
+    /// The index of the first later-bounce VPL, drawn at
+    /// [`LATER_DESCENT_RATIO`] (the VPLs' count: none;
+    /// [`TwinVpls::with_later`]).
+    pub first_later: usize,
 }
 
 impl<'a> TwinVpls<'a> {
@@ -500,6 +535,7 @@ impl<'a> TwinVpls<'a> {
             origins,
             centres: Vec::new(),
             lower: Vec::new(),
+            first_later: vpls.len(),
         };
         twin.lobes = (0..vpls.len())
             .map(|i| {
@@ -533,6 +569,7 @@ impl<'a> TwinVpls<'a> {
                 .map(|l| l.is_some().then(|| Vec3::from_array(l.origin)))
                 .collect(),
         )
+        .with_later(asset.manifest.later_vpls() as usize)
     }
 
     /// The same VPLs with second origins `lower` (one per VPL, or none:
@@ -544,6 +581,37 @@ impl<'a> TwinVpls<'a> {
         );
         self.lower = lower;
         self
+    }
+
+    /// The same VPLs, the last `later` of them the later bounces' (drawn at
+    /// [`LATER_DESCENT_RATIO`], as shade.wgsl `vpl_descent`).
+    pub fn with_later(mut self, later: usize) -> Self {
+        self.first_later = self.vpls.len().saturating_sub(later);
+        self
+    }
+
+    /// VPL `i`'s near-field descent ratio.
+    fn descent(&self, i: usize) -> f32 {
+        if i >= self.first_later {
+            LATER_DESCENT_RATIO
+        } else {
+            DESCENT_RATIO
+        }
+    }
+
+    /// VPL `i`'s terms at `x` ([`static_vpl_terms_at`] at its descent).
+    fn vpl_terms(&self, i: usize, x: Vec3, ns: Vec3, ng: Vec3) -> VplTerms {
+        let (v, c) = (&self.vpls[i], &self.lobes[i]);
+        static_vpl_terms_at(
+            v,
+            self.centres[i],
+            self.tree(i),
+            c,
+            x,
+            ns,
+            ng,
+            self.descent(i),
+        )
     }
 
     /// VPL `i`'s second origin, if it has one.
@@ -580,8 +648,8 @@ impl<'a> TwinVpls<'a> {
         ns: Vec3,
         ng: Vec3,
     ) -> impl Iterator<Item = (usize, VplTerms)> + '_ {
-        self.vpls.iter().enumerate().filter_map(move |(i, v)| {
-            let t = static_vpl_terms(v, self.centres[i], self.tree(i), &self.lobes[i], x, ns, ng);
+        (0..self.vpls.len()).filter_map(move |i| {
+            let t = self.vpl_terms(i, x, ns, ng);
             (t != VplTerms::default()).then_some((i, t))
         })
     }
@@ -598,7 +666,7 @@ impl<'a> TwinVpls<'a> {
         let (x, ns, ng) = (h.position, h.shading_normal, h.geometric_normal);
         for (i, v) in self.vpls.iter().enumerate() {
             let (centre, c) = (self.centres[i], &self.lobes[i]);
-            let near = static_vpl_terms(v, centre, self.tree(i), c, x, ns, ng);
+            let near = self.vpl_terms(i, x, ns, ng);
             let disk = static_vpl_irradiance(v, centre, &[], c, x, ns, ng);
             if near == VplTerms::default() && disk == Vec3::ZERO {
                 continue;
@@ -789,6 +857,10 @@ mod tests {
             super::DESCENT_RATIO
         );
         assert_eq!(super::FAR_FIELD_RATIO, 2.0 * super::DESCENT_RATIO);
+        assert_eq!(
+            gibake_runtime::RenderSettings::default().later_near_field_descent as f32,
+            super::LATER_DESCENT_RATIO
+        );
         assert_eq!(value("VPL_DEPTH_BIAS"), super::VPL_DEPTH_BIAS);
         assert_eq!(value("VPL_MAX_SLOPE"), super::VPL_MAX_SLOPE);
         assert_eq!(value("CREASE_LO"), super::CREASE_LO);
