@@ -248,6 +248,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
             "dynamic_vpl_slots": stats.dynamic_vpl_slots,
             "bounce_texels": stats.bounce_texels,
             "affected_maps": stats.affected_maps,
+            "hidden_maps": stats.hidden_maps,
             "update_draw_calls": stats.update_draw_calls,
             "draw_calls": stats.draw_calls,
         }));

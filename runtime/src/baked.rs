@@ -61,6 +61,9 @@ pub(crate) struct BakedGpu {
     /// opposite of the VPL's), where it has a second origin (for the
     /// merge).
     pub lower: Vec<Option<(glam::Vec3, glam::Vec3)>>,
+    /// The baked maps' coarse cells for the merge (set by the world when
+    /// it merges; `None` otherwise: nothing kept that is not used).
+    pub map_cells: Option<crate::map_cells::MapCells>,
     /// Hemisphere map size.
     pub map_size: u32,
     /// Static primary shadow map.
@@ -428,6 +431,7 @@ impl BakedGpu {
             lower_cols,
             lower_row: h,
             lower,
+            map_cells: None,
             map_size: s,
             primary,
             view: light_view(asset, pd.size),

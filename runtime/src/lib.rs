@@ -66,6 +66,7 @@ mod gbuffer_depth;
 mod interleave;
 mod later_occlusion;
 mod light;
+mod map_cells;
 mod merge;
 mod moving;
 mod other_lights;
@@ -515,6 +516,7 @@ impl Renderer {
             static_vpls: self.world.gi.static_vpls(),
             dynamic_vpl_slots: self.world.moving.dynamic_vpl_slots(),
             affected_maps: affected,
+            hidden_maps: self.world.moving.hidden_maps(),
             light_views_merged: light_views,
             light_views_bounced,
             bounce_texels: self.world.moving.bounce_texels(),

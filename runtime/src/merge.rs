@@ -49,6 +49,13 @@ pub(crate) struct VplMerge {
     /// This frame's `(index range, instance range)` draws.
     ranges: Vec<(Range<u32>, Range<u32>)>,
     affected: u32,
+    /// The baked maps' cells ([`crate::map_cells`]): a map whose baked
+    /// surfaces hide every moving object that reaches it gets no tile.
+    /// `None` in `naive` mode.
+    cells: Option<crate::map_cells::MapCells>,
+    /// Maps some moving object reaches that their baked map hides, this
+    /// frame.
+    hidden: u32,
 }
 
 /// A merge atlas for `capacity` tiles in the one atlas layout, or the
@@ -100,6 +107,8 @@ impl VplMerge {
             tiles: vec![u32::MAX; n as usize],
             ranges: Vec::new(),
             affected: 0,
+            cells: if naive { None } else { baked.map_cells.clone() },
+            hidden: 0,
         })
     }
 
@@ -121,6 +130,12 @@ impl VplMerge {
     /// VPL maps that get a tile this frame.
     pub(crate) fn affected(&self) -> u32 {
         self.affected
+    }
+
+    /// Maps a moving object reaches that their baked map hides (no tile)
+    /// this frame.
+    pub(crate) fn hidden(&self) -> u32 {
+        self.hidden
     }
 
     /// Draw calls [`VplMerge::record`] records.
@@ -156,12 +171,33 @@ impl VplMerge {
             })
             .collect();
         // masks[v][k]: faces of frame v's map that draw k can touch (none
-        // for a VPL without a second map).
+        // for a VPL without a second map, nor where the baked map hides
+        // the draw in every direction it covers: map_cells.rs).
+        let mut hidden = 0;
         let masks: Vec<Vec<u32>> = self
             .frames
             .iter()
-            .map(|f| match f {
-                Some((o, n)) => boxes.iter().map(|bx| face_mask(bx, *o, *n)).collect(),
+            .enumerate()
+            .map(|(v, f)| match f {
+                Some((o, n)) => {
+                    let mut reached = false;
+                    let m: Vec<u32> = boxes
+                        .iter()
+                        .map(|bx| match face_mask(bx, *o, *n) {
+                            0 => 0,
+                            m => {
+                                reached = true;
+                                let hid =
+                                    self.cells.as_ref().is_some_and(|c| c.hides(v, *o, *n, bx));
+                                if hid { 0 } else { m }
+                            }
+                        })
+                        .collect();
+                    if reached && m.iter().all(|&m| m == 0) {
+                        hidden += 1;
+                    }
+                    m
+                }
                 None => vec![0; boxes.len()],
             })
             .collect();
@@ -259,6 +295,7 @@ impl VplMerge {
             &instances,
         );
         self.affected = chosen.len() as u32;
+        self.hidden = hidden;
         Ok(grown)
     }
 
@@ -276,3 +313,7 @@ impl VplMerge {
             .encode(encoder, &self.atlas, &self.ranges, true, ts)
     }
 }
+
+#[cfg(test)]
+#[path = "merge_tests.rs"]
+mod tests;

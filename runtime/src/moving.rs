@@ -370,6 +370,11 @@ impl MovingPasses {
         self.merge.as_ref().map_or(0, VplMerge::affected)
     }
 
+    /// VPL maps a moving object reaches that their baked map hides.
+    pub(crate) fn hidden_maps(&self) -> u32 {
+        self.merge.as_ref().map_or(0, VplMerge::hidden)
+    }
+
     /// The other lights' views whose bounce this frame computes.
     pub(crate) fn light_views_bounced(&self) -> u32 {
         self.bounce

@@ -76,6 +76,10 @@ pub struct FrameStats {
     pub dynamic_vpl_slots: u32,
     /// VPL maps into which moving objects were rasterized this frame.
     pub affected_maps: u32,
+    /// VPL maps whose hemisphere a moving object reaches but whose baked
+    /// surfaces hide it in every direction it covers: left out of the
+    /// merge, the image unchanged (`map_cells`).
+    pub hidden_maps: u32,
     /// Views of the lights after the first into which moving objects were
     /// rasterized this frame (the light merge's passes).
     pub light_views_merged: u32,

@@ -77,7 +77,15 @@ impl World {
         }
         check_textures(device, scene)?;
         // The asset first: its limits are checked before any other upload.
-        let baked = asset.map(|a| BakedGpu::new(device, queue, a)).transpose()?;
+        let mut baked = asset.map(|a| BakedGpu::new(device, queue, a)).transpose()?;
+        // The merge's culling of the moving objects its maps hide
+        // (map_cells.rs), only where there is a merge to cull.
+        if let (Some(b), Some(a)) = (baked.as_mut(), asset)
+            && plan.has(crate::Pass::VplMaps)
+            && plan.mode() != crate::Mode::Naive
+        {
+            b.map_cells = Some(crate::map_cells::MapCells::new(a, b));
+        }
         // Room for the draws of spawned copies of the biggest object.
         let most_meshes = scene.dynamic_objects.iter().map(|o| o.meshes.len()).max();
         let spare = settings
