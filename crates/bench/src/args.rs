@@ -88,6 +88,10 @@ pub struct FrameArgs {
     /// bundled scenes, then every real level.
     #[arg(long, value_delimiter = ',', value_name = "NAME,...")]
     pub levels: Vec<String>,
+    /// The level list (default: data/levels/levels.json of the source tree
+    /// this binary was built from).
+    #[arg(long, value_name = "FILE")]
+    pub level_list: Option<PathBuf>,
     /// Frame sizes (comma-separated WxH; default 480x270,1280x720, with
     /// --quick 160x90).
     #[arg(long, value_delimiter = ',', value_name = "WxH,...", value_parser = parse_size)]

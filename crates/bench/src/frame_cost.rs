@@ -228,8 +228,8 @@ const BUNDLED: [(&str, &[u8]); 3] = [
 
 /// The levels `names` asks for (all, when empty): the bundled scenes, then
 /// every level of data/levels/levels.json.
-fn levels(names: &[String], work: &Path) -> Result<Vec<Level>> {
-    let list = gibake_eval::levels::bundled_list();
+fn levels(names: &[String], list: Option<&Path>, work: &Path) -> Result<Vec<Level>> {
+    let list = list.map_or_else(gibake_eval::levels::bundled_list, Path::to_path_buf);
     let dir = list.parent().unwrap_or(Path::new(".")).to_path_buf();
     let specs = gibake_eval::levels::read_specs(&list)
         .map_err(|e| crate::BenchError::Invalid(format!("the level list: {e}")))?;
@@ -267,22 +267,24 @@ fn levels(names: &[String], work: &Path) -> Result<Vec<Level>> {
             balls: s.balls.len(),
         });
     }
-    if names.is_empty() {
-        return Ok(all);
-    }
-    let mut chosen = Vec::new();
-    for n in names {
-        let Some(i) = all.iter().position(|l| &l.name == n) else {
-            bail!(
-                "--levels: no level {n:?} (known: {})",
-                all.iter()
-                    .map(|l| l.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-        };
-        chosen.push(all.remove(i));
-    }
+    let chosen = if names.is_empty() {
+        all
+    } else {
+        let mut chosen = Vec::new();
+        for n in names {
+            let Some(i) = all.iter().position(|l| &l.name == n) else {
+                bail!(
+                    "--levels: no level {n:?} (known: {})",
+                    all.iter()
+                        .map(|l| l.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+            };
+            chosen.push(all.remove(i));
+        }
+        chosen
+    };
     for l in &chosen {
         if !l.path.is_file() {
             bail!("level {}: {}: no such file", l.name, l.path.display());
@@ -380,7 +382,7 @@ pub(crate) fn run(a: &BenchArgs) -> Result<()> {
         std::fs::create_dir_all(work.join(d))
             .with_context(|| format!("creating {}", work.join(d).display()))?;
     }
-    let levels = levels(&f.levels, &work)?;
+    let levels = levels(&f.levels, f.level_list.as_deref(), &work)?;
     let mut common: Vec<OsString> = Vec::new();
     if let Some(ad) = &a.adapter {
         common.push(format!("--adapter={ad}").into());
