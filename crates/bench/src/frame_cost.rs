@@ -108,7 +108,7 @@ impl Binary {
         let top = help(&["--help"])?;
         let lists = |cmd: &str| {
             top.lines()
-                .any(|l| l.trim_start().split_whitespace().next() == Some(cmd))
+                .any(|l| l.split_whitespace().next() == Some(cmd))
         };
         if !top.contains("gibake") || !lists("bake") || !lists("render") {
             bail!(

@@ -3,7 +3,10 @@
 //! the paper's Table 1, error against run time for every mode and quality
 //! setting (rel MSE and mean FLIP, Pareto front marked), interleaved
 //! shading side by side, scaling sweeps with fitted growth exponents, the
-//! pipeline's up-to-date check and the indirect accuracy.
+//! pipeline's up-to-date check and the indirect accuracy; and `gibake
+//! bench frame` (`frame_cost.rs`, `frame_cost_report.rs`): the per-pass
+//! frame cost of this binary against an earlier gibake binary, both driven
+//! through their command lines (it needs no GPU context of its own).
 //!
 //! One file per sub-benchmark; the shared table and report code is in
 //! `report.rs`, every render in `frame.rs`, the plots (plotters, PNG) in
