@@ -25,7 +25,8 @@ pub struct BenchArgs {
     pub out: PathBuf,
     /// Frames measured per runtime configuration, after one warm-up frame
     /// (naive: at most 2; Table 1: at most 2; interleave: at most 4;
-    /// scaling: at most 3; --quick: at most 2).
+    /// scaling: at most 3; --quick: at most 2). `frame`: frames per render,
+    /// the first a warm-up (at least 2).
     #[arg(long, default_value_t = 3, value_name = "N")]
     pub frames: u32,
     /// A fast smoke run: fewer runs, frames, settings, smaller images and

@@ -359,7 +359,8 @@ pub(crate) fn markdown(s: &Setup, results: &[LevelResult]) -> String {
         "Today ÷ the reference, per pass (ratios: median (min–max) over repetitions)".into(),
         &head,
     );
-    let mut notes: Vec<String> = Vec::new();
+    // (why, the levels) of the baseline's failures, one entry per reason.
+    let mut notes: Vec<(String, Vec<String>)> = Vec::new();
     for r in results {
         let ref_vpls = if r.fallback.is_some() {
             r.vpls[2]
@@ -388,12 +389,13 @@ pub(crate) fn markdown(s: &Setup, results: &[LevelResult]) -> String {
                 .map_or("—".into(), |x| x.cell()),
         );
         t.row(cells);
-        if let Some(why) = &r.fallback
-            && !notes
-                .iter()
-                .any(|n| n.starts_with(&format!("`{}`", r.level)))
-        {
-            notes.push(format!("`{}`: {why}", r.level));
+        if let Some(why) = &r.fallback {
+            let level = format!("`{}`", r.level);
+            match notes.iter_mut().find(|(w, _)| w == why) {
+                Some((_, levels)) if levels.contains(&level) => {}
+                Some((_, levels)) => levels.push(level),
+                None => notes.push((why.clone(), vec![level])),
+            }
         }
     }
     if !notes.is_empty() {
@@ -401,10 +403,14 @@ pub(crate) fn markdown(s: &Setup, results: &[LevelResult]) -> String {
             "¹ `{}` could not run these levels, so the reference is today's `--bounces 1` \
              (the first bounce alone, the paper's method): their ratios are then the cost of \
              today's default (every bounce) over today's first bounce alone on today's runtime, \
-             not a comparison with `{}`. Why, per level: {}.",
+             not a comparison with `{}`. Why: {}.",
             s.baseline_name,
             s.baseline_name,
-            notes.join("; ")
+            notes
+                .iter()
+                .map(|(why, levels)| format!("{}: {why}", levels.join(", ")))
+                .collect::<Vec<_>>()
+                .join("; ")
         ));
     }
     let balls: Vec<String> = results
