@@ -125,7 +125,8 @@ impl Binary {
     }
 
     /// The first flag `level` needs that this binary lacks, as a sentence.
-    fn missing(&self, level: &Level, bounces1: bool, f: &crate::FrameArgs) -> Option<String> {
+    fn missing(&self, level: &Level, a: &BenchArgs) -> Option<String> {
+        let f = &a.frame;
         let mut bake = level.scene_flag_names();
         let mut render = bake.clone();
         if level.look_at.is_some() {
@@ -135,8 +136,12 @@ impl Binary {
         if f.interleave.is_some() {
             render.push("--interleave");
         }
-        if bounces1 {
-            bake.push("--bounces");
+        if a.vpls.is_some() {
+            bake.push("--vpls");
+        }
+        if a.adapter.is_some() {
+            bake.push("--adapter");
+            render.push("--adapter");
         }
         bake.push("--output");
         for (cmd, need, have) in [
@@ -433,7 +438,7 @@ pub(crate) fn run(a: &BenchArgs) -> Result<()> {
                 level.path.display()
             ))
         })?;
-        let mut fallback: Option<String> = baseline.missing(level, false, f);
+        let mut fallback: Option<String> = baseline.missing(level, a);
         if fallback.is_none() && !same {
             if let Err(e) = bake(&baseline, &b_base, false) {
                 fallback = Some(format!("its bake failed ({e})"));
@@ -463,8 +468,9 @@ pub(crate) fn run(a: &BenchArgs) -> Result<()> {
                         rep + 1
                     ));
                     let stats = work.join("stats").join(format!(
-                        "{}_{w}x{h}_{}_r{}.json",
+                        "{}_{w}x{h}_ssaa{}_{}_r{}.json",
                         level.name,
+                        f.ssaa,
                         cfg.file_tag(),
                         rep + 1
                     ));
