@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # The real-GPU measurements of docs/h100/, in one run (≈ 3.5 min on an H100
-# with 16 CPU cores; far longer on lavapipe, which is not what it is for).
+# with 16 CPU cores, before `bench frame` was added; far longer on lavapipe, which is not what it is for).
 #
 #   scripts/gpu_measure.sh [BIN_DIR] [OUT_DIR]
 #
-# BIN_DIR holds release builds of `gibake` and of the eval examples
+# BIN_DIR holds release builds of `gibake` (and, optionally, the pinned
+# earlier binary `gibake-c2145de` of scripts/bench-frame.sh) and of the eval examples
 # `cascade_cost`, `eval_levels` and `eval_lights` (default: target/release and
 # target/release/examples; build them with
 # `cargo build --release -p gibake -p gibake-eval --examples --bins`).
@@ -57,6 +58,19 @@ for size in "480 270" "1280 720"; do
         step 120 "$examples/cascade_cost" "$level" --width "$1" --height "$2" --frames 8
     done
 done
+# Per-pass frame cost against the pinned earlier binary (issue 51, item 4;
+# the commit is scripts/bench-frame.sh's PINNED): every bundled level at
+# 1280×720, 664 VPLs, interleave 4, alternating renders. The baseline:
+# $GIBAKE_BASELINE, else BIN_DIR/gibake-<commit> (scripts/bench-frame.sh
+# builds one), else today's binary against itself (its `--bounces 1`
+# columns still count).
+pinned=$(sed -n 's/^PINNED=//p' scripts/bench-frame.sh)
+baseline=${GIBAKE_BASELINE:-$bin/gibake-${pinned:0:7}}
+[ -x "$baseline" ] || baseline=$bin/gibake
+step 600 "$bin/gibake" bench frame --baseline "$baseline" --baseline-name "$(basename "$baseline")" \
+    --size 1280x720 --vpls 664 --interleave 4 --level-list data/levels/levels.json \
+    --work "$out/frame-work" \
+    --markdown "$out/frame.md" --json "$out/frame.json"
 # The real levels' accuracy (adapter-independent: compare with docs/results.md).
 step 900 "$examples/eval_levels" --size 40 --blur 1 --markdown --out "$out/levels"
 # Same scene, settings and adapter: identical bytes.

@@ -22,6 +22,22 @@ set +e
 cargo test --workspace --release --no-fail-fast 2>&1 | tee "$log"
 status=${PIPESTATUS[0]}
 set -e
+target_dir=$(cargo metadata --format-version 1 --no-deps |
+    python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')
+if [ "${GIBAKE_BENCH_FRAME:-1}" != 0 ]; then
+    # A report, not a timed test (≈ 1.5 min): the per-pass frame cost of
+    # today's default against its own `--bounces 1` (and against itself as
+    # the baseline: those ratios show the noise) on two small levels. It
+    # never fails CI on times; tests/bench_frame.rs checks that it works.
+    # GIBAKE_BENCH_FRAME=0 skips it.
+    # Against the pinned earlier binary: scripts/bench-frame.sh.
+    echo "== gibake bench frame --quick (a report; never fails CI)"
+    cargo build --release -p gibake &&
+        "$target_dir/release/gibake" bench frame --quick --levels corner_bunny,living_room \
+            --baseline "$target_dir/release/gibake" --baseline-name "itself" \
+            --work "$target_dir/bench-frame-ci" ||
+        echo "warning: gibake bench frame failed (a report only; CI goes on)"
+fi
 # gibake-bevy (bevy/): the Bevy plugin, a workspace of its own on nightly
 # (Bevy 0.20.1 declares rust-version 1.97.1; nightly 1.97.0 builds it with
 # --ignore-rust-version: bevy/README.md). Its tests render with Bevy on
@@ -30,8 +46,6 @@ set -e
 # debug info). GIBAKE_BEVY=0 skips it.
 if [ "${GIBAKE_BEVY:-1}" != 0 ]; then
     echo "== gibake-bevy (bevy/, nightly)"
-    target_dir=$(cargo metadata --format-version 1 --no-deps |
-        python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')
     set +e
     cargo build --release -p gibake &&
         (cd bevy && GIBAKE="$target_dir/release/gibake" \

@@ -7,6 +7,7 @@
 
 mod bake_flags;
 mod below_horizon;
+mod bench_frame;
 mod bench_quick;
 mod bench_small;
 mod budget;

@@ -241,7 +241,9 @@ pub enum Command {
     /// the single-machine bake writes, byte for byte.
     Merge(MergeArgs),
     /// Measure: bake time per stage, per-frame update of full vs naive,
-    /// Table 1, and error against run time for every mode and quality.
+    /// Table 1, and error against run time for every mode and quality;
+    /// `bench frame --baseline BIN`: per-pass frame cost against an earlier
+    /// gibake binary.
     Bench(gibake_bench::BenchArgs),
     /// The embedded default: bake the bundled paper scene (corner + bunny +
     /// 13 moving balls), render a short animation, print per-pass times and

@@ -3,7 +3,10 @@
 //! the paper's Table 1, error against run time for every mode and quality
 //! setting (rel MSE and mean FLIP, Pareto front marked), interleaved
 //! shading side by side, scaling sweeps with fitted growth exponents, the
-//! pipeline's up-to-date check and the indirect accuracy.
+//! pipeline's up-to-date check and the indirect accuracy; and `gibake
+//! bench frame` (`frame_cost.rs`, `frame_cost_report.rs`): the per-pass
+//! frame cost of this binary against an earlier gibake binary, both driven
+//! through their command lines (it needs no GPU context of its own).
 //!
 //! One file per sub-benchmark; the shared table and report code is in
 //! `report.rs`, every render in `frame.rs`, the plots (plotters, PNG) in
@@ -29,6 +32,8 @@ mod args;
 mod bake;
 mod error;
 mod frame;
+mod frame_cost;
+mod frame_cost_report;
 mod interleave;
 mod out;
 mod pipeline;
@@ -40,7 +45,7 @@ mod scaling;
 mod table1;
 mod text;
 
-pub use args::{BenchArgs, BenchScene, BenchWhich};
+pub use args::{BenchArgs, BenchScene, BenchWhich, FrameArgs};
 pub use error::{BenchError, Result};
 use error::{Context, bail};
 use out::write_atomic;
@@ -71,6 +76,14 @@ struct Bench {
 
 /// Runs `gibake bench` with the options `a`.
 pub fn run(a: &BenchArgs) -> Result<()> {
+    if a.which.contains(&BenchWhich::Frame) {
+        if a.which.len() > 1 {
+            bail!(
+                "`frame` runs on its own (it runs two gibake binaries): `gibake bench frame --baseline BIN`"
+            );
+        }
+        return frame_cost::run(a);
+    }
     if a.frames == 0 {
         bail!("--frames must be at least 1");
     }
@@ -153,7 +166,7 @@ pub fn run(a: &BenchArgs) -> Result<()> {
         })?;
         part("interleave", on(BenchWhich::Interleave), &mut b, &mut |b| {
             let spp = a.ref_spp.unwrap_or(if b.quick { 128 } else { 1024 });
-            interleave::bench_interleave(b, &a.scenes, a.vpls, spp)
+            interleave::bench_interleave(b, &a.scenes, a.vpls.unwrap_or(664), spp)
         })?;
         part("scaling", on(BenchWhich::Scaling), &mut b, &mut |b| {
             scaling::bench_scaling(b)
