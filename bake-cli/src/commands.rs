@@ -249,6 +249,8 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
             "bounce_texels": stats.bounce_texels,
             "affected_maps": stats.affected_maps,
             "hidden_maps": stats.hidden_maps,
+            "merge_maps_per_object": stats.merge_maps_per_object,
+            "merge_instances": stats.merge_instances,
             "update_draw_calls": stats.update_draw_calls,
             "draw_calls": stats.draw_calls,
         }));

@@ -517,6 +517,8 @@ impl Renderer {
             dynamic_vpl_slots: self.world.moving.dynamic_vpl_slots(),
             affected_maps: affected,
             hidden_maps: self.world.moving.hidden_maps(),
+            merge_maps_per_object: self.world.moving.merge_maps_per_object(),
+            merge_instances: self.world.moving.merge_instances(),
             light_views_merged: light_views,
             light_views_bounced,
             bounce_texels: self.world.moving.bounce_texels(),

@@ -56,6 +56,10 @@ pub(crate) struct VplMerge {
     /// Maps some moving object reaches that their baked map hides, this
     /// frame.
     hidden: u32,
+    /// Per moving object: the maps it is drawn into this frame.
+    per_object: Vec<u32>,
+    /// Rasterization instances this frame.
+    instances: u32,
 }
 
 /// A merge atlas for `capacity` tiles in the one atlas layout, or the
@@ -109,6 +113,8 @@ impl VplMerge {
             affected: 0,
             cells: if naive { None } else { baked.map_cells.clone() },
             hidden: 0,
+            per_object: Vec::new(),
+            instances: 0,
         })
     }
 
@@ -130,6 +136,16 @@ impl VplMerge {
     /// VPL maps that get a tile this frame.
     pub(crate) fn affected(&self) -> u32 {
         self.affected
+    }
+
+    /// Per moving object: the maps it is drawn into this frame.
+    pub(crate) fn per_object(&self) -> &[u32] {
+        &self.per_object
+    }
+
+    /// Rasterization instances this frame.
+    pub(crate) fn instances(&self) -> u32 {
+        self.instances
     }
 
     /// Maps a moving object reaches that their baked map hides (no tile)
@@ -296,6 +312,22 @@ impl VplMerge {
         );
         self.affected = chosen.len() as u32;
         self.hidden = hidden;
+        self.instances = instances.len() as u32;
+        let mut per_object = vec![0u32; transforms.len()];
+        for v in &chosen {
+            let mut drawn = vec![false; transforms.len()];
+            for (k, d) in draws.iter().enumerate() {
+                if let Some(o) = d.object.filter(|&o| o < drawn.len())
+                    && masks[*v as usize][k] != 0
+                {
+                    drawn[o] = true;
+                }
+            }
+            for (n, hit) in per_object.iter_mut().zip(drawn) {
+                *n += u32::from(hit);
+            }
+        }
+        self.per_object = per_object;
         Ok(grown)
     }
 

@@ -370,6 +370,18 @@ impl MovingPasses {
         self.merge.as_ref().map_or(0, VplMerge::affected)
     }
 
+    /// Per moving object, the VPL maps it is merged into this frame.
+    pub(crate) fn merge_maps_per_object(&self) -> Vec<u32> {
+        self.merge
+            .as_ref()
+            .map_or_else(Vec::new, |m| m.per_object().to_vec())
+    }
+
+    /// The merge's rasterization instances this frame.
+    pub(crate) fn merge_instances(&self) -> u32 {
+        self.merge.as_ref().map_or(0, VplMerge::instances)
+    }
+
     /// VPL maps a moving object reaches that their baked map hides.
     pub(crate) fn hidden_maps(&self) -> u32 {
         self.merge.as_ref().map_or(0, VplMerge::hidden)

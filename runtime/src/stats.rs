@@ -80,6 +80,14 @@ pub struct FrameStats {
     /// surfaces hide it in every direction it covers: left out of the
     /// merge, the image unchanged (`map_cells`).
     pub hidden_maps: u32,
+    /// Per moving object (declared ones, then spawned copies, as
+    /// [`crate::Renderer`]'s handles): the VPL maps it was rasterized into
+    /// this frame. A map two objects reach counts for each.
+    pub merge_maps_per_object: Vec<u32>,
+    /// The merge's rasterization instances this frame: one per (moving
+    /// mesh, map, octahedron face it can touch), each drawing the mesh at
+    /// its level of detail for that map — the merge's work.
+    pub merge_instances: u32,
     /// Views of the lights after the first into which moving objects were
     /// rasterized this frame (the light merge's passes).
     pub light_views_merged: u32,

@@ -294,6 +294,19 @@ fn two_views_share_one_upload_and_one_update() {
     assert_eq!(stats.views, 2);
     assert_eq!(stats.affected_maps, single.affected_maps);
     assert!(stats.affected_maps > 0, "the balls reach some VPL map");
+    // Per object: no object in more maps than get a tile, every map with
+    // a tile holds some object, each (object, map) at least one instance.
+    let per = &stats.merge_maps_per_object;
+    assert_eq!(per.len(), transforms.len(), "one count per moving object");
+    assert!(per.iter().all(|&n| n <= stats.affected_maps), "{per:?}");
+    let pairs: u32 = per.iter().sum();
+    assert!(pairs >= stats.affected_maps, "{pairs} (object, map) pairs");
+    assert!(
+        stats.merge_instances >= pairs,
+        "{} instances",
+        stats.merge_instances
+    );
+    assert_eq!(stats.merge_maps_per_object, single.merge_maps_per_object);
     assert_eq!(
         stats.update_draw_calls, single.update_draw_calls,
         "the update is recorded once"
