@@ -97,6 +97,11 @@ impl CameraMatrices {
     }
 
     /// GPU layout.
+    pub fn inv_view_proj(&self) -> Mat4 {
+        self.view_proj.as_dmat4().inverse().as_mat4()
+    }
+
+    /// The uniform of the G-buffer pass.
     pub fn to_gpu(&self) -> GpuCamera {
         GpuCamera {
             view_proj: self.view_proj.to_cols_array_2d(),

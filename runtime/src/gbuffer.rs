@@ -1,7 +1,11 @@
-//! Camera G-buffer of all geometry: world position, shading and geometric
-//! normals (octahedral, facing the viewer), albedo. 32 bytes per pixel.
-//! One pipeline ([`GBufferPass`]) serves every view; each view has its own
-//! targets ([`GBuffer`]) and camera ([`Camera`]).
+//! Camera G-buffer of all geometry, 16 bytes a sample: the depth attachment
+//! itself (`Depth32Float`, reversed Z; the world position is rebuilt from it
+//! with the view's inverse view-projection), both normals packed in an
+//! `Rg32Uint` (16-bit octahedral each, facing the viewer) and the albedo in
+//! an `Rgba8UnormSrgb` target (`gbuffer_layout.wgsl` defines the layout for
+//! every pass that writes or reads it). One pipeline ([`GBufferPass`])
+//! serves every view; each view has its own targets ([`GBuffer`]) and
+//! camera ([`Camera`]).
 
 use gibake_gpu::mesh::{Draw, SceneGpu};
 use gibake_gpu::shaders;
@@ -12,52 +16,52 @@ use wgpu::util::DeviceExt;
 
 use crate::camera::GpuCamera;
 
-/// G-buffer target formats, in location order.
+/// The G-buffer's textures: depth (the pass's depth attachment, reversed
+/// Z: 0 where no surface is), both normals (`x`: `pack2x16snorm` of the
+/// octahedral shading normal, `y`: of the geometric normal, both facing the
+/// viewer), albedo (linear when loaded). 4 + 8 + 4 = 16 bytes a sample.
 pub const GBUFFER_FORMATS: [wgpu::TextureFormat; 3] = [
-    wgpu::TextureFormat::Rgba32Float,
-    wgpu::TextureFormat::Rgba16Float,
-    wgpu::TextureFormat::Rgba16Float,
+    wgpu::TextureFormat::Depth32Float,
+    wgpu::TextureFormat::Rg32Uint,
+    wgpu::TextureFormat::Rgba8UnormSrgb,
 ];
+
+/// Bytes a sample of the G-buffer, the depth included.
+pub const GBUFFER_BYTES_PER_SAMPLE: u32 = 16;
+
+/// The WGSL of the layout (`gbuffer_layout.wgsl`, needs `common.wgsl`).
+pub(crate) const LAYOUT_WGSL: &str = include_str!("gbuffer_layout.wgsl");
 
 /// The G-buffer textures.
 pub(crate) struct GBuffer {
-    /// Textures in [`GBUFFER_FORMATS`] order.
+    /// Textures in [`GBUFFER_FORMATS`] order (the first is the depth
+    /// attachment).
     pub textures: Vec<wgpu::Texture>,
     /// Their views.
     pub views: [wgpu::TextureView; 3],
-    /// The depth buffer (`Depth32Float`, reversed Z, `TEXTURE_BINDING`).
-    pub depth: wgpu::Texture,
-    depth_view: wgpu::TextureView,
 }
 
 impl GBuffer {
     /// Allocates a `width × height` G-buffer.
     pub(crate) fn new(device: &wgpu::Device, width: u32, height: u32) -> GBuffer {
-        // Storage: rebuilt from the engine's depth instead (gbuffer_depth.rs).
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
-            | wgpu::TextureUsages::STORAGE_BINDING
             | wgpu::TextureUsages::COPY_SRC;
+        // Storage: the normals rebuilt from an engine's (gbuffer_depth.rs).
+        let usages = [usage, usage | wgpu::TextureUsages::STORAGE_BINDING, usage];
         let textures: Vec<_> = GBUFFER_FORMATS
             .iter()
-            .zip(["gbuffer position", "gbuffer normals", "gbuffer albedo"])
-            .map(|(f, l)| texture_2d(device, l, width, height, *f, usage))
+            .zip(usages)
+            .zip(["gbuffer depth", "gbuffer normals", "gbuffer albedo"])
+            .map(|((f, u), l)| texture_2d(device, l, width, height, *f, u))
             .collect();
         let views = [0, 1, 2].map(|i: usize| textures[i].create_view(&Default::default()));
-        let depth = texture_2d(
-            device,
-            "gbuffer depth",
-            width,
-            height,
-            gibake_gpu::passes::shadow::DEPTH_FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-        );
-        GBuffer {
-            textures,
-            views,
-            depth_view: depth.create_view(&Default::default()),
-            depth,
-        }
+        GBuffer { textures, views }
+    }
+
+    /// The depth attachment.
+    pub(crate) fn depth(&self) -> &wgpu::Texture {
+        &self.textures[0]
     }
 }
 
@@ -77,11 +81,14 @@ pub(crate) struct GBufferPass {
 impl GBufferPass {
     /// Creates the pass for the meshes of `scene_gpu`.
     pub(crate) fn new(device: &wgpu::Device, scene_gpu: &SceneGpu) -> GBufferPass {
-        let module = shaders::mesh_module(device, "gbuffer.wgsl", include_str!("gbuffer.wgsl"));
+        let own = format!("{LAYOUT_WGSL}\n{}", include_str!("gbuffer.wgsl"));
+        let module = shaders::mesh_module(device, "gbuffer.wgsl", &own);
         let probe = zeroed_camera(device);
         let (layout, _) = draws_and_uniform_group(device, "gbuffer", &scene_gpu.draw_data, &probe);
-        let targets: Vec<Option<wgpu::ColorTargetState>> =
-            GBUFFER_FORMATS.iter().map(|f| Some((*f).into())).collect();
+        let targets: Vec<Option<wgpu::ColorTargetState>> = GBUFFER_FORMATS[1..]
+            .iter()
+            .map(|f| Some((*f).into()))
+            .collect();
         let pipeline = mesh_pipeline(
             device,
             "gbuffer",
@@ -129,9 +136,11 @@ impl GBufferPass {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("gbuffer"),
             color_attachments: &cleared_attachments(
-                target.views.iter().map(|v| (v, wgpu::Color::TRANSPARENT)),
+                target.views[1..]
+                    .iter()
+                    .map(|v| (v, wgpu::Color::TRANSPARENT)),
             ),
-            depth_stencil_attachment: Some(cleared_depth(&target.depth_view, 0.0)),
+            depth_stencil_attachment: Some(cleared_depth(&target.views[0], 0.0)),
             timestamp_writes: ts,
             occlusion_query_set: None,
             multiview_mask: None,
@@ -142,6 +151,40 @@ impl GBufferPass {
             scene_gpu.draw(&mut pass, d.iter(), true);
         }
     }
+}
+
+/// World positions rebuilt from a `width × height` depth image (row 0 at
+/// the top) drawn with `camera`: `[x, y, z, 1]` at every sample with a
+/// surface, `[0, 0, 0, 0]` where the depth is `far_depth`. The CPU twin of
+/// `gbuffer_position` in `gbuffer_layout.wgsl` (in f64).
+pub fn positions_from_depth(
+    depth: &[f32],
+    width: u32,
+    height: u32,
+    camera: &crate::CameraMatrices,
+    far_depth: f32,
+) -> Vec<[f32; 4]> {
+    let inv = camera.view_proj.as_dmat4().inverse();
+    let (w, h) = (width.max(1) as usize, height.max(1) as usize);
+    depth
+        .iter()
+        .enumerate()
+        .map(|(i, &d)| {
+            if d == far_depth {
+                return [0.0; 4];
+            }
+            let (x, y) = ((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+            let ndc = glam::DVec4::new(
+                x / w as f64 * 2.0 - 1.0,
+                1.0 - y / h as f64 * 2.0,
+                f64::from(d),
+                1.0,
+            );
+            let p = inv * ndc;
+            let p = p.truncate() / p.w;
+            [p.x as f32, p.y as f32, p.z as f32, 1.0]
+        })
+        .collect()
 }
 
 fn zeroed_camera(device: &wgpu::Device) -> wgpu::Buffer {

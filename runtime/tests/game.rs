@@ -418,7 +418,7 @@ fn a_gbuffer_from_the_engines_depth_and_normals_equals_the_own() {
         depth: &depth,
         far_depth: 0.0,
         normals: &g[1],
-        encoding: NormalEncoding::Octahedral,
+        encoding: NormalEncoding::Packed,
         albedo: &g[2],
     };
     engine.use_depth_gbuffer(d, ViewId::MAIN, &src).unwrap();
@@ -800,7 +800,7 @@ fn a_depth_gbuffer_given_again_between_prepare_and_record_keeps_the_camera() {
             depth,
             far_depth: 0.0,
             normals,
-            encoding: NormalEncoding::Octahedral,
+            encoding: NormalEncoding::Packed,
             albedo,
         }
     }
