@@ -445,6 +445,86 @@ fn a_gbuffer_from_the_engines_depth_and_normals_equals_the_own() {
     assert!(a.mean().x > 0.0);
     assert!(mean < 1e-4, "mean relative difference {mean:.2e}");
     assert!(worst < 1e-2, "worst relative difference {worst:.2e}");
+    // The engine's normals as float octahedral pairs (an `Rgba32Float`
+    // made from the own packed ones): the rebuild pass repacks them, and
+    // the frame is the same.
+    let packed = gibake_gpu::readback::read_texture_on(d, &f.ctx.queue, &g[1], 0, 8).unwrap();
+    let snorm = |v: u16| (f32::from(v as i16) / 32767.0).max(-1.0);
+    let floats: Vec<f32> = packed
+        .chunks_exact(2)
+        .map(|b| snorm(u16::from_le_bytes([b[0], b[1]])))
+        .collect();
+    let oct = texture(
+        wgpu::TextureFormat::Rgba32Float,
+        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+    );
+    f.ctx.queue.write_texture(
+        oct.as_image_copy(),
+        bytemuck::cast_slice(&floats),
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(W * 16),
+            rows_per_image: Some(H),
+        },
+        oct.size(),
+    );
+    let mut rebuilt = renderer(&f.scene, Some(&f.asset), &s);
+    rebuilt
+        .use_depth_gbuffer(
+            d,
+            ViewId::MAIN,
+            &DepthGBuffer {
+                normals: &oct,
+                encoding: NormalEncoding::Octahedral,
+                ..src
+            },
+        )
+        .unwrap();
+    draw_all(&mut [&mut rebuilt], &frame);
+    let c = read(rebuilt.output());
+    let worst = a
+        .pixels
+        .iter()
+        .zip(&c.pixels)
+        .flat_map(|(p, q)| (0..3).map(move |k| (p[k] - q[k]).abs() / p[k].abs().max(1e-3)))
+        .fold(0f32, f32::max);
+    // The pass wrote the view's own normals: gibake's packing again, to
+    // a code or two.
+    let again = gibake_gpu::readback::read_texture_on(
+        d,
+        &f.ctx.queue,
+        &rebuilt.gbuffer_textures()[1],
+        0,
+        8,
+    )
+    .unwrap();
+    let off = packed
+        .chunks_exact(2)
+        .zip(again.chunks_exact(2))
+        .map(|(p, q)| {
+            (i32::from(i16::from_le_bytes([p[0], p[1]]))
+                - i32::from(i16::from_le_bytes([q[0], q[1]])))
+            .abs()
+        })
+        .max()
+        .unwrap();
+    assert!(off <= 2, "repacked normals off by {off} codes");
+    assert!(
+        worst < 1e-2,
+        "repacked normals: worst relative difference {worst:.2e}"
+    );
+    // Packed normals of another format are refused.
+    let e = engine
+        .use_depth_gbuffer(
+            d,
+            ViewId::MAIN,
+            &DepthGBuffer {
+                normals: &oct,
+                ..src
+            },
+        )
+        .unwrap_err();
+    assert!(matches!(e, RuntimeError::OutputTarget(_)), "{e}");
     // A depth texture that is not one is refused.
     let bad = texture(
         wgpu::TextureFormat::Rgba8Unorm,
