@@ -2,9 +2,11 @@
 //! uploaded ([`crate::mesh::SceneGpu`]).
 //!
 //! Each level halves the one above (sides rounded down, at least 1): a 2×2
-//! box filter in linear light — sRGB decoded, averaged, encoded again;
-//! alpha averaged as it is — with the last texel of an odd side folded into
-//! its neighbour's box (no texel is dropped). On the CPU rather than in a
+//! box filter in linear light — sRGB decoded, averaged, encoded again —
+//! the colour weighted by alpha (a cut-out texel's colour, often black,
+//! does not darken the leaves around it; where the whole box is
+//! transparent, the plain mean), alpha averaged as it is; the last texel of
+//! an odd side folds into its neighbour's box (no texel is dropped). On the CPU rather than in a
 //! render pass: it runs once at load (a 2048² texture's chain in a few tens
 //! of milliseconds), needs no pipeline per format (an `Rgba8UnormSrgb`
 //! texture cannot be a storage target, so a compute pass would not do), and
@@ -51,7 +53,8 @@ pub fn chain(width: u32, height: u32, rgba8_srgb: &[u8]) -> Vec<u8> {
         let mut next = vec![[0f32; 4]; nw * nh];
         for y in 0..nh {
             for x in 0..nw {
-                let mut sum = [0f32; 4];
+                // Plain sums (rgb, alpha) and alpha-weighted rgb.
+                let (mut sum, mut weighted) = ([0f32; 4], [0f32; 3]);
                 let mut count = 0f32;
                 for sy in span(y, h, nh) {
                     for sx in span(x, w, nw) {
@@ -59,10 +62,18 @@ pub fn chain(width: u32, height: u32, rgba8_srgb: &[u8]) -> Vec<u8> {
                         for c in 0..4 {
                             sum[c] += p[c];
                         }
+                        for c in 0..3 {
+                            weighted[c] += p[c] * p[3];
+                        }
                         count += 1.0;
                     }
                 }
-                next[y * nw + x] = sum.map(|s| s / count);
+                let a = sum[3];
+                next[y * nw + x] = if a > 0.0 {
+                    [weighted[0] / a, weighted[1] / a, weighted[2] / a, a / count]
+                } else {
+                    sum.map(|s| s / count)
+                };
             }
         }
         for p in &next {
@@ -116,6 +127,15 @@ mod tests {
         assert_eq!(c.len(), (15 + 2 + 1) * 4);
         // A flat texture stays flat at every level.
         assert!(c.iter().all(|&b| b == 128), "{c:?}");
+    }
+
+    #[test]
+    fn cut_out_texels_do_not_tint_the_colour() {
+        // Two green leaf texels and two transparent black ones: the colour
+        // stays the leaves', the alpha halves.
+        let px = [0, 200, 0, 255, 0, 0, 0, 0, 0, 0, 0, 0, 0, 200, 0, 255];
+        let c = chain(2, 2, &px);
+        assert_eq!(&c[16..], &[0, 200, 0, 128]);
     }
 
     #[test]
