@@ -2,7 +2,7 @@
 //! itself (`Depth32Float`, reversed Z; the world position is rebuilt from it
 //! with the view's inverse view-projection), both normals packed in an
 //! `Rg32Uint` (16-bit octahedral each, facing the viewer) and the albedo in
-//! an `Rgba8UnormSrgb` target (`gbuffer_layout.wgsl` defines the layout for
+//! an `R32Uint` (√albedo at 1625 levels a channel) (`gbuffer_layout.wgsl` defines the layout for
 //! every pass that writes or reads it). One pipeline ([`GBufferPass`])
 //! serves every view; each view has its own targets ([`GBuffer`]) and
 //! camera ([`Camera`]).
@@ -19,15 +19,26 @@ use crate::camera::GpuCamera;
 /// The G-buffer's textures: depth (the pass's depth attachment, reversed
 /// Z: 0 where no surface is), both normals (`x`: `pack2x16snorm` of the
 /// octahedral shading normal, `y`: of the geometric normal, both facing the
-/// viewer), albedo (linear when loaded). 4 + 8 + 4 = 16 bytes a sample.
+/// viewer), albedo (√ of the linear albedo rounded to 1625 levels a channel,
+/// `r + 1625·(g + 1625·b)`). 4 + 8 + 4 = 16 bytes a sample.
 pub const GBUFFER_FORMATS: [wgpu::TextureFormat; 3] = [
     wgpu::TextureFormat::Depth32Float,
     wgpu::TextureFormat::Rg32Uint,
-    wgpu::TextureFormat::Rgba8UnormSrgb,
+    wgpu::TextureFormat::R32Uint,
 ];
 
 /// Bytes a sample of the G-buffer, the depth included.
 pub const GBUFFER_BYTES_PER_SAMPLE: u32 = 16;
+
+/// Levels of each albedo channel (`ALBEDO_LEVELS` in the WGSL).
+pub const GBUFFER_ALBEDO_LEVELS: u32 = 1625;
+
+/// Linear albedo of a texel of gibake's packed albedo
+/// ([`GBUFFER_FORMATS`]`[2]`): the CPU twin of `gbuffer_albedo`.
+pub fn unpack_albedo(packed: u32) -> [f32; 3] {
+    let n = GBUFFER_ALBEDO_LEVELS;
+    [packed % n, (packed / n) % n, packed / (n * n)].map(|q| (q as f32 / (n - 1) as f32).powi(2))
+}
 
 /// The WGSL of the layout (`gbuffer_layout.wgsl`, needs `common.wgsl`).
 pub(crate) const LAYOUT_WGSL: &str = include_str!("gbuffer_layout.wgsl");
@@ -47,8 +58,10 @@ impl GBuffer {
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
             | wgpu::TextureUsages::COPY_SRC;
-        // Storage: the normals rebuilt from an engine's (gbuffer_depth.rs).
-        let usages = [usage, usage | wgpu::TextureUsages::STORAGE_BINDING, usage];
+        // Storage: the normals and albedo rebuilt from an engine's
+        // (gbuffer_depth.rs).
+        let storage = usage | wgpu::TextureUsages::STORAGE_BINDING;
+        let usages = [usage, storage, storage];
         let textures: Vec<_> = GBUFFER_FORMATS
             .iter()
             .zip(usages)

@@ -2,8 +2,7 @@
 // mesh.wgsl, gbuffer_layout.wgsl). Alpha-masked surfaces are cut
 // (alpha_keeps): the camera sees through holes. The depth attachment holds
 // the depth (the world position is rebuilt from it); targets: 0 both normals,
-// facing the viewer (gbuffer_pack_normals), 1 albedo (an sRGB target: the
-// hardware encodes it). Textures are sampled trilinearly from their mip
+// facing the viewer (gbuffer_pack_normals), 1 albedo (gbuffer_pack_albedo). Textures are sampled trilinearly from their mip
 // chain with the fragment's own derivatives.
 
 struct Camera {
@@ -24,7 +23,7 @@ fn vs_main(v: VertexIn) -> MeshVarying {
 
 struct FsOut {
     @location(0) normals: vec2<u32>,
-    @location(1) albedo: vec4<f32>,
+    @location(1) albedo: u32,
 }
 
 @fragment
@@ -63,6 +62,6 @@ fn fs_main(i: MeshVarying, @builtin(front_facing) front: bool) -> FsOut {
     }
     var o: FsOut;
     o.normals = gbuffer_pack_normals(ns, ng);
-    o.albedo = vec4<f32>(albedo, 1.0);
+    o.albedo = gbuffer_pack_albedo(albedo);
     return o;
 }

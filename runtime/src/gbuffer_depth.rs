@@ -1,11 +1,11 @@
 //! A view's G-buffer from the engine's own. Shading and the interleave
-//! filter read the engine's depth (with the frame camera's inverse
-//! view-projection it gives the world position, as gibake's own depth does)
-//! and its albedo directly: no copy. Only the normals are rewritten each
-//! frame, in place of the G-buffer pass (`gbuffer_depth.wgsl`): turned to
-//! face the viewer and packed into the view's own normals texture — unless
-//! they already are in gibake's packed layout ([`NormalEncoding::Packed`]),
-//! when no pass runs at all.
+//! filter read the engine's depth directly (with the frame camera's inverse
+//! view-projection it gives the world position, as gibake's own depth
+//! does): no copy. The normals and albedo are packed each frame into the
+//! view's own textures, in place of the G-buffer pass
+//! (`gbuffer_depth.wgsl`; the normals turned to face the viewer) — unless
+//! they already are in gibake's layout ([`NormalEncoding::Packed`]), when
+//! no pass runs at all.
 //!
 //! Its two pipelines (a `Depth32Float` or an `R32Float` depth) are made once
 //! per renderer ([`Pipelines`]): an engine whose textures come from a pool
@@ -23,8 +23,9 @@ use crate::{CameraMatrices, RuntimeError};
 pub enum NormalEncoding {
     /// gibake's own G-buffer layout ([`crate::GBUFFER_FORMATS`]`[1]`, an
     /// `Rg32Uint`: `pack2x16snorm` of the octahedral shading normal in x,
-    /// of the geometric normal in y, both facing the viewer): read as it
-    /// is, no rebuild pass.
+    /// of the geometric normal in y, both facing the viewer), with the
+    /// albedo in gibake's layout too (`GBUFFER_FORMATS[2]`, an `R32Uint`):
+    /// both read as they are, no rebuild pass.
     Packed,
     /// Octahedral shading normal (xy) and geometric normal (zw) in a float
     /// or unorm format, both facing the viewer (`oct_encode` in the shared
@@ -36,8 +37,8 @@ pub enum NormalEncoding {
     WorldUnorm,
 }
 
-/// The engine's G-buffer, which gibake shades with each frame: the depth
-/// and albedo as they are, the normals repacked into gibake's layout.
+/// The engine's G-buffer, which gibake shades with each frame: the depth as
+/// it is, the normals and albedo packed into gibake's layout.
 /// Every texture has the view's size, is single-sampled and 2D, and has
 /// `TEXTURE_BINDING` usage; it must stay alive while the view uses it.
 #[derive(Clone, Copy, Debug)]
@@ -55,7 +56,8 @@ pub struct DepthGBuffer<'a> {
     /// How `normals` stores a normal.
     pub encoding: NormalEncoding,
     /// Linear albedo in rgb (a float or unorm format; an sRGB format
-    /// decodes to linear when read).
+    /// decodes to linear when read); gibake's packed `R32Uint` with
+    /// [`NormalEncoding::Packed`].
     pub albedo: &'a wgpu::Texture,
 }
 
@@ -121,7 +123,8 @@ fn own_wgsl(decl: &str, load: &str) -> String {
 /// A view's G-buffer from the engine's: the views shading reads and, unless
 /// the normals are packed already, the pass that repacks them.
 pub(crate) struct DepthGBufferPass {
-    /// The engine's depth, its normals (used only when packed), its albedo.
+    /// The engine's depth, normals and albedo (the last two used only when
+    /// packed).
     views: [wgpu::TextureView; 3],
     far_depth: f32,
     rebuild: Option<Rebuild>,
@@ -188,11 +191,12 @@ impl DepthGBufferPass {
         check(src.depth, "depth", size, &[F::Depth32Float, F::R32Float])?;
         let packed = src.encoding == NormalEncoding::Packed;
         if packed {
-            check_packed(src.normals, size)?;
+            check_packed(src.normals, "normals", 1, size)?;
+            check_packed(src.albedo, "albedo", 2, size)?;
         } else {
             check(src.normals, "normals", size, &[])?;
+            check(src.albedo, "albedo", size, &[])?;
         }
-        check(src.albedo, "albedo", size, &[])?;
         if !src.far_depth.is_finite() {
             return Err(RuntimeError::InvalidSetting(
                 "the far depth of an external G-buffer must be finite".into(),
@@ -209,14 +213,14 @@ impl DepthGBufferPass {
         })
     }
 
-    /// The views shading reads: the engine's depth and albedo, the normals
+    /// The views shading reads: the engine's depth, the normals and albedo
     /// (the engine's if packed, else the view's own, rebuilt).
     pub(crate) fn views<'a>(&'a self, own: &'a GBuffer) -> [&'a wgpu::TextureView; 3] {
-        let normals = match self.rebuild {
-            Some(_) => &own.views[1],
-            None => &self.views[1],
+        let packed = match self.rebuild {
+            Some(_) => &own.views,
+            None => &self.views,
         };
-        [&self.views[0], normals, &self.views[2]]
+        [&self.views[0], &packed[1], &packed[2]]
     }
 
     /// The depth of a sample with no surface.
@@ -224,7 +228,7 @@ impl DepthGBufferPass {
         self.far_depth
     }
 
-    /// Whether a pass runs each frame (the normals are not packed).
+    /// Whether a pass runs each frame (the engine's layout is not gibake's).
     pub(crate) fn has_pass(&self) -> bool {
         self.rebuild.is_some()
     }
@@ -237,7 +241,7 @@ impl DepthGBufferPass {
         }
     }
 
-    /// Records the pass (nothing if the normals are packed).
+    /// Records the pass (nothing if the engine's layout is gibake's).
     pub(crate) fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -257,28 +261,34 @@ impl DepthGBufferPass {
     }
 }
 
-/// Checks gibake's packed normals: `Rg32Uint` of the view's size.
-fn check_packed(t: &wgpu::Texture, size: (u32, u32)) -> Result<(), RuntimeError> {
-    let f = crate::GBUFFER_FORMATS[1];
+/// Checks a texture in gibake's packed layout: `GBUFFER_FORMATS[k]` of the
+/// view's size.
+fn check_packed(
+    t: &wgpu::Texture,
+    what: &str,
+    k: usize,
+    size: (u32, u32),
+) -> Result<(), RuntimeError> {
+    let f = crate::GBUFFER_FORMATS[k];
     if t.format() != f {
         return Err(RuntimeError::OutputTarget(format!(
-            "normals: format {:?}, packed normals need {f:?}",
+            "{what}: format {:?}, gibake's packed layout needs {f:?}",
             t.format()
         )));
     }
     if !t.usage().contains(wgpu::TextureUsages::TEXTURE_BINDING) {
-        return Err(RuntimeError::OutputTarget(
-            "normals: needs TEXTURE_BINDING usage".into(),
-        ));
+        return Err(RuntimeError::OutputTarget(format!(
+            "{what}: needs TEXTURE_BINDING usage"
+        )));
     }
     if t.dimension() != wgpu::TextureDimension::D2 || t.sample_count() != 1 {
-        return Err(RuntimeError::OutputTarget(
-            "normals: needs a single-sampled 2D texture".into(),
-        ));
+        return Err(RuntimeError::OutputTarget(format!(
+            "{what}: needs a single-sampled 2D texture"
+        )));
     }
     if (t.width(), t.height()) != size {
         return Err(RuntimeError::OutputTarget(format!(
-            "normals: {}×{}, the view is {}×{} (resize first)",
+            "{what}: {}×{}, the view is {}×{} (resize first)",
             t.width(),
             t.height(),
             size.0,
@@ -324,8 +334,10 @@ impl Rebuild {
             entries: &[
                 (0, tv(&views[0])),
                 (1, tv(&views[1])),
+                (2, tv(&views[2])),
                 (3, params_buf.as_entire_binding()),
                 (5, tv(&target.views[1])),
+                (6, tv(&target.views[2])),
             ]
             .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
         });

@@ -1,9 +1,9 @@
-// gbuffer_depth.wgsl — the normals of gibake's G-buffer rebuilt from an
-// engine's own (needs common.wgsl, gbuffer_layout.wgsl): its normal buffer
-// turned to face the viewer (the viewer's side found with the world point
-// rebuilt from the engine's depth) and packed into gibake's layout. The
-// engine's depth and albedo are read by shading as they are. One invocation
-// per pixel.
+// gbuffer_depth.wgsl — the normals and albedo of gibake's G-buffer rebuilt
+// from an engine's own (needs common.wgsl, gbuffer_layout.wgsl): its normal
+// buffer turned to face the viewer (the viewer's side found with the world
+// point rebuilt from the engine's depth) and its albedo, packed into
+// gibake's layout. The engine's depth is read by shading as it is. One
+// invocation per pixel.
 
 struct DepthParams {
     inv_view_proj: mat4x4<f32>,
@@ -16,8 +16,10 @@ struct DepthParams {
 
 @group(0) @binding(0) var depth_tex: DEPTH_TEXTURE;
 @group(0) @binding(1) var normal_tex: texture_2d<f32>;
+@group(0) @binding(2) var albedo_tex: texture_2d<f32>;
 @group(0) @binding(3) var<uniform> p: DepthParams;
 @group(0) @binding(5) var out_normals: texture_storage_2d<rg32uint, write>;
+@group(0) @binding(6) var out_albedo: texture_storage_2d<r32uint, write>;
 
 @compute @workgroup_size(8, 8)
 fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -28,6 +30,7 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let depth = DEPTH_LOAD;
     if (depth == p.far_depth) {
         textureStore(out_normals, px, vec4<u32>(0u));
+        textureStore(out_albedo, px, vec4<u32>(0u));
         return;
     }
     let raw = textureLoad(normal_tex, px, 0);
@@ -51,4 +54,6 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         ng = n;
     }
     textureStore(out_normals, px, vec4<u32>(gbuffer_pack_normals(ns, ng), 0u, 0u));
+    let albedo = textureLoad(albedo_tex, px, 0).rgb;
+    textureStore(out_albedo, px, vec4<u32>(gbuffer_pack_albedo(albedo), 0u, 0u, 0u));
 }

@@ -72,7 +72,7 @@ impl InterleavePass {
             entries: &[
                 tex(0),
                 uint_tex_entry(1),
-                tex(2),
+                uint_tex_entry(2),
                 tex(3),
                 gibake_gpu::util::uniform_entry(4, COMPUTE),
                 wgpu::BindGroupLayoutEntry {

@@ -23,7 +23,7 @@ const PLANE_SIN: f32 = 0.5;
 
 @group(0) @binding(0) var g_depth: texture_2d<f32>;
 @group(0) @binding(1) var g_normals: texture_2d<u32>;
-@group(0) @binding(2) var g_albedo: texture_2d<f32>;
+@group(0) @binding(2) var g_albedo: texture_2d<u32>;
 @group(0) @binding(3) var shaded: texture_2d<f32>;
 @group(0) @binding(4) var<uniform> params: ViewParams;
 @group(0) @binding(5) var out_radiance: texture_storage_2d<rgba32float, write>;
@@ -46,7 +46,7 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let nn = textureLoad(g_normals, px, 0).xy;
     let ns = gbuffer_normal(nn.x);
     let ng = gbuffer_normal(nn.y);
-    let albedo = textureLoad(g_albedo, px, 0).rgb;
+    let albedo = gbuffer_albedo(textureLoad(g_albedo, px, 0).x);
     let n = i32(max(params.interleave, 1u));
     let own = f32(n * n);
     var sum = textureLoad(shaded, px + vec2<i32>(w, 0), 0).rgb * own;

@@ -84,7 +84,10 @@ pub use camera::{CameraMatrices, NoCamera};
 pub use cascades::CascadeLayout;
 pub use error::RuntimeError;
 pub use frame::{FrameInput, ObjectHandle, scene_transforms};
-pub use gbuffer::{GBUFFER_BYTES_PER_SAMPLE, GBUFFER_FORMATS, positions_from_depth};
+pub use gbuffer::{
+    GBUFFER_ALBEDO_LEVELS, GBUFFER_BYTES_PER_SAMPLE, GBUFFER_FORMATS, positions_from_depth,
+    unpack_albedo,
+};
 pub use gbuffer_depth::{DepthGBuffer, NormalEncoding};
 pub use gibake_asset::{
     Asset, AssetError, OptionsConflict, Resolution, SceneOption, SceneOptions, SunOption,

@@ -128,7 +128,7 @@ fn tex_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     gibake_gpu::util::texture_entry(binding, COMPUTE, wgpu::TextureViewDimension::D2)
 }
 
-/// The G-buffer's packed normals (`Rg32Uint`).
+/// The G-buffer's packed normals (`Rg32Uint`) and albedo (`R32Uint`).
 pub(crate) fn uint_tex_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         ty: wgpu::BindingType::Texture {
@@ -279,7 +279,7 @@ impl ShadePass {
             entries: &[
                 tex_entry(0),
                 uint_tex_entry(1),
-                tex_entry(2),
+                uint_tex_entry(2),
                 uniform_entry(3),
                 wgpu::BindGroupLayoutEntry {
                     binding: 4,

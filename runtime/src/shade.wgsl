@@ -48,7 +48,7 @@ const VPL_MAX_SLOPE: f32 = 10.0;
 // Group 0: the view (its G-buffer: gbuffer_layout.wgsl).
 @group(0) @binding(0) var g_depth: texture_2d<f32>;
 @group(0) @binding(1) var g_normals: texture_2d<u32>;
-@group(0) @binding(2) var g_albedo: texture_2d<f32>;
+@group(0) @binding(2) var g_albedo: texture_2d<u32>;
 @group(0) @binding(3) var<uniform> view: ViewParams;
 @group(0) @binding(4) var out_radiance: texture_storage_2d<rgba32float, write>;
 
@@ -615,7 +615,7 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocat
         let nn = textureLoad(g_normals, px, 0).xy;
         let ns = gbuffer_normal(nn.x);
         let ng = gbuffer_normal(nn.y);
-        albedo = textureLoad(g_albedo, px, 0).rgb;
+        albedo = gbuffer_albedo(textureLoad(g_albedo, px, 0).x);
         if (has(FLAG_DIRECT)) {
             direct = direct_radiance(x, ns, ng, albedo);
         }
