@@ -693,8 +693,9 @@ impl Renderer {
     /// rebuilt from it), 1: both normals packed in an `Rg32Uint`
     /// (`pack2x16snorm` of the octahedral shading normal in x, of the
     /// geometric normal in y, both facing the viewer; `gbuffer_pack_normals`
-    /// in the runtime's `gbuffer_layout.wgsl`), 2: albedo (any float or
-    /// unorm format, linear when loaded: `Rgba8UnormSrgb` in gibake's own).
+    /// in the runtime's `gbuffer_layout.wgsl`), 2: albedo in an `R32Uint`
+    /// (√ of the linear albedo rounded to [`GBUFFER_ALBEDO_LEVELS`] levels
+    /// a channel, `r + 1625·(g + 1625·b)`; [`unpack_albedo`] reads one).
     /// After this call [`Renderer::record`] skips its G-buffer pass, until
     /// [`Renderer::resize`], after which the caller provides its G-buffer
     /// again.
