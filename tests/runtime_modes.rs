@@ -222,7 +222,9 @@ fn map_lookup_twin_matches_the_gpu() {
         eprintln!(
             "{name}: GPU vs its map lookup on the CPU: rel MSE {err:.2e} (vs rays {err_rays:.2e}), means {mg} vs {mc}"
         );
-        // lavapipe: 7e-11 and 5e-9, against 6e-7 and 4e-5 for exact rays;
+        // lavapipe: 1.7e-9 and 1.1e-8 (7e-11 and 5e-9 with the f16 albedo
+        // before the 16-byte G-buffer: its albedo rounds to 1625 levels of
+        // √a), against 1.3e-7 and 5.7e-7 for exact rays;
         // a tap that flips on another GPU's rounding moves it far less
         // than the maps' own difference from rays.
         assert!(

@@ -462,14 +462,8 @@ pub fn run(a: &DiffArgs, asset_a: &Asset, asset_b: &Asset) -> anyhow::Result<Ima
                         a.ssaa,
                     )?);
                     if mode == Mode::Full {
-                        let g = &r.gbuffer_textures()[0];
-                        pos.push(gibake_gpu::readback::read_texture_f32_on(
-                            &ctx.device,
-                            &ctx.queue,
-                            g,
-                            0,
-                            4,
-                        )?);
+                        let p = r.gbuffer_positions(&ctx.device, &ctx.queue)?;
+                        pos.push(p.into_iter().flatten().collect());
                     }
                 }
             }

@@ -96,6 +96,13 @@ impl CameraMatrices {
         })
     }
 
+    /// Clip → world: the inverse of `view_proj`, inverted in f64 (shading
+    /// rebuilds each G-buffer sample's world position from its depth with
+    /// it).
+    pub fn inv_view_proj(&self) -> Mat4 {
+        self.view_proj.as_dmat4().inverse().as_mat4()
+    }
+
     /// GPU layout.
     pub fn to_gpu(&self) -> GpuCamera {
         GpuCamera {

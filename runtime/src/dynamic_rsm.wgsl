@@ -33,7 +33,7 @@ fn fs_main(i: MeshVarying, @builtin(front_facing) front: bool) -> FsOut {
     // The triangle's own normal from the position's screen derivatives
     // (taken before the discard, in uniform control flow).
     let g = cross(dpdx(i.world), dpdy(i.world));
-    if (!alpha_keeps(d, texel.a)) {
+    if (!alpha_keeps(d, mask_texel_alpha(albedo_tex, albedo_smp, i.uv))) {
         discard;
     }
     let albedo = draw_albedo(d, texel.rgb);

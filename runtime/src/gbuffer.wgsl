@@ -1,7 +1,9 @@
-// gbuffer.wgsl — camera G-buffer of all geometry (needs common.wgsl, mesh.wgsl).
-// Alpha-masked surfaces are cut (alpha_keeps): the camera sees through holes.
-// Targets: 0 world position (w = 1 covered), 1 oct(shading normal).xy +
-// oct(geometric normal).zw, both facing the viewer, 2 albedo.
+// gbuffer.wgsl — camera G-buffer of all geometry (needs common.wgsl,
+// mesh.wgsl, gbuffer_layout.wgsl). Alpha-masked surfaces are cut
+// (alpha_keeps): the camera sees through holes. The depth attachment holds
+// the depth (the world position is rebuilt from it); targets: 0 both normals,
+// facing the viewer (gbuffer_pack_normals), 1 albedo (gbuffer_pack_albedo). Textures are sampled trilinearly from their mip
+// chain with the fragment's own derivatives.
 
 struct Camera {
     view_proj: mat4x4<f32>,
@@ -20,16 +22,17 @@ fn vs_main(v: VertexIn) -> MeshVarying {
 }
 
 struct FsOut {
-    @location(0) position: vec4<f32>,
-    @location(1) normals: vec4<f32>,
-    @location(2) albedo: vec4<f32>,
+    @location(0) normals: vec2<u32>,
+    @location(1) albedo: u32,
 }
 
 @fragment
 fn fs_main(i: MeshVarying, @builtin(front_facing) front: bool) -> FsOut {
     let d = draws[i.draw];
+    // Albedo trilinear from the mip chain (implicit derivatives, uniform
+    // control flow); the alpha test reads the finest level as every map does.
     let texel = textureSample(albedo_tex, albedo_smp, i.uv);
-    if (!alpha_keeps(d, texel.a)) {
+    if (!alpha_keeps(d, mask_texel_alpha(albedo_tex, albedo_smp, i.uv))) {
         discard;
     }
     let albedo = draw_albedo(d, texel.rgb);
@@ -58,8 +61,7 @@ fn fs_main(i: MeshVarying, @builtin(front_facing) front: bool) -> FsOut {
         ns = -ns;
     }
     var o: FsOut;
-    o.position = vec4<f32>(i.world, 1.0);
-    o.normals = vec4<f32>(oct_encode(ns), oct_encode(ng));
-    o.albedo = vec4<f32>(albedo, 1.0);
+    o.normals = gbuffer_pack_normals(ns, ng);
+    o.albedo = gbuffer_pack_albedo(albedo);
     return o;
 }

@@ -10,18 +10,15 @@
 
 use gibake_gpu::shaders;
 
-use crate::shade::RADIANCE_FORMAT;
+use crate::shade::{RADIANCE_FORMAT, uint_tex_entry};
 
-/// Must match `InterleaveParams` in `interleave.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-pub(crate) struct GpuInterleaveParams {
-    /// Output size.
-    pub size: [u32; 2],
-    /// Interleave N (2, 4 or 8).
-    pub interleave: u32,
-    /// Padding.
-    pub _pad: u32,
+/// The pass's WGSL: the G-buffer layout, then its own.
+pub(crate) fn interleave_wgsl() -> String {
+    format!(
+        "{}\n{}",
+        crate::gbuffer::LAYOUT_WGSL,
+        include_str!("interleave.wgsl")
+    )
 }
 
 /// The interleave values [`crate::RenderSettings::interleave`] accepts
@@ -49,12 +46,12 @@ pub(crate) fn effective(setting: u32, width: u32, height: u32) -> u32 {
     }
 }
 
-/// The filter pass: pipeline, layout, uniform and the shade pass's
-/// intermediate texture.
+/// The filter pass: pipeline, layout and the shade pass's intermediate
+/// texture. It reads the view's own `ViewParams` uniform (size, N, the
+/// camera that rebuilds positions from the depth).
 pub(crate) struct InterleavePass {
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
-    uniform_buf: wgpu::Buffer,
     /// `2·width × height` `Rgba32Float`: direct radiance in the left half,
     /// the interleaved irradiance estimate in the right half.
     pub(crate) shaded: wgpu::TextureView,
@@ -66,21 +63,16 @@ const COMPUTE: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
 
 impl InterleavePass {
     /// Creates the pass and its intermediate texture for `size` and `n`.
-    pub(crate) fn new(
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        size: [u32; 2],
-        n: u32,
-    ) -> InterleavePass {
-        let module = shaders::module(device, "interleave.wgsl", include_str!("interleave.wgsl"));
+    pub(crate) fn new(device: &wgpu::Device, size: [u32; 2]) -> InterleavePass {
+        let module = shaders::module(device, "interleave.wgsl", &interleave_wgsl());
         use wgpu::TextureViewDimension::D2;
         let tex = |b| gibake_gpu::util::texture_entry(b, COMPUTE, D2);
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("interleave"),
             entries: &[
                 tex(0),
-                tex(1),
-                tex(2),
+                uint_tex_entry(1),
+                uint_tex_entry(2),
                 tex(3),
                 gibake_gpu::util::uniform_entry(4, COMPUTE),
                 wgpu::BindGroupLayoutEntry {
@@ -95,18 +87,6 @@ impl InterleavePass {
                 },
             ],
         });
-        let uniform_buf = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("interleave params"),
-            size: std::mem::size_of::<GpuInterleaveParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let params = GpuInterleaveParams {
-            size,
-            interleave: n,
-            _pad: 0,
-        };
-        queue.write_buffer(&uniform_buf, 0, bytemuck::bytes_of(&params));
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("interleave"),
             bind_group_layouts: &[Some(&layout)],
@@ -132,19 +112,19 @@ impl InterleavePass {
         InterleavePass {
             pipeline,
             layout,
-            uniform_buf,
             shaded,
             group: None,
             size,
         }
     }
 
-    /// Binds the G-buffer views and the final output (again after the
-    /// G-buffer changes).
+    /// Binds the G-buffer views, the view's `ViewParams` and the final
+    /// output (again after the G-buffer changes).
     pub(crate) fn bind(
         &mut self,
         device: &wgpu::Device,
         gbuffer: [&wgpu::TextureView; 3],
+        params: &wgpu::Buffer,
         output: &wgpu::TextureView,
     ) {
         let tv = wgpu::BindingResource::TextureView;
@@ -153,7 +133,7 @@ impl InterleavePass {
             (1, tv(gbuffer[1])),
             (2, tv(gbuffer[2])),
             (3, tv(&self.shaded)),
-            (4, self.uniform_buf.as_entire_binding()),
+            (4, params.as_entire_binding()),
             (5, tv(output)),
         ]
         .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource });

@@ -1,5 +1,6 @@
 // interleave.wgsl — reconstruction of interleaved VPL sampling (needs
-// common.wgsl). Input: shade.wgsl's 2·width-wide texture, direct radiance at
+// common.wgsl, gbuffer_layout.wgsl: the view's ViewParams and G-buffer
+// reads, shared with shade.wgsl). Input: shade.wgsl's 2·width-wide texture, direct radiance at
 // (x, y) and the pixel's irradiance estimate (its VPL subset × N²) at
 // (x + width, y). Each pixel's irradiance is a geometry-weighted tent over
 // the (2N−1)² neighbours around it: the tent's weights (N − |dx|)(N − |dy|)
@@ -11,12 +12,6 @@
 // pixel's own estimate always counts, so an isolated pixel keeps it.
 // Writes radiance = direct + albedo/π · filtered irradiance.
 
-struct InterleaveParams {
-    size: vec2<u32>,
-    interleave: u32,
-    _pad: u32,
-}
-
 // Neighbour weights: normal similarity cos^NORMAL_POWER, plane offset
 // exp(−(sinθ / PLANE_SIN)²) with sinθ = |n·(x_q − x_p)| / |x_q − x_p|
 // (a neighbour across a depth step, sinθ ≈ 1, weighs e⁻⁴). Loose on
@@ -26,11 +21,11 @@ struct InterleaveParams {
 const NORMAL_POWER: f32 = 2.0;
 const PLANE_SIN: f32 = 0.5;
 
-@group(0) @binding(0) var g_position: texture_2d<f32>;
-@group(0) @binding(1) var g_normals: texture_2d<f32>;
-@group(0) @binding(2) var g_albedo: texture_2d<f32>;
+@group(0) @binding(0) var g_depth: texture_2d<f32>;
+@group(0) @binding(1) var g_normals: texture_2d<u32>;
+@group(0) @binding(2) var g_albedo: texture_2d<u32>;
 @group(0) @binding(3) var shaded: texture_2d<f32>;
-@group(0) @binding(4) var<uniform> params: InterleaveParams;
+@group(0) @binding(4) var<uniform> params: ViewParams;
 @group(0) @binding(5) var out_radiance: texture_storage_2d<rgba32float, write>;
 
 @compute @workgroup_size(8, 8)
@@ -42,16 +37,16 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let w = i32(params.size.x);
     let h = i32(params.size.y);
     let direct = textureLoad(shaded, px, 0).rgb;
-    let pos = textureLoad(g_position, px, 0);
-    if (pos.w <= 0.5) {
+    let depth = textureLoad(g_depth, px, 0).r;
+    if (depth == params.far_depth) {
         textureStore(out_radiance, px, vec4<f32>(finite_or_zero3(direct), 1.0));
         return;
     }
-    let x = pos.xyz;
-    let nn = textureLoad(g_normals, px, 0);
-    let ns = oct_decode(nn.xy);
-    let ng = oct_decode(nn.zw);
-    let albedo = textureLoad(g_albedo, px, 0).rgb;
+    let x = gbuffer_position(params.inv_view_proj, params.size, px, depth);
+    let nn = textureLoad(g_normals, px, 0).xy;
+    let ns = gbuffer_normal(nn.x);
+    let ng = gbuffer_normal(nn.y);
+    let albedo = gbuffer_albedo(textureLoad(g_albedo, px, 0).x);
     let n = i32(max(params.interleave, 1u));
     let own = f32(n * n);
     var sum = textureLoad(shaded, px + vec2<i32>(w, 0), 0).rgb * own;
@@ -65,16 +60,16 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (q.x < 0 || q.y < 0 || q.x >= w || q.y >= h) {
                 continue;
             }
-            let pq = textureLoad(g_position, q, 0);
-            if (pq.w <= 0.5) {
+            let dq = textureLoad(g_depth, q, 0).r;
+            if (dq == params.far_depth) {
                 continue;
             }
-            let nq = oct_decode(textureLoad(g_normals, q, 0).xy);
+            let nq = gbuffer_normal(textureLoad(g_normals, q, 0).x);
             let c = max(dot(ns, nq), 0.0);
             if (c <= 0.0) {
                 continue;
             }
-            let d = pq.xyz - x;
+            let d = gbuffer_position(params.inv_view_proj, params.size, q, dq) - x;
             let l2 = dot(d, d);
             var s = 0.0;
             if (l2 > 0.0) {

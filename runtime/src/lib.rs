@@ -85,7 +85,10 @@ pub use camera::{CameraMatrices, NoCamera};
 pub use cascades::CascadeLayout;
 pub use error::RuntimeError;
 pub use frame::{FrameInput, ObjectHandle, scene_transforms};
-pub use gbuffer::GBUFFER_FORMATS;
+pub use gbuffer::{
+    GBUFFER_ALBEDO_LEVELS, GBUFFER_BYTES_PER_SAMPLE, GBUFFER_FORMATS, positions_from_depth,
+    unpack_albedo,
+};
 pub use gbuffer_depth::{DepthGBuffer, NormalEncoding};
 pub use gibake_asset::{
     Asset, AssetError, OptionsConflict, Resolution, SceneOption, SceneOptions, SunOption,
@@ -162,7 +165,6 @@ impl Renderer {
         let world = World::new(device, queue, &shade, scene, asset, settings)?;
         let main = View::new(
             device,
-            queue,
             (&shade, &world.gbuffer, &world.scene_gpu),
             [settings.width, settings.height],
             settings.interleave,
@@ -345,7 +347,7 @@ impl Renderer {
     pub fn add_view(
         &mut self,
         device: &wgpu::Device,
-        queue: &wgpu::Queue,
+        _queue: &wgpu::Queue,
         width: u32,
         height: u32,
         interleave: u32,
@@ -354,7 +356,6 @@ impl Renderer {
         view::check_size(device, width, height, interleave)?;
         let v = View::new(
             device,
-            queue,
             (&self.shade, &self.world.gbuffer, &self.world.scene_gpu),
             [width, height],
             interleave,
@@ -636,16 +637,41 @@ impl Renderer {
         &self.main().gbuffer().textures
     }
 
+    /// The world positions of the main view's own G-buffer, rebuilt on the
+    /// CPU from its depth with the last prepared camera (row 0 at the top;
+    /// `[x, y, z, 1]` where a surface is, zeros elsewhere): the position
+    /// target that the G-buffer no longer stores (see
+    /// [`positions_from_depth`]). Waits for the GPU.
+    pub fn gbuffer_positions(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<Vec<[f32; 4]>, RuntimeError> {
+        let v = self.main();
+        let depth = v.gbuffer().depth();
+        let camera = v.last_camera().ok_or_else(|| {
+            RuntimeError::InvalidSetting("no frame prepared: no camera to rebuild positions".into())
+        })?;
+        let d = gibake_gpu::readback::read_texture_f32_on(device, queue, depth, 0, 1)?;
+        Ok(gbuffer::positions_from_depth(
+            &d,
+            depth.width(),
+            depth.height(),
+            camera,
+            0.0,
+        ))
+    }
+
     /// The main view's own G-buffer views, in [`GBUFFER_FORMATS`] order.
     pub fn gbuffer_views(&self) -> &[wgpu::TextureView; 3] {
         &self.main().gbuffer().views
     }
 
     /// The main view's own G-buffer depth (`Depth32Float`, reversed Z,
-    /// `TEXTURE_BINDING` usage): what a game can depth-test its own draws
-    /// against.
+    /// `TEXTURE_BINDING` usage; the first of [`Renderer::gbuffer_textures`]):
+    /// what a game can depth-test its own draws against.
     pub fn gbuffer_depth(&self) -> &wgpu::Texture {
-        &self.main().gbuffer().depth
+        self.main().gbuffer().depth()
     }
 
     /// The main view's linear radiance ([`OUTPUT_FORMAT`], row 0 at the
@@ -666,11 +692,16 @@ impl Renderer {
     }
 
     /// Shades the game's own G-buffer in the main view instead of rendering
-    /// one: three views of output-sized textures in [`GBUFFER_FORMATS`] with
-    /// `TEXTURE_BINDING` usage — 0: world position (xyz) and coverage (w = 1
-    /// where a surface is, 0 elsewhere), 1: octahedral-encoded shading
-    /// normal (xy) and geometric normal (zw), both facing the viewer (see
-    /// `oct_encode` in the shared `common.wgsl`), 2: linear albedo (rgb).
+    /// one: three views of output-sized textures with `TEXTURE_BINDING`
+    /// usage in gibake's layout ([`GBUFFER_FORMATS`]) — 0: depth
+    /// (`Depth32Float` or `R32Float`, reversed Z, 0 where no surface is)
+    /// drawn with the frame camera's `view_proj` (the world position is
+    /// rebuilt from it), 1: both normals packed in an `Rg32Uint`
+    /// (`pack2x16snorm` of the octahedral shading normal in x, of the
+    /// geometric normal in y, both facing the viewer; `gbuffer_pack_normals`
+    /// in the runtime's `gbuffer_layout.wgsl`), 2: albedo in an `R32Uint`
+    /// (√ of the linear albedo rounded to [`GBUFFER_ALBEDO_LEVELS`] levels
+    /// a channel, `r + 1625·(g + 1625·b)`; [`unpack_albedo`] reads one).
     /// After this call [`Renderer::record`] skips its G-buffer pass, until
     /// [`Renderer::resize`], after which the caller provides its G-buffer
     /// again.

@@ -23,6 +23,7 @@ fn shade_wgsl(other_lights: bool) -> String {
         gibake_gpu::vpl::VPL_WGSL,
         include_str!("dyn_vpl.wgsl"),
         include_str!("cascades.wgsl"),
+        crate::gbuffer::LAYOUT_WGSL,
         if other_lights {
             include_str!("other_lights.wgsl")
         } else {
@@ -46,12 +47,17 @@ pub(crate) struct GpuViewParams {
     /// VPLs `i ≡ k (mod N²)` at pixel `k = x mod N + N·(y mod N)` and writes
     /// direct radiance | irradiance side by side (see `interleave.rs`).
     pub interleave: u32,
-    /// Padding.
-    pub _pad: u32,
+    /// The depth of a G-buffer sample with no surface (0: reversed Z, as
+    /// gibake's own; an engine's depth may be standard Z, 1).
+    pub far_depth: f32,
     /// The camera: xyz its position; w the angle of one pixel (perspective)
     /// or minus one pixel's world size (orthographic): where the single
     /// primary map is fine against the pixel, cascades are not used.
     pub eye: [f32; 4],
+    /// Clip → world of the frame's camera (the inverse of
+    /// [`crate::CameraMatrices::view_proj`], inverted in f64): rebuilds each
+    /// sample's world position from its depth (`gbuffer_position`).
+    pub inv_view_proj: [[f32; 4]; 4],
 }
 
 /// The renderer's GI parameters (`GiParams` in `shade.wgsl`).
@@ -126,6 +132,18 @@ fn tex_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     gibake_gpu::util::texture_entry(binding, COMPUTE, wgpu::TextureViewDimension::D2)
 }
 
+/// The G-buffer's packed normals (`Rg32Uint`) and albedo (`R32Uint`).
+pub(crate) fn uint_tex_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Uint,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        ..tex_entry(binding)
+    }
+}
+
 fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     gibake_gpu::util::uniform_entry(binding, COMPUTE)
 }
@@ -150,7 +168,8 @@ pub(crate) fn uniform<T: bytemuck::Pod>(
 
 /// A view's inputs (group 0).
 pub(crate) struct ViewInputs<'a> {
-    /// The camera G-buffer's three views (see [`crate::GBUFFER_FORMATS`]).
+    /// The camera G-buffer's three views (see [`crate::GBUFFER_FORMATS`]:
+    /// depth, normals, albedo).
     pub gbuffer: [&'a wgpu::TextureView; 3],
     /// [`GpuViewParams`] uniform.
     pub params: &'a wgpu::Buffer,
@@ -263,8 +282,8 @@ impl ShadePass {
             label: Some("shade view"),
             entries: &[
                 tex_entry(0),
-                tex_entry(1),
-                tex_entry(2),
+                uint_tex_entry(1),
+                uint_tex_entry(2),
                 uniform_entry(3),
                 wgpu::BindGroupLayoutEntry {
                     binding: 4,
@@ -565,7 +584,14 @@ mod tests {
                 "shade.wgsl (other lights)",
                 compose(&super::shade_wgsl(true)),
             ),
-            ("gbuffer.wgsl", compose_mesh(include_str!("gbuffer.wgsl"))),
+            (
+                "gbuffer.wgsl",
+                compose_mesh(&format!(
+                    "{}\n{}",
+                    crate::gbuffer::LAYOUT_WGSL,
+                    include_str!("gbuffer.wgsl")
+                )),
+            ),
             (
                 "dynamic_rsm.wgsl",
                 compose_mesh(include_str!("dynamic_rsm.wgsl")),
@@ -578,7 +604,10 @@ mod tests {
                 "later_occlusion.wgsl",
                 compose(crate::later_occlusion::LATER_OCCLUSION_WGSL),
             ),
-            ("interleave.wgsl", compose(include_str!("interleave.wgsl"))),
+            (
+                "interleave.wgsl",
+                compose(&crate::interleave::interleave_wgsl()),
+            ),
         ] {
             if let Err(e) = validate(&src) {
                 panic!("{name} does not validate:\n{e}");

@@ -1,5 +1,6 @@
 // shade.wgsl — deferred shading (needs common.wgsl, light.wgsl,
-// projection.wgsl, hemisphere.wgsl, cascades.wgsl, and other_lights.wgsl or,
+// projection.wgsl, hemisphere.wgsl, cascades.wgsl, gbuffer_layout.wgsl (its
+// ViewParams and G-buffer reads), and other_lights.wgsl or,
 // for a scene with one light, other_lights_none.wgsl). One invocation per
 // pixel:
 //   direct light with the merged primary shadow map (static ∪ moving),
@@ -19,13 +20,6 @@
 // quadtree Morton order, so every subset is an even spread over the RSM), and
 // writes direct radiance at (x, y) and that irradiance estimate at
 // (x + width, y) of a 2·width-wide texture; interleave.wgsl filters it.
-
-struct ViewParams {       // GpuViewParams in shade.rs
-    size: vec2<u32>,
-    interleave: u32,      // N: 1 shades every VPL at every pixel
-    _pad: u32,
-    eye: vec4<f32>,       // camera position; w: pixel angle, or −pixel size (orthographic)
-}
 
 struct GiParams {         // GpuGiParams in shade.rs
     flags: u32,           // ShadeFlag bits (FLAG_* generated from shade flags in plan.rs)
@@ -51,10 +45,10 @@ const OCCL_ONE: f32 = 16777216.0;     // 2^24: fixed-point 1.0 of occlusion sums
 const VPL_DEPTH_BIAS: f32 = 0.5;
 const VPL_MAX_SLOPE: f32 = 10.0;
 
-// Group 0: the view.
-@group(0) @binding(0) var g_position: texture_2d<f32>;
-@group(0) @binding(1) var g_normals: texture_2d<f32>;
-@group(0) @binding(2) var g_albedo: texture_2d<f32>;
+// Group 0: the view (its G-buffer: gbuffer_layout.wgsl).
+@group(0) @binding(0) var g_depth: texture_2d<f32>;
+@group(0) @binding(1) var g_normals: texture_2d<u32>;
+@group(0) @binding(2) var g_albedo: texture_2d<u32>;
 @group(0) @binding(3) var<uniform> view: ViewParams;
 @group(0) @binding(4) var out_radiance: texture_storage_2d<rgba32float, write>;
 
@@ -607,13 +601,18 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocat
     }
     let inside = all(p < view.size);
     let px = vec2<i32>(p);
-    var pos = vec4<f32>(0.0);
+    var covered = false;
+    var x = vec3<f32>(0.0);
     if (inside) {
-        pos = textureLoad(g_position, px, 0);
+        let depth = textureLoad(g_depth, px, 0).r;
+        covered = depth != view.far_depth;
+        if (covered) {
+            x = gbuffer_position(view.inv_view_proj, view.size, px, depth);
+        }
     }
     // Every invocation of the tile, before any returns (barriers).
     if (has(FLAG_CULL_LIGHTS)) {
-        cull_other_lights(lid, inside && pos.w > 0.5, pos.xyz);
+        cull_other_lights(lid, covered, x);
     }
     if (!inside) {
         return;
@@ -623,12 +622,11 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocat
     var direct = vec3<f32>(0.0);
     var e = vec3<f32>(0.0);
     var albedo = vec3<f32>(0.0);
-    if (pos.w > 0.5) {
-        let x = pos.xyz;
-        let nn = textureLoad(g_normals, px, 0);
-        let ns = oct_decode(nn.xy);
-        let ng = oct_decode(nn.zw);
-        albedo = textureLoad(g_albedo, px, 0).rgb;
+    if (covered) {
+        let nn = textureLoad(g_normals, px, 0).xy;
+        let ns = gbuffer_normal(nn.x);
+        let ng = gbuffer_normal(nn.y);
+        albedo = gbuffer_albedo(textureLoad(g_albedo, px, 0).x);
         if (has(FLAG_DIRECT)) {
             direct = direct_radiance(x, ns, ng, albedo);
         }
@@ -670,7 +668,7 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocat
         return;
     }
     var radiance = vec3<f32>(0.0);
-    if (pos.w > 0.5) {
+    if (covered) {
         if (has(FLAG_DIRECT)) {
             radiance += direct;
         }

@@ -51,7 +51,7 @@ enum Source {
     Own,
     /// The caller's, in gibake's layout, shaded as it is.
     Views(Box<[wgpu::TextureView; 3]>),
-    /// Rebuilt from the caller's depth, normals and albedo.
+    /// The caller's depth and albedo, its normals (repacked unless packed).
     Depth(Box<DepthGBufferPass>),
 }
 
@@ -159,7 +159,6 @@ impl View {
     /// G-buffer and output.
     pub(crate) fn new(
         device: &wgpu::Device,
-        queue: &wgpu::Queue,
         (shade, gbuffer_pass, scene_gpu): Passes<'_>,
         size: [u32; 2],
         interleave_setting: u32,
@@ -167,15 +166,15 @@ impl View {
         let params = GpuViewParams {
             size,
             interleave: interleave::effective(interleave_setting, size[0], size[1]),
-            _pad: 0,
+            far_depth: 0.0,
             eye: [0.0; 4],
+            inv_view_proj: glam::Mat4::IDENTITY.to_cols_array_2d(),
         };
         let params_buf = uniform(device, "shade view params", &params);
         let gbuffer = GBuffer::new(device, size[0], size[1]);
         let own = own_output(device, size[0], size[1]);
         let radiance_view = own.create_view(&Default::default());
-        let mut interleave = (params.interleave > 1)
-            .then(|| InterleavePass::new(device, queue, size, params.interleave));
+        let mut interleave = (params.interleave > 1).then(|| InterleavePass::new(device, size));
         let group = bind(
             device,
             shade,
@@ -212,6 +211,7 @@ impl View {
     ) {
         self.params.size = size;
         self.params.interleave = interleave::effective(self.interleave_setting, size[0], size[1]);
+        self.params.far_depth = 0.0;
         queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
         self.gbuffer = GBuffer::new(device, size[0], size[1]);
         self.source = Source::Own;
@@ -219,8 +219,7 @@ impl View {
         self.radiance = self.own.clone();
         self.radiance_view = self.radiance.create_view(&Default::default());
         self.composite = None;
-        self.interleave = (self.params.interleave > 1)
-            .then(|| InterleavePass::new(device, queue, size, self.params.interleave));
+        self.interleave = (self.params.interleave > 1).then(|| InterleavePass::new(device, size));
         self.rebind(device, shade);
     }
 
@@ -259,7 +258,11 @@ impl View {
     /// What decides this view's passes.
     pub(crate) fn passes(&self) -> ViewPasses {
         ViewPasses {
-            gbuffer: !matches!(self.source, Source::Views(_)),
+            gbuffer: match &self.source {
+                Source::Own => true,
+                Source::Views(_) => false,
+                Source::Depth(p) => p.has_pass(),
+            },
             interleave: self.params.interleave,
             composite: self.composite.is_some(),
         }
@@ -276,6 +279,7 @@ impl View {
             .position
             .extend(if w.is_finite() { w } else { 0.0 })
             .to_array();
+        self.params.inv_view_proj = camera.inv_view_proj().to_cols_array_2d();
         queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
         queue.write_buffer(
             &self.camera.uniform_buf,
@@ -361,7 +365,17 @@ impl View {
         views: [&wgpu::TextureView; 3],
     ) {
         self.source = Source::Views(Box::new(views.map(|v| v.clone())));
+        self.set_far_depth(device, 0.0);
         self.rebind(device, shade);
+    }
+
+    /// The depth of "no surface" in the view's G-buffer: a new uniform
+    /// (no queue at hand; the caller rebinds), holding the prepared camera.
+    fn set_far_depth(&mut self, device: &wgpu::Device, far_depth: f32) {
+        if self.params.far_depth != far_depth {
+            self.params.far_depth = far_depth;
+            self.params_buf = uniform(device, "shade view params", &self.params);
+        }
     }
 
     /// Rebuilds the G-buffer from the caller's depth, normals and albedo
@@ -380,30 +394,34 @@ impl View {
             self.size(),
             self.last_camera.as_ref(),
         )?;
-        let rebind = matches!(self.source, Source::Views(_));
+        self.set_far_depth(device, pass.far_depth());
         self.source = Source::Depth(Box::new(pass));
-        // Own and rebuilt G-buffers are the same textures: group 0 stays.
-        if rebind {
-            self.rebind(device, shade);
-        }
+        // Shading reads the engine's depth and albedo: group 0 follows them.
+        self.rebind(device, shade);
         Ok(())
     }
 
     /// Rebinds group 0 (and the interleave filter) to the current output
     /// and G-buffer (the caller's, if it provides one).
     fn rebind(&mut self, device: &wgpu::Device, shade: &ShadePass) {
-        let g: &[wgpu::TextureView; 3] = match &self.source {
-            Source::Views(v) => v,
-            _ => &self.gbuffer.views,
+        let g: [&wgpu::TextureView; 3] = match &self.source {
+            Source::Views(v) => v.each_ref(),
+            Source::Depth(p) => p.views(&self.gbuffer),
+            Source::Own => self.gbuffer.views.each_ref(),
         };
         self.group = bind(
             device,
             shade,
             &self.params_buf,
-            g.each_ref(),
+            g,
             self.interleave.as_mut(),
             &self.radiance_view,
         );
+    }
+
+    /// The camera of the last prepared frame.
+    pub(crate) fn last_camera(&self) -> Option<&CameraMatrices> {
+        self.last_camera.as_ref()
     }
 
     /// The view's own G-buffer.
@@ -478,7 +496,7 @@ fn bind(
 ) -> wgpu::BindGroup {
     let shade_out = match interleave {
         Some(il) => {
-            il.bind(device, gbuffer, output);
+            il.bind(device, gbuffer, params, output);
             il.shaded.clone()
         }
         None => output.clone(),

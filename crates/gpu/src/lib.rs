@@ -16,6 +16,7 @@ pub mod hemisphere;
 pub mod light_fit;
 mod light_view;
 pub mod mesh;
+pub mod mips;
 pub mod passes;
 pub mod readback;
 pub mod shaders;

@@ -335,6 +335,8 @@ impl SceneGpu {
             address_mode_v: wgpu::AddressMode::Repeat,
             mag_filter: wgpu::FilterMode::Linear,
             min_filter: wgpu::FilterMode::Linear,
+            // Trilinear over the mip chain (crate::mips).
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
             ..Default::default()
         });
         let max_side = device.limits().max_texture_dimension_2d;
@@ -352,16 +354,17 @@ impl SceneGpu {
                 );
             }
             let tex = fitted.as_ref().unwrap_or(tex);
+            let (w, h) = (tex.width.max(1), tex.height.max(1));
             let t = device.create_texture_with_data(
                 queue,
                 &wgpu::TextureDescriptor {
                     label: Some("albedo texture"),
                     size: wgpu::Extent3d {
-                        width: tex.width.max(1),
-                        height: tex.height.max(1),
+                        width: w,
+                        height: h,
                         depth_or_array_layers: 1,
                     },
-                    mip_level_count: 1,
+                    mip_level_count: crate::mips::level_count(w, h),
                     sample_count: 1,
                     dimension: wgpu::TextureDimension::D2,
                     format: wgpu::TextureFormat::Rgba8UnormSrgb,
@@ -369,7 +372,7 @@ impl SceneGpu {
                     view_formats: &[],
                 },
                 wgpu::util::TextureDataOrder::LayerMajor,
-                &tex.rgba8_srgb,
+                &crate::mips::chain(w, h, &tex.rgba8_srgb),
             );
             let view = t.create_view(&Default::default());
             device.create_bind_group(&wgpu::BindGroupDescriptor {

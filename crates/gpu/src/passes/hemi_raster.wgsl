@@ -123,7 +123,7 @@ struct FsOut {
 @fragment
 fn fs_main(i: VsOut) -> FsOut {
     // Sampled first, in uniform control flow.
-    let texel_alpha = textureSample(albedo_tex, albedo_smp, i.uv).a;
+    let texel_alpha = mask_texel_alpha(albedo_tex, albedo_smp, i.uv);
     if (!alpha_keeps(draws[i.draw], texel_alpha)) {
         discard;
     }

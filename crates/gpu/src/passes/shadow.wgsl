@@ -28,7 +28,7 @@ fn vs_main(v: VertexIn) -> VsOut {
 
 @fragment
 fn fs_main(i: VsOut) -> @location(0) vec4<f32> {
-    let texel_alpha = textureSample(albedo_tex, albedo_smp, i.uv).a;
+    let texel_alpha = mask_texel_alpha(albedo_tex, albedo_smp, i.uv);
     if (!alpha_keeps(draws[i.draw], texel_alpha)) {
         discard;
     }

@@ -45,6 +45,14 @@ fn draw_albedo(d: DrawData, texel: vec3<f32>) -> vec3<f32> {
     return d.albedo.rgb;
 }
 
+// The texel alpha the glTF alpha test reads, in every pass: the finest mip
+// level, bilinear (albedo textures carry a mip chain for the camera's
+// G-buffer; the holes stay those of the texture at every distance and
+// every map sees the same ones).
+fn mask_texel_alpha(t: texture_2d<f32>, s: sampler, uv: vec2<f32>) -> f32 {
+    return textureSampleLevel(t, s, uv, 0.0).a;
+}
+
 // The glTF alpha test, the one GPU definition (the CPU's is
 // gibake_scene::Material::keeps, which the bake's and the reference's ray
 // casts use): a fragment of a masked draw (alphaMode MASK, or BLEND read as
