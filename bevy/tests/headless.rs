@@ -247,12 +247,7 @@ fn bevys_gbuffer_rebuilt_is_gibakes_own() {
                 return;
             };
             let q: &wgpu::Queue = &queue;
-            let g = renderer
-                .gbuffer_textures()
-                .iter()
-                .map(|t| read(device.wgpu_device(), q, t))
-                .collect();
-            *s.lock().unwrap() = Some(g);
+            *s.lock().unwrap() = Some(gbuffer_of(renderer, device.wgpu_device(), q));
         })
         .in_set(RenderSystems::Cleanup),
     );
@@ -290,11 +285,7 @@ fn bevys_gbuffer_rebuilt_is_gibakes_own() {
     let mut enc = ctx.device.create_command_encoder(&Default::default());
     r.record(&mut enc);
     ctx.queue.submit([enc.finish()]);
-    let own: Vec<Vec<[f32; 4]>> = r
-        .gbuffer_textures()
-        .iter()
-        .map(|t| read(&ctx.device, &ctx.queue, t))
-        .collect();
+    let own = gbuffer_of(&r, &ctx.device, &ctx.queue);
     let _ = ViewId::MAIN;
 
     let n = (W * H) as usize;
@@ -302,7 +293,7 @@ fn bevys_gbuffer_rebuilt_is_gibakes_own() {
     let (mut worst_pos, mut worst_albedo) = (0f32, 0f32);
     let eye_pos = Vec3::from(EYE);
     for i in 0..n {
-        let (pb, pg) = (bevy[0][i], own[0][i]);
+        let (pb, pg) = (bevy.positions[i], own.positions[i]);
         match (pb[3] > 0.5, pg[3] > 0.5) {
             (true, true) => both += 1,
             (false, false) => continue,
@@ -320,13 +311,12 @@ fn bevys_gbuffer_rebuilt_is_gibakes_own() {
         if rel > 1e-3 {
             far_pos += 1;
         }
-        let nb = oct_decode(bevy[1][i][0], bevy[1][i][1]);
-        let ng = oct_decode(own[1][i][0], own[1][i][1]);
+        let (nb, ng) = (bevy.normals[i][0], own.normals[i][0]);
         if nb.dot(ng) < 0.995 {
             bad_normal += 1;
         }
         let d = (0..3)
-            .map(|c| (bevy[2][i][c] - own[2][i][c]).abs())
+            .map(|c| (bevy.albedo[i][c] - own.albedo[i][c]).abs())
             .fold(0f32, f32::max);
         worst_albedo = worst_albedo.max(d);
         if d > 0.01 {
@@ -347,48 +337,37 @@ fn bevys_gbuffer_rebuilt_is_gibakes_own() {
     assert!(bad_albedo * 100 < both, "{bad_albedo} albedos differ");
 }
 
-/// A G-buffer's textures read back (positions, normals, albedo).
-type GBuffer = Vec<Vec<[f32; 4]>>;
-
-/// The octahedral decoding of gibake's `common.wgsl`.
-fn oct_decode(x: f32, y: f32) -> Vec3 {
-    let mut n = Vec3::new(x, y, 1.0 - x.abs() - y.abs());
-    let t = (-n.z).max(0.0);
-    n.x += if n.x >= 0.0 { -t } else { t };
-    n.y += if n.y >= 0.0 { -t } else { t };
-    n.normalize()
+/// A view's G-buffer read back: the positions shading rebuilds from the
+/// depth it reads (Bevy's, or gibake's own), both normals and the linear
+/// albedo decoded from gibake's packed layout.
+struct GBuffer {
+    positions: Vec<[f32; 4]>,
+    normals: Vec<[Vec3; 2]>,
+    albedo: Vec<[f32; 3]>,
 }
 
-/// An `Rgba32Float` or `Rgba16Float` texture's texels.
-fn read(device: &wgpu::Device, queue: &wgpu::Queue, t: &wgpu::Texture) -> Vec<[f32; 4]> {
-    match t.format() {
-        wgpu::TextureFormat::Rgba32Float => {
-            gibake_gpu::readback::read_texture_f32_on(device, queue, t, 0, 4)
-                .expect("read back")
-                .chunks_exact(4)
-                .map(|c| [c[0], c[1], c[2], c[3]])
-                .collect()
-        }
-        wgpu::TextureFormat::Rgba16Float => {
-            gibake_gpu::readback::read_texture_on(device, queue, t, 0, 8)
-                .expect("read back")
-                .chunks_exact(8)
-                .map(|p| {
-                    let h = |k: usize| common::f16(u16::from_le_bytes([p[2 * k], p[2 * k + 1]]));
-                    [h(0), h(1), h(2), h(3)]
-                })
-                .collect()
-        }
-        f => panic!("unexpected G-buffer format {f:?}"),
+fn gbuffer_of(r: &Renderer, device: &wgpu::Device, queue: &wgpu::Queue) -> GBuffer {
+    let t = r.gbuffer_textures();
+    let words = |t: &wgpu::Texture, bytes: u32| -> Vec<u32> {
+        gibake_gpu::readback::read_texture_on(device, queue, t, 0, bytes)
+            .expect("read back")
+            .chunks_exact(4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect()
+    };
+    GBuffer {
+        positions: r.gbuffer_positions(device, queue).expect("positions"),
+        normals: words(&t[1], 8)
+            .chunks_exact(2)
+            .map(|w| gibake_runtime::unpack_normals([w[0], w[1]]))
+            .collect(),
+        albedo: words(&t[2], 4)
+            .into_iter()
+            .map(gibake_runtime::unpack_albedo)
+            .collect(),
     }
 }
 
-/// A re-bake while the app runs (the sun twice as bright, written by
-/// `gibake bake` beside the old asset and swapped in): the plugin reloads
-/// it through the asset server, the renderer takes it with `set_asset`
-/// (the moving lamp's handle kept) and the next frames add the new
-/// asset's light, which is `gibake render --mode indirect` of the new
-/// asset (and not of the old one).
 #[test]
 fn a_rebake_reaches_the_running_app() {
     let _gpu = common::serial();

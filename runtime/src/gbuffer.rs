@@ -40,6 +40,20 @@ pub fn unpack_albedo(packed: u32) -> [f32; 3] {
     [packed % n, (packed / n) % n, packed / (n * n)].map(|q| (q as f32 / (n - 1) as f32).powi(2))
 }
 
+/// The shading and geometric normals of a packed normals texel
+/// (`Rg32Uint`, `gbuffer_normal` in `gbuffer_layout.wgsl`): its CPU twin.
+pub fn unpack_normals(packed: [u32; 2]) -> [glam::Vec3; 2] {
+    packed.map(|p| {
+        let snorm = |v: u16| (f32::from(v as i16) / 32767.0).max(-1.0);
+        let (x, y) = (snorm(p as u16), snorm((p >> 16) as u16));
+        let mut n = glam::Vec3::new(x, y, 1.0 - x.abs() - y.abs());
+        let t = (-n.z).max(0.0);
+        n.x += if n.x >= 0.0 { -t } else { t };
+        n.y += if n.y >= 0.0 { -t } else { t };
+        n.normalize_or_zero()
+    })
+}
+
 /// The WGSL of the layout (`gbuffer_layout.wgsl`, needs `common.wgsl`).
 pub(crate) const LAYOUT_WGSL: &str = include_str!("gbuffer_layout.wgsl");
 

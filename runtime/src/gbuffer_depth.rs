@@ -126,6 +126,8 @@ pub(crate) struct DepthGBufferPass {
     /// The engine's depth, normals and albedo (the last two used only when
     /// packed).
     views: [wgpu::TextureView; 3],
+    /// The engine's depth texture (what shading rebuilds positions from).
+    depth: wgpu::Texture,
     far_depth: f32,
     rebuild: Option<Rebuild>,
 }
@@ -208,6 +210,7 @@ impl DepthGBufferPass {
             (!packed).then(|| Rebuild::new(device, pipelines, src, &views, target, size, camera));
         Ok(DepthGBufferPass {
             views,
+            depth: src.depth.clone(),
             far_depth: src.far_depth,
             rebuild,
         })
@@ -221,6 +224,11 @@ impl DepthGBufferPass {
             None => &self.views,
         };
         [&self.views[0], &packed[1], &packed[2]]
+    }
+
+    /// The engine's depth texture.
+    pub(crate) fn depth(&self) -> &wgpu::Texture {
+        &self.depth
     }
 
     /// The depth of a sample with no surface.

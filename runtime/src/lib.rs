@@ -87,7 +87,7 @@ pub use error::RuntimeError;
 pub use frame::{FrameInput, ObjectHandle, scene_transforms};
 pub use gbuffer::{
     GBUFFER_ALBEDO_LEVELS, GBUFFER_BYTES_PER_SAMPLE, GBUFFER_FORMATS, positions_from_depth,
-    unpack_albedo,
+    unpack_albedo, unpack_normals,
 };
 pub use gbuffer_depth::{DepthGBuffer, NormalEncoding};
 pub use gibake_asset::{
@@ -637,10 +637,11 @@ impl Renderer {
         &self.main().gbuffer().textures
     }
 
-    /// The world positions of the main view's own G-buffer, rebuilt on the
-    /// CPU from its depth with the last prepared camera (row 0 at the top;
-    /// `[x, y, z, 1]` where a surface is, zeros elsewhere): the position
-    /// target that the G-buffer no longer stores (see
+    /// The world positions the main view shades, rebuilt on the CPU from
+    /// the depth it reads — its own G-buffer's, or the engine's given to
+    /// [`Renderer::use_depth_gbuffer`] — with the last prepared camera (row
+    /// 0 at the top; `[x, y, z, 1]` where a surface is, zeros elsewhere):
+    /// the position target that the G-buffer no longer stores (see
     /// [`positions_from_depth`]). Waits for the GPU.
     pub fn gbuffer_positions(
         &self,
@@ -648,7 +649,7 @@ impl Renderer {
         queue: &wgpu::Queue,
     ) -> Result<Vec<[f32; 4]>, RuntimeError> {
         let v = self.main();
-        let depth = v.gbuffer().depth();
+        let (depth, far) = v.shaded_depth();
         let camera = v.last_camera().ok_or_else(|| {
             RuntimeError::InvalidSetting("no frame prepared: no camera to rebuild positions".into())
         })?;
@@ -658,7 +659,7 @@ impl Renderer {
             depth.width(),
             depth.height(),
             camera,
-            0.0,
+            far,
         ))
     }
 

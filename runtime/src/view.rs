@@ -424,6 +424,15 @@ impl View {
         self.last_camera.as_ref()
     }
 
+    /// The depth shading reads and its "no surface" value: the engine's
+    /// (`use_depth_gbuffer`) or the view's own (reversed Z, 0).
+    pub(crate) fn shaded_depth(&self) -> (&wgpu::Texture, f32) {
+        match &self.source {
+            Source::Depth(p) => (p.depth(), p.far_depth()),
+            _ => (self.gbuffer.depth(), 0.0),
+        }
+    }
+
     /// The view's own G-buffer.
     pub(crate) fn gbuffer(&self) -> &GBuffer {
         &self.gbuffer

@@ -458,6 +458,32 @@ fn a_gbuffer_from_the_engines_depth_and_normals_equals_the_own() {
     assert!(a.mean().x > 0.0);
     assert!(mean < 1e-4, "mean relative difference {mean:.2e}");
     assert!(worst < 1e-2, "worst relative difference {worst:.2e}");
+    // The positions shading rebuilds are the engine's depth's, not the
+    // renderer's own (undrawn) G-buffer's.
+    let q = &f.ctx.queue;
+    let (pe, po) = (
+        engine.gbuffer_positions(d, q).unwrap(),
+        own.gbuffer_positions(d, q).unwrap(),
+    );
+    assert!(po.iter().filter(|p| p[3] > 0.5).count() > po.len() / 2);
+    assert_eq!(pe, po);
+    // The packed normals decode (unpack_normals) to unit vectors facing
+    // the camera's side of their surface.
+    let packed = gibake_gpu::readback::read_texture_on(d, q, &g[1], 0, 8).unwrap();
+    let eye = camera().position;
+    for (k, t) in packed.chunks_exact(8).enumerate() {
+        if po[k][3] < 0.5 {
+            continue;
+        }
+        let w = |i: usize| u32::from_le_bytes([t[i], t[i + 1], t[i + 2], t[i + 3]]);
+        let [ns, ng] = gibake_runtime::unpack_normals([w(0), w(4)]);
+        assert!((ns.length() - 1.0).abs() < 1e-3 && (ng.length() - 1.0).abs() < 1e-3);
+        let to_eye = eye - glam::Vec3::new(po[k][0], po[k][1], po[k][2]);
+        assert!(
+            ng.dot(to_eye) > -1e-3 * to_eye.length(),
+            "texel {k}: {ng} faces away"
+        );
+    }
     // The engine's normals as float octahedral pairs (an `Rgba32Float`
     // made from the own packed ones): the rebuild pass repacks them, and
     // the frame is the same.
