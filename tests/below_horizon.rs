@@ -10,6 +10,7 @@
 //! second map, from its second origin on the texels that send the light
 //! (`gibake_bake::horizon`), does now (−2.1% and −1.5%). And the CPU twin
 //! of the shader's lookup, second maps included, gives the GPU's image.
+//! Item 2: the roof-holes room's hot spots by budget.
 
 use crate::common;
 
@@ -250,4 +251,80 @@ fn light_below_a_vpls_horizon_is_within_3_5_percent_of_the_reference_on_white_wa
             "{name}: the GPU {gpu} and its lookup on the CPU {twin} differ"
         );
     }
+}
+
+/// Per pixel of the `size²` centres (row-major; `None` where no surface):
+/// the GPU's indirect radiance and the reference's one bounce, summed over
+/// the channels, for `scene` baked at `vpls`.
+fn per_pixel(scene: &Scene, vpls: u32, size: u32) -> Vec<Option<(f64, f64)>> {
+    let ctx = common::gpu();
+    let s = gibake_eval::EvalSettings {
+        vpls,
+        ..Default::default()
+    };
+    let asset = gibake_eval::bake(&ctx, scene, &s).expect("bake");
+    let time = 0.5;
+    let settings = gibake_runtime::RenderSettings {
+        width: size,
+        height: size,
+        mode: gibake_runtime::Mode::Indirect,
+        interleave: 1,
+        ..Default::default()
+    };
+    let gpu = gibake_eval::frame::render_image(
+        &ctx.device,
+        &ctx.queue,
+        scene,
+        Some(&asset),
+        &settings,
+        time,
+        1,
+    )
+    .expect("render");
+    let rays = gibake_reference::RayScene::build(scene, time);
+    let view = gibake_reference::View::from_scene(scene, time).expect("a camera");
+    (0..size * size)
+        .map(|p| {
+            let (x, y) = (p % size, p / size);
+            let (o, d, t0) = view.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
+            let h = rays.intersect_range(o, d, t0, f32::INFINITY)?;
+            let mut l = Vec3::ZERO;
+            gibake_eval::bounce::one_bounce_samples(&rays, &h, p, 16, |_, s| l += s);
+            let r = f64::from((h.albedo * l / 256.0).element_sum());
+            Some((f64::from(gpu.get(x, y).element_sum()), r))
+        })
+        .collect()
+}
+
+/// Issue 49, item 2: hot spots round small openings. The room lit through
+/// 16 roof holes put radiance up to 9.4 where the reference has 0.15 at
+/// the default budget (a VPL beside the receivers round an opening). At
+/// the default budget (256) and at 664 VPLs the brightest pixel is now
+/// within 2× the reference's brightest (0.12 and 0.19 against 0.21). A
+/// known failure at 64 VPLs: 0.68, 3.3× — each VPL four times the area, its
+/// finest nodes' unshadowed share reaches through the 0.4 m roof
+/// (docs/method.md, "Finest nodes near their receiver", known cost); held
+/// to 4× so that it does not grow unseen.
+#[test]
+fn hot_spots_round_small_openings_by_budget() {
+    let scene = roof_holes();
+    let mut failed = Vec::new();
+    for (vpls, bound) in [(64, 4.0), (256, 2.0), (664, 2.0)] {
+        let px: Vec<(f64, f64)> = per_pixel(&scene, vpls, 40).into_iter().flatten().collect();
+        let max_gpu = px.iter().map(|p| p.0).fold(0.0, f64::max);
+        let max_ref = px.iter().map(|p| p.1).fold(0.0, f64::max);
+        let mean = |f: fn(&(f64, f64)) -> f64| px.iter().map(f).sum::<f64>() / px.len() as f64;
+        eprintln!(
+            "{vpls} VPLs: brightest pixel {max_gpu:.3} against the reference's {max_ref:.3} ({:.1}×); mean {:.4} against {:.4}",
+            max_gpu / max_ref,
+            mean(|p| p.0),
+            mean(|p| p.1),
+        );
+        if max_gpu >= bound * max_ref {
+            failed.push(format!(
+                "{vpls} VPLs: a hot spot of {max_gpu:.3} where the reference's brightest is {max_ref:.3} (bound {bound}×)"
+            ));
+        }
+    }
+    assert!(failed.is_empty(), "{}", failed.join("; "));
 }
