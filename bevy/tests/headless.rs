@@ -226,13 +226,16 @@ fn the_light_the_plugin_adds_is_gibake_renders_indirect() {
     assert!((sun_half - 0.5).abs() < 0.01, "Bevy's sun x{sun_half:.4}");
 }
 
-/// The G-buffer gibake rebuilds from Bevy's prepass depth, prepass normals
-/// and deferred albedo (the plugin's main view) against the one gibake
-/// draws itself for the same camera (a renderer of its own on another
-/// device): the same world positions (Bevy's reversed-Z depth and
-/// projection, its coordinate system and units are gibake's), the same
-/// normals (Bevy's `n · 0.5 + 0.5` in `Rgb10a2Unorm`), the same albedo
-/// (Bevy's 8-bit `rgb^(1/2.2)`).
+/// The G-buffer gibake rebuilds from Bevy's prepass normals and deferred
+/// albedo (the plugin's main view) against the one gibake draws itself for
+/// the same camera (a renderer of its own on another device): the same
+/// normals (Bevy's `n · 0.5 + 0.5` in `Rgb10a2Unorm`, repacked) and the
+/// same albedo (Bevy's 8-bit `rgb^(1/2.2)`, repacked) wherever gibake's
+/// own G-buffer has a surface. Shading reads Bevy's depth itself (its
+/// prepass depth has no `COPY_SRC`: `gbuffer_positions` refuses it, checked
+/// here); that the positions it rebuilds are gibake's own is what the
+/// light the plugin adds equalling `gibake render`'s shows
+/// (`the_light_the_plugin_adds_is_gibake_renders_indirect`).
 #[test]
 fn bevys_gbuffer_rebuilt_is_gibakes_own() {
     let _gpu = common::serial();
@@ -289,28 +292,20 @@ fn bevys_gbuffer_rebuilt_is_gibakes_own() {
     let _ = ViewId::MAIN;
 
     let n = (W * H) as usize;
-    let (mut both, mut one, mut far_pos, mut bad_normal, mut bad_albedo) = (0, 0, 0, 0, 0);
-    let (mut worst_pos, mut worst_albedo) = (0f32, 0f32);
-    let eye_pos = Vec3::from(EYE);
+    // Bevy's depth cannot be read back: refused, with the reason.
+    let refused = bevy.positions.as_ref().expect_err("Bevy's depth read back");
+    assert!(refused.contains("COPY_SRC"), "{refused}");
+    let own_positions = own
+        .positions
+        .as_ref()
+        .expect("gibake's own depth reads back");
+    let (mut covered, mut bad_normal, mut bad_albedo) = (0, 0, 0);
+    let mut worst_albedo = 0f32;
     for i in 0..n {
-        let (pb, pg) = (bevy.positions[i], own.positions[i]);
-        match (pb[3] > 0.5, pg[3] > 0.5) {
-            (true, true) => both += 1,
-            (false, false) => continue,
-            _ => {
-                one += 1;
-                continue;
-            }
+        if own_positions[i][3] <= 0.5 {
+            continue;
         }
-        let (xb, xg) = (
-            Vec3::new(pb[0], pb[1], pb[2]),
-            Vec3::new(pg[0], pg[1], pg[2]),
-        );
-        let rel = (xb - xg).length() / (xg - eye_pos).length();
-        worst_pos = worst_pos.max(rel);
-        if rel > 1e-3 {
-            far_pos += 1;
-        }
+        covered += 1;
         let (nb, ng) = (bevy.normals[i][0], own.normals[i][0]);
         if nb.dot(ng) < 0.995 {
             bad_normal += 1;
@@ -324,24 +319,20 @@ fn bevys_gbuffer_rebuilt_is_gibakes_own() {
         }
     }
     eprintln!(
-        "{both} pixels covered in both, {one} in one; positions off by > 1e-3 of the distance: {far_pos} (worst {worst_pos:.2e}); normals off by > 5.7°: {bad_normal}; albedo off by > 0.01: {bad_albedo} (worst {worst_albedo:.4})"
+        "{covered} pixels with a surface in gibake's own G-buffer; normals off by > 5.7°: {bad_normal}; albedo off by > 0.01: {bad_albedo} (worst {worst_albedo:.4})"
     );
-    assert!(both > n / 2, "{both} of {n} pixels covered");
+    assert!(covered > n / 2, "{covered} of {n} pixels covered");
     // Silhouettes may rasterize a pixel apart; nothing else.
-    assert!(
-        one * 100 < both,
-        "{one} pixels covered in one G-buffer only"
-    );
-    assert!(far_pos * 100 < both, "{far_pos} positions differ");
-    assert!(bad_normal * 100 < both, "{bad_normal} normals differ");
-    assert!(bad_albedo * 100 < both, "{bad_albedo} albedos differ");
+    assert!(bad_normal * 100 < covered, "{bad_normal} normals differ");
+    assert!(bad_albedo * 100 < covered, "{bad_albedo} albedos differ");
 }
 
 /// A view's G-buffer read back: the positions shading rebuilds from the
 /// depth it reads (Bevy's, or gibake's own), both normals and the linear
 /// albedo decoded from gibake's packed layout.
 struct GBuffer {
-    positions: Vec<[f32; 4]>,
+    /// `Err`: the depth cannot be read back (Bevy's prepass depth).
+    positions: Result<Vec<[f32; 4]>, String>,
     normals: Vec<[Vec3; 2]>,
     albedo: Vec<[f32; 3]>,
 }
@@ -356,7 +347,9 @@ fn gbuffer_of(r: &Renderer, device: &wgpu::Device, queue: &wgpu::Queue) -> GBuff
             .collect()
     };
     GBuffer {
-        positions: r.gbuffer_positions(device, queue).expect("positions"),
+        positions: r
+            .gbuffer_positions(device, queue)
+            .map_err(|e| e.to_string()),
         normals: words(&t[1], 8)
             .chunks_exact(2)
             .map(|w| gibake_runtime::unpack_normals([w[0], w[1]]))

@@ -642,7 +642,9 @@ impl Renderer {
     /// [`Renderer::use_depth_gbuffer`] — with the last prepared camera (row
     /// 0 at the top; `[x, y, z, 1]` where a surface is, zeros elsewhere):
     /// the position target that the G-buffer no longer stores (see
-    /// [`positions_from_depth`]). Waits for the GPU.
+    /// [`positions_from_depth`]). Waits for the GPU. An engine's depth
+    /// without `COPY_SRC` usage (Bevy's prepass depth) cannot be read back:
+    /// [`RuntimeError::InvalidSetting`].
     pub fn gbuffer_positions(
         &self,
         device: &wgpu::Device,
@@ -653,6 +655,14 @@ impl Renderer {
         let camera = v.last_camera().ok_or_else(|| {
             RuntimeError::InvalidSetting("no frame prepared: no camera to rebuild positions".into())
         })?;
+        if !depth.usage().contains(wgpu::TextureUsages::COPY_SRC) {
+            return Err(RuntimeError::InvalidSetting(format!(
+                "the depth this view shades ({:?}) has no COPY_SRC usage: its positions cannot \
+                 be read back (create the engine's depth texture with COPY_SRC, or rebuild them \
+                 from it with positions_from_depth)",
+                depth.format()
+            )));
+        }
         let d = gibake_gpu::readback::read_texture_f32_on(device, queue, depth, 0, 1)?;
         Ok(gbuffer::positions_from_depth(
             &d,
