@@ -181,12 +181,15 @@ fn roof_holes() -> Scene {
     )
 }
 
-/// (GPU, the CPU twin of its lookup, the reference's one bounce): the
-/// indirect radiance summed over the channels of the `size²` pixel centres.
-fn judge(scene: &Scene) -> (f64, f64, f64, usize) {
-    let ctx = common::gpu();
-    let asset = gibake_eval::bake(&ctx, scene, &Default::default()).expect("bake");
-    let (size, time) = (48u32, 0.5);
+/// The GPU's indirect light of `scene` baked as `asset`, `size²` pixels,
+/// every VPL at every pixel.
+fn indirect(
+    ctx: &gibake_gpu::GpuContext,
+    scene: &Scene,
+    asset: &gibake_asset::Asset,
+    size: u32,
+    time: f32,
+) -> gibake_image::Image {
     let settings = gibake_runtime::RenderSettings {
         width: size,
         height: size,
@@ -194,16 +197,25 @@ fn judge(scene: &Scene) -> (f64, f64, f64, usize) {
         interleave: 1,
         ..Default::default()
     };
-    let gpu = gibake_eval::frame::render_image(
+    gibake_eval::frame::render_image(
         &ctx.device,
         &ctx.queue,
         scene,
-        Some(&asset),
+        Some(asset),
         &settings,
         time,
         1,
     )
-    .expect("render");
+    .expect("render")
+}
+
+/// (GPU, the CPU twin of its lookup, the reference's one bounce): the
+/// indirect radiance summed over the channels of the `size²` pixel centres.
+fn judge(scene: &Scene) -> (f64, f64, f64, usize) {
+    let ctx = common::gpu();
+    let asset = gibake_eval::bake(&ctx, scene, &Default::default()).expect("bake");
+    let (size, time) = (48u32, 0.5);
+    let gpu = indirect(&ctx, scene, &asset, size, time);
     let rays = gibake_reference::RayScene::build(scene, time);
     let view = gibake_reference::View::from_scene(scene, time).expect("a camera");
     let twin = gibake_eval::transport::TwinVpls::of_asset(&asset);
@@ -264,23 +276,7 @@ fn per_pixel(scene: &Scene, vpls: u32, size: u32) -> Vec<Option<(f64, f64)>> {
     };
     let asset = gibake_eval::bake(&ctx, scene, &s).expect("bake");
     let time = 0.5;
-    let settings = gibake_runtime::RenderSettings {
-        width: size,
-        height: size,
-        mode: gibake_runtime::Mode::Indirect,
-        interleave: 1,
-        ..Default::default()
-    };
-    let gpu = gibake_eval::frame::render_image(
-        &ctx.device,
-        &ctx.queue,
-        scene,
-        Some(&asset),
-        &settings,
-        time,
-        1,
-    )
-    .expect("render");
+    let gpu = indirect(&ctx, scene, &asset, size, time);
     let rays = gibake_reference::RayScene::build(scene, time);
     let view = gibake_reference::View::from_scene(scene, time).expect("a camera");
     (0..size * size)

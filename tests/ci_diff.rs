@@ -562,7 +562,10 @@ fn diff_scene_judges_by_the_images_and_refuses_what_it_cannot_compare() {
     };
     // The data differ (another budget): exit 1 without --scene ...
     assert_eq!(diff(&[]).code, Some(1));
-    // ... and nobody sees it: exit 0 with it; the JSON has both diffs.
+    // ... and within a stated tolerance nobody sees it: exit 0 with it;
+    // the JSON has both diffs. (64 against 60 VPLs sits at the default
+    // FLIP bar at this size: 0.0192 before the later bounces' VPLs got a
+    // descent of their own, 0.0202 after; the tolerance is given here.)
     let r = diff(&[
         &"--scene",
         &corner,
@@ -570,6 +573,8 @@ fn diff_scene_judges_by_the_images_and_refuses_what_it_cannot_compare() {
         &"96",
         &"--height",
         &"54",
+        &"--max-flip",
+        &"0.03",
         &"--json",
     ]);
     assert_eq!(r.code, Some(0), "{r}");
@@ -585,7 +590,7 @@ fn diff_scene_judges_by_the_images_and_refuses_what_it_cannot_compare() {
     assert_eq!(views[0]["view"], "camera");
     assert_eq!(j["image_diff"]["visible"], false);
     let flip = views[0]["flip"].as_f64().unwrap();
-    assert!(flip > 0.0 && flip < 0.02, "{flip}");
+    assert!(flip > 0.0 && flip < 0.03, "{flip}");
     // Two views and two times: four rows; the look-at view is named.
     let r = diff(&[
         &"--scene",
