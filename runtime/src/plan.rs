@@ -224,6 +224,9 @@ pub struct FramePlan {
     descent: u32,
     /// [`RenderSettings::later_near_field_descent`].
     later_descent: u32,
+    /// The later bounces' VPLs shaded (0: none in the asset, or a mode
+    /// that shades no static VPL).
+    later_vpls: u32,
 }
 
 impl FramePlan {
@@ -348,6 +351,11 @@ impl FramePlan {
             cascades,
             descent: settings.near_field_descent,
             later_descent: settings.later_near_field_descent,
+            later_vpls: if flags & F::StaticVpl as u32 != 0 {
+                asset.map_or(0, |a| a.manifest.later_vpls())
+            } else {
+                0
+            },
         })
     }
 
@@ -355,6 +363,15 @@ impl FramePlan {
     /// ([`RenderSettings::near_field_descent`]).
     pub fn near_field_descent(&self) -> u32 {
         self.descent
+    }
+
+    /// The later bounces' VPLs this plan shades after the first bounce's
+    /// (`gibake_asset::Manifest::later_vpls`): 0 where the bake left them
+    /// out (a level lit from outside, `--bounces 1`) or the mode shades no
+    /// static VPL — then no later-bounce work is done: no extra VPL shaded,
+    /// no map merged, no occlusion share computed.
+    pub fn later_vpls(&self) -> u32 {
+        self.later_vpls
     }
 
     /// The later bounces' VPLs' near-field descent in disk radii, 0: one

@@ -205,6 +205,40 @@ fn the_plan_decides_each_modes_passes() {
     }
 }
 
+/// The plan says whether the later bounces are shaded: none for an asset
+/// baked with the first bounce alone (the fixture), the asset's count for
+/// one with every bounce in every mode that shades static VPLs, none in
+/// `direct`.
+#[test]
+fn the_plan_says_whether_the_later_bounces_are_shaded() {
+    let f = fixture();
+    assert_eq!(f.asset.manifest.later_vpls(), 0);
+    let first = renderer(&f.scene, Some(&f.asset), &settings(Mode::Full));
+    assert_eq!(first.plan().later_vpls(), 0);
+    let opts = gibake_bake::BakeOptions {
+        rsm_size: 128,
+        vpl_map_size: 16,
+        shadow_map_size: 256,
+        target: ClusterTarget::Count(32),
+        bounces: gibake_bake::later::Bounces::Every,
+        later_vpls: Some(8),
+    };
+    let every = gibake_bake::bake(&f.ctx, &f.scene, &opts, &gibake_bake::NoProgress, "test")
+        .expect("bake")
+        .asset;
+    let later = every.manifest.later_vpls();
+    assert!(later > 0, "the corner scene keeps its later bounces");
+    for (mode, expected) in [
+        (Mode::Full, later),
+        (Mode::Indirect, later),
+        (Mode::Rsm, later),
+        (Mode::Direct, 0),
+    ] {
+        let r = renderer(&f.scene, Some(&every), &settings(mode));
+        assert_eq!(r.plan().later_vpls(), expected, "{mode:?}");
+    }
+}
+
 #[test]
 fn hot_reload_keeps_handles_and_equals_a_new_renderer() {
     let f = fixture();
