@@ -313,18 +313,20 @@ impl VplMerge {
         self.affected = chosen.len() as u32;
         self.hidden = hidden;
         self.instances = instances.len() as u32;
+        // Per object, the maps one of its draws is drawn into (an object of
+        // several draws counted once a map: `last` is the map it was last
+        // counted for).
         let mut per_object = vec![0u32; transforms.len()];
-        for v in &chosen {
-            let mut drawn = vec![false; transforms.len()];
+        let mut last = vec![u32::MAX; transforms.len()];
+        for &v in &chosen {
             for (k, d) in draws.iter().enumerate() {
-                if let Some(o) = d.object.filter(|&o| o < drawn.len())
-                    && masks[*v as usize][k] != 0
+                if let Some(o) = d.object.filter(|&o| o < per_object.len())
+                    && masks[v as usize][k] != 0
+                    && last[o] != v
                 {
-                    drawn[o] = true;
+                    last[o] = v;
+                    per_object[o] += 1;
                 }
-            }
-            for (n, hit) in per_object.iter_mut().zip(drawn) {
-                *n += u32::from(hit);
             }
         }
         self.per_object = per_object;

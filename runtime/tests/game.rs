@@ -141,6 +141,25 @@ fn texture(format: wgpu::TextureFormat, usage: wgpu::TextureUsages) -> wgpu::Tex
         })
 }
 
+/// A `W × H` `Rgba32Float` texture holding `texels` (four floats each).
+fn rgba32f_texture(texels: &[f32]) -> wgpu::Texture {
+    let t = texture(
+        wgpu::TextureFormat::Rgba32Float,
+        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+    );
+    fixture().ctx.queue.write_texture(
+        t.as_image_copy(),
+        bytemuck::cast_slice(texels),
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(W * 16),
+            rows_per_image: Some(H),
+        },
+        t.size(),
+    );
+    t
+}
+
 /// An engine may prepare on one thread and record on another.
 #[test]
 fn a_renderer_is_send_and_sync() {
@@ -521,26 +540,12 @@ fn a_gbuffer_from_the_engines_depth_and_normals_equals_the_own() {
     // The engine's normals as float octahedral pairs (an `Rgba32Float`
     // made from the own packed ones): the rebuild pass repacks them, and
     // the frame is the same.
-    let packed = gibake_gpu::readback::read_texture_on(d, &f.ctx.queue, &g[1], 0, 8).unwrap();
     let snorm = |v: u16| (f32::from(v as i16) / 32767.0).max(-1.0);
     let floats: Vec<f32> = packed
         .chunks_exact(2)
         .map(|b| snorm(u16::from_le_bytes([b[0], b[1]])))
         .collect();
-    let oct = texture(
-        wgpu::TextureFormat::Rgba32Float,
-        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-    );
-    f.ctx.queue.write_texture(
-        oct.as_image_copy(),
-        bytemuck::cast_slice(&floats),
-        wgpu::TexelCopyBufferLayout {
-            offset: 0,
-            bytes_per_row: Some(W * 16),
-            rows_per_image: Some(H),
-        },
-        oct.size(),
-    );
+    let oct = rgba32f_texture(&floats);
     // The albedo as linear floats (`Rgba32Float`) from the own packed one.
     let own_albedo = gibake_gpu::readback::read_texture_on(d, &f.ctx.queue, &g[2], 0, 4).unwrap();
     let linear: Vec<f32> = own_albedo
@@ -551,20 +556,7 @@ fn a_gbuffer_from_the_engines_depth_and_normals_equals_the_own() {
             [r, g, b, 1.0]
         })
         .collect();
-    let alb = texture(
-        wgpu::TextureFormat::Rgba32Float,
-        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-    );
-    f.ctx.queue.write_texture(
-        alb.as_image_copy(),
-        bytemuck::cast_slice(&linear),
-        wgpu::TexelCopyBufferLayout {
-            offset: 0,
-            bytes_per_row: Some(W * 16),
-            rows_per_image: Some(H),
-        },
-        alb.size(),
-    );
+    let alb = rgba32f_texture(&linear);
     let mut rebuilt = renderer(&f.scene, Some(&f.asset), &s);
     rebuilt
         .use_depth_gbuffer(
