@@ -530,6 +530,14 @@ pub struct RenderArgs {
     /// shading follows this (docs/method.md, "Every bounce").
     #[arg(long, default_value_t = gibake_runtime::DEFAULT_LATER_NEAR_FIELD_DESCENT, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=32))]
     pub later_near_field_descent: u32,
+    /// Shade the later bounces' VPLs at every pixel. By default an
+    /// interleaved render (`--interleave` above 1) shades them on a
+    /// half-resolution grid and its filter brings them up to full
+    /// resolution: about a quarter of their cost, for smooth light
+    /// (docs/method.md, "Every bounce" → "Frame cost: the later bounces at half resolution"). For measuring
+    /// what that changes.
+    #[arg(long)]
+    pub later_full_resolution: bool,
     /// GPU adapter to use (substring of its name; default: GIBAKE_ADAPTER or the first real GPU).
     #[arg(long)]
     pub adapter: Option<String>,

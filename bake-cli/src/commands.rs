@@ -200,6 +200,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         split_windows: !a.no_split_windows,
         near_field_descent: a.near_field_descent,
         later_near_field_descent: a.later_near_field_descent,
+        later_full_resolution: a.later_full_resolution,
     };
     let t0 = Instant::now();
     // The scene's camera, checked before any GPU work.
@@ -249,6 +250,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
             "bounce_texels": stats.bounce_texels,
             "affected_maps": stats.affected_maps,
             "hidden_maps": stats.hidden_maps,
+            "later_half_views": stats.later_half_views,
             "merge_maps_per_object": stats.merge_maps_per_object,
             "merge_instances": stats.merge_instances,
             "update_draw_calls": stats.update_draw_calls,

@@ -18,6 +18,10 @@ struct ViewParams {       // GpuViewParams in shade.rs
     far_depth: f32,       // the depth of "no surface" (0: reversed Z, gibake's own)
     eye: vec4<f32>,       // camera position; w: pixel angle, or −pixel size (orthographic)
     inv_view_proj: mat4x4<f32>,   // clip → world of the camera the depth was drawn with
+    later_half: u32,      // 1: the later bounces shaded at half resolution (shade.wgsl cs_later)
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 // The world point seen at the centre of pixel px (row 0 at the top) of a

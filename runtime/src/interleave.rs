@@ -7,10 +7,20 @@
 //! surface (normal and tangent-plane similarity, scale-invariant) and
 //! writes the final radiance. With `N = 1` neither this pass nor its
 //! texture exists.
+//!
+//! The later bounces at half resolution (an asset baked with every bounce;
+//! [`crate::RenderSettings::later_full_resolution`] off): the shade pass's
+//! `cs_later` writes their interleaved estimates on the half-resolution
+//! grid into [`LaterHalf::raw`]; this pass first filters them on that grid
+//! (`cs_later_filter`, into [`LaterHalf::filtered`]), then adds them to
+//! each pixel from the samples around it. Their light is smooth, and a
+//! later VPL tiles a wide stretch of the surfaces, so its near-field tree
+//! descends almost everywhere: at a quarter of the samples it costs a
+//! quarter (docs/method.md, "Every bounce" → "Frame cost: the later bounces at half resolution").
 
 use gibake_gpu::shaders;
 
-use crate::shade::{RADIANCE_FORMAT, uint_tex_entry};
+use crate::shade::{RADIANCE_FORMAT, later_grid, storage_texture_entry, uint_tex_entry};
 
 /// The pass's WGSL: the G-buffer layout, then its own.
 pub(crate) fn interleave_wgsl() -> String {
@@ -57,13 +67,29 @@ pub(crate) struct InterleavePass {
     pub(crate) shaded: wgpu::TextureView,
     group: Option<wgpu::BindGroup>,
     size: [u32; 2],
+    /// The later bounces at half resolution, when the view shades them so.
+    pub(crate) later: Option<LaterHalf>,
+    /// A 1×1 texture bound as `later_in` without them.
+    no_later: wgpu::TextureView,
+}
+
+/// The later bounces' half-resolution textures and filter.
+pub(crate) struct LaterHalf {
+    filter: wgpu::ComputePipeline,
+    /// The shade pass's estimates, [`crate::shade::later_grid`] of the
+    /// view's size, `Rgba32Float`.
+    pub(crate) raw: wgpu::TextureView,
+    /// Those estimates filtered on their grid.
+    filtered: wgpu::TextureView,
+    group: Option<wgpu::BindGroup>,
 }
 
 const COMPUTE: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
 
 impl InterleavePass {
-    /// Creates the pass and its intermediate texture for `size` and `n`.
-    pub(crate) fn new(device: &wgpu::Device, size: [u32; 2]) -> InterleavePass {
+    /// Creates the pass and its intermediate texture for `size`, with the
+    /// later bounces' half-resolution textures when `later`.
+    pub(crate) fn new(device: &wgpu::Device, size: [u32; 2], later: bool) -> InterleavePass {
         let module = shaders::module(device, "interleave.wgsl", &interleave_wgsl());
         use wgpu::TextureViewDimension::D2;
         let tex = |b| gibake_gpu::util::texture_entry(b, COMPUTE, D2);
@@ -75,16 +101,8 @@ impl InterleavePass {
                 uint_tex_entry(2),
                 tex(3),
                 gibake_gpu::util::uniform_entry(4, COMPUTE),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 5,
-                    visibility: COMPUTE,
-                    ty: wgpu::BindingType::StorageTexture {
-                        access: wgpu::StorageTextureAccess::WriteOnly,
-                        format: RADIANCE_FORMAT,
-                        view_dimension: D2,
-                    },
-                    count: None,
-                },
+                storage_texture_entry(5),
+                tex(6),
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -92,29 +110,39 @@ impl InterleavePass {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("interleave"),
-            layout: Some(&pl),
-            module: &module,
-            entry_point: Some("cs_main"),
-            compilation_options: Default::default(),
-            cache: None,
+        let entry = |label, entry_point| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some(entry_point),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let target = |label, [w, h]: [u32; 2], usage| {
+            gibake_gpu::util::texture_2d(device, label, w, h, RADIANCE_FORMAT, usage)
+                .create_view(&Default::default())
+        };
+        let rw = wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING;
+        let later = later.then(|| LaterHalf {
+            filter: entry("interleave later bounces", "cs_later_filter"),
+            raw: target("later bounces, half resolution", later_grid(size), rw),
+            filtered: target("later bounces, filtered", later_grid(size), rw),
+            group: None,
         });
-        let shaded = gibake_gpu::util::texture_2d(
-            device,
-            "interleaved shading",
-            size[0] * 2,
-            size[1],
-            RADIANCE_FORMAT,
-            wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
-        )
-        .create_view(&Default::default());
         InterleavePass {
-            pipeline,
+            pipeline: entry("interleave", "cs_main"),
             layout,
-            shaded,
+            shaded: target("interleaved shading", [size[0] * 2, size[1]], rw),
             group: None,
             size,
+            later,
+            no_later: target(
+                "no later bounces",
+                [1, 1],
+                wgpu::TextureUsages::TEXTURE_BINDING,
+            ),
         }
     }
 
@@ -128,20 +156,34 @@ impl InterleavePass {
         output: &wgpu::TextureView,
     ) {
         let tv = wgpu::BindingResource::TextureView;
-        let entries = [
-            (0, tv(gbuffer[0])),
-            (1, tv(gbuffer[1])),
-            (2, tv(gbuffer[2])),
-            (3, tv(&self.shaded)),
-            (4, params.as_entire_binding()),
-            (5, tv(output)),
-        ]
-        .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource });
-        self.group = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("interleave"),
-            layout: &self.layout,
-            entries: &entries,
-        }));
+        let group = |label, input, out, later_in| {
+            let entries = [
+                (0, tv(gbuffer[0])),
+                (1, tv(gbuffer[1])),
+                (2, tv(gbuffer[2])),
+                (3, tv(input)),
+                (4, params.as_entire_binding()),
+                (5, tv(out)),
+                (6, tv(later_in)),
+            ]
+            .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource });
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: &self.layout,
+                entries: &entries,
+            })
+        };
+        let later_in = self.later.as_ref().map_or(&self.no_later, |l| &l.filtered);
+        self.group = Some(group("interleave", &self.shaded, output, later_in));
+        if let Some(l) = &self.later {
+            let g = group(
+                "interleave later bounces",
+                &l.raw,
+                &l.filtered,
+                &self.no_later,
+            );
+            self.later.as_mut().expect("just matched").group = Some(g);
+        }
     }
 
     /// Records the pass.
@@ -154,6 +196,13 @@ impl InterleavePass {
             label: Some("interleave"),
             timestamp_writes: timestamps,
         });
+        if let Some(l) = &self.later {
+            // Its own dispatch, so its writes are seen by the next one.
+            let [w, h] = later_grid(self.size);
+            pass.set_pipeline(&l.filter);
+            pass.set_bind_group(0, l.group.as_ref().expect("bound with the view"), &[]);
+            pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+        }
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, self.group.as_ref().expect("bound in Renderer::new"), &[]);
         pass.dispatch_workgroups(self.size[0].div_ceil(8), self.size[1].div_ceil(8), 1);

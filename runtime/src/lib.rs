@@ -483,6 +483,14 @@ impl Renderer {
         for (id, camera) in main.chain(frame.views.iter().copied()) {
             self.view_mut(id)?.set_camera(queue, &camera);
         }
+        let later = self.world.gi.has_later() && !self.settings.later_full_resolution;
+        let mut later_half_views = 0;
+        for v in self.views.iter_mut().flatten() {
+            later_half_views += u32::from(v.set_later(device, queue, &self.shade, later));
+        }
+        if later_half_views > 0 {
+            self.shade.prepare_later(device, &self.world.gi);
+        }
         let affected = self.world.prepare(
             device,
             queue,
@@ -518,6 +526,7 @@ impl Renderer {
             dynamic_vpl_slots: self.world.moving.dynamic_vpl_slots(),
             affected_maps: affected,
             hidden_maps: self.world.moving.hidden_maps(),
+            later_half_views,
             merge_maps_per_object: self.world.moving.merge_maps_per_object(),
             merge_instances: self.world.moving.merge_instances(),
             light_views_merged: light_views,

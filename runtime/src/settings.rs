@@ -126,6 +126,16 @@ pub struct RenderSettings {
     /// docs/method.md, "Every bounce" → "Frame cost". From 0 to 32, else
     /// [`RuntimeError::InvalidSetting`].
     pub later_near_field_descent: u32,
+    /// Shade the later bounces' VPLs at every pixel, as the first bounce's
+    /// (off by default: an interleaved view shades them on a
+    /// half-resolution grid and its interleave filter brings them up to
+    /// full resolution; a view with interleave 1 always shades them at
+    /// every pixel). Their light is smooth and each later VPL's tree
+    /// descends nearly everywhere, so the half-resolution grid costs about
+    /// a quarter of their shading; what it changes in the image is
+    /// measured in docs/method.md, "Every bounce" → "Frame cost: the later bounces at half resolution". On:
+    /// for measuring that.
+    pub later_full_resolution: bool,
 }
 
 /// [`RenderSettings::near_field_descent`] by default (the CPU twin's
@@ -152,6 +162,7 @@ impl Default for RenderSettings {
             split_windows: true,
             near_field_descent: DEFAULT_NEAR_FIELD_DESCENT,
             later_near_field_descent: DEFAULT_LATER_NEAR_FIELD_DESCENT,
+            later_full_resolution: false,
         }
     }
 }

@@ -58,6 +58,11 @@ pub(crate) struct GpuViewParams {
     /// [`crate::CameraMatrices::view_proj`], inverted in f64): rebuilds each
     /// sample's world position from its depth (`gbuffer_position`).
     pub inv_view_proj: [[f32; 4]; 4],
+    /// 1: `cs_main` leaves the later bounces' VPLs out and `cs_later`
+    /// shades them on the half-resolution grid (see [`crate::View`]'s
+    /// `set_later`); 0: every static VPL in `cs_main`.
+    pub later_half: u32,
+    pub _pad: [u32; 3],
 }
 
 /// The renderer's GI parameters (`GiParams` in `shade.wgsl`).
@@ -99,6 +104,11 @@ pub(crate) struct GpuGiParams {
 struct Variant {
     pipeline: wgpu::ComputePipeline,
     gi_layout: wgpu::BindGroupLayout,
+    module: wgpu::ShaderModule,
+    layout: wgpu::PipelineLayout,
+    /// `cs_later`, the later bounces at half resolution: made when a view
+    /// first needs it ([`ShadePass::prepare_later`]).
+    later: std::sync::OnceLock<wgpu::ComputePipeline>,
 }
 
 /// The shading pass: pipelines, bind group layouts, and what is bound where
@@ -111,6 +121,9 @@ pub(crate) struct ShadePass {
     many: std::sync::OnceLock<Variant>,
     /// Bound for absent storage inputs.
     fallback_buf: wgpu::Buffer,
+    /// A 1×1 storage texture bound as the later bounces' output of a view
+    /// that shades them with the rest (`ViewParams::later_half` 0).
+    pub(crate) fallback_later: wgpu::TextureView,
     /// Bound when there are no dynamic VPLs (one empty slot).
     fallback_dyn_vpls: wgpu::Buffer,
     /// A 1×1 `R32Float` texture bound for absent maps.
@@ -175,6 +188,10 @@ pub(crate) struct ViewInputs<'a> {
     pub params: &'a wgpu::Buffer,
     /// Output radiance view (`Rgba32Float`, storage binding).
     pub output: &'a wgpu::TextureView,
+    /// The later bounces' half-resolution estimates (`Rgba32Float`,
+    /// storage binding; [`ShadePass::fallback_later`] where the view has
+    /// none).
+    pub later: &'a wgpu::TextureView,
 }
 
 /// Light and GI inputs (group 1); `None`: the feature is absent and the
@@ -271,7 +288,24 @@ impl Variant {
         Variant {
             pipeline,
             gi_layout,
+            module,
+            layout: pl,
+            later: std::sync::OnceLock::new(),
         }
+    }
+
+    /// The `cs_later` pipeline, made on first use.
+    fn later(&self, device: &wgpu::Device) -> &wgpu::ComputePipeline {
+        self.later.get_or_init(|| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("shade later bounces"),
+                layout: Some(&self.layout),
+                module: &self.module,
+                entry_point: Some("cs_later"),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        })
     }
 }
 
@@ -285,16 +319,8 @@ impl ShadePass {
                 uint_tex_entry(1),
                 uint_tex_entry(2),
                 uniform_entry(3),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 4,
-                    visibility: COMPUTE,
-                    ty: wgpu::BindingType::StorageTexture {
-                        access: wgpu::StorageTextureAccess::WriteOnly,
-                        format: RADIANCE_FORMAT,
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                    },
-                    count: None,
-                },
+                storage_texture_entry(4),
+                storage_texture_entry(5),
             ],
         });
         let one = Variant::new(device, &view_layout, false);
@@ -312,6 +338,15 @@ impl ShadePass {
             composite: Default::default(),
             depth_gbuffer: Default::default(),
             fallback_buf: storage("absent GI input", 64),
+            fallback_later: gibake_gpu::util::texture_2d(
+                device,
+                "no half-resolution later bounces",
+                1,
+                1,
+                RADIANCE_FORMAT,
+                wgpu::TextureUsages::STORAGE_BINDING,
+            )
+            .create_view(&Default::default()),
             fallback_dyn_vpls: storage("no dynamic VPLs", 48),
             fallback_map: gibake_gpu::util::texture_2d(
                 device,
@@ -353,6 +388,7 @@ impl ShadePass {
                 (2, tv(i.gbuffer[2])),
                 (3, i.params.as_entire_binding()),
                 (4, tv(i.output)),
+                (5, tv(i.later)),
             ]),
         })
     }
@@ -415,29 +451,65 @@ impl ShadePass {
         })
     }
 
-    /// Records the pass (with the variant `gi` was made for).
+    /// Makes the `cs_later` pipeline of `gi`'s variant (before a view
+    /// records with `later_half`).
+    pub(crate) fn prepare_later(&self, device: &wgpu::Device, gi: &ShadeGi) {
+        self.variant(device, gi.many).later(device);
+    }
+
+    /// Records the pass (with the variant `gi` was made for); `later_half`:
+    /// also the later bounces on the half-resolution grid, in the same
+    /// pass (after [`ShadePass::prepare_later`]).
     pub(crate) fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         view: &wgpu::BindGroup,
         gi: &ShadeGi,
-        size: [u32; 2],
-        interleave: u32,
+        (size, interleave, later_half): ([u32; 2], u32, bool),
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
-        let pipeline = match (gi.many, self.many.get()) {
-            (true, Some(v)) => &v.pipeline,
-            _ => &self.one.pipeline,
+        let variant = match (gi.many, self.many.get()) {
+            (true, Some(v)) => v,
+            _ => &self.one,
         };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("shade"),
             timestamp_writes: timestamps,
         });
-        pass.set_pipeline(pipeline);
+        pass.set_pipeline(&variant.pipeline);
         pass.set_bind_group(0, view, &[]);
         pass.set_bind_group(1, &gi.group, &[]);
         let [x, y] = workgroups(size, interleave);
         pass.dispatch_workgroups(x, y, 1);
+        debug_assert!(
+            !later_half || variant.later.get().is_some(),
+            "made in Renderer::prepare"
+        );
+        if later_half && let Some(later) = variant.later.get() {
+            pass.set_pipeline(later);
+            let [x, y] = workgroups(later_grid(size), interleave);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+    }
+}
+
+/// The half-resolution grid of the later bounces (`cs_later`): sample
+/// `(i, j)` stands for pixel `(2i, 2j)`.
+pub(crate) fn later_grid(size: [u32; 2]) -> [u32; 2] {
+    size.map(|v| v.div_ceil(2))
+}
+
+/// A write-only `Rgba32Float` storage texture binding.
+pub(crate) fn storage_texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: COMPUTE,
+        ty: wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format: RADIANCE_FORMAT,
+            view_dimension: wgpu::TextureViewDimension::D2,
+        },
+        count: None,
     }
 }
 
@@ -571,6 +643,13 @@ impl ShadeGi {
     pub(crate) fn static_vpls(&self) -> u32 {
         self.params.n_static
     }
+
+    /// Whether the static VPLs end with the later bounces' (which a view
+    /// may shade at half resolution).
+    pub(crate) fn has_later(&self) -> bool {
+        self.params.flags & crate::plan::ShadeFlag::StaticVpl as u32 != 0
+            && self.params.first_later < self.params.n_static
+    }
 }
 
 #[cfg(test)]
@@ -640,7 +719,15 @@ mod tests {
     #[test]
     fn the_shade_grid_covers_every_pixel_once_one_subset_per_workgroup() {
         let sizes = [[1, 1], [7, 9], [8, 8], [33, 17], [203, 157], [256, 256]];
+        // The later bounces' half-resolution grids too (`cs_later`): each
+        // sample's pixel (2i, 2j) inside the image, every pixel column and
+        // row within one sample of one.
         for size in sizes {
+            let [w, h] = super::later_grid(size);
+            assert!(2 * (w - 1) < size[0] && 2 * (h - 1) < size[1], "{size:?}");
+            assert!(2 * w >= size[0] && 2 * h >= size[1], "{size:?}");
+        }
+        for size in sizes.into_iter().chain(sizes.map(super::later_grid)) {
             for n in [1, 2, 4, 8] {
                 let [gx, gy] = super::workgroups(size, n);
                 let mut seen = vec![0u8; (size[0] * size[1]) as usize];

@@ -20,6 +20,12 @@
 // quadtree Morton order, so every subset is an even spread over the RSM), and
 // writes direct radiance at (x, y) and that irradiance estimate at
 // (x + width, y) of a 2·width-wide texture; interleave.wgsl filters it.
+// With view.later_half (interleaved, an asset with later-bounce VPLs,
+// RenderSettings::later_full_resolution off) cs_main leaves the later
+// bounces' VPLs out and cs_later shades them on the half-resolution grid
+// (sample (i, j) = pixel (2i, 2j)), interleaved the same way, into
+// out_later; interleave.wgsl filters that grid and brings it up to full
+// resolution.
 
 struct GiParams {         // GpuGiParams in shade.rs
     flags: u32,           // ShadeFlag bits (FLAG_* generated from shade flags in plan.rs)
@@ -51,6 +57,9 @@ const VPL_MAX_SLOPE: f32 = 10.0;
 @group(0) @binding(2) var g_albedo: texture_2d<u32>;
 @group(0) @binding(3) var<uniform> view: ViewParams;
 @group(0) @binding(4) var out_radiance: texture_storage_2d<rgba32float, write>;
+// The later bounces' irradiance estimates on the half-resolution grid
+// (cs_later; a 1×1 stand-in where the view has none).
+@group(0) @binding(5) var out_later: texture_storage_2d<rgba32float, write>;
 
 // Group 1: light and GI data, shared by every view.
 @group(1) @binding(0) var<storage, read> vpls: array<Vpl>;   // n_static VPLs, their near-field trees, their far-field records
@@ -588,17 +597,75 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
     return t;
 }
 
+// Irradiance at x from static VPL i: its terms, the hemisphere map's
+// visibility on their shadowed part, its lit fraction (partial occlusion).
+fn static_vpl_irradiance(i: u32, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
+    let v = vpls[i];
+    let origin = v.position;   // the map origin, lifted at load (baked.rs)
+    let t = static_vpl_terms(i, v, x, ns, ng);
+    if (all(t.shadowed == vec3<f32>(0.0)) && all(t.open == vec3<f32>(0.0))) {
+        return vec3<f32>(0.0);
+    }
+    var ei = t.open;
+    if (any(t.shadowed != vec3<f32>(0.0))) {
+        var vis = 1.0;
+        if (has(FLAG_VISIBILITY)) {
+            vis = vpl_visibility(i, v, origin, x, ng);
+        }
+        ei += t.shadowed * vis;
+    }
+    if (has(FLAG_OCCLUSION)) {
+        ei = ei * max(1.0 - f32(occlusion[i]) / OCCL_ONE, 0.0);
+    }
+    return ei;
+}
+
+// The grid point of invocation gid in a deinterleaved grid of `size`
+// points at interleave n (workgroups() in shade.rs): N × N planes of whole
+// workgroups, plane a = gid / plane holding the points a + N·i that shade
+// the same VPL subset.
+fn deinterleaved(gid: vec2<u32>, size: vec2<u32>, n: u32) -> vec2<u32> {
+    if (n <= 1u) {
+        return gid;
+    }
+    let plane = ((size + vec2<u32>(n - 1u)) / n + vec2<u32>(7u)) / 8u * 8u;
+    return gid / plane + n * (gid % plane);
+}
+
+// The later bounces' VPLs on the half-resolution grid (view.later_half):
+// sample (i, j) is pixel (2i, 2j); it shades the later VPLs
+// first_later + k + N²·m, k its interleave subset, scaled by N², and
+// writes that irradiance estimate (0 where the pixel has no surface).
+@compute @workgroup_size(8, 8)
+fn cs_later(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let n = max(view.interleave, 1u);
+    let half = (view.size + vec2<u32>(1u)) / 2u;
+    let q = deinterleaved(gid.xy, half, n);
+    if (any(q >= half)) {
+        return;
+    }
+    let px = vec2<i32>(q * 2u);
+    let depth = textureLoad(g_depth, px, 0).r;
+    var e = vec3<f32>(0.0);
+    if (depth != view.far_depth && has(FLAG_STATIC_VPL)) {
+        let x = gbuffer_position(view.inv_view_proj, view.size, px, depth);
+        let nn = textureLoad(g_normals, px, 0).xy;
+        let ns = gbuffer_normal(nn.x);
+        let ng = gbuffer_normal(nn.y);
+        let stride = n * n;
+        let k = (q.x % n) + n * (q.y % n);
+        for (var i = params.first_later + k; i < params.n_static; i += stride) {
+            e += static_vpl_irradiance(i, x, ns, ng);
+        }
+        e = e * f32(stride);
+    }
+    textureStore(out_later, vec2<i32>(q), vec4<f32>(finite_or_zero3(e), 1.0));
+}
+
 @compute @workgroup_size(8, 8)
 fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let n = max(view.interleave, 1u);
-    // Interleaved, the grid is deinterleaved (workgroups() in shade.rs): N × N
-    // planes of whole workgroups, plane a = gid / plane holding the pixels
-    // a + N·i that shade the same VPL subset.
-    var p = gid.xy;
-    if (n > 1u) {
-        let plane = ((view.size + vec2<u32>(n - 1u)) / n + vec2<u32>(7u)) / 8u * 8u;
-        p = gid.xy / plane + n * (gid.xy % plane);
-    }
+    let p = deinterleaved(gid.xy, view.size, n);
     let inside = all(p < view.size);
     let px = vec2<i32>(p);
     var covered = false;
@@ -631,25 +698,10 @@ fn cs_main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocat
             direct = direct_radiance(x, ns, ng, albedo);
         }
         if (has(FLAG_STATIC_VPL)) {
-            for (var i = k; i < params.n_static; i += stride) {
-                let v = vpls[i];
-                let origin = v.position;   // the map origin, lifted at load (baked.rs)
-                let t = static_vpl_terms(i, v, x, ns, ng);
-                if (all(t.shadowed == vec3<f32>(0.0)) && all(t.open == vec3<f32>(0.0))) {
-                    continue;
-                }
-                var ei = t.open;
-                if (any(t.shadowed != vec3<f32>(0.0))) {
-                    var vis = 1.0;
-                    if (has(FLAG_VISIBILITY)) {
-                        vis = vpl_visibility(i, v, origin, x, ng);
-                    }
-                    ei += t.shadowed * vis;
-                }
-                if (has(FLAG_OCCLUSION)) {
-                    ei = ei * max(1.0 - f32(occlusion[i]) / OCCL_ONE, 0.0);
-                }
-                e += ei;
+            // The later bounces' VPLs, where cs_later shades them, left out.
+            let end = select(params.n_static, params.first_later, view.later_half != 0u);
+            for (var i = k; i < end; i += stride) {
+                e += static_vpl_irradiance(i, x, ns, ng);
             }
         }
         if (has(FLAG_DYNAMIC_VPL)) {

@@ -88,6 +88,11 @@ pub struct FrameStats {
     /// mesh, map, octahedron face it can touch), each drawing the mesh at
     /// its level of detail for that map — the merge's work.
     pub merge_instances: u32,
+    /// Views that shaded the later bounces' VPLs on the half-resolution
+    /// grid this frame ([`crate::RenderSettings::later_full_resolution`]
+    /// off, an asset with later-bounce VPLs, interleave above 1); 0: every
+    /// view shaded them at every pixel, or there were none.
+    pub later_half_views: u32,
     /// Views of the lights after the first into which moving objects were
     /// rasterized this frame (the light merge's passes).
     pub light_views_merged: u32,

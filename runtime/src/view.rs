@@ -169,12 +169,15 @@ impl View {
             far_depth: 0.0,
             eye: [0.0; 4],
             inv_view_proj: glam::Mat4::IDENTITY.to_cols_array_2d(),
+            later_half: 0,
+            _pad: [0; 3],
         };
         let params_buf = uniform(device, "shade view params", &params);
         let gbuffer = GBuffer::new(device, size[0], size[1]);
         let own = own_output(device, size[0], size[1]);
         let radiance_view = own.create_view(&Default::default());
-        let mut interleave = (params.interleave > 1).then(|| InterleavePass::new(device, size));
+        let mut interleave =
+            (params.interleave > 1).then(|| InterleavePass::new(device, size, false));
         let group = bind(
             device,
             shade,
@@ -212,6 +215,9 @@ impl View {
         self.params.size = size;
         self.params.interleave = interleave::effective(self.interleave_setting, size[0], size[1]);
         self.params.far_depth = 0.0;
+        // Half-resolution later bounces need the interleave filter.
+        let later = self.params.later_half != 0 && self.params.interleave > 1;
+        self.params.later_half = u32::from(later);
         queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
         self.gbuffer = GBuffer::new(device, size[0], size[1]);
         self.source = Source::Own;
@@ -219,8 +225,33 @@ impl View {
         self.radiance = self.own.clone();
         self.radiance_view = self.radiance.create_view(&Default::default());
         self.composite = None;
-        self.interleave = (self.params.interleave > 1).then(|| InterleavePass::new(device, size));
+        self.interleave =
+            (self.params.interleave > 1).then(|| InterleavePass::new(device, size, later));
         self.rebind(device, shade);
+    }
+
+    /// Shades the later bounces' VPLs on the half-resolution grid when
+    /// `want` (the asset has them, [`crate::RenderSettings::
+    /// later_full_resolution`] is off) and the view is interleaved (the
+    /// filter brings them up to full resolution); with the rest of the VPLs
+    /// otherwise. Makes or drops their textures when that changes; returns
+    /// whether the view shades them at half resolution.
+    pub(crate) fn set_later(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        shade: &ShadePass,
+        want: bool,
+    ) -> bool {
+        let later = want && self.params.interleave > 1;
+        if later != (self.params.later_half != 0) {
+            self.params.later_half = u32::from(later);
+            queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
+            self.interleave = (self.params.interleave > 1)
+                .then(|| InterleavePass::new(device, self.params.size, later));
+            self.rebind(device, shade);
+        }
+        later
     }
 
     /// Re-creates the camera's bind group over a new scene's meshes (after
@@ -479,8 +510,11 @@ impl View {
             encoder,
             &self.group,
             gi,
-            self.params.size,
-            self.params.interleave,
+            (
+                self.params.size,
+                self.params.interleave,
+                self.params.later_half != 0,
+            ),
             timer.compute(Pass::Shade, k),
         );
         if let Some(il) = &self.interleave {
@@ -503,12 +537,13 @@ fn bind(
     interleave: Option<&mut InterleavePass>,
     output: &wgpu::TextureView,
 ) -> wgpu::BindGroup {
-    let shade_out = match interleave {
+    let (shade_out, later) = match interleave {
         Some(il) => {
             il.bind(device, gbuffer, params, output);
-            il.shaded.clone()
+            let later = il.later.as_ref().map(|l| l.raw.clone());
+            (il.shaded.clone(), later)
         }
-        None => output.clone(),
+        None => (output.clone(), None),
     };
     shade.view_group(
         device,
@@ -516,6 +551,7 @@ fn bind(
             gbuffer,
             params,
             output: &shade_out,
+            later: later.as_ref().unwrap_or(&shade.fallback_later),
         },
     )
 }
