@@ -108,11 +108,26 @@ fn frame(
     dyn_vpls: u32,
     ball: Vec3,
 ) -> Image {
+    let cull = RenderSettings::default().merge_cull_share;
+    frame_culled(ctx, scene, asset, (mode, dyn_vpls), ball, cull)
+}
+
+/// [`frame`] with the merge leaving out up to `cull` of the ball's shadow
+/// (`RenderSettings::merge_cull_share`).
+fn frame_culled(
+    ctx: &GpuContext,
+    scene: &Scene,
+    asset: &Asset,
+    (mode, dyn_vpls): (Mode, u32),
+    ball: Vec3,
+    cull: f32,
+) -> Image {
     let s = RenderSettings {
         width: SIZE,
         height: SIZE,
         mode,
         max_dynamic_vpls: dyn_vpls,
+        merge_cull_share: cull,
         ..Default::default()
     };
     let mut r = Renderer::new(&ctx.device, &ctx.queue, scene, Some(asset), &s).unwrap();
@@ -176,7 +191,10 @@ fn a_ball_casts_an_indirect_shadow_from_static_vpls() {
     let asset = bake(&ctx, &scene);
     let near = Vec3::new(0.0, 0.35, -0.75);
     let away = Vec3::new(0.0, -20.0, 0.0);
-    let with = frame(&ctx, &scene, &asset, Mode::Indirect, 0, near);
+    // The merge exact (every map the ball reaches), and at the default
+    // share of faint shadows left out.
+    let with = frame_culled(&ctx, &scene, &asset, (Mode::Indirect, 0), near, 0.0);
+    let culled = frame(&ctx, &scene, &asset, Mode::Indirect, 0, near);
     let without = frame(&ctx, &scene, &asset, Mode::Indirect, 0, away);
     let naive = frame(&ctx, &scene, &asset, Mode::Naive, 0, near);
     let direct_with = frame(&ctx, &scene, &asset, Mode::Direct, 0, near);
@@ -219,6 +237,21 @@ fn a_ball_casts_an_indirect_shadow_from_static_vpls() {
     assert!(
         (n.x - a.x).abs() < 0.02 * a.x.max(1e-6),
         "naive {n} vs full {a}"
+    );
+    // With the default share of faint shadows left out, the shadow keeps
+    // its depth but for that share (and 2% more), and is no deeper.
+    let c = mean_where(&culled, &behind);
+    let share = RenderSettings::default().merge_cull_share;
+    let (depth, kept) = (b.x - a.x, b.x - c.x);
+    eprintln!("shadow depth behind the ball: {kept} of {depth} with {share} left out at most");
+    assert!(
+        kept >= (1.0 - share - 0.02) * depth && kept <= 1.02 * depth,
+        "culled shadow {kept} against {depth}"
+    );
+    let fc = mean_where(&culled, &far);
+    assert!(
+        (fc.x - fb.x).abs() < 0.05 * fb.x,
+        "far wall changed: {fc} vs {fb}"
     );
 }
 

@@ -538,6 +538,13 @@ pub struct RenderArgs {
     /// what that changes.
     #[arg(long)]
     pub later_full_resolution: bool,
+    /// The largest share of each moving object's shadow in the static
+    /// VPLs' light that the VPL-map merge may leave out, the faintest
+    /// first (the maps of VPLs across the level from a small object): 0
+    /// draws every moving object into every map it reaches (docs/method.md,
+    /// "The VPL-map merge" → "Faint shadows left out"). From 0 to 0.5.
+    #[arg(long, default_value_t = gibake_runtime::DEFAULT_MERGE_CULL_SHARE, value_name = "SHARE")]
+    pub merge_cull_share: f32,
     /// GPU adapter to use (substring of its name; default: GIBAKE_ADAPTER or the first real GPU).
     #[arg(long)]
     pub adapter: Option<String>,

@@ -201,6 +201,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
         near_field_descent: a.near_field_descent,
         later_near_field_descent: a.later_near_field_descent,
         later_full_resolution: a.later_full_resolution,
+        merge_cull_share: a.merge_cull_share,
     };
     let t0 = Instant::now();
     // The scene's camera, checked before any GPU work.
@@ -251,6 +252,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
             "affected_maps": stats.affected_maps,
             "hidden_maps": stats.hidden_maps,
             "later_half_views": stats.later_half_views,
+            "merge_faint_pairs": stats.merge_faint_pairs,
             "merge_maps_per_object": stats.merge_maps_per_object,
             "merge_instances": stats.merge_instances,
             "update_draw_calls": stats.update_draw_calls,

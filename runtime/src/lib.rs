@@ -68,6 +68,7 @@ mod later_occlusion;
 mod light;
 mod map_cells;
 mod merge;
+mod merge_cull;
 mod moving;
 mod other_lights;
 mod plan;
@@ -108,7 +109,8 @@ pub use requirements::Requirements;
 #[cfg(feature = "gltf-import")]
 pub use scene_options::{load_options_for, load_scene_for};
 pub use settings::{
-    Cascades, DEFAULT_LATER_NEAR_FIELD_DESCENT, DEFAULT_NEAR_FIELD_DESCENT, Mode, RenderSettings,
+    Cascades, DEFAULT_LATER_NEAR_FIELD_DESCENT, DEFAULT_MERGE_CULL_SHARE,
+    DEFAULT_NEAR_FIELD_DESCENT, Mode, RenderSettings,
 };
 pub use stats::{FRAMES_IN_FLIGHT, FrameStats, Timing};
 pub use view::{OutputTarget, ViewId};
@@ -527,6 +529,7 @@ impl Renderer {
             affected_maps: affected,
             hidden_maps: self.world.moving.hidden_maps(),
             later_half_views,
+            merge_faint_pairs: self.world.moving.merge_faint_pairs(),
             merge_maps_per_object: self.world.moving.merge_maps_per_object(),
             merge_instances: self.world.moving.merge_instances(),
             light_views_merged: light_views,

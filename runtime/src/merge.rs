@@ -60,6 +60,13 @@ pub(crate) struct VplMerge {
     per_object: Vec<u32>,
     /// Rasterization instances this frame.
     instances: u32,
+    /// Per frame: its VPL's flux (luminance; a second map its VPL's).
+    weight: Vec<f32>,
+    /// [`crate::RenderSettings::merge_cull_share`] (0 in `naive` mode).
+    cull_share: f32,
+    /// (Map, draw) pairs left out as faint this frame
+    /// ([`crate::merge_cull`]).
+    faint: u32,
 }
 
 /// A merge atlas for `capacity` tiles in the one atlas layout, or the
@@ -81,7 +88,18 @@ impl VplMerge {
         baked: &BakedGpu,
         scene_diagonal: f32,
         naive: bool,
+        cull_share: f32,
     ) -> Result<VplMerge, RuntimeError> {
+        let lum = |f: [f32; 3]| {
+            let l = 0.2126 * f[0] + 0.7152 * f[1] + 0.0722 * f[2];
+            if l.is_finite() { l.max(0.0) } else { 0.0 }
+        };
+        let flux: Vec<f32> = baked.vpls.iter().map(|v| lum(v.flux)).collect();
+        let weight: Vec<f32> = flux
+            .iter()
+            .copied()
+            .chain(flux.iter().copied().take(baked.lower.len()))
+            .collect();
         let frames: Vec<Option<(Vec3, Vec3)>> = baked
             .vpls
             .iter()
@@ -115,6 +133,9 @@ impl VplMerge {
             hidden: 0,
             per_object: Vec::new(),
             instances: 0,
+            weight,
+            cull_share: if naive { 0.0 } else { cull_share },
+            faint: 0,
         })
     }
 
@@ -141,6 +162,11 @@ impl VplMerge {
     /// Per moving object: the maps it is drawn into this frame.
     pub(crate) fn per_object(&self) -> &[u32] {
         &self.per_object
+    }
+
+    /// (Map, draw) pairs left out as faint this frame.
+    pub(crate) fn faint(&self) -> u32 {
+        self.faint
     }
 
     /// Rasterization instances this frame.
@@ -190,7 +216,7 @@ impl VplMerge {
         // for a VPL without a second map, nor where the baked map hides
         // the draw in every direction it covers: map_cells.rs).
         let mut hidden = 0;
-        let masks: Vec<Vec<u32>> = self
+        let mut masks: Vec<Vec<u32>> = self
             .frames
             .iter()
             .enumerate()
@@ -217,6 +243,15 @@ impl VplMerge {
                 None => vec![0; boxes.len()],
             })
             .collect();
+        // Each draw's faintest shadows, within the setting's share of its
+        // light.
+        self.faint = crate::merge_cull::leave_out_faint(
+            &mut masks,
+            &self.frames,
+            &self.weight,
+            &boxes,
+            self.cull_share,
+        );
         // Full: only maps some moving object reaches get a tile.
         let chosen: Vec<u32> = (0..self.frames.len() as u32)
             .filter(|&v| {

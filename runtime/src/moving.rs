@@ -62,6 +62,8 @@ pub(crate) struct UpdateInputs<'a> {
     pub scene_diagonal: f32,
     /// [`crate::RenderSettings::split_windows`].
     pub split_windows: bool,
+    /// [`crate::RenderSettings::merge_cull_share`].
+    pub merge_cull_share: f32,
 }
 
 /// What shading reads from the update (`None`: the pass does not exist).
@@ -260,6 +262,7 @@ impl MovingPasses {
                 b,
                 i.scene_diagonal,
                 plan.mode() == crate::Mode::Naive,
+                i.merge_cull_share,
             )?),
             _ => None,
         };
@@ -380,6 +383,11 @@ impl MovingPasses {
     /// The merge's rasterization instances this frame.
     pub(crate) fn merge_instances(&self) -> u32 {
         self.merge.as_ref().map_or(0, VplMerge::instances)
+    }
+
+    /// (Map, draw) pairs the merge left out as faint this frame.
+    pub(crate) fn merge_faint_pairs(&self) -> u32 {
+        self.merge.as_ref().map_or(0, VplMerge::faint)
     }
 
     /// VPL maps a moving object reaches that their baked map hides.

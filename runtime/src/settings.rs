@@ -136,11 +136,25 @@ pub struct RenderSettings {
     /// measured in docs/method.md, "Every bounce" → "Frame cost: the later bounces at half resolution". On:
     /// for measuring that.
     pub later_full_resolution: bool,
+    /// The largest share of each moving object's shadow in the static
+    /// VPLs' light that the VPL-map merge may leave out, its faintest
+    /// first: per moving draw, the maps whose VPL loses least light to it
+    /// (a VPL across the level from a small object) are not drawn into
+    /// while their light in all stays within this share of the light the
+    /// draw takes from every map it reaches
+    /// ([`crate::FrameStats::merge_faint_pairs`] counts them). Measured in
+    /// docs/method.md, "The VPL-map merge" → "Faint shadows left out". 0:
+    /// every map a moving object reaches. From 0 to 0.5, else
+    /// [`RuntimeError::InvalidSetting`].
+    pub merge_cull_share: f32,
 }
 
 /// [`RenderSettings::near_field_descent`] by default (the CPU twin's
 /// `gibake_eval::transport::DESCENT_RATIO`).
 pub const DEFAULT_NEAR_FIELD_DESCENT: u32 = 8;
+
+/// [`RenderSettings::merge_cull_share`] by default.
+pub const DEFAULT_MERGE_CULL_SHARE: f32 = 0.05;
 
 /// [`RenderSettings::later_near_field_descent`] by default.
 pub const DEFAULT_LATER_NEAR_FIELD_DESCENT: u32 = 4;
@@ -163,6 +177,7 @@ impl Default for RenderSettings {
             near_field_descent: DEFAULT_NEAR_FIELD_DESCENT,
             later_near_field_descent: DEFAULT_LATER_NEAR_FIELD_DESCENT,
             later_full_resolution: false,
+            merge_cull_share: DEFAULT_MERGE_CULL_SHARE,
         }
     }
 }
@@ -187,6 +202,12 @@ impl RenderSettings {
             return Err(RuntimeError::InvalidSetting(format!(
                 "the later bounces' near-field descent {} must be from 0 to 32 disk radii",
                 self.later_near_field_descent
+            )));
+        }
+        if !(0.0..=0.5).contains(&self.merge_cull_share) {
+            return Err(RuntimeError::InvalidSetting(format!(
+                "the merge's cull share {} must be from 0 to 0.5",
+                self.merge_cull_share
             )));
         }
         crate::view::check_size(device, self.width, self.height, self.interleave)?;

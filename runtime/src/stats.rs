@@ -88,6 +88,9 @@ pub struct FrameStats {
     /// mesh, map, octahedron face it can touch), each drawing the mesh at
     /// its level of detail for that map — the merge's work.
     pub merge_instances: u32,
+    /// (Map, moving draw) pairs the merge left out this frame as faint
+    /// shadows ([`crate::RenderSettings::merge_cull_share`]).
+    pub merge_faint_pairs: u32,
     /// Views that shaded the later bounces' VPLs on the half-resolution
     /// grid this frame ([`crate::RenderSettings::later_full_resolution`]
     /// off, an asset with later-bounce VPLs, interleave above 1); 0: every

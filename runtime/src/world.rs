@@ -123,6 +123,7 @@ impl World {
                 max_dynamic_vpls_per_view: settings.max_dynamic_vpls_per_view,
                 scene_diagonal: scene.full_bounds().diagonal(),
                 split_windows: settings.split_windows,
+                merge_cull_share: settings.merge_cull_share,
             },
         )?;
         let gbuffer = GBufferPass::new(device, &scene_gpu);

@@ -1,0 +1,168 @@
+//! Which moving-object shadows the VPL-map merge may leave out: each
+//! object's faintest, up to a share of its shadow
+//! ([`crate::RenderSettings::merge_cull_share`]).
+//!
+//! Drawing a moving object into a VPL's map shadows that VPL's light
+//! behind it. The light the shadow takes is at most the share of the VPL's
+//! flux the object intercepts: for a Lambertian emitter and an object whose
+//! bounding sphere (radius r, centre at distance d, direction at angle θ
+//! from the map's normal) lies off the emitter, about `(r/d)² · cos θ`
+//! ([`intercepted`]). A VPL across a level from a small object loses a
+//! ten-thousandth of its light to it; the VPL beside it, a third. Per
+//! moving draw, the merge sorts the maps it reaches by that light — the
+//! VPL's flux (luminance) times the share — and leaves out the faintest
+//! while their sum stays within the setting's share of the light the draw
+//! takes from all of them: its shadow, summed over every VPL, keeps at
+//! least the rest. A budget over the whole level's light would not do:
+//! the far VPLs' shadows of one object overlap right behind it, and
+//! leaving out 0.3% of the level's light took a fifth of a ball's shadow
+//! on the wall behind it. As an object moves, a pair near the bound comes
+//! and goes with a change in the image no larger than its own light
+//! (measured in docs/method.md, "The VPL-map merge" → "Faint shadows left
+//! out").
+
+use gibake_scene::Aabb;
+use glam::Vec3;
+
+/// The share of a Lambertian emitter's flux at `origin` with unit normal
+/// `normal` that an object bounded by `b` intercepts at most: `(r/d)²
+/// · cos θ`, with the cosine widened by the sphere's half-angle (`r/d`)
+/// and clamped to [0, 1]; 1 where the origin lies inside the bounding
+/// sphere.
+pub(crate) fn intercepted(origin: Vec3, normal: Vec3, b: &Aabb) -> f32 {
+    let c = (b.min + b.max) * 0.5;
+    let r = (b.max - b.min).length() * 0.5;
+    let to = c - origin;
+    let d = to.length();
+    if !(d > r) {
+        return 1.0;
+    }
+    let s = r / d;
+    let cos = (normal.dot(to / d) + s).clamp(0.0, 1.0);
+    let f = s * s * cos;
+    if f.is_finite() { f.min(1.0) } else { 1.0 }
+}
+
+/// Leaves out of `masks` (per map, per draw: the faces drawn) each draw's
+/// faintest (map, draw) pairs while the light they take, in all, stays
+/// within `share` of the light that draw intercepts from every map it
+/// reaches: its shadow, summed over the VPLs, loses at most that share,
+/// wherever the left-out shadows fall (behind the object, from many far
+/// VPLs at once). `weight[v]`: map `v`'s VPL flux (luminance);
+/// `frames[v]`: its origin and normal. Returns the pairs left out. Ties
+/// are broken by map, so the choice is the same every run.
+pub(crate) fn leave_out_faint(
+    masks: &mut [Vec<u32>],
+    frames: &[Option<(Vec3, Vec3)>],
+    weight: &[f32],
+    boxes: &[Aabb],
+    share: f32,
+) -> u32 {
+    if !(share > 0.0) {
+        return 0;
+    }
+    let mut out = 0;
+    let mut pairs: Vec<(f32, usize)> = Vec::new();
+    for (k, b) in boxes.iter().enumerate() {
+        pairs.clear();
+        for (v, m) in masks.iter().enumerate() {
+            let Some((o, n)) = frames[v] else { continue };
+            if m.get(k).is_some_and(|&faces| faces != 0) {
+                let w = weight.get(v).copied().unwrap_or(f32::INFINITY);
+                let e = w * intercepted(o, n, b);
+                pairs.push((if e.is_finite() { e } else { f32::INFINITY }, v));
+            }
+        }
+        let total: f32 = pairs.iter().map(|p| p.0).sum();
+        let budget = share * total;
+        if !(budget > 0.0 && budget.is_finite()) {
+            continue;
+        }
+        pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut spent = 0.0f32;
+        for &(e, v) in &pairs {
+            if !(spent + e <= budget) {
+                break;
+            }
+            spent += e;
+            masks[v][k] = 0;
+            out += 1;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cube(c: Vec3, h: f32) -> Aabb {
+        Aabb {
+            min: c - Vec3::splat(h),
+            max: c + Vec3::splat(h),
+        }
+    }
+
+    /// The intercepted share falls with the square of the distance, is
+    /// the same at every scale, and is whole inside the object.
+    #[test]
+    fn intercepted_share_follows_the_solid_angle_at_every_scale() {
+        let n = Vec3::Y;
+        for s in [1e-3f32, 1.0, 1e3] {
+            let near = intercepted(Vec3::ZERO, n, &cube(Vec3::Y * 4.0 * s, s));
+            let far = intercepted(Vec3::ZERO, n, &cube(Vec3::Y * 40.0 * s, s));
+            assert!((near / far - 100.0).abs() < 12.0, "{near} {far}");
+            assert!((0.0..=1.0).contains(&near), "{near}");
+            assert_eq!(intercepted(Vec3::ZERO, n, &cube(Vec3::ZERO, s)), 1.0);
+            // Beside the emitter's plane: its cosine, widened by the
+            // half-angle, not zero.
+            let side = intercepted(Vec3::ZERO, n, &cube(Vec3::X * 4.0 * s, s));
+            assert!(side > 0.0 && side < near, "{side} {near}");
+        }
+    }
+
+    /// Each draw's faintest pairs go first, never more of its light than
+    /// the share, and nothing at share 0.
+    #[test]
+    fn the_faintest_pairs_go_within_the_budget() {
+        let frames = vec![Some((Vec3::ZERO, Vec3::Y)), Some((Vec3::X * 50.0, Vec3::Y))];
+        let weight = [1.0, 1.0];
+        let boxes = [
+            cube(Vec3::Y * 2.0, 0.5),
+            cube(Vec3::new(50.0, 30.0, 0.0), 0.5),
+        ];
+        // Map 0 sees object 0 near (bright) and object 1 far; map 1 sees
+        // object 1 far and object 0 far.
+        let all = vec![vec![1, 1], vec![1, 1]];
+        let mut m = all.clone();
+        assert_eq!(leave_out_faint(&mut m, &frames, &weight, &boxes, 0.0), 0);
+        assert_eq!(m, all);
+        let e: Vec<Vec<f32>> = (0..2)
+            .map(|v| {
+                (0..2)
+                    .map(|k| weight[v] * intercepted(frames[v].unwrap().0, Vec3::Y, &boxes[k]))
+                    .collect()
+            })
+            .collect();
+        let share = 0.05;
+        let out = leave_out_faint(&mut m, &frames, &weight, &boxes, share);
+        assert!(out > 0, "{e:?}");
+        // Per draw, what went is within the share of that draw's light.
+        for k in 0..2 {
+            let total: f32 = (0..2).map(|v| e[v][k]).sum();
+            let spent: f32 = (0..2).filter(|&v| m[v][k] == 0).map(|v| e[v][k]).sum();
+            assert!(spent <= share * total, "draw {k}: {spent} of {total}");
+        }
+        // The near, bright pair stays.
+        assert_eq!(m[0][0], 1, "{e:?}");
+        // Per draw, whatever stays is at least as bright as whatever went.
+        for k in 0..2 {
+            let kept = (0..2).filter(|&v| m[v][k] != 0).map(|v| e[v][k]);
+            let gone = (0..2).filter(|&v| m[v][k] == 0).map(|v| e[v][k]);
+            assert!(
+                gone.fold(0.0, f32::max) <= kept.fold(f32::INFINITY, f32::min),
+                "{e:?} {m:?}"
+            );
+        }
+    }
+}
