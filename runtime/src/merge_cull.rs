@@ -21,6 +21,8 @@
 //! (measured in docs/method.md, "The VPL-map merge" → "Faint shadows left
 //! out").
 
+use std::cmp::Ordering;
+
 use gibake_scene::Aabb;
 use glam::Vec3;
 
@@ -34,7 +36,7 @@ pub(crate) fn intercepted(origin: Vec3, normal: Vec3, b: &Aabb) -> f32 {
     let r = (b.max - b.min).length() * 0.5;
     let to = c - origin;
     let d = to.length();
-    if !(d > r) {
+    if d.partial_cmp(&r) != Some(Ordering::Greater) {
         return 1.0;
     }
     let s = r / d;
@@ -58,7 +60,7 @@ pub(crate) fn leave_out_faint(
     boxes: &[Aabb],
     share: f32,
 ) -> u32 {
-    if !(share > 0.0) {
+    if share.partial_cmp(&0.0) != Some(Ordering::Greater) {
         return 0;
     }
     let mut out = 0;
@@ -81,7 +83,7 @@ pub(crate) fn leave_out_faint(
         pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let mut spent = 0.0f32;
         for &(e, v) in &pairs {
-            if !(spent + e <= budget) {
+            if (spent + e).partial_cmp(&budget) == Some(Ordering::Greater) {
                 break;
             }
             spent += e;
