@@ -252,6 +252,7 @@ pub(crate) fn render(a: RenderArgs) -> anyhow::Result<ExitCode> {
             "affected_maps": stats.affected_maps,
             "hidden_maps": stats.hidden_maps,
             "later_half_views": stats.later_half_views,
+            "later_scale": stats.later_scale,
             "merge_faint_pairs": stats.merge_faint_pairs,
             "merge_maps_per_object": stats.merge_maps_per_object,
             "merge_instances": stats.merge_instances,

@@ -36,6 +36,10 @@ pub(crate) struct BakedGpu {
     /// The later bounces' VPLs (format 4.6): the last of [`BakedGpu::vpls`]
     /// (`gibake_asset::Manifest::later_vpls`).
     pub later: u32,
+    /// The light the surfaces reflect after each bounce of the bake's
+    /// series and its rest (`gibake_asset::LaterRecord`), where the asset
+    /// has later VPLs: what [`crate::later_absorb::later_scale`] weighs.
+    pub later_series: Option<(Vec<[f32; 3]>, [f32; 3])>,
     /// [`BakedGpu::vpls`], then their near-field trees (`NODES_PER_VPL`
     /// [`GpuVpl`]s per VPL, in VPL order), then one far-field record per
     /// VPL (its own with `position` its far-field centre,
@@ -424,6 +428,11 @@ impl BakedGpu {
             .collect();
         Ok(BakedGpu {
             later: m.later_vpls(),
+            later_series: m
+                .later
+                .as_ref()
+                .filter(|_| m.later_vpls() > 0)
+                .map(|l| (l.per_bounce.clone(), l.tail)),
             vpls,
             vpl_buf,
             static_maps,

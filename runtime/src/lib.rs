@@ -64,6 +64,7 @@ mod frame;
 mod gbuffer;
 mod gbuffer_depth;
 mod interleave;
+mod later_absorb;
 mod later_occlusion;
 mod light;
 mod map_cells;
@@ -529,6 +530,7 @@ impl Renderer {
             affected_maps: affected,
             hidden_maps: self.world.moving.hidden_maps(),
             later_half_views,
+            later_scale: self.world.gi.later_scale(),
             merge_faint_pairs: self.world.moving.merge_faint_pairs(),
             merge_maps_per_object: self.world.moving.merge_maps_per_object(),
             merge_instances: self.world.moving.merge_instances(),

@@ -67,6 +67,14 @@ pub(crate) struct VplMerge {
     /// (Map, draw) pairs left out as faint this frame
     /// ([`crate::merge_cull`]).
     faint: u32,
+    /// Per scene material ([`Draw::scene_material`]): its mean albedo (a
+    /// moving draw's share of the later bounces it absorbs,
+    /// [`crate::later_absorb`]).
+    material_albedo: Vec<Vec3>,
+    /// The first later-bounce VPL and the static VPLs' count.
+    later_range: (usize, usize),
+    /// This frame's losses per transfer ([`crate::later_absorb::absorbed`]).
+    absorbed: (Vec3, Vec3),
 }
 
 /// A merge atlas for `capacity` tiles in the one atlas layout, or the
@@ -89,6 +97,7 @@ impl VplMerge {
         scene_diagonal: f32,
         naive: bool,
         cull_share: f32,
+        material_albedo: Vec<Vec3>,
     ) -> Result<VplMerge, RuntimeError> {
         let lum = |f: [f32; 3]| {
             let l = 0.2126 * f[0] + 0.7152 * f[1] + 0.0722 * f[2];
@@ -136,6 +145,12 @@ impl VplMerge {
             weight,
             cull_share: if naive { 0.0 } else { cull_share },
             faint: 0,
+            material_albedo,
+            later_range: (
+                baked.vpls.len().saturating_sub(baked.later as usize),
+                baked.vpls.len(),
+            ),
+            absorbed: (Vec3::ZERO, Vec3::ZERO),
         })
     }
 
@@ -162,6 +177,13 @@ impl VplMerge {
     /// Per moving object: the maps it is drawn into this frame.
     pub(crate) fn per_object(&self) -> &[u32] {
         &self.per_object
+    }
+
+    /// This frame's share of each transfer between surfaces the moving
+    /// objects absorb: of the first bounce's light, of the later bounces'
+    /// ([`crate::later_absorb`]).
+    pub(crate) fn later_absorbed(&self) -> (Vec3, Vec3) {
+        self.absorbed
     }
 
     /// (Map, draw) pairs left out as faint this frame.
@@ -243,6 +265,44 @@ impl VplMerge {
                 None => vec![0; boxes.len()],
             })
             .collect();
+        // What the moving objects take from the later bounces: every map
+        // they reach, the faint ones too.
+        self.absorbed = if self.later_range.0 < self.later_range.1 {
+            let albedo: Vec<Option<Vec3>> = draws
+                .iter()
+                .map(|d| {
+                    d.object.map(|_| {
+                        let a = self.material_albedo.get(d.scene_material);
+                        a.copied().unwrap_or(Vec3::ONE)
+                    })
+                })
+                .collect();
+            // Each draw's surface in the world (its transform's scale
+            // squared, as a uniform scale).
+            let area: Vec<f32> = draws
+                .iter()
+                .map(|d| {
+                    let m = d.object.and_then(|o| transforms.get(o));
+                    let det = m.map_or(1.0, |m| glam::Mat3::from_mat4(*m).determinant().abs());
+                    d.area * det.powf(2.0 / 3.0)
+                })
+                .collect();
+            let frames = &self.frames;
+            crate::later_absorb::absorbed(
+                &masks,
+                &self.weight,
+                self.later_range,
+                &albedo,
+                |v, k| match frames[v] {
+                    Some((o, n)) => {
+                        crate::merge_cull::intercepted_by_area(o, n, &boxes[k], area[k])
+                    }
+                    None => 0.0,
+                },
+            )
+        } else {
+            (Vec3::ZERO, Vec3::ZERO)
+        };
         // Each draw's faintest shadows, within the setting's share of its
         // light.
         self.faint = crate::merge_cull::leave_out_faint(

@@ -45,6 +45,30 @@ pub(crate) fn intercepted(origin: Vec3, normal: Vec3, b: &Aabb) -> f32 {
     if f.is_finite() { f.min(1.0) } else { 1.0 }
 }
 
+/// The share of a Lambertian emitter's flux at `origin` (unit `normal`)
+/// that an object of surface `area` (world units², convex: its mean
+/// projected area is a quarter of it) within `b` takes, on average over
+/// its orientations: `(area/4) / (π d²) · cos θ`, d and θ to the box's
+/// centre, the cosine widened by the bounding sphere's half-angle, at most
+/// [`intercepted`] (the bounding sphere's). Exact for a ball; what the
+/// later bounces lose to a moving object ([`crate::later_absorb`]), where
+/// the bounding sphere — three times a ball's cross-section for its box —
+/// would count too much.
+pub(crate) fn intercepted_by_area(origin: Vec3, normal: Vec3, b: &Aabb, area: f32) -> f32 {
+    let bound = intercepted(origin, normal, b);
+    let c = (b.min + b.max) * 0.5;
+    let r = (b.max - b.min).length() * 0.5;
+    let to = c - origin;
+    let d2 = to.length_squared();
+    if d2.partial_cmp(&(r * r)) != Some(Ordering::Greater) {
+        return bound;
+    }
+    let d = d2.sqrt();
+    let cos = (normal.dot(to / d) + r / d).clamp(0.0, 1.0);
+    let f = area.max(0.0) * 0.25 / (std::f32::consts::PI * d2) * cos;
+    if f.is_finite() { f.min(bound) } else { bound }
+}
+
 /// Leaves out of `masks` (per map, per draw: the faces drawn) each draw's
 /// faintest (map, draw) pairs while the light they take, in all, stays
 /// within `share` of the light that draw intercepts from every map it
@@ -120,6 +144,27 @@ mod tests {
             // half-angle, not zero.
             let side = intercepted(Vec3::ZERO, n, &cube(Vec3::X * 4.0 * s, s));
             assert!(side > 0.0 && side < near, "{side} {near}");
+        }
+    }
+
+    /// A ball's share by its area is its cross-section's, a third of its
+    /// box's bounding sphere's, and never more than that bound.
+    #[test]
+    fn a_balls_share_by_area_is_its_cross_section() {
+        let n = Vec3::Y;
+        for s in [1e-3f32, 1.0, 1e3] {
+            let r = s;
+            let area = 4.0 * std::f32::consts::PI * r * r;
+            let b = cube(Vec3::Y * 20.0 * s, r);
+            let f = intercepted_by_area(Vec3::ZERO, n, &b, area);
+            let exact = (r / (20.0 * s)).powi(2);
+            assert!((f / exact - 1.0).abs() < 0.06, "{f} {exact}");
+            let bound = intercepted(Vec3::ZERO, n, &b);
+            assert!(f <= bound && bound / f > 2.5, "{f} {bound}");
+            assert_eq!(
+                intercepted_by_area(Vec3::ZERO, n, &cube(Vec3::ZERO, r), area),
+                1.0
+            );
         }
     }
 

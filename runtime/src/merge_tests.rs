@@ -53,8 +53,16 @@ fn the_maps_the_cells_leave_out_would_not_change() {
     let transforms = scene.dynamic_transforms(0.5);
     let diagonal = scene.full_bounds().diagonal();
     // Merged without the cells: every map a sphere reaches gets a tile.
-    let mut merge =
-        VplMerge::new(&ctx.device, &scene_gpu, &baked, diagonal, false, 0.0).expect("the merge");
+    let mut merge = VplMerge::new(
+        &ctx.device,
+        &scene_gpu,
+        &baked,
+        diagonal,
+        false,
+        0.0,
+        Vec::new(),
+    )
+    .expect("the merge");
     assert!(
         merge.cells.is_none(),
         "the asset's cells are only set by the world"

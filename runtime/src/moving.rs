@@ -64,6 +64,8 @@ pub(crate) struct UpdateInputs<'a> {
     pub split_windows: bool,
     /// [`crate::RenderSettings::merge_cull_share`].
     pub merge_cull_share: f32,
+    /// Per scene material: its mean albedo.
+    pub material_albedo: Vec<glam::Vec3>,
 }
 
 /// What shading reads from the update (`None`: the pass does not exist).
@@ -263,6 +265,7 @@ impl MovingPasses {
                 i.scene_diagonal,
                 plan.mode() == crate::Mode::Naive,
                 i.merge_cull_share,
+                i.material_albedo.clone(),
             )?),
             _ => None,
         };
@@ -383,6 +386,16 @@ impl MovingPasses {
     /// The merge's rasterization instances this frame.
     pub(crate) fn merge_instances(&self) -> u32 {
         self.merge.as_ref().map_or(0, VplMerge::instances)
+    }
+
+    /// The share of each transfer between surfaces the moving objects
+    /// absorb this frame: of the first bounce's light, of the later
+    /// bounces' (none without a merge).
+    pub(crate) fn later_absorbed(&self) -> (glam::Vec3, glam::Vec3) {
+        self.merge.as_ref().map_or(
+            (glam::Vec3::ZERO, glam::Vec3::ZERO),
+            VplMerge::later_absorbed,
+        )
     }
 
     /// (Map, draw) pairs the merge left out as faint this frame.

@@ -97,6 +97,10 @@ pub(crate) struct GpuGiParams {
     /// The later VPLs' near-field descent in disk radii, 0: one disk each
     /// ([`crate::RenderSettings::later_near_field_descent`]).
     pub later_descent: u32,
+    /// The later VPLs' flux scale this frame, per channel (w unused): what
+    /// the moving objects absorb of the later bounces
+    /// ([`crate::later_absorb`]); 1 without them.
+    pub later_scale: [f32; 4],
 }
 
 /// A shading pipeline and its group-1 layout: the one-light variant, or the
@@ -578,6 +582,7 @@ impl ShadeGi {
                 .baked
                 .map_or(0, |b| (b.vpls.len() as u32).saturating_sub(b.later)),
             later_descent: s.plan.later_near_field_descent(),
+            later_scale: [1.0; 4],
         };
         let params_buf = uniform(device, "shade gi params", &params);
         let group = Self::group(device, shade, s, &params_buf);
@@ -637,6 +642,22 @@ impl ShadeGi {
             self.params.n_dynamic = n;
             queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
         }
+    }
+
+    /// Scales the later VPLs' flux from the next frame on (written only
+    /// when it changes).
+    pub(crate) fn set_later_scale(&mut self, queue: &wgpu::Queue, s: glam::Vec3) {
+        let v = [s.x, s.y, s.z, 1.0];
+        if self.params.later_scale != v {
+            self.params.later_scale = v;
+            queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
+        }
+    }
+
+    /// The later VPLs' flux scale in use.
+    pub(crate) fn later_scale(&self) -> [f32; 3] {
+        let s = self.params.later_scale;
+        [s[0], s[1], s[2]]
     }
 
     /// Static VPLs shaded.

@@ -40,6 +40,7 @@ struct GiParams {         // GpuGiParams in shade.rs
     lower_row: u32,       // texel row of static_maps where the second maps' atlas starts
     first_later: u32,     // index of the first later-bounce VPL (n_static: none)
     later_descent: u32,   // their near-field descent (RenderSettings::later_near_field_descent; 0: one disk)
+    later_scale: vec4<f32>,   // rgb: their flux scale this frame, what moving objects absorb (later_absorb.rs)
 }
 
 const NONE: u32 = 0xffffffffu;
@@ -616,6 +617,9 @@ fn static_vpl_irradiance(i: u32, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> 
     }
     if (has(FLAG_OCCLUSION)) {
         ei = ei * max(1.0 - f32(occlusion[i]) / OCCL_ONE, 0.0);
+    }
+    if (i >= params.first_later) {
+        ei = ei * params.later_scale.rgb;
     }
     return ei;
 }

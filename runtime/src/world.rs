@@ -124,6 +124,7 @@ impl World {
                 scene_diagonal: scene.full_bounds().diagonal(),
                 split_windows: settings.split_windows,
                 merge_cull_share: settings.merge_cull_share,
+                material_albedo: material_albedo(scene),
             },
         )?;
         let gbuffer = GBufferPass::new(device, &scene_gpu);
@@ -216,6 +217,12 @@ impl World {
         )?;
         self.gi
             .set_dynamic_slots(queue, self.moving.dynamic_vpl_slots());
+        if let Some((per_bounce, tail)) = self.baked.as_ref().and_then(|b| b.later_series.as_ref())
+        {
+            let (a1, a2) = self.moving.later_absorbed();
+            let s = crate::later_absorb::later_scale(per_bounce, *tail, a1, a2);
+            self.gi.set_later_scale(queue, s);
+        }
         if grown {
             let sources = GiSources {
                 plan: &self.plan,
@@ -273,4 +280,23 @@ impl World {
     pub(crate) fn gbuffer_draw_calls(&self) -> u32 {
         (self.scene_gpu.static_draws.len() + self.moving_draws.len()) as u32
     }
+}
+
+/// Each material's mean albedo (linear RGB, its texture averaged over an
+/// 8×8 grid of its coordinates), then white for the scene's default
+/// material: what a moving object absorbs of the later bounces.
+fn material_albedo(scene: &Scene) -> Vec<glam::Vec3> {
+    (0..scene.materials.len())
+        .map(|m| {
+            let mut sum = glam::Vec3::ZERO;
+            for j in 0..8 {
+                for i in 0..8 {
+                    let uv = glam::Vec2::new(i as f32 + 0.5, j as f32 + 0.5) / 8.0;
+                    sum += scene.albedo(m, Some(uv));
+                }
+            }
+            sum / 64.0
+        })
+        .chain(std::iter::once(glam::Vec3::ONE))
+        .collect()
 }

@@ -95,6 +95,13 @@ pub struct Draw {
     pub id: u32,
     /// Index into [`SceneGpu::material_groups`].
     pub material: usize,
+    /// The mesh's material in the scene (`gibake_scene::Scene::materials`;
+    /// [`Draw::material`] is the default group for an untextured one).
+    pub scene_material: usize,
+    /// The mesh's surface area in the space of [`Draw::bounds`] (local for
+    /// a moving one): a quarter of it is a convex mesh's mean projected
+    /// area, what it takes of the light round it.
+    pub area: f32,
     /// Dynamic object index, `None` for static draws.
     pub object: Option<usize>,
     /// Bounds of the mesh: world space for static draws, local for dynamic.
@@ -252,6 +259,22 @@ impl SceneGpu {
                 } else {
                     scene.materials.len()
                 },
+                scene_material: mesh.material,
+                area: mesh
+                    .indices
+                    .chunks_exact(3)
+                    .map(|t| {
+                        let p = |i: u32| {
+                            mesh.positions
+                                .get(i as usize)
+                                .copied()
+                                .unwrap_or(glam::Vec3::ZERO)
+                        };
+                        let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
+                        0.5 * (b - a).cross(c - a).length()
+                    })
+                    .filter(|a| a.is_finite())
+                    .sum(),
                 object,
                 bounds,
             };

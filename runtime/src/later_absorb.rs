@@ -1,0 +1,151 @@
+//! What moving objects take from the later bounces (issue 50, item 2).
+//!
+//! The later bounces' VPLs carry the static scene's light after the first
+//! bounce, solved at bake time without the moving objects. In the frame, a
+//! moving object stands in the way of some of every bounce: the share of a
+//! VPL's light it intercepts ([`crate::merge_cull::intercepted_by_area`],
+//! a quarter of its surface seen from the VPL, for the maps it reaches
+//! that their baked surfaces do not hide) no longer lands
+//! on the static surfaces, and of that the object keeps `1 − albedo` (per
+//! channel). So each transfer between surfaces loses, on average over the
+//! VPLs weighted by their flux, `a = Σ_v w_v min(1, Σ_k I_vk (1 − ρ_k)) /
+//! Σ_v w_v`: `a₁` over the first bounce's VPLs (their light builds the
+//! surfaces' first indirect light), `a₂` over the later VPLs'. The light
+//! reflected after bounce `j` of the bake's series (`LaterRecord::
+//! per_bounce`, `P_j`, the later VPLs' flux in all) has passed `j + 1`
+//! transfers, so the later VPLs' flux is scaled each frame, per channel, by
+//!
+//!   S = Σ_j P_j (1 − a₁)(1 − a₂)^j / Σ_j P_j
+//!
+//! (the series' tail as a geometric rest). First order: where the light is
+//! lost does not move the later light (as `later_occlusion.wgsl` for
+//! objects that block the lights), and what the object reflects goes on as
+//! if a static surface had. Measured in docs/method.md, "Moving objects and
+//! the later bounces".
+
+use glam::Vec3;
+
+/// The share of each transfer the moving objects absorb, per channel: over
+/// the maps `v < first_later` (the first bounce's VPLs) and over the later
+/// VPLs' maps `first_later ≤ v < n_static` (`masks` lists every frame,
+/// the second maps after the first, and only the first maps count: a
+/// second map is the same VPL's light below its horizon). `masks[v][k]`:
+/// whether draw `k` reaches map `v` (not hidden by its baked surfaces);
+/// `intercepted[v][k]`-style shares come from `share(v, k)`; `albedo[k]`
+/// the draw's mean albedo (`None`: not a moving draw).
+pub(crate) fn absorbed(
+    masks: &[Vec<u32>],
+    weight: &[f32],
+    (first_later, n_static): (usize, usize),
+    albedo: &[Option<Vec3>],
+    share: impl Fn(usize, usize) -> f32,
+) -> (Vec3, Vec3) {
+    let mut sums = [(Vec3::ZERO, 0.0f32); 2];
+    for v in 0..n_static.min(masks.len()) {
+        let w = weight.get(v).copied().unwrap_or(0.0);
+        if !(w > 0.0 && w.is_finite()) {
+            continue;
+        }
+        let mut lost = Vec3::ZERO;
+        for (k, &faces) in masks[v].iter().enumerate() {
+            if let (true, Some(Some(rho))) = (faces != 0, albedo.get(k)) {
+                let f = share(v, k);
+                if f.is_finite() {
+                    lost += f.clamp(0.0, 1.0) * (Vec3::ONE - rho.clamp(Vec3::ZERO, Vec3::ONE));
+                }
+            }
+        }
+        let s = &mut sums[usize::from(v >= first_later)];
+        s.0 += w * lost.min(Vec3::ONE);
+        s.1 += w;
+    }
+    let mean = |(l, w): (Vec3, f32)| if w > 0.0 { l / w } else { Vec3::ZERO };
+    (mean(sums[0]), mean(sums[1]))
+}
+
+/// The later VPLs' flux scale for per-transfer losses `a1` (the first
+/// bounce's light) and `a2` (the later bounces'), from the bake's light
+/// after each bounce `per_bounce` and its geometric rest `tail` (W, RGB):
+/// 1 where nothing is lost or nothing was reflected.
+pub(crate) fn later_scale(per_bounce: &[[f32; 3]], tail: [f32; 3], a1: Vec3, a2: Vec3) -> Vec3 {
+    let keep1 = (Vec3::ONE - a1).clamp(Vec3::ZERO, Vec3::ONE);
+    let keep2 = (Vec3::ONE - a2).clamp(Vec3::ZERO, Vec3::ONE);
+    let mut num = Vec3::ZERO;
+    let mut den = Vec3::ZERO;
+    let mut factor = keep1;
+    for p in per_bounce {
+        let p = Vec3::from_array(*p).max(Vec3::ZERO);
+        num += p * factor;
+        den += p;
+        factor *= keep2;
+    }
+    // The rest of the series, ratio r from its last two bounces: Σ_i (1 −
+    // r) rⁱ keep2^i of it, times the factor reached.
+    let tail = Vec3::from_array(tail).max(Vec3::ZERO);
+    let r = match per_bounce {
+        [.., a, b] => {
+            let (a, b) = (Vec3::from_array(*a), Vec3::from_array(*b));
+            Vec3::select(a.cmpgt(Vec3::ZERO), b / a, Vec3::ZERO)
+                .clamp(Vec3::ZERO, Vec3::splat(0.999))
+        }
+        _ => Vec3::ZERO,
+    };
+    num += tail * factor * (Vec3::ONE - r) / (Vec3::ONE - r * keep2);
+    den += tail;
+    let s = Vec3::select(den.cmpgt(Vec3::ZERO), num / den, Vec3::ONE);
+    if s.is_finite() {
+        s.clamp(Vec3::ZERO, Vec3::ONE)
+    } else {
+        Vec3::ONE
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Nothing absorbed: scale 1; a black object intercepting a fifth of
+    /// every transfer: the first bounce's light after it 0.8, the next
+    /// 0.64, …; a white one absorbs nothing.
+    #[test]
+    fn the_scale_follows_the_series() {
+        let pb = [[1.0, 1.0, 1.0], [0.5, 0.5, 0.5], [0.25, 0.25, 0.25]];
+        assert_eq!(
+            later_scale(&pb, [0.0; 3], Vec3::ZERO, Vec3::ZERO),
+            Vec3::ONE
+        );
+        let a = Vec3::splat(0.2);
+        let s = later_scale(&pb, [0.0; 3], a, a);
+        let want = (1.0 * 0.8 + 0.5 * 0.64 + 0.25 * 0.512) / 1.75;
+        assert!((s - Vec3::splat(want)).abs().max_element() < 1e-6, "{s}");
+        // A tail continuing the series: each further bounce loses more.
+        let t = later_scale(&pb, [0.25, 0.25, 0.25], a, a);
+        assert!(t.x < s.x && t.x > 0.0, "{t} {s}");
+        assert_eq!(later_scale(&[], [0.0; 3], a, a), Vec3::ONE);
+    }
+
+    /// The loss per transfer is the flux-weighted mean of what each VPL's
+    /// map loses to the objects, per channel by their albedo; hidden
+    /// objects (mask 0) take nothing.
+    #[test]
+    fn the_loss_is_flux_weighted_and_coloured() {
+        // Two first-bounce VPLs (weights 1 and 3), one later VPL.
+        let masks = vec![vec![1], vec![0], vec![1]];
+        let weight = [1.0, 3.0, 2.0];
+        let blue = [Some(Vec3::new(0.0, 0.5, 1.0))];
+        let (a1, a2) = absorbed(&masks, &weight, (2, 3), &blue, |_, _| 0.4);
+        // Only VPL 0 sees the object: 0.4 of its light, of which the
+        // object keeps 1, 0.5, 0 per channel; weighted 1 of 4.
+        assert!(
+            (a1 - Vec3::new(0.1, 0.05, 0.0)).abs().max_element() < 1e-6,
+            "{a1}"
+        );
+        assert!(
+            (a2 - Vec3::new(0.4, 0.2, 0.0)).abs().max_element() < 1e-6,
+            "{a2}"
+        );
+        // A static draw (no albedo given) takes nothing.
+        let (b1, _) = absorbed(&masks, &weight, (2, 3), &[None], |_, _| 0.4);
+        assert_eq!(b1, Vec3::ZERO);
+    }
+}
