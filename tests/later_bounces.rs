@@ -36,6 +36,17 @@ fn bake(scene: &Path, out: &Path, extra: &[&str]) -> (Run, serde_json::Value) {
     (r, j)
 }
 
+/// Bakes `scene` into `dir` with every bounce (checked to have later VPLs)
+/// and with `--bounces 1`: (every, one).
+fn bake_every_and_one(scene: &Path, dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
+    let every = dir.join("every.gibake");
+    let one = dir.join("one.gibake");
+    let (r, j) = bake(scene, &every, &[]);
+    assert!(j["later"]["vpls"].as_u64().unwrap() > 0, "{r}");
+    bake(scene, &one, &["--bounces", "1"]);
+    (every, one)
+}
+
 fn indirect_mean(scene: &Path, asset: &Path, out: &Path) -> glam::Vec3 {
     let mut c = gibake();
     c.arg("render")
@@ -165,11 +176,7 @@ fn bad_bounce_values_are_refused_naming_the_flag() {
 fn the_later_bounces_add_light_in_an_interior() {
     let tmp = tempfile::tempdir().unwrap();
     let scene = common::data("occluded.glb");
-    let every = tmp.path().join("every.gibake");
-    let one = tmp.path().join("one.gibake");
-    let (r, j) = bake(&scene, &every, &[]);
-    assert!(j["later"]["vpls"].as_u64().unwrap() > 0, "{r}");
-    bake(&scene, &one, &["--bounces", "1"]);
+    let (every, one) = bake_every_and_one(&scene, tmp.path());
     let e = indirect_mean(&scene, &every, &tmp.path().join("every.exr"));
     let o = indirect_mean(&scene, &one, &tmp.path().join("one.exr"));
     let ratio = e / o;
@@ -245,10 +252,7 @@ fn render_256(
 fn the_later_bounces_at_half_resolution_keep_their_light() {
     let tmp = tempfile::tempdir().unwrap();
     let scene = common::data("occluded.glb");
-    let every = tmp.path().join("every.gibake");
-    let one = tmp.path().join("one.gibake");
-    bake(&scene, &every, &[]);
-    bake(&scene, &one, &["--bounces", "1"]);
+    let (every, one) = bake_every_and_one(&scene, tmp.path());
     let out = |n: &str| tmp.path().join(format!("{n}.exr"));
     let (half, s_half) = render_256(&scene, &every, &out("half"), &[]);
     let (full, s_full) = render_256(&scene, &every, &out("full"), &["--later-full-resolution"]);
@@ -284,11 +288,7 @@ fn the_later_bounces_at_half_resolution_keep_their_light() {
 fn moving_objects_absorb_some_of_the_later_bounces() {
     let tmp = tempfile::tempdir().unwrap();
     let scene = common::data("corner_bunny.glb");
-    let every = tmp.path().join("every.gibake");
-    let one = tmp.path().join("one.gibake");
-    let (r, j) = bake(&scene, &every, &[]);
-    assert!(j["later"]["vpls"].as_u64().unwrap() > 0, "{r}");
-    bake(&scene, &one, &["--bounces", "1"]);
+    let (every, one) = bake_every_and_one(&scene, tmp.path());
     let scale = |asset: &Path, name: &str| -> Vec<f64> {
         let (_, s) = render_256(&scene, asset, &tmp.path().join(name), &[]);
         s["later_scale"]
