@@ -355,8 +355,13 @@ pub(crate) struct OcclusionPass {
     pipeline: wgpu::ComputePipeline,
     /// The view it was made for.
     own: OcclusionView,
-    /// Per static VPL occluded share (u32, fixed point 2^24).
+    /// Per static VPL occluded share (u32, fixed point 2^24), cleared each
+    /// frame; then per later VPL four f32 (as bits): the share of its
+    /// light it keeps from what moving objects absorb, per channel
+    /// ([`crate::later_absorb`], written by the CPU each frame).
     pub(crate) occluded: wgpu::Buffer,
+    /// Static VPLs: the cleared part's length in u32.
+    pub(crate) vpl_count: u32,
     size: u32,
 }
 
@@ -375,12 +380,12 @@ impl OcclusionPass {
         static_metric: &wgpu::TextureView,
         rsm: &DynamicRsmPass,
         texel_info: &wgpu::Buffer,
-        vpl_count: u32,
+        (vpl_count, later): (u32, u32),
     ) -> OcclusionPass {
         let module = shaders::module(device, "occlusion.wgsl", OCCLUSION_WGSL);
         let occluded = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("occluded shares"),
-            size: 4 * vpl_count.max(1) as u64,
+            size: 4 * (u64::from(vpl_count) + 4 * u64::from(later)).max(1),
             usage: wgpu::BufferUsages::STORAGE
                 | wgpu::BufferUsages::COPY_DST
                 | wgpu::BufferUsages::COPY_SRC,
@@ -406,6 +411,7 @@ impl OcclusionPass {
             ),
             pipeline,
             occluded,
+            vpl_count,
             size: rsm.size,
         }
     }

@@ -560,7 +560,7 @@ fn occlusion_over_windows_matches_the_whole_map() {
         &r.static_metric,
         &f.rsm,
         &r.texel_info,
-        vpl_count,
+        (vpl_count, 0),
     );
     let sums = |windows: &Windows| -> Vec<u32> {
         occ.set_window(&ctx.queue, occ.own_view(), windows);

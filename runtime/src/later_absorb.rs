@@ -25,27 +25,39 @@
 
 use glam::Vec3;
 
-/// The share of each transfer the moving objects absorb, per channel: over
-/// the maps `v < first_later` (the first bounce's VPLs) and over the later
-/// VPLs' maps `first_later ≤ v < n_static` (`masks` lists every frame,
-/// the second maps after the first, and only the first maps count: a
-/// second map is the same VPL's light below its horizon). `masks[v][k]`:
-/// whether draw `k` reaches map `v` (not hidden by its baked surfaces);
-/// `intercepted[v][k]`-style shares come from `share(v, k)`; `albedo[k]`
-/// the draw's mean albedo (`None`: not a moving draw).
+/// What the moving objects absorb of the later bounces this frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct Absorbed {
+    /// The share of the first bounce's light (its VPLs' flux-weighted
+    /// mean) they absorb on its way to the surfaces, per channel.
+    pub first: Vec3,
+    /// The same for the later bounces' light.
+    pub later: Vec3,
+    /// Per later VPL: the share of the light reaching it that the objects
+    /// its map sees absorb (`min(1, Σ_k I_vk (1 − ρ_k))`: by reciprocity,
+    /// what they take of its light going out they take of the light
+    /// coming in).
+    pub local: Vec<Vec3>,
+}
+
+/// What the moving draws absorb (see [`Absorbed`]): over the maps `v <
+/// first_later` (the first bounce's VPLs) and the later VPLs' maps
+/// `first_later ≤ v < n_static` (`masks` lists every frame, the second
+/// maps after the first, and only the first maps count: a second map is
+/// the same VPL's light below its horizon). `masks[v][k]`: whether draw
+/// `k` reaches map `v` (not hidden by its baked surfaces); `share(v, k)`
+/// the share of map `v`'s VPL's light draw `k` intercepts; `albedo[k]` the
+/// draw's mean albedo (`None`: not a moving draw).
 pub(crate) fn absorbed(
     masks: &[Vec<u32>],
     weight: &[f32],
     (first_later, n_static): (usize, usize),
     albedo: &[Option<Vec3>],
     share: impl Fn(usize, usize) -> f32,
-) -> (Vec3, Vec3) {
+) -> Absorbed {
     let mut sums = [(Vec3::ZERO, 0.0f32); 2];
+    let mut local = Vec::with_capacity(n_static.saturating_sub(first_later));
     for v in 0..n_static.min(masks.len()) {
-        let w = weight.get(v).copied().unwrap_or(0.0);
-        if !(w > 0.0 && w.is_finite()) {
-            continue;
-        }
         let mut lost = Vec3::ZERO;
         for (k, &faces) in masks[v].iter().enumerate() {
             if let (true, Some(Some(rho))) = (faces != 0, albedo.get(k)) {
@@ -55,29 +67,45 @@ pub(crate) fn absorbed(
                 }
             }
         }
-        let s = &mut sums[usize::from(v >= first_later)];
-        s.0 += w * lost.min(Vec3::ONE);
-        s.1 += w;
+        let lost = lost.min(Vec3::ONE);
+        if v >= first_later {
+            local.push(lost);
+        }
+        let w = weight.get(v).copied().unwrap_or(0.0);
+        if w > 0.0 && w.is_finite() {
+            let s = &mut sums[usize::from(v >= first_later)];
+            s.0 += w * lost;
+            s.1 += w;
+        }
     }
+    local.resize(n_static.saturating_sub(first_later), Vec3::ZERO);
     let mean = |(l, w): (Vec3, f32)| if w > 0.0 { l / w } else { Vec3::ZERO };
-    (mean(sums[0]), mean(sums[1]))
+    Absorbed {
+        first: mean(sums[0]),
+        later: mean(sums[1]),
+        local,
+    }
 }
 
-/// The later VPLs' flux scale for per-transfer losses `a1` (the first
-/// bounce's light) and `a2` (the later bounces'), from the bake's light
-/// after each bounce `per_bounce` and its geometric rest `tail` (W, RGB):
-/// 1 where nothing is lost or nothing was reflected.
+/// The later VPLs' flux scale, per channel, for the transfers before the
+/// last one into each later VPL (that one is its own, [`Absorbed::local`]):
+/// the light after bounce `j` of the bake's series (`per_bounce`, `P_j`,
+/// and the geometric rest `tail`) has passed `j + 1` transfers, the first
+/// from the first bounce's VPLs (`a1` lost), the others between later
+/// bounces (`a2`), the last into the VPL itself:
+/// `Σ_j P_j (1 − a1)^[j≥1] (1 − a2)^max(j−1, 0) / Σ_j P_j`; 1 where
+/// nothing is lost or nothing was reflected.
 pub(crate) fn later_scale(per_bounce: &[[f32; 3]], tail: [f32; 3], a1: Vec3, a2: Vec3) -> Vec3 {
     let keep1 = (Vec3::ONE - a1).clamp(Vec3::ZERO, Vec3::ONE);
     let keep2 = (Vec3::ONE - a2).clamp(Vec3::ZERO, Vec3::ONE);
     let mut num = Vec3::ZERO;
     let mut den = Vec3::ZERO;
-    let mut factor = keep1;
-    for p in per_bounce {
+    let mut factor = Vec3::ONE;
+    for (j, p) in per_bounce.iter().enumerate() {
         let p = Vec3::from_array(*p).max(Vec3::ZERO);
         num += p * factor;
         den += p;
-        factor *= keep2;
+        factor *= if j == 0 { keep1 } else { keep2 };
     }
     // The rest of the series, ratio r from its last two bounces: Σ_i (1 −
     // r) rⁱ keep2^i of it, times the factor reached.
@@ -105,8 +133,8 @@ mod tests {
     use super::*;
 
     /// Nothing absorbed: scale 1; a black object intercepting a fifth of
-    /// every transfer: the first bounce's light after it 0.8, the next
-    /// 0.64, …; a white one absorbs nothing.
+    /// every transfer: the light after bounce 1 keeps 0.8 before its last
+    /// transfer (each VPL's own), after bounce 2 0.64, ….
     #[test]
     fn the_scale_follows_the_series() {
         let pb = [[1.0, 1.0, 1.0], [0.5, 0.5, 0.5], [0.25, 0.25, 0.25]];
@@ -116,7 +144,8 @@ mod tests {
         );
         let a = Vec3::splat(0.2);
         let s = later_scale(&pb, [0.0; 3], a, a);
-        let want = (1.0 * 0.8 + 0.5 * 0.64 + 0.25 * 0.512) / 1.75;
+        // The last transfer is each VPL's own: P_0 untouched here.
+        let want = (1.0 + 0.5 * 0.8 + 0.25 * 0.64) / 1.75;
         assert!((s - Vec3::splat(want)).abs().max_element() < 1e-6, "{s}");
         // A tail continuing the series: each further bounce loses more.
         let t = later_scale(&pb, [0.25, 0.25, 0.25], a, a);
@@ -133,19 +162,18 @@ mod tests {
         let masks = vec![vec![1], vec![0], vec![1]];
         let weight = [1.0, 3.0, 2.0];
         let blue = [Some(Vec3::new(0.0, 0.5, 1.0))];
-        let (a1, a2) = absorbed(&masks, &weight, (2, 3), &blue, |_, _| 0.4);
+        let a = absorbed(&masks, &weight, (2, 3), &blue, |_, _| 0.4);
         // Only VPL 0 sees the object: 0.4 of its light, of which the
         // object keeps 1, 0.5, 0 per channel; weighted 1 of 4.
-        assert!(
-            (a1 - Vec3::new(0.1, 0.05, 0.0)).abs().max_element() < 1e-6,
-            "{a1}"
-        );
-        assert!(
-            (a2 - Vec3::new(0.4, 0.2, 0.0)).abs().max_element() < 1e-6,
-            "{a2}"
-        );
+        let near = |x: Vec3, y: Vec3| (x - y).abs().max_element() < 1e-6;
+        assert!(near(a.first, Vec3::new(0.1, 0.05, 0.0)), "{a:?}");
+        assert!(near(a.later, Vec3::new(0.4, 0.2, 0.0)), "{a:?}");
+        // The later VPL's own share of the light reaching it.
+        assert_eq!(a.local.len(), 1);
+        assert!(near(a.local[0], Vec3::new(0.4, 0.2, 0.0)), "{a:?}");
         // A static draw (no albedo given) takes nothing.
-        let (b1, _) = absorbed(&masks, &weight, (2, 3), &[None], |_, _| 0.4);
-        assert_eq!(b1, Vec3::ZERO);
+        let b = absorbed(&masks, &weight, (2, 3), &[None], |_, _| 0.4);
+        assert_eq!(b.first, Vec3::ZERO);
+        assert_eq!(b.local, vec![Vec3::ZERO]);
     }
 }

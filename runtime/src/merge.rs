@@ -73,8 +73,8 @@ pub(crate) struct VplMerge {
     material_albedo: Vec<Vec3>,
     /// The first later-bounce VPL and the static VPLs' count.
     later_range: (usize, usize),
-    /// This frame's losses per transfer ([`crate::later_absorb::absorbed`]).
-    absorbed: (Vec3, Vec3),
+    /// This frame's losses ([`crate::later_absorb::absorbed`]).
+    absorbed: crate::later_absorb::Absorbed,
 }
 
 /// A merge atlas for `capacity` tiles in the one atlas layout, or the
@@ -150,7 +150,7 @@ impl VplMerge {
                 baked.vpls.len().saturating_sub(baked.later as usize),
                 baked.vpls.len(),
             ),
-            absorbed: (Vec3::ZERO, Vec3::ZERO),
+            absorbed: Default::default(),
         })
     }
 
@@ -182,8 +182,8 @@ impl VplMerge {
     /// This frame's share of each transfer between surfaces the moving
     /// objects absorb: of the first bounce's light, of the later bounces'
     /// ([`crate::later_absorb`]).
-    pub(crate) fn later_absorbed(&self) -> (Vec3, Vec3) {
-        self.absorbed
+    pub(crate) fn later_absorbed(&self) -> &crate::later_absorb::Absorbed {
+        &self.absorbed
     }
 
     /// (Map, draw) pairs left out as faint this frame.
@@ -301,7 +301,7 @@ impl VplMerge {
                 },
             )
         } else {
-            (Vec3::ZERO, Vec3::ZERO)
+            Default::default()
         };
         // Each draw's faintest shadows, within the setting's share of its
         // light.

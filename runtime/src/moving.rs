@@ -179,7 +179,7 @@ impl MovingPasses {
                     &first.static_metric,
                     &pass,
                     &first.texel_info,
-                    vpl_count,
+                    (vpl_count, i.baked.map_or(0, |b| b.later)),
                 );
                 let light_of = |r: &RsmGpu, primary: bool| -> Option<wgpu::Buffer> {
                     (!primary).then(|| {
@@ -388,14 +388,31 @@ impl MovingPasses {
         self.merge.as_ref().map_or(0, VplMerge::instances)
     }
 
-    /// The share of each transfer between surfaces the moving objects
-    /// absorb this frame: of the first bounce's light, of the later
-    /// bounces' (none without a merge).
-    pub(crate) fn later_absorbed(&self) -> (glam::Vec3, glam::Vec3) {
-        self.merge.as_ref().map_or(
-            (glam::Vec3::ZERO, glam::Vec3::ZERO),
-            VplMerge::later_absorbed,
-        )
+    /// What the moving objects absorb of the later bounces this frame
+    /// (none without a merge).
+    pub(crate) fn later_absorbed(&self) -> Option<&crate::later_absorb::Absorbed> {
+        self.merge.as_ref().map(VplMerge::later_absorbed)
+    }
+
+    /// Writes the later VPLs' own factors (what the moving objects near
+    /// each take of the light that reaches it) after the occluded shares,
+    /// where the occlusion buffer exists.
+    pub(crate) fn write_later_factors(&self, queue: &wgpu::Queue, factors: &[glam::Vec3]) {
+        if let Some((_, occ)) = &self.rsm
+            && !factors.is_empty()
+        {
+            let data: Vec<f32> = factors.iter().flat_map(|f| [f.x, f.y, f.z, 1.0]).collect();
+            queue.write_buffer(
+                &occ.occluded,
+                4 * u64::from(occ.vpl_count),
+                bytemuck::cast_slice(&data),
+            );
+        }
+    }
+
+    /// Whether the later VPLs' own factors are bound ([`Self::write_later_factors`]).
+    pub(crate) fn has_later_factors(&self) -> bool {
+        self.rsm.is_some()
     }
 
     /// (Map, draw) pairs the merge left out as faint this frame.
@@ -484,7 +501,10 @@ impl MovingPasses {
             p.encode(encoder, scene_gpu, draws, ts);
         }
         if let Some((rsm, occlusion)) = &self.rsm {
-            encoder.clear_buffer(&occlusion.occluded, 0, None);
+            // The occluded shares; the later VPLs' factors after them are
+            // the CPU's (written at prepare).
+            let shares = 4 * u64::from(occlusion.vpl_count);
+            encoder.clear_buffer(&occlusion.occluded, 0, Some(shares.max(4)));
             let others: Vec<usize> = (0..self.bounce.len())
                 .filter(|&j| !self.bounce[j].primary && self.bounce[j].touched)
                 .collect();

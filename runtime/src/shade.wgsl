@@ -619,7 +619,15 @@ fn static_vpl_irradiance(i: u32, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> 
         ei = ei * max(1.0 - f32(occlusion[i]) / OCCL_ONE, 0.0);
     }
     if (i >= params.first_later) {
-        ei = ei * params.later_scale.rgb;
+        // What moving objects absorb (later_absorb.rs): the transfers
+        // before its last, and, where the occlusion buffer carries them,
+        // its own last one (after the occluded shares).
+        var keep = params.later_scale.rgb;
+        if (has(FLAG_OCCLUSION)) {
+            let b = params.n_static + 4u * (i - params.first_later);
+            keep *= vec3<f32>(bitcast<f32>(occlusion[b]), bitcast<f32>(occlusion[b + 1u]), bitcast<f32>(occlusion[b + 2u]));
+        }
+        ei = ei * keep;
     }
     return ei;
 }

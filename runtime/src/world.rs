@@ -219,8 +219,20 @@ impl World {
             .set_dynamic_slots(queue, self.moving.dynamic_vpl_slots());
         if let Some((per_bounce, tail)) = self.baked.as_ref().and_then(|b| b.later_series.as_ref())
         {
-            let (a1, a2) = self.moving.later_absorbed();
-            let s = crate::later_absorb::later_scale(per_bounce, *tail, a1, a2);
+            let none = crate::later_absorb::Absorbed::default();
+            let a = self.moving.later_absorbed().unwrap_or(&none);
+            // Each later VPL's own last transfer where the occlusion
+            // buffer carries it; else the level-wide mean for it too.
+            let own = self.moving.has_later_factors();
+            let n_later = self.baked.as_ref().map_or(0, |b| b.later as usize);
+            let keep: Vec<glam::Vec3> = (0..n_later)
+                .map(|j| glam::Vec3::ONE - a.local.get(j).copied().unwrap_or(glam::Vec3::ZERO))
+                .collect();
+            self.moving.write_later_factors(queue, &keep);
+            let mut s = crate::later_absorb::later_scale(per_bounce, *tail, a.first, a.later);
+            if !own {
+                s *= glam::Vec3::ONE - a.later;
+            }
             self.gi.set_later_scale(queue, s);
         }
         if grown {
