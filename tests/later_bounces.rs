@@ -48,20 +48,7 @@ fn bake_every_and_one(scene: &Path, dir: &Path) -> (std::path::PathBuf, std::pat
 }
 
 fn indirect_mean(scene: &Path, asset: &Path, out: &Path) -> glam::Vec3 {
-    let mut c = gibake();
-    c.arg("render")
-        .arg(scene)
-        .arg("--bake")
-        .arg(asset)
-        .args([
-            "--mode", "indirect", "--width", "48", "--height", "48", "--ssaa", "1", "-o",
-        ])
-        .arg(out);
-    let r = run_command(c);
-    assert_eq!(r.code, Some(0), "{r}");
-    let img = gibake_image::Image::read_exr(out).expect("the render reads back");
-    assert!(img.all_finite(), "{} is not finite", out.display());
-    img.mean()
+    render_indirect(scene, asset, out, 48, &[]).0.mean()
 }
 
 #[test]
@@ -208,22 +195,25 @@ fn a_level_lit_from_outside_leaves_the_later_bounces_out() {
     );
 }
 
-/// Renders `asset` at 256² (interleave 4 by default) in `indirect` mode
-/// with `extra` flags: the image and the last frame's `--stats`.
-fn render_256(
+/// Renders `asset` at `size`² in `indirect` mode with `extra` flags (from
+/// 256² interleaved by default): the image, checked finite, and the last
+/// frame's `--stats`.
+fn render_indirect(
     scene: &Path,
     asset: &Path,
     out: &Path,
+    size: u32,
     extra: &[&str],
 ) -> (gibake_image::Image, serde_json::Value) {
     let stats = out.with_extension("json");
+    let size = size.to_string();
     let mut c = gibake();
     c.arg("render")
         .arg(scene)
         .arg("--bake")
         .arg(asset)
         .args([
-            "--mode", "indirect", "--width", "256", "--height", "256", "--ssaa", "1",
+            "--mode", "indirect", "--ssaa", "1", "--width", &size, "--height", &size,
         ])
         .args(extra)
         .arg("--stats")
@@ -254,10 +244,17 @@ fn the_later_bounces_at_half_resolution_keep_their_light() {
     let scene = common::data("occluded.glb");
     let (every, one) = bake_every_and_one(&scene, tmp.path());
     let out = |n: &str| tmp.path().join(format!("{n}.exr"));
-    let (half, s_half) = render_256(&scene, &every, &out("half"), &[]);
-    let (full, s_full) = render_256(&scene, &every, &out("full"), &["--later-full-resolution"]);
-    let (exact, s_exact) = render_256(&scene, &every, &out("exact"), &["--interleave", "1"]);
-    let (first, s_first) = render_256(&scene, &one, &out("first"), &[]);
+    let (half, s_half) = render_indirect(&scene, &every, &out("half"), 256, &[]);
+    let (full, s_full) = render_indirect(
+        &scene,
+        &every,
+        &out("full"),
+        256,
+        &["--later-full-resolution"],
+    );
+    let (exact, s_exact) =
+        render_indirect(&scene, &every, &out("exact"), 256, &["--interleave", "1"]);
+    let (first, s_first) = render_indirect(&scene, &one, &out("first"), 256, &[]);
     assert_eq!(s_half["later_half_views"], 1, "{s_half}");
     for s in [&s_full, &s_exact, &s_first] {
         assert_eq!(s["later_half_views"], 0, "{s}");
@@ -290,7 +287,7 @@ fn moving_objects_absorb_some_of_the_later_bounces() {
     let scene = common::data("corner_bunny.glb");
     let (every, one) = bake_every_and_one(&scene, tmp.path());
     let scale = |asset: &Path, name: &str| -> Vec<f64> {
-        let (_, s) = render_256(&scene, asset, &tmp.path().join(name), &[]);
+        let (_, s) = render_indirect(&scene, asset, &tmp.path().join(name), 256, &[]);
         s["later_scale"]
             .as_array()
             .unwrap_or_else(|| panic!("no later_scale in {s}"))

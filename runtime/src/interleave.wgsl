@@ -37,14 +37,10 @@ const PLANE_SIN: f32 = 0.5;
 // cs_main: the filtered later bounces (a 1×1 stand-in without them).
 @group(0) @binding(6) var later_in: texture_2d<f32>;
 
-// How much neighbour sample q (its G-buffer at pixel g) counts for a
-// receiver at x with normals ns, ng: 0 for no surface or a back-facing
-// one.
-fn neighbour_weight(g: vec2<i32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> f32 {
-    let dq = textureLoad(g_depth, g, 0).r;
-    if (dq == params.far_depth) {
-        return 0.0;
-    }
+// How much neighbour sample q (its G-buffer at pixel g, depth dq: a
+// surface's) counts for a receiver at x with normals ns, ng: 0 for a
+// back-facing one.
+fn neighbour_weight(g: vec2<i32>, dq: f32, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) -> f32 {
     let nq = gbuffer_normal(textureLoad(g_normals, g, 0).x);
     let c = max(dot(ns, nq), 0.0);
     if (c <= 0.0) {
@@ -78,7 +74,11 @@ fn tent(c: vec2<i32>, step: i32, grid: vec2<i32>, base: vec2<i32>, m: i32, x: ve
             if (q.x < 0 || q.y < 0 || q.x >= grid.x || q.y >= grid.y) {
                 continue;
             }
-            let wg = neighbour_weight(q * step, x, ns, ng);
+            let dq = textureLoad(g_depth, q * step, 0).r;
+            if (dq == params.far_depth) {
+                continue;
+            }
+            let wg = neighbour_weight(q * step, dq, x, ns, ng);
             if (wg <= 0.0) {
                 continue;
             }
@@ -107,11 +107,15 @@ fn later_upsampled(px: vec2<i32>, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) ->
         let o = vec2<i32>(k % 2, k / 2);
         let wb = select(1.0 - t.x, t.x, o.x == 1) * select(1.0 - t.y, t.y, o.y == 1);
         let q = min(q0 + o, grid - vec2<i32>(1));
-        if (wb <= 0.0 || textureLoad(g_depth, q * 2, 0).r == params.far_depth) {
+        if (wb <= 0.0) {
+            continue;
+        }
+        let dq = textureLoad(g_depth, q * 2, 0).r;
+        if (dq == params.far_depth) {
             continue;
         }
         let e = textureLoad(later_in, q, 0).rgb;
-        let w = wb * neighbour_weight(q * 2, x, ns, ng);
+        let w = wb * neighbour_weight(q * 2, dq, x, ns, ng);
         sum += e * w;
         wsum += w;
         bsum += e * wb;

@@ -26,47 +26,54 @@ use std::cmp::Ordering;
 use gibake_scene::Aabb;
 use glam::Vec3;
 
+/// The bounding sphere of `b` seen from `origin` (unit `normal`): its
+/// centre's squared distance `d²` and the cosine to it widened by the
+/// sphere's half-angle `r/d`, clamped to [0, 1]; `None` where the origin
+/// lies inside the sphere.
+fn seen_sphere(origin: Vec3, normal: Vec3, b: &Aabb) -> Option<(f32, f32, f32)> {
+    let to = (b.min + b.max) * 0.5 - origin;
+    let r = (b.max - b.min).length() * 0.5;
+    let d2 = to.length_squared();
+    if d2.partial_cmp(&(r * r)) != Some(Ordering::Greater) {
+        return None;
+    }
+    let d = d2.sqrt();
+    let s = r / d;
+    Some((d2, s, (normal.dot(to / d) + s).clamp(0.0, 1.0)))
+}
+
 /// The share of a Lambertian emitter's flux at `origin` with unit normal
 /// `normal` that an object bounded by `b` intercepts at most: `(r/d)²
-/// · cos θ`, with the cosine widened by the sphere's half-angle (`r/d`)
-/// and clamped to [0, 1]; 1 where the origin lies inside the bounding
-/// sphere.
+/// · cos θ` for its bounding sphere (radius r, centre at distance d), the
+/// cosine widened by the sphere's half-angle and clamped to [0, 1]; 1
+/// where the origin lies inside the sphere.
 pub(crate) fn intercepted(origin: Vec3, normal: Vec3, b: &Aabb) -> f32 {
-    let c = (b.min + b.max) * 0.5;
-    let r = (b.max - b.min).length() * 0.5;
-    let to = c - origin;
-    let d = to.length();
-    if d.partial_cmp(&r) != Some(Ordering::Greater) {
-        return 1.0;
+    match seen_sphere(origin, normal, b) {
+        Some((_, s, cos)) => {
+            let f = s * s * cos;
+            if f.is_finite() { f.min(1.0) } else { 1.0 }
+        }
+        None => 1.0,
     }
-    let s = r / d;
-    let cos = (normal.dot(to / d) + s).clamp(0.0, 1.0);
-    let f = s * s * cos;
-    if f.is_finite() { f.min(1.0) } else { 1.0 }
 }
 
 /// The share of a Lambertian emitter's flux at `origin` (unit `normal`)
 /// that an object of surface `area` (world units², convex: its mean
 /// projected area is a quarter of it) within `b` takes, on average over
-/// its orientations: `(area/4) / (π d²) · cos θ`, d and θ to the box's
-/// centre, the cosine widened by the bounding sphere's half-angle, at most
-/// [`intercepted`] (the bounding sphere's). Exact for a ball; what the
-/// later bounces lose to a moving object ([`crate::later_absorb`]), where
-/// the bounding sphere — three times a ball's cross-section for its box —
+/// its orientations: `(area/4) / (π d²) · cos θ`, d and θ as in
+/// [`intercepted`], and at most that. Exact for a ball; what the later
+/// bounces lose to a moving object ([`crate::later_absorb`]), where the
+/// bounding sphere — three times a ball's cross-section for its box —
 /// would count too much.
 pub(crate) fn intercepted_by_area(origin: Vec3, normal: Vec3, b: &Aabb, area: f32) -> f32 {
     let bound = intercepted(origin, normal, b);
-    let c = (b.min + b.max) * 0.5;
-    let r = (b.max - b.min).length() * 0.5;
-    let to = c - origin;
-    let d2 = to.length_squared();
-    if d2.partial_cmp(&(r * r)) != Some(Ordering::Greater) {
-        return bound;
+    match seen_sphere(origin, normal, b) {
+        Some((d2, _, cos)) => {
+            let f = area.max(0.0) * 0.25 / (std::f32::consts::PI * d2) * cos;
+            if f.is_finite() { f.min(bound) } else { bound }
+        }
+        None => bound,
     }
-    let d = d2.sqrt();
-    let cos = (normal.dot(to / d) + r / d).clamp(0.0, 1.0);
-    let f = area.max(0.0) * 0.25 / (std::f32::consts::PI * d2) * cos;
-    if f.is_finite() { f.min(bound) } else { bound }
 }
 
 /// Leaves out of `masks` (per map, per draw: the faces drawn) each draw's

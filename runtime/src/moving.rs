@@ -112,6 +112,9 @@ struct BounceView {
 
 /// The moving objects' passes of one renderer.
 pub(crate) struct MovingPasses {
+    /// The later VPLs' own factors last written to the occlusion buffer's
+    /// tail ([`MovingPasses::write_later_factors`]).
+    later_factors: Vec<f32>,
     primary: Option<ShadowPass>,
     rsm: Option<(DynamicRsmPass, OcclusionPass)>,
     /// The later bounces' VPLs' share of the occlusion (an asset with
@@ -282,6 +285,7 @@ impl MovingPasses {
             _ => None,
         };
         Ok(MovingPasses {
+            later_factors: Vec::new(),
             primary,
             rsm,
             later_occlusion,
@@ -397,16 +401,20 @@ impl MovingPasses {
     /// Writes the later VPLs' own factors (what the moving objects near
     /// each take of the light that reaches it) after the occluded shares,
     /// where the occlusion buffer exists.
-    pub(crate) fn write_later_factors(&self, queue: &wgpu::Queue, factors: &[glam::Vec3]) {
+    /// Written only when they change (the tail is never cleared).
+    pub(crate) fn write_later_factors(&mut self, queue: &wgpu::Queue, factors: &[glam::Vec3]) {
         if let Some((_, occ)) = &self.rsm
             && !factors.is_empty()
         {
             let data: Vec<f32> = factors.iter().flat_map(|f| [f.x, f.y, f.z, 1.0]).collect();
-            queue.write_buffer(
-                &occ.occluded,
-                4 * u64::from(occ.vpl_count),
-                bytemuck::cast_slice(&data),
-            );
+            if data != self.later_factors {
+                queue.write_buffer(
+                    &occ.occluded,
+                    4 * u64::from(occ.vpl_count),
+                    bytemuck::cast_slice(&data),
+                );
+                self.later_factors = data;
+            }
         }
     }
 

@@ -228,11 +228,11 @@ impl World {
             let keep: Vec<glam::Vec3> = (0..n_later)
                 .map(|j| glam::Vec3::ONE - a.local.get(j).copied().unwrap_or(glam::Vec3::ZERO))
                 .collect();
-            self.moving.write_later_factors(queue, &keep);
             let mut s = crate::later_absorb::later_scale(per_bounce, *tail, a.first, a.later);
             if !own {
                 s *= glam::Vec3::ONE - a.later;
             }
+            self.moving.write_later_factors(queue, &keep);
             self.gi.set_later_scale(queue, s);
         }
         if grown {
