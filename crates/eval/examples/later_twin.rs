@@ -217,13 +217,18 @@ fn main() {
     let no_ring = vec![true; l.vpls.len()];
     let second = TwinVpls::new(&l.vpls, &no_ring, &l.nodes, &l.coherence).with_later(l.vpls.len());
     let cam = gibake_reference::View::from_scene(&scene, 0.0).expect("a camera");
-    let px: Vec<(Vec3, Vec3, Vec3, Vec3, Vec3)> = (0..size * size)
+    // Per pixel: one-bounce and every-bounce reference, first-bounce VPLs,
+    // later VPLs, surfels; and, without visibility, the later VPLs and
+    // the surfels (what the clustering's transport does apart from its
+    // visibility).
+    type Px = (Vec3, Vec3, Vec3, Vec3, Vec3, Vec3, Vec3);
+    let px: Vec<Px> = (0..size * size)
         .into_par_iter()
         .map(|p| {
             let (x, y) = (p % size, p / size);
             let (o, d, t0) = cam.primary_ray(size, size, x as f32 + 0.5, y as f32 + 0.5);
             let Some(h) = rays.intersect_range(o, d, t0, f32::INFINITY) else {
-                return (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+                return Px::default();
             };
             // The reference's one-bounce and every-bounce radiance at the
             // pixel centre (gibake_eval::bounce, validated against Mitsuba 3).
@@ -236,8 +241,9 @@ fn main() {
             let one = h.albedo * one / (side * side) as f32;
             let all = h.albedo * all / (side * side) as f32;
             let a = h.albedo / PI * first.irradiance(&rays, &h).visible;
-            let b = h.albedo / PI * second.irradiance(&rays, &h).visible;
-            let mut e = Vec3::ZERO;
+            let later = second.irradiance(&rays, &h);
+            let b = h.albedo / PI * later.visible;
+            let (mut e, mut e_open) = (Vec3::ZERO, Vec3::ZERO);
             for &(p, n, ar, f) in &emitters {
                 let k = gibake_eval::transport::disk_irradiance(
                     p,
@@ -248,15 +254,26 @@ fn main() {
                     h.shading_normal,
                     h.geometric_normal,
                 );
+                e_open += k;
                 if k != Vec3::ZERO && rays.visible(p, n, h.position, h.geometric_normal) {
                     e += k;
                 }
             }
-            (one, all, a, b, h.albedo / PI * e)
+            (
+                one,
+                all,
+                a,
+                b,
+                h.albedo / PI * e,
+                h.albedo / PI * later.unshadowed,
+                h.albedo / PI * e_open,
+            )
         })
         .collect();
-    let mut s = [DVec3::ZERO; 5];
+    let mut s = [DVec3::ZERO; 7];
     for v in &px {
+        s[5] += v.5.as_dvec3();
+        s[6] += v.6.as_dvec3();
         s[4] += v.4.as_dvec3();
         s[0] += v.0.as_dvec3();
         s[1] += v.1.as_dvec3();
@@ -310,6 +327,12 @@ fn main() {
         pct(s[2] + s[4], s[1]),
         blur_err(&|i| px[i].2 + px[i].4, &|i| px[i].1),
         pct(s[3], s[4]),
+    );
+    println!(
+        "  without visibility: later VPLs / surfels {}; visibility keeps of the surfels' light {:.1}%, of the later VPLs' {:.1}%",
+        pct(s[5], s[6]),
+        100.0 * (s[4].element_sum() / s[6].element_sum()),
+        100.0 * (s[3].element_sum() / s[5].element_sum()),
     );
     println!(
         "  every bounce / one bounce (reference, indirect): {}",
