@@ -296,16 +296,18 @@ fn per_pixel(scene: &Scene, vpls: u32, size: u32) -> Vec<Option<(f64, f64)>> {
 /// 16 roof holes put radiance up to 9.4 where the reference has 0.15 at
 /// the default budget (a VPL beside the receivers round an opening). At
 /// the default budget (256) and at 664 VPLs the brightest pixel is now
-/// within 2× the reference's brightest (0.12 and 0.19 against 0.21). A
-/// known failure at 64 VPLs: 0.68, 3.3× — each VPL four times the area, its
-/// finest nodes' unshadowed share reaches through the 0.4 m roof
-/// (docs/method.md, "Finest nodes near their receiver", known cost); held
-/// to 4× so that it does not grow unseen.
+/// within 2× the reference's brightest (0.12 and 0.19 against 0.21). At 64
+/// VPLs it was 0.68, 3.3×, until the finest near-field nodes whose texels
+/// lie on two surfaces a step apart (a roof's top and the floor seen
+/// through its hole: a VPL four times the area spans both) moved onto the
+/// surface carrying most of their light (`gibake_bake::near_field::
+/// Anchors`; docs/method.md, "Finest nodes across a step"): 0.055, 0.3×.
+/// Every budget is held to 2×.
 #[test]
 fn hot_spots_round_small_openings_by_budget() {
     let scene = roof_holes();
     let mut failed = Vec::new();
-    for (vpls, bound) in [(64, 4.0), (256, 2.0), (664, 2.0)] {
+    for (vpls, bound) in [(64, 2.0), (256, 2.0), (664, 2.0)] {
         let px: Vec<(f64, f64)> = per_pixel(&scene, vpls, 40).into_iter().flatten().collect();
         let max_gpu = px.iter().map(|p| p.0).fold(0.0, f64::max);
         let max_ref = px.iter().map(|p| p.1).fold(0.0, f64::max);

@@ -176,6 +176,8 @@ pub fn vpl_nodes_and_coherence(
     let levels = NEAR_FIELD_LEVELS;
     let side = 1usize << levels;
     let mut leaf = vec![Sums::default(); side * side];
+    // Each member texel and its level-3 cell.
+    let mut members = Vec::new();
     for y in y0..y1 {
         let j = cell(y, y0, y1, levels);
         for x in x0..x1 {
@@ -185,9 +187,96 @@ pub fn vpl_nodes_and_coherence(
             }
             let i = cell(x, x0, x1, levels);
             leaf[j * side + i].push(rsm.position[t], rsm.normal[t], rsm.flux[t], rsm.area[t]);
+            members.push((j * side + i, rsm.position[t], rsm.flux[t]));
         }
     }
-    tree_of_cells(leaf)
+    let anchors = Anchors::of(leaf.len(), members);
+    let (mut nodes, coherence) = tree_of_cells(leaf);
+    anchors.apply(&mut nodes);
+    (nodes, coherence)
+}
+
+/// Where each level-3 node of a VPL sits: its members' flux-weighted
+/// centroid, or, where its members lie on surfaces a step apart, on the
+/// one that carries most of its light. A cell holds the members of one
+/// VPL, and a VPL may span two surfaces a step apart where its leaf is
+/// wide (a small budget: a roof's top and the floor seen through its
+/// opening, [`crate::cluster`]'s depth gap growing with the leaf). Their
+/// centroid is then in mid-air or inside the roof slab, facing up, and at
+/// a receiver beside it — the ceiling next to the opening, the opening's
+/// own sides — its light is near-field light no map darkens (shade.wgsl
+/// `open_weight`): the room lit through roof holes got hot spots of 3.3×
+/// the reference's brightest pixel at 64 VPLs (docs/method.md, "Finest
+/// nodes across a step"). So where its members' depths along the node's
+/// normal leave a gap wider than its disk radius `√(A/π)` — two surfaces
+/// a step apart — the node moves along its normal to their flux-weighted
+/// median depth: onto the surface most of its light comes from. On one
+/// surface, flat or curved, and across a crease (a floor and a wall),
+/// the depths run on without a gap: nothing moves.
+pub(crate) struct Anchors {
+    /// Per level-3 cell: its members' (weight, position).
+    members: Vec<Vec<(f64, Vec3)>>,
+}
+
+impl Anchors {
+    /// `members`: (cell, position, flux) of every member summed into a
+    /// VPL's `cells` level-3 cells (those [`Sums::push`] skips are skipped).
+    pub(crate) fn of(
+        cells: usize,
+        members: impl IntoIterator<Item = (usize, Vec3, Vec3)>,
+    ) -> Anchors {
+        let mut per = vec![Vec::new(); cells];
+        for (k, p, flux) in members {
+            let w = f64::from(flux.x) + f64::from(flux.y) + f64::from(flux.z);
+            if let Some(m) = per.get_mut(k)
+                && w > 0.0
+                && w.is_finite()
+            {
+                m.push((w, p));
+            }
+        }
+        Anchors { members: per }
+    }
+
+    /// Moves the level-3 nodes of `nodes` (one VPL's [`NODES_PER_VPL`])
+    /// whose members lie a step apart (see the type's docs).
+    pub(crate) fn apply(&self, nodes: &mut [VplRecord]) {
+        let level3 = level_offset(NEAR_FIELD_LEVELS);
+        for (node, members) in nodes.iter_mut().skip(level3).zip(&self.members) {
+            if node.texels == 0 || members.len() < 2 {
+                continue;
+            }
+            let c = Vec3::from_array(node.position).as_dvec3();
+            let n = Vec3::from_array(node.normal).as_dvec3();
+            let mut depths: Vec<(f64, f64)> = members
+                .iter()
+                .map(|&(w, p)| (n.dot(p.as_dvec3() - c), w))
+                .collect();
+            let total: f64 = depths.iter().map(|d| d.1).sum();
+            let r = (f64::from(node.area.max(0.0)) / std::f64::consts::PI).sqrt();
+            depths.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let step = depths
+                .windows(2)
+                .map(|d| d[1].0 - d[0].0)
+                .fold(0.0, f64::max);
+            if !crate::later::gt(step, r) {
+                continue;
+            }
+            let mut acc = 0.0;
+            let mut median = depths[0].0;
+            for &(d, w) in &depths {
+                acc += w;
+                median = d;
+                if acc >= 0.5 * total {
+                    break;
+                }
+            }
+            let p = (c + n * median).as_vec3();
+            if p.is_finite() {
+                node.position = p.to_array();
+            }
+        }
+    }
 }
 
 /// The near-field tree and level-3 coherences of a VPL whose members are
@@ -305,5 +394,50 @@ mod tests {
         let l3 = &nodes[level_offset(3)..];
         assert!((Vec3::from_array(l3[0].normal) - Vec3::Y).length() < 1e-6);
         assert_eq!(l3[3].texels, 0);
+    }
+
+    /// A finest node over two floors a step apart (a roof's top and the
+    /// floor under its opening) moves onto the one carrying most of its
+    /// light; one over a crease (a floor and a wall meeting) does not.
+    #[test]
+    fn a_finest_node_across_a_step_sits_on_its_brighter_surface() {
+        let view = gibake_gpu::LightView::directional(
+            Vec3::new(0.0, -1.0, 0.0),
+            Vec3::splat(-1.0),
+            Vec3::ONE,
+            16,
+        );
+        let mut rsm = Rsm::empty(16, view);
+        let mut lit = |x: usize, y: usize, p: Vec3, n: Vec3| {
+            let t = y * 16 + x;
+            rsm.metric[t] = 1.0;
+            rsm.position[t] = p;
+            rsm.normal[t] = n;
+            rsm.flux[t] = Vec3::ONE;
+            rsm.area[t] = 0.01;
+        };
+        // Cell (0, 0) (texels x, y in 0..2): three on a roof at 4.4 m, one
+        // on the floor 4.4 m below. Cell (1, 0) (x in 2..4): two on a floor,
+        // two on the wall rising from its edge.
+        let x = |k: usize| 0.1 * k as f32;
+        lit(0, 0, Vec3::new(x(0), 4.4, 0.0), Vec3::Y);
+        lit(1, 0, Vec3::new(x(1), 4.4, 0.0), Vec3::Y);
+        lit(0, 1, Vec3::new(x(0), 4.4, 0.1), Vec3::Y);
+        lit(1, 1, Vec3::new(x(1), 0.0, 0.1), Vec3::Y);
+        lit(2, 0, Vec3::new(x(2), 0.0, 0.0), Vec3::Y);
+        lit(2, 1, Vec3::new(x(2), 0.0, 0.1), Vec3::Y);
+        lit(3, 0, Vec3::new(x(3), 0.05, 0.0), Vec3::NEG_X);
+        lit(3, 1, Vec3::new(x(3), 0.05, 0.1), Vec3::NEG_X);
+        let (nodes, _) = vpl_nodes_and_coherence(&rsm, (0, 16, 0, 16), |_| true);
+        let l3 = &nodes[level_offset(3)..];
+        // The step: on the roof, not at the centroid's 3.3 m.
+        let step = Vec3::from_array(l3[0].position);
+        assert!((step.y - 4.4).abs() < 1e-4, "{step}");
+        assert_eq!(l3[0].texels, 4);
+        assert!((Vec3::from_array(l3[0].flux) - Vec3::splat(4.0)).length() < 1e-5);
+        // The crease: its centroid, as before.
+        let crease = Vec3::from_array(l3[1].position);
+        let centroid = Vec3::new((x(2) + x(3)) / 2.0, 0.025, 0.05);
+        assert!((crease - centroid).length() < 1e-5, "{crease} against {centroid}");
     }
 }
