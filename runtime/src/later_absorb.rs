@@ -7,21 +7,29 @@
 //! a quarter of its surface seen from the VPL, for the maps it reaches
 //! that their baked surfaces do not hide) no longer lands
 //! on the static surfaces, and of that the object keeps `1 − albedo` (per
-//! channel). So each transfer between surfaces loses, on average over the
-//! VPLs weighted by their flux, `a = Σ_v w_v min(1, Σ_k I_vk (1 − ρ_k)) /
-//! Σ_v w_v`: `a₁` over the first bounce's VPLs (their light builds the
-//! surfaces' first indirect light), `a₂` over the later VPLs'. The light
+//! channel): `l_v = min(1, Σ_k I_vk (1 − ρ_k))` for VPL `v`. By
+//! reciprocity a later VPL loses `l_v` of the light coming in as well, and
+//! the light reaching it in the transfers before came from the surfaces
+//! round it, which see much of what it sees; so each transfer into the
+//! light it passes on loses its own `l_v` ([`local_keep`]). The light
 //! reflected after bounce `j` of the bake's series (`LaterRecord::
 //! per_bounce`, `P_j`, the later VPLs' flux in all) has passed `j + 1`
-//! transfers, so the later VPLs' flux is scaled each frame, per channel, by
+//! transfers, so each later VPL's flux is scaled each frame, per channel,
+//! by
 //!
-//!   S = Σ_j P_j (1 − a₁)(1 − a₂)^j / Σ_j P_j
+//!   k_v = (1 − l_v) Σ_j P_j (1 − l_v)^j / Σ_j P_j
 //!
-//! (the series' tail as a geometric rest). First order: where the light is
-//! lost does not move the later light (as `later_occlusion.wgsl` for
-//! objects that block the lights), and what the object reflects goes on as
-//! if a static surface had. Measured in docs/method.md, "Moving objects and
-//! the later bounces".
+//! (the series' tail as a geometric rest), written per later VPL after the
+//! occluded shares in the occlusion buffer shading reads. Where no
+//! occlusion buffer exists (no RSM for the primary light), one factor for
+//! all: the level's flux-weighted means `a₁` (over the first bounce's
+//! VPLs) and `a₂` (the later ones'), `(1 − a₂) Σ_j P_j (1 − a₁)^[j≥1]
+//! (1 − a₂)^max(j−1, 0) / Σ_j P_j` ([`later_scale`]). First order: where
+//! the light is lost does not move the later light beyond a VPL's own
+//! neighbourhood (as `later_occlusion.wgsl` for objects that block the
+//! lights), and what the object reflects goes on as if a static surface
+//! had. Measured in docs/method.md, "Moving objects and the later
+//! bounces".
 
 use glam::Vec3;
 
@@ -38,6 +46,9 @@ pub(crate) struct Absorbed {
     /// what they take of its light going out they take of the light
     /// coming in).
     pub local: Vec<Vec3>,
+    /// Per later VPL: its weight in the means (the channel sum of its
+    /// flux), for the flux-weighted mean `FrameStats` reports.
+    pub local_weight: Vec<f32>,
 }
 
 /// What the moving draws absorb (see [`Absorbed`]): over the maps `v <
@@ -57,6 +68,7 @@ pub(crate) fn absorbed(
 ) -> Absorbed {
     let mut sums = [(Vec3::ZERO, 0.0f32); 2];
     let mut local = Vec::with_capacity(n_static.saturating_sub(first_later));
+    let mut local_weight = Vec::with_capacity(n_static.saturating_sub(first_later));
     for v in 0..n_static.min(masks.len()) {
         let mut lost = Vec3::ZERO;
         for (k, &faces) in masks[v].iter().enumerate() {
@@ -68,10 +80,11 @@ pub(crate) fn absorbed(
             }
         }
         let lost = lost.min(Vec3::ONE);
+        let w = weight.get(v).copied().unwrap_or(0.0);
         if v >= first_later {
             local.push(lost);
+            local_weight.push(if w.is_finite() { w.max(0.0) } else { 0.0 });
         }
-        let w = weight.get(v).copied().unwrap_or(0.0);
         if w > 0.0 && w.is_finite() {
             let s = &mut sums[usize::from(v >= first_later)];
             s.0 += w * lost;
@@ -79,11 +92,40 @@ pub(crate) fn absorbed(
         }
     }
     local.resize(n_static.saturating_sub(first_later), Vec3::ZERO);
+    local_weight.resize(n_static.saturating_sub(first_later), 0.0);
     let mean = |(l, w): (Vec3, f32)| if w > 0.0 { l / w } else { Vec3::ZERO };
     Absorbed {
         first: mean(sums[0]),
         later: mean(sums[1]),
         local,
+        local_weight,
+    }
+}
+
+/// A later VPL's flux scale where every transfer into the light it passes
+/// on loses `l`, its own loss (the objects its map sees): the light
+/// reaching it in each transfer came from the surfaces round it, which
+/// see much of what it sees (first order: local), so a room with the
+/// objects loses more than the level's mean and a room without them
+/// less. `(1 − l) · later_scale(per_bounce, tail, l, l)`. Measured against
+/// the level-wide means (docs/method.md, "What moving objects absorb"):
+/// the grid of rooms with its blue spheres +16.5 → +8.7% red.
+pub(crate) fn local_keep(per_bounce: &[[f32; 3]], tail: [f32; 3], l: Vec3) -> Vec3 {
+    let l = l.clamp(Vec3::ZERO, Vec3::ONE);
+    (Vec3::ONE - l) * later_scale(per_bounce, tail, l, l)
+}
+
+/// `Σ w k / Σ w` (1 where the weights sum to nothing).
+pub(crate) fn weighted_mean(k: &[Vec3], w: &[f32]) -> Vec3 {
+    let (mut sum, mut total) = (Vec3::ZERO, 0.0f32);
+    for (k, &w) in k.iter().zip(w) {
+        sum += *k * w;
+        total += w;
+    }
+    if total > 0.0 && (sum / total).is_finite() {
+        sum / total
+    } else {
+        Vec3::ONE
     }
 }
 
@@ -175,5 +217,22 @@ mod tests {
         let b = absorbed(&masks, &weight, (2, 3), &[None], |_, _| 0.4);
         assert_eq!(b.first, Vec3::ZERO);
         assert_eq!(b.local, vec![Vec3::ZERO]);
+    }
+
+    /// A VPL that sees the objects loses its own share at every transfer:
+    /// more than one transfer's worth, less than all; none lost, none kept
+    /// back; the flux-weighted mean weighs by flux.
+    #[test]
+    fn a_vpl_loses_its_own_share_at_every_transfer() {
+        let series = [[1.0, 1.0, 1.0], [0.5, 0.5, 0.5]];
+        let tail = [0.5, 0.5, 0.5];
+        assert_eq!(local_keep(&series, tail, Vec3::ZERO), Vec3::ONE);
+        let k = local_keep(&series, tail, Vec3::new(0.2, 0.0, 1.0));
+        assert!(k.x < 0.8 && k.x > 0.8 * 0.8 * 0.8, "{k}");
+        assert_eq!(k.y, 1.0);
+        assert_eq!(k.z, 0.0);
+        let m = weighted_mean(&[Vec3::ONE, Vec3::ZERO], &[3.0, 1.0]);
+        assert!((m - Vec3::splat(0.75)).length() < 1e-6, "{m}");
+        assert_eq!(weighted_mean(&[], &[]), Vec3::ONE);
     }
 }

@@ -546,6 +546,9 @@ pub(crate) struct ShadeGi {
     pub group: wgpu::BindGroup,
     /// Whether it binds the other lights (the pass's variant with them).
     many: bool,
+    /// The later VPLs' flux scale as `FrameStats` reports it: the level-wide
+    /// factor times their flux-weighted mean own factor.
+    later_reported: [f32; 3],
 }
 
 /// What group 1 is built from.
@@ -591,6 +594,7 @@ impl ShadeGi {
             params_buf,
             group,
             many: s.other_lights.is_some(),
+            later_reported: [1.0; 3],
         }
     }
 
@@ -644,9 +648,16 @@ impl ShadeGi {
         }
     }
 
-    /// Scales the later VPLs' flux from the next frame on (written only
-    /// when it changes).
-    pub(crate) fn set_later_scale(&mut self, queue: &wgpu::Queue, s: glam::Vec3) {
+    /// Scales the later VPLs' flux from the next frame on by `s` (written
+    /// only when it changes); `reported`: the whole scale, `s` times the
+    /// later VPLs' own factors' flux-weighted mean, for `FrameStats`.
+    pub(crate) fn set_later_scale(
+        &mut self,
+        queue: &wgpu::Queue,
+        s: glam::Vec3,
+        reported: glam::Vec3,
+    ) {
+        self.later_reported = reported.to_array();
         let v = [s.x, s.y, s.z, 1.0];
         if self.params.later_scale != v {
             self.params.later_scale = v;
@@ -654,10 +665,10 @@ impl ShadeGi {
         }
     }
 
-    /// The later VPLs' flux scale in use.
+    /// The later VPLs' flux scale in use, their own factors' flux-weighted
+    /// mean included.
     pub(crate) fn later_scale(&self) -> [f32; 3] {
-        let s = self.params.later_scale;
-        [s[0], s[1], s[2]]
+        self.later_reported
     }
 
     /// Static VPLs shaded.

@@ -221,19 +221,28 @@ impl World {
         {
             let none = crate::later_absorb::Absorbed::default();
             let a = self.moving.later_absorbed().unwrap_or(&none);
-            // Each later VPL's own last transfer where the occlusion
-            // buffer carries it; else the level-wide mean for it too.
+            // Each later VPL's own factor where the occlusion buffer
+            // carries it: every transfer into it loses what the objects
+            // its map sees take (later_absorb::local_keep); else the
+            // level-wide means, in one factor for all.
             let own = self.moving.has_later_factors();
             let n_later = self.baked.as_ref().map_or(0, |b| b.later as usize);
-            let keep: Vec<glam::Vec3> = (0..n_later)
-                .map(|j| glam::Vec3::ONE - a.local.get(j).copied().unwrap_or(glam::Vec3::ZERO))
-                .collect();
-            let mut s = crate::later_absorb::later_scale(per_bounce, *tail, a.first, a.later);
-            if !own {
-                s *= glam::Vec3::ONE - a.later;
-            }
+            let (s, keep) = if own {
+                let keep: Vec<glam::Vec3> = (0..n_later)
+                    .map(|j| {
+                        let l = a.local.get(j).copied().unwrap_or(glam::Vec3::ZERO);
+                        crate::later_absorb::local_keep(per_bounce, *tail, l)
+                    })
+                    .collect();
+                (glam::Vec3::ONE, keep)
+            } else {
+                let s = crate::later_absorb::later_scale(per_bounce, *tail, a.first, a.later)
+                    * (glam::Vec3::ONE - a.later);
+                (s, vec![glam::Vec3::ONE; n_later])
+            };
+            let reported = s * crate::later_absorb::weighted_mean(&keep, &a.local_weight);
             self.moving.write_later_factors(queue, &keep);
-            self.gi.set_later_scale(queue, s);
+            self.gi.set_later_scale(queue, s, reported);
         }
         if grown {
             let sources = GiSources {
