@@ -91,10 +91,11 @@ pub struct FrameStats {
     /// (Map, moving draw) pairs the merge left out this frame as faint
     /// shadows ([`crate::RenderSettings::merge_cull_share`]).
     pub merge_faint_pairs: u32,
-    /// The later bounces' VPLs' flux scale this frame (linear RGB): what
-    /// the moving objects absorb of the light passed on between the
-    /// static surfaces (`runtime/src/later_absorb.rs`); 1 without them or
-    /// without later VPLs.
+    /// The later bounces' VPLs' flux scale this frame (linear RGB; each
+    /// VPL has its own, this is their flux-weighted mean): what the moving
+    /// objects absorb of the light passed on between the static surfaces
+    /// (`runtime/src/later_absorb.rs`); 1 without them or without later
+    /// VPLs.
     pub later_scale: [f32; 3],
     /// Views that shaded the later bounces' VPLs on the half-resolution
     /// grid this frame ([`crate::RenderSettings::later_full_resolution`]

@@ -438,6 +438,9 @@ mod tests {
         // The crease: its centroid, as before.
         let crease = Vec3::from_array(l3[1].position);
         let centroid = Vec3::new((x(2) + x(3)) / 2.0, 0.025, 0.05);
-        assert!((crease - centroid).length() < 1e-5, "{crease} against {centroid}");
+        assert!(
+            (crease - centroid).length() < 1e-5,
+            "{crease} against {centroid}"
+        );
     }
 }
