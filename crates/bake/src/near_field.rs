@@ -339,19 +339,24 @@ mod tests {
         assert_eq!(cell(5, 5, 6, 3), 7);
     }
 
-    /// Each level-3 node's coherence is its texels' `|Σ w n| / Σ w`: 1 for
-    /// texels facing one way, `cos 45°` for two equal texels 90° apart,
-    /// weighted by flux; 1 for an empty node. Its record keeps the unit
-    /// mean normal.
-    #[test]
-    fn level_3_coherence_of_texels_facing_two_ways() {
+    /// An empty 16² RSM of a sun straight above.
+    fn empty_rsm() -> Rsm {
         let view = gibake_gpu::LightView::directional(
             Vec3::new(0.0, -1.0, 0.0),
             Vec3::splat(-1.0),
             Vec3::ONE,
             16,
         );
-        let mut rsm = Rsm::empty(16, view);
+        Rsm::empty(16, view)
+    }
+
+    /// Each level-3 node's coherence is its texels' `|Σ w n| / Σ w`: 1 for
+    /// texels facing one way, `cos 45°` for two equal texels 90° apart,
+    /// weighted by flux; 1 for an empty node. Its record keeps the unit
+    /// mean normal.
+    #[test]
+    fn level_3_coherence_of_texels_facing_two_ways() {
+        let mut rsm = empty_rsm();
         let a = Vec3::new(1.0, 1.0, 0.0).normalize();
         let b = Vec3::new(-1.0, 1.0, 0.0).normalize();
         // Rectangle [0, 16)²: level-3 cells of 2×2 texels. Cell (0, 0): two
@@ -401,13 +406,7 @@ mod tests {
     /// light; one over a crease (a floor and a wall meeting) does not.
     #[test]
     fn a_finest_node_across_a_step_sits_on_its_brighter_surface() {
-        let view = gibake_gpu::LightView::directional(
-            Vec3::new(0.0, -1.0, 0.0),
-            Vec3::splat(-1.0),
-            Vec3::ONE,
-            16,
-        );
-        let mut rsm = Rsm::empty(16, view);
+        let mut rsm = empty_rsm();
         let mut lit = |x: usize, y: usize, p: Vec3, n: Vec3| {
             let t = y * 16 + x;
             rsm.metric[t] = 1.0;
