@@ -57,6 +57,13 @@ fn cell(x: u32, mut lo: u32, mut hi: u32, levels: u32) -> usize {
     idx
 }
 
+/// A member's weight in its node: the channel sum of its flux; none if
+/// that is not positive and finite (the member is left out).
+fn member_weight(flux: Vec3) -> Option<f64> {
+    let w = f64::from(flux.x) + f64::from(flux.y) + f64::from(flux.z);
+    (w > 0.0 && w.is_finite()).then_some(w)
+}
+
 /// The aggregate of a node's members (texels, or surfels for the later
 /// bounces' VPLs): weights are the channel sum of each member's flux.
 #[derive(Clone, Copy, Default)]
@@ -73,10 +80,9 @@ impl Sums {
     /// Adds one member at `p` with normal `n`, flux `flux` and area `area`
     /// (none if its flux is not positive and finite).
     pub(crate) fn push(&mut self, p: Vec3, n: Vec3, flux: Vec3, area: f32) {
-        let w = f64::from(flux.x) + f64::from(flux.y) + f64::from(flux.z);
-        if !(w > 0.0 && w.is_finite()) {
+        let Some(w) = member_weight(flux) else {
             return;
-        }
+        };
         self.w += w;
         self.wp += p.as_dvec3() * w;
         self.wn += n.as_dvec3() * w;
@@ -176,8 +182,7 @@ pub fn vpl_nodes_and_coherence(
     let levels = NEAR_FIELD_LEVELS;
     let side = 1usize << levels;
     let mut leaf = vec![Sums::default(); side * side];
-    // Each member texel and its level-3 cell.
-    let mut members = Vec::new();
+    let mut anchors = Anchors::new(side * side);
     for y in y0..y1 {
         let j = cell(y, y0, y1, levels);
         for x in x0..x1 {
@@ -187,10 +192,9 @@ pub fn vpl_nodes_and_coherence(
             }
             let i = cell(x, x0, x1, levels);
             leaf[j * side + i].push(rsm.position[t], rsm.normal[t], rsm.flux[t], rsm.area[t]);
-            members.push((j * side + i, rsm.position[t], rsm.flux[t]));
+            anchors.push(j * side + i, rsm.position[t], rsm.flux[t]);
         }
     }
-    let anchors = Anchors::of(leaf.len(), members);
     let (mut nodes, coherence) = tree_of_cells(leaf);
     anchors.apply(&mut nodes);
     (nodes, coherence)
@@ -219,23 +223,19 @@ pub(crate) struct Anchors {
 }
 
 impl Anchors {
-    /// `members`: (cell, position, flux) of every member summed into a
-    /// VPL's `cells` level-3 cells (those [`Sums::push`] skips are skipped).
-    pub(crate) fn of(
-        cells: usize,
-        members: impl IntoIterator<Item = (usize, Vec3, Vec3)>,
-    ) -> Anchors {
-        let mut per = vec![Vec::new(); cells];
-        for (k, p, flux) in members {
-            let w = f64::from(flux.x) + f64::from(flux.y) + f64::from(flux.z);
-            if let Some(m) = per.get_mut(k)
-                && w > 0.0
-                && w.is_finite()
-            {
-                m.push((w, p));
-            }
+    /// No members yet in `cells` level-3 cells.
+    pub(crate) fn new(cells: usize) -> Anchors {
+        Anchors {
+            members: vec![Vec::new(); cells],
         }
-        Anchors { members: per }
+    }
+
+    /// A member of cell `k` at `p` with flux `flux` (left out where
+    /// [`Sums::push`] leaves it out).
+    pub(crate) fn push(&mut self, k: usize, p: Vec3, flux: Vec3) {
+        if let (Some(m), Some(w)) = (self.members.get_mut(k), member_weight(flux)) {
+            m.push((w, p));
+        }
     }
 
     /// Moves the level-3 nodes of `nodes` (one VPL's [`NODES_PER_VPL`])

@@ -348,16 +348,15 @@ pub fn cluster(
         }
         let span = (hi_uv - lo_uv).max(glam::Vec2::splat(f32::MIN_POSITIVE));
         let mut cells = vec![Sums::default(); 64];
-        let mut members = Vec::with_capacity(ids.len());
+        let mut anchors = Anchors::new(cells.len());
         for &i in ids {
             let i = i as usize;
             let p = surfels.position[i];
             let uv = (glam::Vec2::new(t.dot(p), b.dot(p)) - lo_uv) / span * 8.0;
             let (ci, cj) = ((uv.x as usize).min(7), (uv.y as usize).min(7));
             cells[cj * 8 + ci].push(p, surfels.normal[i], emitted[i], surfels.area[i]);
-            members.push((cj * 8 + ci, p, emitted[i]));
+            anchors.push(cj * 8 + ci, p, emitted[i]);
         }
-        let anchors = Anchors::of(cells.len(), members);
         let (mut nodes, coherence) = tree_of_cells(cells);
         anchors.apply(&mut nodes);
         for &i in ids {
