@@ -238,6 +238,50 @@ impl Anchors {
         }
     }
 
+    /// Places the level-3 nodes of a later bounce's VPL (one VPL's
+    /// [`NODES_PER_VPL`]; `crate::later::secondary`), whose members are
+    /// surfels a spacing or more apart rather than a surface's texels:
+    /// each node on its member nearest its centroid (on a surface, as the
+    /// VPL itself sits on its surfel nearest its centroid), with the disk
+    /// its members spread over where that is wider than the disk of their
+    /// area — radius `√2 · s`, `s` their flux-weighted RMS distance from
+    /// the node across its normal (a uniform disk's RMS radius is its
+    /// radius over √2). A cell of a VPL spread over a garden's canopies
+    /// held a few surfels of leaves a metre apart: their centroid in
+    /// mid-air and the disk of their area a third of their spread, a
+    /// bright spot at the receiver next to it (docs/method.md, "Later
+    /// VPLs' finest nodes"). The flux stays whole; the parents are not
+    /// moved. This replaces the step rule ([`Anchors::apply`]) for them:
+    /// a node on a member is on one of the surfaces.
+    pub(crate) fn onto_surfels(&self, nodes: &mut [VplRecord]) {
+        let level3 = level_offset(NEAR_FIELD_LEVELS);
+        for (node, members) in nodes.iter_mut().skip(level3).zip(&self.members) {
+            if node.texels == 0 || members.is_empty() {
+                continue;
+            }
+            let c = Vec3::from_array(node.position);
+            let mut best = (f32::INFINITY, c);
+            for &(_, p) in members {
+                let d = (p - c).length_squared();
+                if d < best.0 {
+                    best = (d, p);
+                }
+            }
+            node.position = best.1.to_array();
+            let (c, n) = (best.1.as_dvec3(), Vec3::from_array(node.normal).as_dvec3());
+            let (mut sw, mut s2) = (0.0f64, 0.0f64);
+            for &(w, p) in members {
+                let d = p.as_dvec3() - c;
+                sw += w;
+                s2 += w * (d - n * n.dot(d)).length_squared();
+            }
+            let a = (std::f64::consts::PI * 2.0 * s2 / sw) as f32;
+            if a.is_finite() && a > node.area {
+                node.area = a;
+            }
+        }
+    }
+
     /// Moves the level-3 nodes of `nodes` (one VPL's [`NODES_PER_VPL`])
     /// whose members lie a step apart (see the type's docs).
     pub(crate) fn apply(&self, nodes: &mut [VplRecord]) {
@@ -441,5 +485,68 @@ mod tests {
             (crease - centroid).length() < 1e-5,
             "{crease} against {centroid}"
         );
+    }
+
+    /// A later VPL's finest nodes: three surfels of leaves a metre apart
+    /// get a node on one of them with the disk they spread over, not the
+    /// disk of their 0.03 m² at their mid-air centroid; a patch of sixteen
+    /// surfels side by side keeps the disk of its area, and each flux is
+    /// whole.
+    #[test]
+    fn a_later_vpls_finest_node_sits_on_a_surfel_with_its_members_spread() {
+        let mut cells = vec![Sums::default(); 64];
+        let mut anchors = Anchors::new(64);
+        let mut add = |k: usize, p: Vec3| {
+            cells[k].push(p, Vec3::Y, Vec3::ONE, 0.01);
+            anchors.push(k, p, Vec3::ONE);
+        };
+        let sparse = [
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(1.0, 2.6, 0.0),
+            Vec3::new(0.0, 2.2, 1.0),
+        ];
+        for p in sparse {
+            add(0, p);
+        }
+        for j in 0..4 {
+            for i in 0..4 {
+                add(1, Vec3::new(5.0 + 0.1 * i as f32, 0.0, 0.1 * j as f32));
+            }
+        }
+        let (mut nodes, _) = tree_of_cells(cells);
+        let before: Vec<VplRecord> = nodes.clone();
+        anchors.onto_surfels(&mut nodes);
+        let l3 = level_offset(3);
+        let (a, b) = (&nodes[l3], &nodes[l3 + 1]);
+        let on = Vec3::from_array(a.position);
+        assert!(
+            sparse.iter().any(|p| (*p - on).length() < 1e-6),
+            "{on} is not on a surfel"
+        );
+        // Their RMS distance across the normal from the surfel it sits on.
+        let s2 = sparse
+            .iter()
+            .map(|p| {
+                let d = *p - on;
+                d.x * d.x + d.z * d.z
+            })
+            .sum::<f32>()
+            / 3.0;
+        let want = 2.0 * std::f32::consts::PI * s2;
+        assert!(
+            (a.area - want).abs() < 1e-4 * want,
+            "{} against {want}",
+            a.area
+        );
+        assert!(a.area > 10.0 * before[l3].area);
+        assert!((b.area - before[l3 + 1].area).abs() < 0.35 * before[l3 + 1].area);
+        assert!(
+            (Vec3::from_array(b.position) - Vec3::from_array(before[l3 + 1].position)).length()
+                < 0.1
+        );
+        for (n, m) in nodes.iter().zip(&before) {
+            assert_eq!(n.flux, m.flux);
+            assert_eq!(n.texels, m.texels);
+        }
     }
 }

@@ -13,7 +13,8 @@
 //! budget is met. A cluster is a VPL at its surfel nearest its flux-
 //! weighted centroid (on its own surface, as a first-bounce VPL's anchor),
 //! its near-field tree an `8 × 8` grid over its surfels in its own tangent
-//! plane (the layout of `crate::near_field`).
+//! plane (the layout of `crate::near_field`), each finest node on a surfel
+//! with the disk its surfels spread over (`Anchors::onto_surfels`).
 
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -358,7 +359,7 @@ pub fn cluster(
             anchors.push(cj * 8 + ci, p, emitted[i]);
         }
         let (mut nodes, coherence) = tree_of_cells(cells);
-        anchors.apply(&mut nodes);
+        anchors.onto_surfels(&mut nodes);
         for &i in ids {
             out.surfel_vpl[i as usize] = out.vpls.len() as u32;
         }

@@ -116,7 +116,21 @@ pub fn place(rays: &RayScene<'_>, points: u32) -> Surfels {
             }
             let ng = (b - a).cross(c - a).normalize_or_zero();
             let (u0, u1) = (unit(key ^ 0x1111_0000), unit(key ^ 0x2222_0000));
-            let share = (area / n as f64) as f32;
+            // What each point stands for: its triangle's area over its
+            // points, where every triangle gets one or more; `1/d` where
+            // a triangle under `1/d` gets its one point with chance
+            // `area · d`, so that its area counts on average. Its whole
+            // area on that one point counted `area² · d` on average: the
+            // detailed levels lost most of their small triangles' light
+            // (the city diorama 23% of its sunlit reflection at the
+            // default 16 384 points, 2% at 16 times the points;
+            // docs/method.md, "Every bounce").
+            let m = (area * d).min(cap);
+            let share = if m < 1.0 {
+                (area / m) as f32
+            } else {
+                (area / n as f64) as f32
+            };
             let mut out = Vec::new();
             for k in 1..=n {
                 let (mut s, mut t) = ((u0 + k as f64 * A1).fract(), (u1 + k as f64 * A2).fract());
