@@ -527,13 +527,21 @@ struct VplTerms {
     open: vec3<f32>,
 }
 
-// The open share of a finest node's light at x: 1 within the node's own
-// near field (NEAR_FIELD_RATIO of its radii), 0 from twice that, where
-// its own disk is map-tested out to its parent's descent edge (no seam),
-// smoothstep between. CPU twin:
+// How far, in a finest node's radii, its light skips the map test at a
+// VPL of near-field descent `descent`: half the descent, at most
+// NEAR_FIELD_RATIO (the first bounce's 4 at 8, a later VPL's 2 at 4): the
+// inner half of the node's reach, its map-tested disk the outer half. CPU
+// twin: gibake_eval::transport::open_ratio, which says why.
+fn open_ratio(descent: f32) -> f32 {
+    return min(NEAR_FIELD_RATIO, 0.5 * descent);
+}
+
+// The open share of a finest node's light at x: 1 within `ratio` of its
+// radii (open_ratio), 0 from twice that, where its own disk is map-tested
+// out to its parent's descent edge (no seam), smoothstep between. CPU twin:
 // gibake_eval::transport::open_weight.
-fn open_weight(x: vec3<f32>, p: vec3<f32>, a: f32) -> f32 {
-    let r = NEAR_FIELD_RATIO * sqrt(max(a, 0.0) * INV_PI);
+fn open_weight(x: vec3<f32>, p: vec3<f32>, a: f32, ratio: f32) -> f32 {
+    let r = ratio * sqrt(max(a, 0.0) * INV_PI);
     if (!(r > 0.0)) {
         return 0.0;
     }
@@ -550,6 +558,7 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
     let far = vpls[params.n_static * (1u + NODES_PER_VPL) + i];
     let centre = far.position;
     let dr = vpl_descent(i);
+    let open = open_ratio(dr);
     if (in_far_field(x, centre, v.area, dr)) {
         // A static VPL's own record carries its lobe coherence in `texels`
         // (gibake_gpu::vpl::GpuVpl::texels), fixed point.
@@ -589,7 +598,7 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
                 let j3 = 2u * j2 + c3 / 2u;
                 let n3 = vpls[base + 20u + j3 * 8u + i3];
                 let e3 = near_node_irradiance(n3, x, ns, ng);
-                let w = open_weight(x, n3.position, n3.area);
+                let w = open_weight(x, n3.position, n3.area, open);
                 t.open += e3 * w;
                 t.shadowed += e3 * (1.0 - w);
             }

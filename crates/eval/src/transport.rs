@@ -333,13 +333,29 @@ pub fn near_node_irradiance(n: &VplRecord, c: f32, x: Vec3, ns: Vec3, ng: Vec3) 
     )
 }
 
+/// How far (in a finest node's radii) its light skips the map test at a
+/// VPL of near-field descent `descent`: half the descent, at most
+/// [`NEAR_FIELD_RATIO`] — the first bounce's 4 at its default 8, a later
+/// bounce's 2 at its 4. A finest node stands for its parent's light out to
+/// the parent's descent edge, `2 · descent` of its own radii, and its open
+/// share fades to 0 at twice `ratio`: at half the descent that is the
+/// inner half of its reach, and a map-tested disk the outer half. At the
+/// first bounce's reach a later VPL's open share spanned the whole of it:
+/// its finest nodes' light was never map-tested in full (the white arena's
+/// later VPLs kept 68% of their light where their surfels' own visibility
+/// keeps 49%; docs/method.md, "The later VPLs' open share"). shade.wgsl
+/// `open_ratio`.
+pub fn open_ratio(descent: f32) -> f32 {
+    NEAR_FIELD_RATIO.min(0.5 * descent)
+}
+
 /// How much of a finest near-field node's light at `x` skips the map
-/// test: 1 within the node's own near field ([`NEAR_FIELD_RATIO`] of its
-/// radii), 0 from twice that (where its own disk, map-tested, goes on to
-/// its parent's [`DESCENT_RATIO`] edge), smoothstep between (shade.wgsl
+/// test: 1 within `ratio` of the node's radii ([`open_ratio`]: its own
+/// near field), 0 from twice that (where its own disk, map-tested, goes
+/// on to its parent's descent edge), smoothstep between (shade.wgsl
 /// `open_weight`).
-pub fn open_weight(x: Vec3, p: Vec3, a: f32) -> f32 {
-    let r = NEAR_FIELD_RATIO * (a.max(0.0) / std::f32::consts::PI).sqrt();
+pub fn open_weight(x: Vec3, p: Vec3, a: f32, ratio: f32) -> f32 {
+    let r = ratio * (a.max(0.0) / std::f32::consts::PI).sqrt();
     let d = (x - p).length();
     if r.is_nan() || r <= 0.0 || d.is_nan() {
         return 0.0;
@@ -423,6 +439,7 @@ pub fn static_vpl_terms_at(
     descent: f32,
 ) -> VplTerms {
     let nv = Vec3::from_array(v.normal);
+    let open = open_ratio(descent);
     let mut t = VplTerms::default();
     if !within(x, origin, v.area, 2.0 * descent) || nodes.len() < NODES_PER_VPL {
         let phi = Vec3::from_array(v.flux);
@@ -458,7 +475,7 @@ pub fn static_vpl_terms_at(
                 let (i3, j3) = (2 * i2 + c3 % 2, 2 * j2 + c3 / 2);
                 let n3 = &nodes[20 + j3 * 8 + i3];
                 let e3 = near_node_irradiance(n3, lobes.level3[j3 * 8 + i3], x, ns, ng);
-                let w = open_weight(x, Vec3::from_array(n3.position), n3.area);
+                let w = open_weight(x, Vec3::from_array(n3.position), n3.area, open);
                 t.open += e3 * w;
                 t.shadowed += e3 * (1.0 - w);
             }
@@ -803,7 +820,8 @@ pub fn map_visibility(
 #[cfg(test)]
 mod tests {
     use super::{
-        CREASE_HI, NEAR_FIELD_RATIO, disk_irradiance, far_lobe, near_node_irradiance, open_weight,
+        CREASE_HI, DESCENT_RATIO, LATER_DESCENT_RATIO, NEAR_FIELD_RATIO, disk_irradiance, far_lobe,
+        near_node_irradiance, open_ratio, open_weight,
     };
     use gibake_asset::VplRecord;
     use glam::Vec3;
@@ -994,7 +1012,7 @@ mod tests {
     fn open_weight_fades_from_the_nodes_near_field_to_its_parents() {
         let (p, a) = (Vec3::new(1.0, 2.0, 3.0), 0.04);
         let r = NEAR_FIELD_RATIO * (a / std::f32::consts::PI).sqrt();
-        let at = |d: f32| open_weight(p + Vec3::new(0.6, 0.0, 0.8) * d, p, a);
+        let at = |d: f32| open_weight(p + Vec3::new(0.6, 0.0, 0.8) * d, p, a, NEAR_FIELD_RATIO);
         assert_eq!(at(0.0), 1.0);
         assert_eq!(at(0.999 * r), 1.0);
         assert_eq!(at(2.0 * r), 0.0);
@@ -1006,8 +1024,12 @@ mod tests {
             assert!(w <= last + 1e-6 && (last - w) < 0.02, "{k}: {last} → {w}");
             last = w;
         }
-        assert_eq!(open_weight(p, p, 0.0), 0.0);
-        assert_eq!(open_weight(Vec3::NAN, p, a), 0.0);
+        assert_eq!(open_weight(p, p, 0.0, NEAR_FIELD_RATIO), 0.0);
+        assert_eq!(open_weight(Vec3::NAN, p, a, NEAR_FIELD_RATIO), 0.0);
+        assert_eq!(open_ratio(DESCENT_RATIO), NEAR_FIELD_RATIO);
+        assert_eq!(open_ratio(LATER_DESCENT_RATIO), 2.0);
+        assert_eq!(open_ratio(32.0), NEAR_FIELD_RATIO);
+        assert_eq!(open_ratio(0.0), 0.0);
     }
 
     /// A finest node across its receiver (a wall node above a floor
