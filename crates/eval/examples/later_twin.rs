@@ -9,6 +9,12 @@
 //! ```text
 //! cargo run --release -p gibake-eval --example later_twin -- SCENE.glb | --list LEVELS.json NAME | LEVEL [--vpls N] [--later N] [--points N] [--rays N] [--size S] [--side N]
 //! ```
+//!
+//! Environment: `SURFEL_DEBUG=1` prints the light of each bounce and the
+//! surfels' directly reflected light; `DIAG=1` the pixels where the later
+//! VPLs most exceed their surfels' own light and the VPLs that do it;
+//! with `DIAG_TERMS=1` also, per such VPL, its open and map-tested parts
+//! and its finest nodes near the pixel.
 
 use gibake_bake::cluster::ClusterTarget;
 use gibake_bake::later::{Bounces, LaterOptions, later_bounces};
@@ -148,6 +154,38 @@ fn main() {
                         h.geometric_normal,
                     );
                     per[i].0 = (if vis { t.total() } else { t.open }).element_sum();
+                    if std::env::var("DIAG_TERMS").is_ok() && t.open.element_sum() > 0.1 {
+                        let tree = tw.tree(i);
+                        for (k, n3) in tree.iter().enumerate().skip(20) {
+                            if n3.texels == 0 {
+                                continue;
+                            }
+                            let np = Vec3::from_array(n3.position);
+                            let d = (np - h.position).length();
+                            let r = (n3.area / PI).sqrt();
+                            if d < 4.0 * r {
+                                let near = sec
+                                    .surfel_vpl
+                                    .iter()
+                                    .enumerate()
+                                    .filter(|(_, v)| **v == i as u32)
+                                    .map(|(s, _)| (sf.position[s] - np).length())
+                                    .fold(f32::INFINITY, f32::min);
+                                eprintln!(
+                                    "        node {k}: at {np:.2?} normal {:.2?} r {r:.3} flux {:.4}, {d:.3} from the pixel (normal {:.2?}); nearest surfel of its VPL {near:.3} away",
+                                    n3.normal,
+                                    Vec3::from_array(n3.flux).element_sum(),
+                                    h.geometric_normal
+                                );
+                            }
+                        }
+                        eprintln!(
+                            "      pixel {p} VPL {i}: open {:.4} shadowed {:.4} visible {vis} at {:.2} from the origin",
+                            t.open.element_sum(),
+                            t.shadowed.element_sum(),
+                            (tw.origins[i] - h.position).length()
+                        );
+                    }
                 }
                 for (k, &vv) in sec.surfel_vpl.iter().enumerate() {
                     if vv == u32::MAX {
