@@ -227,7 +227,9 @@ fn no_later_light_leaks_through_a_thin_wall() {
 /// the same area and pass on the same light. Each point of a triangle
 /// smaller than a point's share used to stand for that triangle's area
 /// alone, so a finely tessellated level lost most of its light (the city
-/// diorama 23% of its sunlit reflection; here 85% of it).
+/// diorama 23% of its sunlit reflection; here 85% of it); with the
+/// points rounded triangle by triangle the area came within 1.5%, with
+/// systematic sampling exactly.
 #[test]
 fn a_finely_tessellated_room_passes_on_what_a_coarse_one_does() {
     use gibake_reference::scenes::quad;
@@ -291,17 +293,17 @@ fn a_finely_tessellated_room_passes_on_what_a_coarse_one_does() {
     // Inside and outside: twice the room's 32 m² of walls.
     for (area, _, _) in &out {
         assert!(
-            (area / 64.0 - 1.0).abs() < 0.05,
+            (area / 64.0 - 1.0).abs() < 0.005,
             "surfels stand for {area} m²"
         );
     }
     let (coarse, fine) = (out[0], out[1]);
     assert!(
-        (fine.1 / coarse.1 - 1.0).abs() < 0.05,
+        (fine.1 / coarse.1 - 1.0).abs() < 0.02,
         "direct reflection {} finely tessellated against {}",
         fine.1,
         coarse.1
     );
     let (a, b) = (fine.2.element_sum(), coarse.2.element_sum());
-    assert!((a / b - 1.0).abs() < 0.05, "second bounce {a} against {b}");
+    assert!((a / b - 1.0).abs() < 0.03, "second bounce {a} against {b}");
 }

@@ -38,7 +38,7 @@ use gibake_scene::LoadOptions;
 const RECORDED: (u32, [(&str, &str, &str); 2]) = (
     10,
     [
-        ("corner_bunny", "10081d0c84b86e69", "d6d3447b3f79bb79"),
+        ("corner_bunny", "10081d0c84b86e69", "aaf92838a60dcea8"),
         ("lamps", "ce446a26d1373b12", "26c0eaa09df44824"),
     ],
 );

@@ -1,9 +1,12 @@
 //! Surfels: sample points on both sides of the static surfaces, where the
 //! bake gathers the light of the bounces after the first.
 //!
-//! Placed by area: each static triangle gets `area · d` points (rounded by
-//! a hash of its index, so the same scene always gives the same points),
-//! at most [`MAX_TRIANGLE_SHARE`] of all of them (a 400 m ground plane in
+//! Placed by area: each static triangle gets `area · d` points on average
+//! (systematic sampling along the triangles' order from a fixed offset, so
+//! the same scene always gives the same points and a run of small
+//! triangles its own count to within one), each standing for `1/d` of
+//! area where its triangle is smaller than that, else for its triangle's
+//! area over its points; at most [`MAX_TRIANGLE_SHARE`] of all of them (a 400 m ground plane in
 //! two triangles does not take the level's samples), each point one surfel
 //! per side of the triangle that a ray from that side finds (a hole an
 //! alpha mask cuts has none). Positions inside a triangle follow the R2
@@ -104,13 +107,30 @@ pub fn place(rays: &RayScene<'_>, points: u32) -> Surfels {
     const A2: f64 = 0.569_840_290_998_053_2;
     /// A point's position, geometric normal, shading normal, area and albedo.
     type Point = (Vec3, Vec3, Vec3, f32, Vec3);
+    // Points per triangle by systematic sampling along the triangles'
+    // order: triangle `i` gets `⌊C_i + u⌋ − ⌊C_{i−1} + u⌋`, `C_i` the
+    // running sum of `min(area · d, cap)` and `u` one offset, so `area · d`
+    // on average and any run of triangles (a mesh's, a bunny's thousands
+    // of small ones) its own sum to within one point. Rounded triangle by
+    // triangle, a detailed object's count — and with the shares below its
+    // area — varied by the square root of its points: the corner scene's
+    // later light moved 2.4% between `--vpls 64` and `--vpls 60`.
+    let mut running = unit(0x5a5a_0000);
+    let counts: Vec<u64> = areas
+        .iter()
+        .map(|&area| {
+            let before = running.floor();
+            running += (area * d).min(cap);
+            (running.floor() - before) as u64
+        })
+        .collect();
     let per_tri: Vec<Vec<Point>> = tris
         .par_iter()
         .zip(&areas)
+        .zip(&counts)
         .enumerate()
-        .map(|(i, (&[a, b, c], &area))| {
+        .map(|(i, ((&[a, b, c], &area), &n))| {
             let key = i as u64;
-            let n = ((area * d).min(cap) + unit(key ^ 0x5a5a_0000)).floor() as u64;
             if n == 0 {
                 return Vec::new();
             }
