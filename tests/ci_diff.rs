@@ -565,7 +565,8 @@ fn diff_scene_judges_by_the_images_and_refuses_what_it_cannot_compare() {
     // ... and within a stated tolerance nobody sees it: exit 0 with it;
     // the JSON has both diffs. (64 against 60 VPLs sits at the default
     // FLIP bar at this size: 0.0192 before the later bounces' VPLs got a
-    // descent of their own, 0.0202 after; the tolerance is given here.)
+    // descent of their own, 0.0202 after, 0.023 after bake method revision
+    // 10; the tolerance is given here.)
     let r = diff(&[
         &"--scene",
         &corner,
@@ -591,7 +592,11 @@ fn diff_scene_judges_by_the_images_and_refuses_what_it_cannot_compare() {
     assert_eq!(j["image_diff"]["visible"], false);
     let flip = views[0]["flip"].as_f64().unwrap();
     assert!(flip > 0.0 && flip < 0.03, "{flip}");
-    // Two views and two times: four rows; the look-at view is named.
+    // Two views and two times: four rows; the look-at view is named. (The
+    // camera's FLIP between the two budgets at 64×36 was 0.017 before bake
+    // method revision 10 counted the bunny's small triangles in the later
+    // bounces, 0.021 after: at the default bar; the tolerance is stated,
+    // as above.)
     let r = diff(&[
         &"--scene",
         &corner,
@@ -606,6 +611,8 @@ fn diff_scene_judges_by_the_images_and_refuses_what_it_cannot_compare() {
         &"0",
         &"--time",
         &"0.5",
+        &"--max-flip",
+        &"0.03",
     ]);
     assert_eq!(r.code, Some(0), "{r}");
     assert_eq!(r.stdout.matches(" at t = ").count(), 4, "{r}");
