@@ -520,14 +520,18 @@ pub struct RenderArgs {
     /// VPL's tree node is drawn as its children where the pixel is nearer
     /// than N of its radii. 8 (the default) is the accurate choice; 4 costs
     /// about 0.6× the shading and is darker next to clusters whose parts
-    /// face different ways (docs/method.md, "Descent ratio").
+    /// face different ways (docs/method.md, "Descent ratio"). A finest
+    /// node's light skips the map test within half of N of its radii, at
+    /// most 4.
     #[arg(long, default_value_t = 8, value_name = "N", value_parser = clap::value_parser!(u32).range(4..=32))]
     pub near_field_descent: u32,
     /// Near-field descent of the later bounces' VPLs (an asset baked with
     /// every bounce), in disk radii (0–32; 0: each drawn as one disk). A
     /// later VPL stands for a wide stretch of the walls, so its tree
     /// descends at most pixels of a room: the later bounces' share of the
-    /// shading follows this (docs/method.md, "Every bounce").
+    /// shading follows this (docs/method.md, "Every bounce"). A finest
+    /// node's light skips the map test within half of N of its radii, at
+    /// most 4.
     #[arg(long, default_value_t = gibake_runtime::DEFAULT_LATER_NEAR_FIELD_DESCENT, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=32))]
     pub later_near_field_descent: u32,
     /// Shade the later bounces' VPLs at every pixel. By default an

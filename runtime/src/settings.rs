@@ -112,8 +112,10 @@ pub struct RenderSettings {
     /// own (docs/method.md, "Descent ratio"). 8 by default; 4, the rule
     /// before session 19, costs about 0.6× the shade pass and is darker on
     /// clusters whose parts face different ways (the garden level −7.6%
-    /// against −6.8% red; docs/results.md, "Real levels"). From 4 to 32,
-    /// else [`RuntimeError::InvalidSetting`].
+    /// against −6.8% red; docs/results.md, "Real levels"). A finest
+    /// node's light skips the map test within half of it, at most 4 of
+    /// its radii (shade.wgsl `open_ratio`). From 4 to 32, else
+    /// [`RuntimeError::InvalidSetting`].
     pub near_field_descent: u32,
     /// The later bounces' VPLs' near-field descent (an asset baked with
     /// every bounce, format 4.6), as [`RenderSettings::near_field_descent`]
@@ -123,7 +125,10 @@ pub struct RenderSettings {
     /// so at the first bounce's descent its tree descends at nearly every
     /// pixel of the room: each cost about 3.5× a first-bounce VPL's shading.
     /// Its light is smooth; what its tree buys is measured in
-    /// docs/method.md, "Every bounce" → "Frame cost". From 0 to 32, else
+    /// docs/method.md, "Every bounce" → "Frame cost"; its finest nodes'
+    /// light skips the map test within half of it (at the default 4: 2 of
+    /// their radii; docs/method.md, "The surfels' share, the later VPLs'
+    /// open share and their finest nodes"). From 0 to 32, else
     /// [`RuntimeError::InvalidSetting`].
     pub later_near_field_descent: u32,
     /// Shade the later bounces' VPLs at every pixel, as the first bounce's
