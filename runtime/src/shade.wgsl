@@ -558,7 +558,6 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
     let far = vpls[params.n_static * (1u + NODES_PER_VPL) + i];
     let centre = far.position;
     let dr = vpl_descent(i);
-    let open = open_ratio(dr);
     if (in_far_field(x, centre, v.area, dr)) {
         // A static VPL's own record carries its lobe coherence in `texels`
         // (gibake_gpu::vpl::GpuVpl::texels), fixed point.
@@ -567,6 +566,7 @@ fn static_vpl_terms(i: u32, v: Vpl, x: vec3<f32>, ns: vec3<f32>, ng: vec3<f32>) 
         return t;
     }
     let base = params.n_static + i * NODES_PER_VPL;   // its tree, after the VPLs
+    let open = open_ratio(dr);
     for (var c1 = 0u; c1 < 4u; c1++) {
         let i1 = c1 % 2u;
         let j1 = c1 / 2u;

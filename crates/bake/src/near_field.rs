@@ -249,8 +249,9 @@ impl Anchors {
     /// radius over √2). A cell of a VPL spread over a garden's canopies
     /// held a few surfels of leaves a metre apart: their centroid in
     /// mid-air and the disk of their area a third of their spread, a
-    /// bright spot at the receiver next to it (docs/method.md, "Later
-    /// VPLs' finest nodes"). The flux stays whole; the parents are not
+    /// bright spot at the receiver next to it (docs/method.md, "The
+    /// surfels' share, the later VPLs' open share and their finest
+    /// nodes")). The flux stays whole; the parents are not
     /// moved. This replaces the step rule ([`Anchors::apply`]) for them:
     /// a node on a member is on one of the surfaces.
     pub(crate) fn onto_surfels(&self, nodes: &mut [VplRecord]) {

@@ -1,4 +1,5 @@
-//! `cargo run --release -p gibake-eval --example eval_scenes -- [SEED|NAME]... [--size N] [--spp N] [--vpls N]`
+//! `cargo run --release -p gibake-eval --example eval_scenes -- [SEED|NAME]... [--size N] [--spp N] [--vpls N] [--ssaa N] [--blur N] [--every]`
+//! (`--every`: against the every-bounce reference too, the default bake judged; `STATIC=1`: without the moving objects)
 //! Prints the indirect-light figures of each scene (bundled names or seeds).
 fn main() {
     let mut s = gibake_eval::EvalSettings::default();
@@ -15,6 +16,11 @@ fn main() {
             "--map" => s.vpl_map_size = it.next().unwrap().parse().unwrap(),
             "--ssaa" => s.ssaa = it.next().unwrap().parse().unwrap(),
             "--blur" => s.blur = it.next().unwrap().parse().unwrap(),
+            "--every" => {
+                s.every_bounce = true;
+                s.every_bounce_bake = true;
+                s.naive = false;
+            }
             _ => scenes.push(a.clone()),
         }
     }

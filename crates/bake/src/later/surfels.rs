@@ -115,21 +115,22 @@ pub fn place(rays: &RayScene<'_>, points: u32) -> Surfels {
     // triangle, a detailed object's count — and with the shares below its
     // area — varied by the square root of its points: the corner scene's
     // later light moved 2.4% between `--vpls 64` and `--vpls 60`.
+    let expected: Vec<f64> = areas.iter().map(|&area| (area * d).min(cap)).collect();
     let mut running = unit(0x5a5a_0000);
-    let counts: Vec<u64> = areas
+    let counts: Vec<u64> = expected
         .iter()
-        .map(|&area| {
+        .map(|&m| {
             let before = running.floor();
-            running += (area * d).min(cap);
+            running += m;
             (running.floor() - before) as u64
         })
         .collect();
     let per_tri: Vec<Vec<Point>> = tris
         .par_iter()
         .zip(&areas)
-        .zip(&counts)
+        .zip(expected.par_iter().zip(&counts))
         .enumerate()
-        .map(|(i, ((&[a, b, c], &area), &n))| {
+        .map(|(i, ((&[a, b, c], &area), (&m, &n)))| {
             let key = i as u64;
             if n == 0 {
                 return Vec::new();
@@ -145,7 +146,6 @@ pub fn place(rays: &RayScene<'_>, points: u32) -> Surfels {
             // (the city diorama 23% of its sunlit reflection at the
             // default 16 384 points, 2% at 16 times the points;
             // docs/method.md, "Every bounce").
-            let m = (area * d).min(cap);
             let share = if m < 1.0 {
                 (area / m) as f32
             } else {
