@@ -283,23 +283,24 @@ fn reader_refuses_damaged_assets() {
 
     // Re-sealed manifests (payload edited, length and BLAKE3 trailer
     // recomputed): what the spec says a reader must refuse or accept.
-    // The bake (the first bounce alone) writes the current minor (4.7: the
+    // The bake (the first bounce alone) writes the current minor (4.8: the
     // views, light_map_size, the appended view_rsms, ring_vpls,
-    // scene_options, swept_bounds, later and lower_map_count end the
+    // scene_options, swept_bounds, later, lower_map_count and later_sources end the
     // payload; a one-light asset without rings baked with no scene flag has
     // no views, so before swept_bounds its last ten bytes are the view
     // count 0, light_map_size 0, the view_rsms count 0, the ring_vpls count
     // 0 and the scene options `01 00 00 00 00 00`: recorded, none given;
     // 4.2 added a file, not payload bytes; after swept_bounds come the
-    // `later` tag `00` and the second maps' count, one byte). The 4.4 cases
-    // below first drop what 4.5 to 4.7 append (`to44`): a whole 4.4 payload,
+    // `later` tag `00`, the second maps' count, one byte, and the
+    // `later_sources` tag `00`). The 4.4 cases
+    // below first drop what 4.5 to 4.8 append (`to44`): a whole 4.4 payload,
     // but one whose file list names vpl_lower.bin (4.7's file), so the
     // older minors that would read it refuse that file; a 4.6 asset whose
     // writer did not list it is accepted below.
     assert_eq!(
         (gibake_asset::FORMAT_MAJOR, gibake_asset::FORMAT_MINOR),
-        (4, 7),
-        "the re-sealed cases below are written for format 4.7"
+        (4, 8),
+        "the re-sealed cases below are written for format 4.8"
     );
     let m = gibake_asset::load_manifest(&asset).expect("the bake loads");
     assert!(
@@ -325,11 +326,12 @@ fn reader_refuses_damaged_assets() {
     let swept_len: usize = 1 + swept.iter().map(|v| varint(v.to_bits())).sum::<usize>();
     let bytes = std::fs::read(asset.join(gibake_asset::FILE_MANIFEST)).unwrap();
     let payload_end = bytes.len() - 32;
-    assert_eq!(&bytes[payload_end - 2..payload_end], &[0, lower]);
-    let before_swept = &bytes[..payload_end - 2 - swept_len];
+    assert_eq!(&bytes[payload_end - 3..payload_end], &[0, lower, 0]);
+    let before_swept = &bytes[..payload_end - 3 - swept_len];
     assert!(before_swept.ends_with(&[0, 0, 0, 0, 1, 0, 0, 0, 0, 0]));
-    let to44 = format!("payload = payload[:-{}]; ", swept_len + 2);
-    let to45 = "payload = payload[:-2]; ";
+    let to44 = format!("payload = payload[:-{}]; ", swept_len + 3);
+    let to45 = "payload = payload[:-3]; ";
+    let to47 = "payload = payload[:-1]; ";
     let not_stored = "vpl_lower.bin, which the counts say is not stored";
     let cases_44: [(&str, &str, Option<&str>); 19] = [
         // One byte after the last field, same minor: refused.
@@ -468,29 +470,56 @@ fn reader_refuses_damaged_assets() {
         ),
     ];
     reseal_cases.extend(cases_45);
-    let cases_47: [(String, &str, Option<&str>); 5] = [
-        // Control: re-sealed unchanged, accepted.
-        ("pass".into(), "7", None),
-        // One byte after the last field, same minor: refused ...
+    let cases_47: [(String, &str, Option<&str>); 4] = [
+        // A whole 4.7 payload (no later_sources), accepted.
+        (to47.into(), "7", None),
+        // One byte after the last field of 4.7: refused.
         (
-            "payload += b'\\x00'".into(),
+            format!("{to47}payload += b'\\x01'"),
             "7",
             Some("after the last field"),
         ),
-        // ... and accepted from a newer minor (4.8), ignored.
-        ("payload += b'\\x00'".into(), "8", None),
         // lower_map_count cut off: refused.
         (
-            "payload = payload[:-1]".into(),
+            format!("{to47}payload = payload[:-1]"),
             "7",
             Some("payload ends inside lower_map_count"),
         ),
         // The same bytes are a whole 4.6 payload, but one that lists
         // vpl_lower.bin (4.7's file): refused, as a format's own file the
         // counts say is not stored.
-        ("payload = payload[:-1]".into(), "6", Some(not_stored)),
+        (
+            format!("{to47}payload = payload[:-1]"),
+            "6",
+            Some(not_stored),
+        ),
     ];
     reseal_cases.extend(cases_47);
+    let cases_48: [(String, &str, Option<&str>); 5] = [
+        // Control: re-sealed unchanged, accepted.
+        ("pass".into(), "8", None),
+        // One byte after the last field, same minor: refused ...
+        (
+            "payload += b'\\x00'".into(),
+            "8",
+            Some("after the last field"),
+        ),
+        // ... and accepted from a newer minor (4.9), ignored.
+        ("payload += b'\\x00'".into(), "9", None),
+        // later_sources cut off: refused.
+        (
+            "payload = payload[:-1]".into(),
+            "8",
+            Some("payload ends inside later_sources"),
+        ),
+        // later_sources listed without later VPLs: refused.
+        (
+            "payload = payload[:-1] + b'\\x01\\x00\\x00'".into(),
+            "8",
+            Some("later_sources listed but no later VPLs"),
+        ),
+    ];
+    reseal_cases.extend(cases_48);
     for (k, (edit, minor, refusal)) in reseal_cases.iter().enumerate() {
         let copy = copy_asset(&asset, work.path(), &format!("reseal{k}.gibake"));
         reseal(&py, &copy.join("manifest.bin"), edit, minor);
@@ -1056,7 +1085,8 @@ fn reader_reads_the_later_bounces() {
     let r = read(&py, &asset);
     assert!(
         r.code == Some(0)
-            && r.stdout.contains("gibake asset 4.7")
+            && r.stdout.contains("gibake asset 4.8")
+            && r.stdout.contains("later sources: the first bounce's")
             && r.stdout.contains(&format!(
                 "later bounces (every bounce that matters, {} followed): the last {} VPLs",
                 later.per_bounce.len(),

@@ -40,6 +40,10 @@ pub(crate) struct BakedGpu {
     /// series and its rest (`gibake_asset::LaterRecord`), where the asset
     /// has later VPLs: what [`crate::later_absorb::later_scale`] weighs.
     pub later_series: Option<(Vec<[f32; 3]>, [f32; 3])>,
+    /// Where the later VPLs' light came from (format 4.8;
+    /// `gibake_asset::LaterSources`): what `later_occlusion.wgsl` weighs
+    /// the first bounce's occluded shares by. `None`: the level's mean.
+    pub later_sources: Option<gibake_asset::LaterSources>,
     /// [`BakedGpu::vpls`], then their near-field trees (`NODES_PER_VPL`
     /// [`GpuVpl`]s per VPL, in VPL order), then one far-field record per
     /// VPL (its own with `position` its far-field centre,
@@ -433,6 +437,7 @@ impl BakedGpu {
                 .as_ref()
                 .filter(|_| m.later_vpls() > 0)
                 .map(|l| (l.per_bounce.clone(), l.tail)),
+            later_sources: m.later_sources.clone(),
             vpls,
             vpl_buf,
             static_maps,

@@ -279,6 +279,7 @@ impl MovingPasses {
                     device,
                     &fluxes,
                     b.later,
+                    b.later_sources.as_ref(),
                     &occ.occluded,
                 )
             }

@@ -83,7 +83,10 @@ except ImportError as e:  # pragma: no cover - environment problem
 
 MAGIC = b"GIBAKE\x00\x01"
 READER_MAJOR = 4
-READER_MINOR = 7
+READER_MINOR = 8
+# LaterSources (4.8): pairs per later VPL, and groups at most.
+SOURCES_PER_LATER_VPL = 8
+MAX_SOURCE_GROUPS = 256
 MAX_PAYLOAD = 16 * 1024 * 1024
 MAX_MAP_SIZE = 16384
 # Most texels of one map file (an atlas).
@@ -191,6 +194,43 @@ class Decoder:
 
 
 MAX_LATER_BOUNCES = 256
+
+
+def read_later_sources(d: Decoder) -> dict | None:
+    """The manifest's `later_sources` (4.8): an Option tag, then first
+    (Vec<(u32, f32)>: per first-bounce VPL its source group, below 256, and
+    its weight in the group's mean, finite and >= 0) and weights
+    (Vec<(u32, f32)>: per later VPL 8 pairs of a source group and the share
+    of its light whose direct light fell there, largest first, summing to at
+    most 1). Lengths are checked against the VPL counts by the caller."""
+    if not d.option("later_sources"):
+        return None
+    n = d.u64("later_sources.first length")
+    if n > MAX_PAYLOAD:
+        raise AssetError(f"manifest.bin: later_sources.first holds {n} entries")
+    first = []
+    for k in range(n):
+        g = d.u32(f"later_sources.first[{k}].group")
+        w = d.f32(f"later_sources.first[{k}].weight")
+        first.append((g, w))
+    n = d.u64("later_sources.weights length")
+    if n > MAX_PAYLOAD:
+        raise AssetError(f"manifest.bin: later_sources.weights holds {n} entries")
+    weights = []
+    for k in range(n):
+        g = d.u32(f"later_sources.weights[{k}].group")
+        w = d.f32(f"later_sources.weights[{k}].weight")
+        weights.append((g, w))
+    if any(
+        g >= MAX_SOURCE_GROUPS or not (math.isfinite(w) and w >= 0.0) for g, w in first + weights
+    ):
+        raise AssetError("manifest.bin: later_sources holds a group out of range or a bad weight")
+    for j in range(0, len(weights), SOURCES_PER_LATER_VPL):
+        if sum(w for _, w in weights[j : j + SOURCES_PER_LATER_VPL]) > 1.0 + 1e-3:
+            raise AssetError(
+                f"manifest.bin: later_sources: later VPL {j // SOURCES_PER_LATER_VPL}'s weights sum over 1"
+            )
+    return {"first": first, "weights": weights}
 
 
 def read_later(d: Decoder) -> dict | None:
@@ -490,6 +530,11 @@ def read_manifest(asset: str) -> dict:
     # 4.7 appends lower_map_count (u32 varint: the second hemisphere maps in
     # vpl_lower_maps.exr); a 4.6 or older payload ends before it (0).
     m["lower_map_count"] = d.u32("lower_map_count") if minor >= 7 else 0
+    # 4.8 appends later_sources (Option<LaterSources>: where the later VPLs'
+    # light came from); a 4.7 or older payload ends before it (none).
+    m["later_sources"] = read_later_sources(d) if minor >= 8 else None
+    if m["later_sources"] is not None and not (m["later"] or {}).get("vpls", 0):
+        raise AssetError("manifest.bin: later_sources listed but no later VPLs")
     extra = length - d.pos
     if extra and minor <= READER_MINOR:
         raise AssetError(
@@ -781,6 +826,19 @@ def check_manifest_values(m: dict) -> list[str]:
     return names
 
 
+def check_later_sources(m: dict, later: int) -> None:
+    """later_sources (4.8): one group per first-bounce VPL, eight pairs per
+    later VPL (checked once the VPL counts are known to add up)."""
+    src = m.get("later_sources")
+    if src is not None and (
+        len(src["first"]) != m["vpl_count"] - later
+        or len(src["weights"]) != later * SOURCES_PER_LATER_VPL
+    ):
+        raise AssetError(
+            "manifest.bin: later_sources' lengths do not match the first-bounce and later VPLs"
+        )
+
+
 def light_vpl_ranges(m: dict) -> list[tuple[int, int]]:
     """Each light's VPLs in vpls.bin, [start, end): the lights' `vpls` counts,
     consecutive in light order (the first light's VPLs first). Without light
@@ -791,6 +849,7 @@ def light_vpl_ranges(m: dict) -> list[tuple[int, int]]:
             f"manifest.bin: {later} later VPLs but vpl_count is {m['vpl_count']}"
         )
     if not m["lights"]:
+        check_later_sources(m, later)
         return [(0, m["vpl_count"] - later)]
     total = sum(light["vpls"] for light in m["lights"])
     if total + later != m["vpl_count"]:
@@ -799,6 +858,7 @@ def light_vpl_ranges(m: dict) -> list[tuple[int, int]]:
             + (f" and the later bounces' to {later}" if later else "")
             + f" but vpl_count is {m['vpl_count']}"
         )
+    check_later_sources(m, later)
     out, start = [], 0
     for light in m["lights"]:
         out.append((start, start + light["vpls"]))
@@ -1816,6 +1876,13 @@ def read_asset(asset: str, show_vpl: int | None) -> list[str]:
             + ("" if lt["converged"] else ", not converged")
             + "): "
             + ("left out" if lt["left_out"] else f"the last {lt['vpls']} VPLs, map origins one member's radius up")
+        )
+    src = m.get("later_sources")
+    if src is not None:
+        groups = len({g for g, w in src["first"] if w > 0})
+        out.append(
+            f"  later sources: the first bounce's {len(src['first'])} VPLs in {groups} groups, "
+            f"{len(src['weights'])} weights"
         )
     out += [
         f"  files (manifest order): {', '.join(names)}; all sizes and BLAKE3 hashes match",

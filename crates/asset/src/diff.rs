@@ -1228,6 +1228,65 @@ pub fn diff(a: &Asset, b: &Asset, tol: &Tolerance) -> DiffReport {
             });
         }
     }
+    // Where the later light came from (format 4.8): the groups exactly,
+    // the weights within the flux tolerance.
+    match (&ma.later_sources, &mb.later_sources) {
+        (None, None) => {}
+        (Some(x), Some(y)) => {
+            let g = |s: &crate::LaterSources| -> Vec<u32> { s.first.iter().map(|f| f.0).collect() };
+            if g(x) != g(y) {
+                later.push(FieldDiff {
+                    field: "later_sources.first".into(),
+                    a: format!("{} VPLs' groups", x.first.len()),
+                    b: format!("{} VPLs' groups (not the same)", y.first.len()),
+                });
+            } else {
+                let w =
+                    |s: &crate::LaterSources| -> Vec<f32> { s.first.iter().map(|f| f.1).collect() };
+                close_arrays(
+                    &mut later,
+                    "later_sources.first",
+                    &w(x),
+                    &w(y),
+                    tol.vpl_flux_rel,
+                );
+            }
+            let groups =
+                |s: &crate::LaterSources| -> Vec<u32> { s.weights.iter().map(|w| w.0).collect() };
+            if groups(x) != groups(y) {
+                later.push(FieldDiff {
+                    field: "later_sources.weights".into(),
+                    a: format!("{} pairs", x.weights.len()),
+                    b: format!("{} pairs (other groups named)", y.weights.len()),
+                });
+            } else {
+                let w = |s: &crate::LaterSources| -> Vec<f32> {
+                    s.weights.iter().map(|w| w.1).collect()
+                };
+                close_arrays(
+                    &mut later,
+                    "later_sources.weights",
+                    &w(x),
+                    &w(y),
+                    tol.vpl_flux_rel,
+                );
+            }
+        }
+        (x, y) => {
+            let what = |s: &Option<crate::LaterSources>| match s {
+                None => "not recorded".to_string(),
+                Some(s) => format!(
+                    "{} later VPLs' sources",
+                    s.weights.len() / crate::SOURCES_PER_LATER_VPL
+                ),
+            };
+            later.push(FieldDiff {
+                field: "later_sources".into(),
+                a: what(x),
+                b: what(y),
+            });
+        }
+    }
     for d in &later {
         differences.push(format!("later bounces: {} {} vs {}", d.field, d.a, d.b));
     }

@@ -86,8 +86,9 @@ fn encode_manifest(manifest: &Manifest, path: &Path) -> Result<Vec<u8>, AssetErr
 /// `Option<SceneOptions>`, (minor ≥ 5) `swept_bounds` as a bincode
 /// `Vec<u32>` (none or six `f32` bit patterns), (minor ≥ 6) `later` as a
 /// bincode (serde) `Option<LaterRecord>` and (minor ≥ 7) `lower_map_count`
-/// as a bincode `u32` (varint). An older minor lacks the later fields: they
-/// must be empty (`None`, 0).
+/// as a bincode `u32` (varint), (minor ≥ 8) `later_sources` as a bincode
+/// (serde) `Option<LaterSources>`. An older minor lacks the later fields:
+/// they must be empty (`None`, 0).
 fn encode_manifest_as(manifest: &Manifest, minor: u16, path: &Path) -> Result<Vec<u8>, AssetError> {
     let cannot = |e: bincode::error::EncodeError| {
         AssetError::invalid(path, format!("cannot encode the manifest: {e}"))
@@ -158,6 +159,16 @@ fn encode_manifest_as(manifest: &Manifest, minor: u16, path: &Path) -> Result<Ve
         return Err(AssetError::invalid(
             path,
             format!("cannot encode the manifest: format 4.{minor} has no lower_map_count"),
+        ));
+    }
+    if minor >= 8 {
+        let appended = bincode::serde::encode_to_vec(&manifest.later_sources, bincode_config())
+            .map_err(cannot)?;
+        payload.extend_from_slice(&appended);
+    } else if manifest.later_sources.is_some() {
+        return Err(AssetError::invalid(
+            path,
+            format!("cannot encode the manifest: format 4.{minor} has no later_sources"),
         ));
     }
     let mut out = Vec::with_capacity(HEADER_BYTES + payload.len() + TRAILER_BYTES);
@@ -277,6 +288,15 @@ fn decode_manifest(bytes: &[u8], path: &Path) -> Result<(Manifest, u16), AssetEr
             bincode::decode_from_slice(&payload[used..], bincode_config())
                 .map_err(|e| bad(format!("damaged manifest payload: lower_map_count: {e}")))?;
         manifest.lower_map_count = v;
+        used += n;
+    }
+    if minor >= 8 {
+        // 4.8 appends `later_sources` (an Option<LaterSources>) after it;
+        // its lists are bounded by the payload limit before they are read.
+        let (v, n): (Option<crate::LaterSources>, usize) =
+            bincode::serde::decode_from_slice(&payload[used..], bincode_config())
+                .map_err(|e| bad(format!("damaged manifest payload: later_sources: {e}")))?;
+        manifest.later_sources = v;
         used += n;
     }
     if used != payload.len() && !is_newer_minor(minor) {
@@ -671,6 +691,9 @@ fn validate_manifest(
     if let Some(p) = m.later.as_ref().and_then(|l| l.problem(m.vpl_count)) {
         return bad(format!("later: {p}"));
     }
+    if m.later_sources.is_some() && m.later_vpls() == 0 {
+        return bad("later_sources listed but the asset has no later VPLs".into());
+    }
     if let Err(e) = check_views(m) {
         return bad(e);
     }
@@ -805,6 +828,14 @@ fn check_light_vpls(m: &Manifest) -> Result<(), String> {
                 m.vpl_count
             )
         });
+    }
+    // Where the later light came from (4.8): one group per first-bounce
+    // VPL, the pairs per later VPL, in range.
+    if let Some(src) = &m.later_sources {
+        let later = m.later_vpls();
+        if let Some(p) = src.problem(m.vpl_count.saturating_sub(later), later) {
+            return Err(format!("later_sources: {p}"));
+        }
     }
     if !m.ring_vpls.is_empty() && m.ring_vpls.len() != m.lights.len() {
         return Err(format!(
@@ -2072,6 +2103,7 @@ pub mod testing {
     fn before_4_7(manifest: &Manifest) -> Manifest {
         let mut m = manifest.clone();
         m.lower_map_count = 0;
+        m.later_sources = None;
         m.files
             .retain(|f| f.name != FILE_VPL_LOWER && f.name != FILE_VPL_LOWER_MAPS);
         m
@@ -2122,6 +2154,16 @@ pub mod testing {
     /// still load, every VPL without a second origin.
     pub fn manifest_bytes_4_6(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
         encode_manifest_as(&before_4_7(manifest), 6, Path::new(FILE_MANIFEST))
+    }
+
+    /// The bytes of `manifest.bin` for `manifest` as a format 4.7 writer
+    /// wrote them (minor 7, the payload ends after `lower_map_count`; no
+    /// `later_sources`): to check that 4.7 assets still load, their later
+    /// VPLs with the level's mean occluded share.
+    pub fn manifest_bytes_4_7(manifest: &Manifest) -> Result<Vec<u8>, AssetError> {
+        let mut m = manifest.clone();
+        m.later_sources = None;
+        encode_manifest_as(&m, 7, Path::new(FILE_MANIFEST))
     }
 
     fn before_4_2(manifest: &Manifest) -> Manifest {

@@ -131,6 +131,10 @@ pub struct Inspection {
     /// The bounces after the first (format 4.6, [`crate::Manifest::later`];
     /// `None`: the first bounce alone).
     pub later: Option<crate::LaterRecord>,
+    /// Where the later VPLs' light came from (format 4.8): the source
+    /// groups the first bounce's VPLs fall in, and the mean share of a
+    /// later VPL's light its named groups carry (`None`: not recorded).
+    pub later_sources: Option<(usize, f32)>,
     /// Shadow-map views of the lights after the first (a point light's six
     /// faces, a spot's or sun's one).
     pub views: usize,
@@ -226,6 +230,19 @@ pub fn inspect(asset: &Asset) -> Inspection {
         scene_options: m.scene_options.clone(),
         scene_flags: m.scene_options.as_ref().map(|o| o.flags()),
         later: m.later.clone(),
+        later_sources: m.later_sources.as_ref().map(|s| {
+            let mut groups: Vec<u32> = s
+                .first
+                .iter()
+                .filter(|(_, w)| *w > 0.0)
+                .map(|(g, _)| *g)
+                .collect();
+            groups.sort_unstable();
+            groups.dedup();
+            let n = s.weights.len() / crate::SOURCES_PER_LATER_VPL;
+            let named: f32 = s.weights.iter().map(|(_, w)| w).sum();
+            (groups.len(), if n > 0 { named / n as f32 } else { 0.0 })
+        }),
         views: m.views.len(),
         light_maps_stored: m.views.iter().filter(|v| v.tile != NO_MAP).count(),
         light_map_size: m.light_map_size,
@@ -394,6 +411,14 @@ impl fmt::Display for Inspection {
                     line.push_str(&format!(" rest: {:.3}", sum(&l.tail) / direct));
                 }
                 writeln!(f, "{line}")?;
+                if let Some((groups, named)) = self.later_sources {
+                    writeln!(
+                        f,
+                        "    their sources: the first bounce's VPLs in {groups} groups; a later VPL's {} largest carry {:.0}% of its light on average (a moving object covering a light darkens the later light where it went)",
+                        crate::SOURCES_PER_LATER_VPL,
+                        100.0 * named
+                    )?;
+                }
                 if !l.converged {
                     writeln!(
                         f,

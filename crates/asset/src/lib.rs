@@ -77,7 +77,7 @@ pub const FORMAT_MAJOR: u16 = 4;
 /// `vpl_lower.bin` and `vpl_lower_maps.exr`, [`Asset::vpl_lower`]: each
 /// VPL's second visibility test for the light below its horizon; an older
 /// asset reads with none).
-pub const FORMAT_MINOR: u16 = 7;
+pub const FORMAT_MINOR: u16 = 8;
 
 /// One static VPL record. Stored as a little-endian array in `vpls.bin`
 /// (48 bytes each, fields in this order).
@@ -635,6 +635,89 @@ pub struct Manifest {
     /// by hand (see `format.rs`).
     #[serde(skip)]
     pub lower_map_count: u32,
+    /// Format 4.8, appended after [`Manifest::lower_map_count`] (an older
+    /// manifest ends before it: `None`): where each later VPL's light came
+    /// from, so that a moving object shadowing a light darkens the later
+    /// bounces where that light went ([`LaterSources`]). `None` without
+    /// later VPLs. Encoded by hand as a bincode (serde)
+    /// `Option<LaterSources>` (see `format.rs`).
+    #[serde(skip)]
+    pub later_sources: Option<LaterSources>,
+}
+
+/// Source groups a later VPL names at most ([`LaterSources::weights`]).
+pub const SOURCES_PER_LATER_VPL: usize = 8;
+
+/// Source groups an asset has at most ([`LaterSources::first`]).
+pub const MAX_SOURCE_GROUPS: u32 = 256;
+
+/// Where the later bounces' light came from (format 4.8; docs/method.md,
+/// "Where the later light came from"): the first bounce's VPLs in source
+/// groups (the directly lit surfaces near each other), and per later VPL
+/// the groups whose direct light carries most of its light. The runtime
+/// gives each later VPL the occluded share of those groups (what the
+/// moving objects take off the first bounce's VPLs in them, flux-weighted)
+/// by those weights, and the level's mean for the rest.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LaterSources {
+    /// Per first-bounce VPL (the asset's VPLs before the later ones), its
+    /// source group, below [`MAX_SOURCE_GROUPS`], and its weight in the
+    /// group's mean: the light of it that the bake's surfels pass on to
+    /// other surfaces (W, the channels' mean; ≥ 0). 0: none of its light
+    /// reaches another surface (a sunlit roof under the open sky), and it
+    /// counts in no group.
+    pub first: Vec<(u32, f32)>,
+    /// Per later VPL, [`SOURCES_PER_LATER_VPL`] `(group, weight)` pairs:
+    /// the share of its light whose direct light fell on the group, the
+    /// largest first (unused pairs: weight 0); the weights sum to at most 1.
+    pub weights: Vec<(u32, f32)>,
+}
+
+impl LaterSources {
+    /// What is wrong with the record for `first` first-bounce VPLs and
+    /// `later` later ones, if anything.
+    pub fn problem(&self, first: u32, later: u32) -> Option<String> {
+        if self.first.len() != first as usize {
+            return Some(format!(
+                "{} source groups listed for {first} first-bounce VPLs",
+                self.first.len()
+            ));
+        }
+        if self.weights.len() != later as usize * SOURCES_PER_LATER_VPL {
+            return Some(format!(
+                "{} source weights listed for {later} later VPLs ({SOURCES_PER_LATER_VPL} each)",
+                self.weights.len()
+            ));
+        }
+        if let Some((g, _)) = self.first.iter().find(|(g, _)| *g >= MAX_SOURCE_GROUPS) {
+            return Some(format!(
+                "source group {g} (at most {MAX_SOURCE_GROUPS} groups)"
+            ));
+        }
+        if self
+            .first
+            .iter()
+            .any(|(_, w)| !(w.is_finite() && *w >= 0.0))
+        {
+            return Some("a first-bounce VPL's weight is negative or not finite".into());
+        }
+        for (j, w) in self.weights.chunks_exact(SOURCES_PER_LATER_VPL).enumerate() {
+            if w.iter()
+                .any(|(g, x)| *g >= MAX_SOURCE_GROUPS || !(x.is_finite() && *x >= 0.0))
+            {
+                return Some(format!(
+                    "later VPL {j}: a source group out of range or a weight negative or not finite"
+                ));
+            }
+            let sum: f32 = w.iter().map(|(_, x)| x).sum();
+            if sum > 1.0 + 1e-3 {
+                return Some(format!(
+                    "later VPL {j}: its source weights sum to {sum} (at most 1)"
+                ));
+            }
+        }
+        None
+    }
 }
 
 /// The bounces after the first, as a bake of format 4.6 followed them

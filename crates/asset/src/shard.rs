@@ -25,8 +25,9 @@ pub const PART_MAGIC: [u8; 8] = *b"GIBKPART";
 /// Part format version: parts are transient, so any other version is refused.
 /// (7: the manifest's `swept_bounds`, which its serde encoding skips,
 /// follows `scene_options`; 8: and its `later`; 9: each VPL's second
-/// origin and the second hemisphere maps, format 4.7.)
-pub const PART_VERSION: u16 = 9;
+/// origin and the second hemisphere maps, format 4.7; 10: the manifest's
+/// `later_sources`, format 4.8.)
+pub const PART_VERSION: u16 = 10;
 /// Largest shard count accepted.
 pub const MAX_SHARDS: u32 = 4096;
 /// Largest accepted part file (16 GiB).
@@ -163,6 +164,8 @@ struct PartPayload {
     /// and the shard's second maps (part version 9).
     vpl_lower: Vec<([f32; 3], u32)>,
     lower_maps: Vec<Option<Vec<f32>>>,
+    /// The manifest's `later_sources` (part version 10).
+    later_sources: Option<crate::LaterSources>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -403,6 +406,7 @@ fn encode_part(part: &ShardPart, path: &Path) -> Result<Vec<u8>, AssetError> {
         later: a.manifest.later.clone(),
         vpl_lower: a.vpl_lower.iter().map(|v| (v.origin, v.map)).collect(),
         lower_maps: part.lower_maps.clone(),
+        later_sources: a.manifest.later_sources.clone(),
     };
     let body = bincode::serde::encode_to_vec(&payload, part_config())
         .map_err(|e| AssetError::invalid(path, format!("cannot encode the part: {e}")))?;
@@ -460,6 +464,7 @@ fn decode_part(bytes: &[u8], path: &Path) -> Result<ShardPart, AssetError> {
     manifest.scene_options = p.scene_options;
     manifest.swept_bounds = p.swept_bounds;
     manifest.later = p.later;
+    manifest.later_sources = p.later_sources;
     let (lt, ln, lmaps) = p.light_maps;
     let light_maps = if ln == 0 {
         MapAtlas::empty(lt)
@@ -844,6 +849,7 @@ mod tests {
             swept_bounds: None,
             later: None,
             lower_map_count: 0,
+            later_sources: None,
         };
         let rec = VplRecord {
             position: [0.0; 3],

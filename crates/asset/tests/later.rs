@@ -49,12 +49,13 @@ fn later_round_trips_in_the_documented_layout() {
     assert_eq!(loaded, as_written(&with_later(), &loaded));
     assert_eq!(loaded.manifest.later, Some(record()));
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
-    assert_eq!(FORMAT_MINOR, 7);
-    assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), 7);
+    assert_eq!(FORMAT_MINOR, 8);
+    assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), 8);
     // The payload ends with the Option tag `01`, then bounces, vpl_budget
     // and vpls (varints), left_out and converged (a byte each), direct
     // (three f32), per_bounce (a varint count, three f32 each) and tail;
-    // then (4.7) lower_map_count, one byte here.
+    // then (4.7) lower_map_count, one byte here, and (4.8) later_sources,
+    // none: `00`.
     let mut tail = vec![1u8, 0, 0, LATER as u8, 0, 1];
     let f32s = |t: &mut Vec<u8>, v: &[f32]| {
         for x in v {
@@ -66,6 +67,7 @@ fn later_round_trips_in_the_documented_layout() {
     f32s(&mut tail, &[1.0, 0.5, 0.25, 0.5, 0.25, 0.125]);
     f32s(&mut tail, &[0.0; 3]);
     tail.push(u8::try_from(loaded.manifest.lower_map_count).unwrap());
+    tail.push(0);
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
     assert_eq!(&bytes[20 + len - tail.len()..20 + len], &tail[..]);
     // The later VPLs' map origins are lifted by one member's radius, the
@@ -214,4 +216,127 @@ fn inspect_and_diff_say_what_the_later_bounces_carry() {
     );
     let r = diff(&a, &a, &Tolerance::same_machine());
     assert!(r.later.is_empty(), "{:?}", r.later);
+    // Their sources (4.8): inspect says how much the named groups carry,
+    // a diff names a weight moved, or sources on one side only.
+    let mut c = with_later();
+    c.manifest.later_sources = Some(sources());
+    let text = inspect(&c).to_string();
+    assert!(
+        text.contains("their sources: the first bounce's VPLs in 2 groups")
+            && text.contains("carry 88% of its light"),
+        "{text}"
+    );
+    let mut d = c.clone();
+    d.manifest.later_sources.as_mut().unwrap().weights[1].1 = 0.125;
+    let r = diff(&c, &d, &Tolerance::same_machine());
+    assert!(
+        r.later.iter().any(|x| x.field == "later_sources.weights"),
+        "{:?}",
+        r.later
+    );
+    let r = diff(&a, &c, &Tolerance::same_machine());
+    assert!(
+        r.later.iter().any(|x| x.field == "later_sources"),
+        "{:?}",
+        r.later
+    );
+}
+
+fn sources() -> LaterSources {
+    let first = VPLS - LATER as usize;
+    LaterSources {
+        first: (0..first as u32).map(|i| (i % 2, 1.0 + i as f32)).collect(),
+        weights: (0..LATER as usize * SOURCES_PER_LATER_VPL)
+            .map(|k| match k % SOURCES_PER_LATER_VPL {
+                0 => (1, 0.625),
+                1 => (0, 0.25),
+                _ => (0, 0.0),
+            })
+            .collect(),
+    }
+}
+
+/// Format 4.8: where the later light came from, appended after
+/// `lower_map_count` as an `Option<LaterSources>`; a 4.7 manifest (none)
+/// still loads; bad records are refused naming the manifest.
+#[test]
+fn later_sources_round_trip_and_bad_ones_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut a = with_later();
+    a.manifest.later_sources = Some(sources());
+    let dir = written(&mkdir(tmp.path(), "s"), &a);
+    let loaded = load(&dir).unwrap();
+    assert_eq!(loaded.manifest.later_sources, Some(sources()));
+    // The payload ends with the tag `01`, the groups (count, varints),
+    // the pairs (count, then a varint and an f32 each).
+    let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
+    let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
+    let first = VPLS - LATER as usize;
+    let mut tail = vec![1u8, first as u8];
+    for i in 0..first {
+        tail.push((i % 2) as u8);
+        tail.extend_from_slice(&(1.0 + i as f32).to_le_bytes());
+    }
+    tail.push((LATER as usize * SOURCES_PER_LATER_VPL) as u8);
+    for k in 0..LATER as usize * SOURCES_PER_LATER_VPL {
+        let (g, w) = sources().weights[k];
+        tail.push(g as u8);
+        tail.extend_from_slice(&w.to_le_bytes());
+    }
+    assert_eq!(&bytes[20 + len - tail.len()..20 + len], &tail[..]);
+    // A 4.7 writer leaves them out; such an asset loads without them.
+    let old = testing::manifest_bytes_4_7(&loaded.manifest).unwrap();
+    assert_eq!(u16::from_le_bytes([old[10], old[11]]), 7);
+    std::fs::write(dir.join(FILE_MANIFEST), &old).unwrap();
+    let back = load(&dir).expect("a 4.7 asset loads");
+    assert_eq!(back.manifest.later_sources, None);
+    assert_eq!(back.manifest.later, Some(record()));
+    // Bad records.
+    type Edit = Box<dyn Fn(&mut Manifest)>;
+    let cases: Vec<(Edit, &str)> = vec![
+        (
+            Box::new(|m| {
+                m.later_sources
+                    .as_mut()
+                    .unwrap()
+                    .first
+                    .pop()
+                    .map(drop)
+                    .unwrap_or(())
+            }),
+            "source groups listed",
+        ),
+        (
+            Box::new(|m| m.later_sources.as_mut().unwrap().weights.truncate(3)),
+            "source weights listed",
+        ),
+        (
+            Box::new(|m| m.later_sources.as_mut().unwrap().first[0].0 = MAX_SOURCE_GROUPS),
+            "source group 256",
+        ),
+        (
+            Box::new(|m| m.later_sources.as_mut().unwrap().weights[2].1 = f32::NAN),
+            "not finite",
+        ),
+        (
+            Box::new(|m| m.later_sources.as_mut().unwrap().first[1].1 = -1.0),
+            "weight is negative",
+        ),
+        (
+            Box::new(|m| m.later_sources.as_mut().unwrap().weights[1].1 = 0.5),
+            "sum to",
+        ),
+        (Box::new(|m| m.later = None), "no later VPLs"),
+    ];
+    for (k, (f, what)) in cases.iter().enumerate() {
+        let dir = written(&mkdir(tmp.path(), &format!("b{k}")), &a);
+        edit_manifest(&dir, |m| f(m));
+        let e = load(&dir).unwrap_err();
+        let msg = e.to_string();
+        assert!(matches!(e, AssetError::Invalid { .. }), "{e:?}");
+        assert!(
+            msg.contains("manifest.bin") && msg.contains(what),
+            "case {k}: {msg}"
+        );
+    }
 }

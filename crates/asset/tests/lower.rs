@@ -77,7 +77,7 @@ fn a_4_6_manifest_loads_without_second_origins() {
     bytes[10..12].copy_from_slice(&6u16.to_le_bytes());
     let bytes = with_payload_tail(
         &bytes,
-        u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize - 1,
+        u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize - 2,
         &[],
     );
     std::fs::write(again.join(FILE_MANIFEST), &bytes).unwrap();

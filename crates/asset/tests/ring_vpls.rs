@@ -33,13 +33,13 @@ fn ring_vpls_round_trip_in_the_documented_layout() {
     assert_eq!(loaded, as_written(&with_rings(), &loaded));
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
     assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), FORMAT_MINOR);
-    assert_eq!(FORMAT_MINOR, 7);
+    assert_eq!(FORMAT_MINOR, 8);
     // The payload ends with view_rsms (none: `00`), then ring_vpls `02 02
     // 00`, then (4.4) scene_options, not recorded: `00`, then (4.5)
     // swept_bounds, not recorded: `00`, then (4.6) later: `00`, then (4.7)
-    // lower_map_count `03`.
+    // lower_map_count `03`, then (4.8) later_sources: `00`.
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    assert_eq!(&bytes[20 + len - 8..20 + len], &[0, 2, 2, 0, 0, 0, 0, 3]);
+    assert_eq!(&bytes[20 + len - 9..20 + len], &[0, 2, 2, 0, 0, 0, 0, 3, 0]);
     // The flags: light 0's last two records.
     let flags = loaded.manifest.ring_flags();
     let first = FIRST_LIGHT_VPLS;
@@ -125,7 +125,7 @@ fn bad_ring_vpl_lists_are_refused_naming_the_manifest() {
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
     let mut tail = vec![253];
     tail.extend_from_slice(&(1u64 << 40).to_le_bytes());
-    let out = with_payload_tail(&bytes, len - 7, &tail);
+    let out = with_payload_tail(&bytes, len - 8, &tail);
     std::fs::write(dir.join(FILE_MANIFEST), &out).unwrap();
     let msg = load_manifest(&dir).unwrap_err().to_string();
     assert!(

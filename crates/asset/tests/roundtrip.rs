@@ -349,18 +349,20 @@ fn manifest_bin_has_the_documented_layout() {
     // then (4.4) scene_options: an Option tag (0 here: not recorded);
     // then (4.5) swept_bounds: a varint count (0 here: not recorded);
     // then (4.6) later: an Option tag (0 here: the first bounce alone);
-    // then (4.7) lower_map_count, a varint (3 here).
+    // then (4.7) lower_map_count, a varint (3 here); then (4.8)
+    // later_sources: an Option tag (0 here: no later bounces).
     assert_eq!(
-        end_of_lights + 1 + view_bytes + 1 + 1 + 1 + 1 + 1 + 1 + 1,
+        end_of_lights + 1 + view_bytes + 1 + 1 + 1 + 1 + 1 + 1 + 1 + 1,
         len
     );
-    assert_eq!(u32::from(p[len - 7]), m.light_map_size);
-    assert_eq!(p[len - 6], 0, "no view RSMs");
-    assert_eq!(p[len - 5], 0, "no ring VPLs");
-    assert_eq!(p[len - 4], 0, "no scene options recorded");
-    assert_eq!(p[len - 3], 0, "no swept bounds");
-    assert_eq!(p[len - 2], 0, "no later bounces");
-    assert_eq!(u32::from(p[len - 1]), m.lower_map_count);
+    assert_eq!(u32::from(p[len - 8]), m.light_map_size);
+    assert_eq!(p[len - 7], 0, "no view RSMs");
+    assert_eq!(p[len - 6], 0, "no ring VPLs");
+    assert_eq!(p[len - 5], 0, "no scene options recorded");
+    assert_eq!(p[len - 4], 0, "no swept bounds");
+    assert_eq!(p[len - 3], 0, "no later bounces");
+    assert_eq!(u32::from(p[len - 2]), m.lower_map_count);
+    assert_eq!(p[len - 1], 0, "no later sources");
     assert_eq!(m.lower_map_count, 3);
     assert_eq!(m.views, asset.manifest.views);
 }

@@ -60,13 +60,14 @@ fn scene_options_round_trip_in_the_documented_layout() {
     );
     assert_eq!(loaded.scene_options(), Some(&every_option()));
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
-    assert_eq!(FORMAT_MINOR, 7);
-    assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), 7);
+    assert_eq!(FORMAT_MINOR, 8);
+    assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), 8);
     // The payload ends with ring_vpls (none: `00`), then the Option tag
     // `01` and the fields: sun (tag, 6 f32), dynamic (count, strings),
     // lights, bake_volume (tag, 6 f32), max_texture_size (tag, varint:
     // 1024 is `FB 00 04`); then (4.5) swept_bounds, not recorded (`00`),
-    // (4.6) later, none (`00`), and (4.7) lower_map_count (`03`).
+    // (4.6) later, none (`00`), (4.7) lower_map_count (`03`) and (4.8)
+    // later_sources, none (`00`).
     let mut tail = vec![0u8, 1, 1];
     for x in [173.0f32, 60.0, 2.5, 1.0, 0.5, 0.25] {
         tail.extend_from_slice(&x.to_le_bytes());
@@ -79,19 +80,19 @@ fn scene_options_round_trip_in_the_documented_layout() {
     for x in [-1.0f32, 0.0, -1.0, 1.0, 2.0, 1.0] {
         tail.extend_from_slice(&x.to_le_bytes());
     }
-    tail.extend_from_slice(&[1, 0xFB, 0x00, 0x04, 0, 0, 3]);
+    tail.extend_from_slice(&[1, 0xFB, 0x00, 0x04, 0, 0, 3, 0]);
     let p = payload(&dir);
     assert_eq!(&p[p.len() - tail.len()..], &tail[..]);
     // None given: `01` then five empty fields.
     let dir = fresh(tmp.path(), "none.gibake", Some(SceneOptions::default()));
-    assert!(payload(&dir).ends_with(&[0, 1, 0, 0, 0, 0, 0, 0, 0, 3]));
+    assert!(payload(&dir).ends_with(&[0, 1, 0, 0, 0, 0, 0, 0, 0, 3, 0]));
     assert_eq!(
         load(&dir).unwrap().scene_options(),
         Some(&SceneOptions::default())
     );
     // Not recorded: `00`.
     let dir = fresh(tmp.path(), "unknown.gibake", None);
-    assert!(payload(&dir).ends_with(&[0, 0, 0, 0, 3]));
+    assert!(payload(&dir).ends_with(&[0, 0, 0, 0, 3, 0]));
     assert_eq!(load(&dir).unwrap().scene_options(), None);
 }
 
@@ -193,7 +194,7 @@ fn bad_values_and_damaged_bytes_are_refused_naming_the_manifest() {
         assert!(!out.exists());
     }
     // Damaged bytes behind a valid checksum (in place of the `None` tag and
-    // what 4.5 to 4.7 append after it): an Option tag of 2, a string claiming 2^40
+    // what 4.5 to 4.8 append after it): an Option tag of 2, a string claiming 2^40
     // bytes, a pattern that is not UTF-8, a cut field.
     let dir = fresh(tmp.path(), "d.gibake", None);
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
@@ -208,7 +209,7 @@ fn bad_values_and_damaged_bytes_are_refused_naming_the_manifest() {
     ] {
         std::fs::write(
             dir.join(FILE_MANIFEST),
-            with_payload_tail(&bytes, len - 4, &tail),
+            with_payload_tail(&bytes, len - 5, &tail),
         )
         .unwrap();
         let msg = load_manifest(&dir).unwrap_err().to_string();
@@ -387,11 +388,11 @@ fn parts(asset: &Asset, n: u32) -> Vec<ShardPart> {
 /// Part version 6 carries the manifest's `scene_options` and its
 /// `ring_vpls`, version 7 its `swept_bounds` (format 4.5), version 8 its
 /// `later` (format 4.6), version 9 the second origins and maps (format
-/// 4.7): a sharded bake of a sun with outer rings merged into the single
+/// 4.7), version 10 its `later_sources` (format 4.8): a sharded bake of a sun with outer rings merged into the single
 /// bake's bytes (version 5 dropped both: the merge had no ring VPLs).
 #[test]
 fn shard_parts_carry_the_options_and_the_ring_vpls() {
-    assert_eq!(PART_VERSION, 9);
+    assert_eq!(PART_VERSION, 10);
     let tmp = tempfile::tempdir().unwrap();
     let mut a = with_options(Some(every_option()));
     a.manifest.lights[0].kind = LIGHT_DIRECTIONAL;

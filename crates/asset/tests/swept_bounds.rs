@@ -28,15 +28,17 @@ fn swept_bounds_round_trip_in_the_documented_layout() {
     // pattern as a varint u32 (`FC` and four little-endian bytes for the
     // patterns of these values, all at or above 2^16).
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
-    assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), 7);
+    assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), 8);
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    // (then 4.6's `later`, none: `00`, and 4.7's lower_map_count, one byte)
-    assert_eq!(bytes[20 + len - 2], 0);
+    // (then 4.6's `later`, none: `00`, 4.7's lower_map_count, one byte,
+    // and 4.8's later_sources, none: `00`)
+    assert_eq!(bytes[20 + len - 3], 0);
     assert_eq!(
-        u32::from(bytes[20 + len - 1]),
+        u32::from(bytes[20 + len - 2]),
         loaded.manifest.lower_map_count
     );
-    let tail = &bytes[20 + len - 33..20 + len - 2];
+    assert_eq!(bytes[20 + len - 1], 0);
+    let tail = &bytes[20 + len - 34..20 + len - 3];
     assert_eq!(tail[0], 6);
     for (k, v) in BOX.iter().enumerate() {
         let at = 1 + 5 * k;
@@ -92,7 +94,7 @@ fn bad_swept_bounds_are_refused_naming_the_manifest() {
     let dir = written(tmp.path(), &with_sweep());
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    let keep = len - 33;
+    let keep = len - 34;
     let nan = f32::NAN.to_bits();
     let three = vec![3u8, 0, 0, 0];
     let mut with_nan = vec![6u8];

@@ -82,15 +82,18 @@ fn view_rsms_round_trip_in_the_documented_layout() {
     // The manifest payload ends with the appended vector: count 3, then
     // the indices (one-byte varints); then (4.3) no ring VPLs (`00`),
     // (4.4) no scene options recorded (`00`), (4.5) no swept bounds
-    // (`00`), (4.6) no later bounces (`00`) and (4.7) three second maps
-    // (`03`).
+    // (`00`), (4.6) no later bounces (`00`), (4.7) three second maps
+    // (`03`) and (4.8) no later sources (`00`).
     let bytes = std::fs::read(dir.join(FILE_MANIFEST)).unwrap();
     assert_eq!(
         u16::from_le_bytes([bytes[10], bytes[11]]),
         gibake_asset::FORMAT_MINOR
     );
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-    assert_eq!(&bytes[20 + len - 9..20 + len], &[3, 1, 4, 5, 0, 0, 0, 0, 3]);
+    assert_eq!(
+        &bytes[20 + len - 10..20 + len],
+        &[3, 1, 4, 5, 0, 0, 0, 0, 3, 0]
+    );
     // The atlas, read back as the spec lays it out.
     let (w, h, z, share, vpl) = atlas_of(&asset.view_rsms);
     assert_eq!((w, h), (2 * RSM as usize, 2 * RSM as usize));
@@ -201,7 +204,7 @@ fn bad_view_rsm_lists_are_refused_naming_the_manifest() {
     let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
     let mut tail = vec![253];
     tail.extend_from_slice(&(1u64 << 40).to_le_bytes());
-    let out = with_payload_tail(&bytes, len - 9, &tail);
+    let out = with_payload_tail(&bytes, len - 10, &tail);
     std::fs::write(dir.join(FILE_MANIFEST), &out).unwrap();
     let msg = load_manifest(&dir).unwrap_err().to_string();
     assert!(
@@ -209,7 +212,7 @@ fn bad_view_rsm_lists_are_refused_naming_the_manifest() {
         "{msg}"
     );
     // Cut inside the vector: damaged.
-    let out = with_payload_tail(&bytes, len - 6, &[]);
+    let out = with_payload_tail(&bytes, len - 7, &[]);
     std::fs::write(dir.join(FILE_MANIFEST), &out).unwrap();
     let msg = load_manifest(&dir).unwrap_err().to_string();
     assert!(

@@ -801,9 +801,18 @@ fn bake_with(
                     rays: crate::later::LATER_RAYS,
                     vpls: n,
                 },
+                &vpls[..first_vpls],
             );
             progress.end();
             lap("later bounces", &mut stages);
+            // Of which where their light came from (crate::later::sources).
+            if let Some(s) = stages.last_mut() {
+                s.seconds = (s.seconds - l.sources_seconds).max(0.0);
+            }
+            stages.push(StageTime {
+                stage: "later sources",
+                seconds: l.sources_seconds,
+            });
             if !l.converged {
                 let w = format!(
                     "the later bounces do not die down (a closed level of albedo near 1): cut at {} bounces, the light of those after is missing",
@@ -814,6 +823,7 @@ fn bake_with(
             }
             let keep = bounces != crate::later::Bounces::Every
                 || l.later_share() >= crate::later::NEGLIGIBLE_LATER_SHARE;
+            let mut weights = Vec::new();
             if keep {
                 for (i, v) in l.vpls.iter().enumerate() {
                     let c = crate::cluster::Cluster {
@@ -828,6 +838,9 @@ fn bake_with(
                         continue;
                     }
                     vpls.push(*v);
+                    if let Some(w) = l.sources.weights.get(i) {
+                        weights.extend_from_slice(w);
+                    }
                     vpl_nodes
                         .extend_from_slice(&l.nodes[i * NODES_PER_VPL..(i + 1) * NODES_PER_VPL]);
                     vpl_coherence
@@ -839,7 +852,17 @@ fn bake_with(
                     vpl_lower.push(None);
                 }
             }
-            Some((l, keep))
+            // Where their light came from (format 4.8), for the VPLs kept.
+            let sources = (keep
+                && l.sources.weights.len() == l.vpls.len()
+                && weights.len()
+                    == (vpls.len() - first_vpls) * gibake_asset::SOURCES_PER_LATER_VPL
+                && !weights.is_empty())
+            .then(|| gibake_asset::LaterSources {
+                first: l.sources.first.clone(),
+                weights,
+            });
+            Some((l, keep, sources))
         }
     };
     check_memory(vpls.len())?;
@@ -962,20 +985,23 @@ fn bake_with(
         // record (`gibake bake` does; the `Scene` does not hold them).
         scene_options: None,
         swept_bounds: Some(crate::uptodate::swept_record(scene)),
-        later: later.as_ref().map(|(l, keep)| gibake_asset::LaterRecord {
-            bounces: match opts.bounces {
-                crate::later::Bounces::Every => 0,
-                crate::later::Bounces::Count(n) => n,
-            },
-            vpl_budget: opts.later_vpls.unwrap_or(0),
-            vpls: (vpls.len() - first_vpls) as u32,
-            left_out: !keep,
-            converged: l.converged,
-            direct: l.direct.to_array(),
-            per_bounce: l.per_bounce.iter().map(|v| v.to_array()).collect(),
-            tail: l.tail.to_array(),
-        }),
+        later: later
+            .as_ref()
+            .map(|(l, keep, _)| gibake_asset::LaterRecord {
+                bounces: match opts.bounces {
+                    crate::later::Bounces::Every => 0,
+                    crate::later::Bounces::Count(n) => n,
+                },
+                vpl_budget: opts.later_vpls.unwrap_or(0),
+                vpls: (vpls.len() - first_vpls) as u32,
+                left_out: !keep,
+                converged: l.converged,
+                direct: l.direct.to_array(),
+                per_bounce: l.per_bounce.iter().map(|v| v.to_array()).collect(),
+                tail: l.tail.to_array(),
+            }),
         lower_map_count: lower_maps.count(),
+        later_sources: later.and_then(|(_, _, s)| s),
     };
     let asset = Asset {
         manifest,

@@ -28,6 +28,7 @@
 
 pub mod radiosity;
 pub mod secondary;
+pub mod sources;
 pub mod surfels;
 
 use gibake_asset::VplRecord;
@@ -107,6 +108,11 @@ pub struct Later {
     pub converged: bool,
     /// Surfels used.
     pub surfels: usize,
+    /// Where each VPL's light came from ([`sources`]): per VPL of `vpls`,
+    /// and per first-bounce VPL its source group.
+    pub sources: sources::Sources,
+    /// Seconds [`sources`] took (within the whole).
+    pub sources_seconds: f64,
 }
 
 impl Later {
@@ -122,8 +128,9 @@ impl Later {
     }
 }
 
-/// The later bounces of the static scene in `rays` (see the module docs).
-pub fn later_bounces(rays: &RayScene<'_>, opts: &LaterOptions) -> Later {
+/// The later bounces of the static scene in `rays` (see the module docs),
+/// with where their light came from among the first bounce's VPLs `first`.
+pub fn later_bounces(rays: &RayScene<'_>, opts: &LaterOptions, first: &[VplRecord]) -> Later {
     let surfels = surfels::place(rays, opts.points);
     let direct = radiosity::direct(rays, &surfels);
     let links = radiosity::link(rays, &surfels, opts.rays);
@@ -134,6 +141,20 @@ pub fn later_bounces(rays: &RayScene<'_>, opts: &LaterOptions) -> Later {
     let bounds = rays.scene().static_bounds();
     let diag = (bounds.max - bounds.min).length();
     let sec = secondary::cluster(rays, &surfels, &emitted, opts.vpls, diag);
+    let clock = std::time::Instant::now();
+    let sources = sources::sources(
+        rays,
+        &sources::Solved {
+            surfels: &surfels,
+            links: &links,
+            direct: &direct,
+            emitted: &emitted,
+        },
+        &sec.surfel_vpl,
+        sec.vpls.len(),
+        first,
+    );
+    let sources_seconds = clock.elapsed().as_secs_f64();
     let mut reflected = glam::DVec3::ZERO;
     for ((albedo, d), area) in surfels.albedo.iter().zip(&direct).zip(&surfels.area) {
         reflected += (*albedo * *d * *area).as_dvec3();
@@ -147,6 +168,8 @@ pub fn later_bounces(rays: &RayScene<'_>, opts: &LaterOptions) -> Later {
         direct: reflected.as_vec3(),
         converged: solution.converged,
         surfels: surfels.len(),
+        sources,
+        sources_seconds,
     }
 }
 

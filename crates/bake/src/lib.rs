@@ -44,7 +44,7 @@ pub use uptodate::{Freshness, check_up_to_date};
 /// `crates/bake/tests/method_revision.rs` holds the VPLs of two small bakes
 /// to a hash per revision and says when it is due. A change to the runtime alone (how the
 /// same asset is shaded) needs no bump.
-pub const BAKE_METHOD: u32 = 10;
+pub const BAKE_METHOD: u32 = 11;
 
 /// The baker version to record in an asset and to compare with an existing
 /// one: this crate's version with the method revision as build metadata,

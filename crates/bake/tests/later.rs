@@ -43,7 +43,7 @@ fn a_closed_room_passes_on_its_albedo_at_every_bounce() {
     for a in [0.5f32, 0.8] {
         let scene = closed_room(a, 1.0);
         let rays = RayScene::build(&scene, 0.0);
-        let l = later_bounces(&rays, &options(Bounces::Count(6)));
+        let l = later_bounces(&rays, &options(Bounces::Count(6)), &[]);
         let sum = |v: Vec3| v.x + v.y + v.z;
         let direct = sum(l.direct);
         assert!(direct > 0.0);
@@ -72,7 +72,7 @@ fn albedo_099_converges_to_the_geometric_series() {
     let scene = closed_room(a, 1.0);
     let rays = RayScene::build(&scene, 0.0);
     let t = std::time::Instant::now();
-    let l = later_bounces(&rays, &options(Bounces::Every));
+    let l = later_bounces(&rays, &options(Bounces::Every), &[]);
     let took = t.elapsed().as_secs_f64();
     let sum = |v: Vec3| f64::from(v.x + v.y + v.z);
     let all: f64 = l.per_bounce.iter().map(|b| sum(*b)).sum::<f64>() + sum(l.tail);
@@ -99,7 +99,7 @@ fn albedo_099_converges_to_the_geometric_series() {
 fn albedo_1_is_cut_at_the_bounce_cap_and_says_so() {
     let scene = closed_room(1.0, 1.0);
     let rays = RayScene::build(&scene, 0.0);
-    let l = later_bounces(&rays, &options(Bounces::Every));
+    let l = later_bounces(&rays, &options(Bounces::Every), &[]);
     assert!(!l.converged, "a closed white room converged");
     assert_eq!(
         l.per_bounce.len() as u32,
@@ -120,7 +120,7 @@ fn the_later_bounces_are_scale_invariant() {
     let run = |s: f32| {
         let scene = closed_room(0.8, s);
         let rays = RayScene::build(&scene, 0.0);
-        later_bounces(&rays, &options(Bounces::Count(5)))
+        later_bounces(&rays, &options(Bounces::Count(5)), &[])
     };
     // Irradiance at `x` (normal `n`, unit) from every VPL as a disk.
     let light = |l: &gibake_bake::later::Later, x: Vec3, n: Vec3| -> f32 {
@@ -210,7 +210,7 @@ fn no_later_light_leaks_through_a_thin_wall() {
         meshes,
     );
     let rays = RayScene::build(&scene, 0.0);
-    let l = later_bounces(&rays, &options(Bounces::Every));
+    let l = later_bounces(&rays, &options(Bounces::Every), &[]);
     assert!(!l.vpls.is_empty());
     let dark: Vec<_> = l.vpls.iter().filter(|v| v.position[0] < -0.01).collect();
     assert!(
@@ -281,7 +281,7 @@ fn a_finely_tessellated_room_passes_on_what_a_coarse_one_does() {
         let rays = RayScene::build(&scene, 0.0);
         let surfels = gibake_bake::later::surfels::place(&rays, 4096);
         let area: f32 = surfels.area.iter().sum();
-        let l = later_bounces(&rays, &options(Bounces::Count(3)));
+        let l = later_bounces(&rays, &options(Bounces::Count(3)), &[]);
         eprintln!(
             "{triangles} triangles: {} surfels, area {area:.2}, direct reflection {:.4}, later {:?}",
             surfels.len(),

@@ -32,14 +32,15 @@ use gibake_scene::LoadOptions;
 
 /// The revision these hashes belong to, and the hash of each scene's bake:
 /// (scene, `--bounces 1`, the default).
-/// Revision 10 changed the later bounces alone (the surfels' share of a
-/// small triangle, the later VPLs' finest nodes on their surfels): the
-/// `--bounces 1` hashes are revision 9's.
+/// Revisions 10 (the surfels' share of a small triangle, the later VPLs'
+/// finest nodes on their surfels) and 11 (where the later light came from,
+/// format 4.8) changed the later bounces alone: the `--bounces 1` hashes
+/// are revision 9's.
 const RECORDED: (u32, [(&str, &str, &str); 2]) = (
-    10,
+    11,
     [
-        ("corner_bunny", "10081d0c84b86e69", "aaf92838a60dcea8"),
-        ("lamps", "ce446a26d1373b12", "26c0eaa09df44824"),
+        ("corner_bunny", "10081d0c84b86e69", "66299a2ca949833b"),
+        ("lamps", "ce446a26d1373b12", "af218d4f49b29a3d"),
     ],
 );
 
@@ -91,6 +92,17 @@ fn hash(asset: &Asset, lower: bool) -> String {
         h.update(&asset.vpl_lower_maps.count().to_le_bytes());
         for t in asset.vpl_lower_maps.texels() {
             h.update(&t.to_bits().to_le_bytes());
+        }
+    }
+    // Revision 11: where the later light came from (format 4.8).
+    if let Some(s) = &asset.manifest.later_sources {
+        for (g, w) in &s.first {
+            h.update(&g.to_le_bytes());
+            h.update(&w.to_bits().to_le_bytes());
+        }
+        for (g, w) in &s.weights {
+            h.update(&g.to_le_bytes());
+            h.update(&w.to_bits().to_le_bytes());
         }
     }
     h.finalize().to_hex()[..16].to_string()

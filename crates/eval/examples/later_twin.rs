@@ -81,6 +81,7 @@ fn main() {
             rays: rays_per,
             vpls: later,
         },
+        &[],
     );
     let t2 = t0.elapsed().as_secs_f64();
     // The same steps by hand, for the surfels' own light (each surfel a

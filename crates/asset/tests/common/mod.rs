@@ -242,6 +242,7 @@ pub fn sample_asset(dynamic: bool) -> Asset {
             swept_bounds: None,
             later: None,
             lower_map_count: 0,
+            later_sources: None,
         },
         vpl_coherence: vec![1.0; vpls.len() * gibake_asset::LEVEL3_NODES],
         vpl_lower,
