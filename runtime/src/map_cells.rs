@@ -43,6 +43,8 @@ pub(crate) struct MapCells {
     /// `VplMerge`'s frames): its cells' largest distances, or empty for a
     /// frame without a baked map (nothing hidden).
     max: Vec<Vec<f32>>,
+    /// The same frames' cells' smallest distances (for [`MapCells::seen_share`]).
+    min: Vec<Vec<f32>>,
 }
 
 /// Texel rows (or columns) of cell row (or column) `c` of `g` on a
@@ -93,22 +95,28 @@ impl MapCells {
     pub(crate) fn new(asset: &Asset, baked: &BakedGpu) -> MapCells {
         let size = baked.map_size.max(1);
         let (g, cells) = cell_geometry(size);
-        let cell_max = |map: Option<Vec<f32>>| -> Vec<f32> {
+        let cell_range = |map: Option<Vec<f32>>| -> (Vec<f32>, Vec<f32>) {
             let Some(m) = map else {
-                return Vec::new();
+                return (Vec::new(), Vec::new());
             };
-            let mut out = Vec::with_capacity((g * g) as usize);
+            let mut out = (
+                Vec::with_capacity((g * g) as usize),
+                Vec::with_capacity((g * g) as usize),
+            );
             for cy in 0..g {
                 for cx in 0..g {
-                    let mut mx = 0.0f32;
+                    let (mut mn, mut mx) = (f32::INFINITY, 0.0f32);
                     for y in span(size, g, cy) {
                         for x in span(size, g, cx) {
                             let v = m[(y * size + x) as usize];
                             // NaN counts as "nothing there": never hides.
-                            mx = if v.is_nan() { f32::INFINITY } else { mx.max(v) };
+                            let v = if v.is_nan() { f32::INFINITY } else { v };
+                            mx = mx.max(v);
+                            mn = mn.min(v);
                         }
                     }
-                    out.push(mx);
+                    out.0.push(mx);
+                    out.1.push(mn);
                 }
             }
             out
@@ -125,11 +133,68 @@ impl MapCells {
                 .filter(|l| l.is_some() && l.map < asset.manifest.lower_map_count)
                 .and_then(|l| asset.vpl_lower_maps.map(l.map))
         });
-        let max = first
+        let (max, min) = first
             .chain(second)
-            .map(|m| cell_max(m.filter(|m| m.len() == (size * size) as usize)))
-            .collect();
-        MapCells { cells, max }
+            .map(|m| cell_range(m.filter(|m| m.len() == (size * size) as usize)))
+            .unzip();
+        MapCells { cells, max, min }
+    }
+
+    /// The share of the directions of box `b` (its bounding sphere) in
+    /// which frame `frame`'s baked map (centred at `origin` around
+    /// `normal`) holds no static surface nearer than `b`: what of the
+    /// light the VPL sends towards `b` reaches it (a ball in the next room
+    /// behind the wall: 0). An estimate: the cells whose centre direction
+    /// lies within the sphere's cone (else the one nearest its centre's
+    /// direction), each 1 where all its texels are farther than the
+    /// sphere's nearest point, 0 where all are nearer, ½ between. 1
+    /// without a baked map or round the origin.
+    pub(crate) fn seen_share(&self, frame: usize, origin: Vec3, normal: Vec3, b: &Aabb) -> f32 {
+        let (Some(max), Some(min)) = (
+            self.max.get(frame).filter(|m| !m.is_empty()),
+            self.min.get(frame).filter(|m| !m.is_empty()),
+        ) else {
+            return 1.0;
+        };
+        if b.is_empty() {
+            return 0.0;
+        }
+        let c = (b.min + b.max) * 0.5;
+        let r = (b.max - b.min).length() * 0.5;
+        let v = c - origin;
+        let d = v.length();
+        if d.partial_cmp(&r) != Some(std::cmp::Ordering::Greater) || !r.is_finite() {
+            return 1.0;
+        }
+        let nearest = d - r;
+        let dl = hemisphere::to_local(normal, v / d);
+        let cos_a = (1.0 - (r / d) * (r / d)).max(0.0).sqrt();
+        let seen = |k: usize| {
+            if max[k] < nearest {
+                0.0
+            } else if min[k] >= nearest {
+                1.0
+            } else {
+                0.5
+            }
+        };
+        let (mut sum, mut count) = (0.0f32, 0u32);
+        let mut best = (f32::NEG_INFINITY, 0usize);
+        for (k, cell) in self.cells.iter().enumerate() {
+            let cos = dl.dot(cell.dir);
+            if cos >= cos_a {
+                sum += seen(k);
+                count += 1;
+            }
+            if cos > best.0 {
+                best = (cos, k);
+            }
+        }
+        if count > 0 {
+            sum / count as f32
+        } else {
+            seen(best.1)
+        }
     }
 
     /// Whether frame `frame`'s baked map (centred at `origin` around
@@ -176,6 +241,7 @@ mod tests {
         MapCells {
             cells,
             max: vec![vec![dist; (g * g) as usize]],
+            min: vec![vec![dist; (g * g) as usize]],
         }
     }
 
@@ -216,11 +282,39 @@ mod tests {
         assert!(m.hides(0, Vec3::ZERO, Vec3::Z, &cube(Vec3::new(5.0, 0.0, 0.5), 0.3)));
     }
 
+    /// Behind the walls nothing of the light towards it reaches a box; in
+    /// front of them all of it; a window in its directions lets some by.
+    #[test]
+    fn the_seen_share_follows_the_walls() {
+        let mut m = one_map(32, 2.0);
+        let (o, n) = (Vec3::ZERO, Vec3::Z);
+        let far = cube(Vec3::new(0.0, 0.0, 5.0), 0.5);
+        assert_eq!(m.seen_share(0, o, n, &far), 0.0);
+        assert_eq!(
+            m.seen_share(0, o, n, &cube(Vec3::new(0.5, 0.0, 1.0), 0.3)),
+            1.0
+        );
+        let up = m
+            .cells
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.dir.z.total_cmp(&b.1.dir.z))
+            .map(|(k, _)| k)
+            .unwrap();
+        m.max[0][up] = f32::INFINITY;
+        m.min[0][up] = f32::INFINITY;
+        let s = m.seen_share(0, o, n, &far);
+        assert!(s > 0.0 && s < 1.0, "{s}");
+        // No baked map: all of it.
+        assert_eq!(m.seen_share(1, o, n, &far), 1.0);
+    }
+
     #[test]
     fn no_baked_map_hides_nothing() {
         let m = MapCells {
             cells: one_map(16, 1.0).cells,
             max: vec![Vec::new()],
+            min: vec![Vec::new()],
         };
         assert!(!m.hides(0, Vec3::ZERO, Vec3::Z, &cube(Vec3::new(0.0, 0.0, 9.0), 0.1)));
         assert!(!m.hides(5, Vec3::ZERO, Vec3::Z, &cube(Vec3::new(0.0, 0.0, 9.0), 0.1)));

@@ -288,14 +288,20 @@ impl VplMerge {
                 })
                 .collect();
             let frames = &self.frames;
+            let cells = self.cells.as_ref();
             crate::later_absorb::absorbed(
                 &masks,
                 &self.weight,
                 self.later_range,
                 &albedo,
+                // What the object takes of the VPL's light: its share of
+                // the emitter's flux, times the share of its directions
+                // the baked surfaces leave open (an object behind a wall,
+                // seen through the map's coarse cells: little or none).
                 |v, k| match frames[v] {
                     Some((o, n)) => {
                         crate::merge_cull::intercepted_by_area(o, n, &boxes[k], area[k])
+                            * cells.map_or(1.0, |c| c.seen_share(v, o, n, &boxes[k]))
                     }
                     None => 0.0,
                 },
