@@ -526,7 +526,9 @@ pub fn write_indirect_panel(
 /// Writes the reference's, `full`'s and `rsm`'s indirect light and the
 /// direct light as EXR, `DIR/NAME_ref_ind.exr`, `NAME_full_ind.exr`,
 /// `NAME_rsm_ind.exr`, `NAME_direct.exr` and the reference's direct light
-/// `NAME_ref_direct.exr` (the examples' `DUMP_EXR=1`: for looking at where
+/// `NAME_ref_direct.exr`, and where rendered the every-bounce reference's
+/// and bake's indirect light `NAME_every_ref_ind.exr`, `NAME_every_full_ind.exr`
+/// (the examples' `DUMP_EXR=1`: for looking at where
 /// the indirect light is lost, or where the direct light's shadows leak).
 pub fn write_exrs(
     images: &LevelImages,
@@ -541,6 +543,16 @@ pub fn write_exrs(
         ("ref_direct", images.reference.direct.clone()),
     ] {
         image.write_exr(&dir.join(format!("{name}_{part}.exr")))?;
+    }
+    // The every-bounce reference's and the every-bounce bake's indirect
+    // light, where rendered.
+    if let (Some(e), Some(full)) = (&images.reference.every, &images.every_full) {
+        let ref_direct = &images.reference.direct;
+        e.image
+            .sub(ref_direct)
+            .write_exr(&dir.join(format!("{name}_every_ref_ind.exr")))?;
+        full.sub(&images.direct)
+            .write_exr(&dir.join(format!("{name}_every_full_ind.exr")))?;
     }
     Ok(())
 }
