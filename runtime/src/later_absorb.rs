@@ -110,7 +110,7 @@ pub(crate) fn absorbed(
 /// less. `(1 − l) · later_scale(per_bounce, tail, l, l)`. Measured against
 /// the level-wide means (docs/method.md, "What moving objects absorb"):
 /// the grid of rooms with its blue spheres +16.5 → +8.7% red.
-pub(crate) fn local_keep(per_bounce: &[[f32; 3]], tail: [f32; 3], l: Vec3) -> Vec3 {
+pub fn local_keep(per_bounce: &[[f32; 3]], tail: [f32; 3], l: Vec3) -> Vec3 {
     let l = l.clamp(Vec3::ZERO, Vec3::ONE);
     (Vec3::ONE - l) * later_scale(per_bounce, tail, l, l)
 }
@@ -137,7 +137,7 @@ pub(crate) fn weighted_mean(k: &[Vec3], w: &[f32]) -> Vec3 {
 /// bounces (`a2`), the last into the VPL itself:
 /// `Σ_j P_j (1 − a1)^[j≥1] (1 − a2)^max(j−1, 0) / Σ_j P_j`; 1 where
 /// nothing is lost or nothing was reflected.
-pub(crate) fn later_scale(per_bounce: &[[f32; 3]], tail: [f32; 3], a1: Vec3, a2: Vec3) -> Vec3 {
+pub fn later_scale(per_bounce: &[[f32; 3]], tail: [f32; 3], a1: Vec3, a2: Vec3) -> Vec3 {
     let keep1 = (Vec3::ONE - a1).clamp(Vec3::ZERO, Vec3::ONE);
     let keep2 = (Vec3::ONE - a2).clamp(Vec3::ZERO, Vec3::ONE);
     let mut num = Vec3::ZERO;

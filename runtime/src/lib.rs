@@ -83,6 +83,14 @@ mod world;
 
 use glam::Mat4;
 
+/// The runtime's own estimates of what moving objects take from the later
+/// bounces, for the CPU twins that judge them (`gibake-eval`'s
+/// `absorb_twin`): the same functions the frame calls.
+pub mod twin {
+    pub use crate::later_absorb::{later_scale, local_keep};
+    pub use crate::merge_cull::intercepted_by_area;
+}
+
 pub use camera::{CameraMatrices, NoCamera};
 pub use cascades::CascadeLayout;
 pub use error::RuntimeError;

@@ -245,6 +245,16 @@ mod tests {
         }
     }
 
+    /// The cell whose directions are nearest the map's normal.
+    fn straight_up(m: &MapCells) -> usize {
+        m.cells
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.dir.z.total_cmp(&b.1.dir.z))
+            .map(|(k, _)| k)
+            .unwrap()
+    }
+
     fn cube(c: Vec3, h: f32) -> Aabb {
         Aabb {
             min: c - Vec3::splat(h),
@@ -269,13 +279,7 @@ mod tests {
     fn one_open_cell_in_the_objects_directions_shows_it() {
         let mut m = one_map(32, 2.0);
         // A window: the cell straight up sees nothing.
-        let up = m
-            .cells
-            .iter()
-            .enumerate()
-            .max_by(|a, b| a.1.dir.z.total_cmp(&b.1.dir.z))
-            .map(|(k, _)| k)
-            .unwrap();
+        let up = straight_up(&m);
         m.max[0][up] = f32::INFINITY;
         assert!(!m.hides(0, Vec3::ZERO, Vec3::Z, &cube(Vec3::new(0.0, 0.0, 5.0), 0.5)));
         // Sideways, away from the window, the walls still hide it.
@@ -294,13 +298,7 @@ mod tests {
             m.seen_share(0, o, n, &cube(Vec3::new(0.5, 0.0, 1.0), 0.3)),
             1.0
         );
-        let up = m
-            .cells
-            .iter()
-            .enumerate()
-            .max_by(|a, b| a.1.dir.z.total_cmp(&b.1.dir.z))
-            .map(|(k, _)| k)
-            .unwrap();
+        let up = straight_up(&m);
         m.max[0][up] = f32::INFINITY;
         m.min[0][up] = f32::INFINITY;
         let s = m.seen_share(0, o, n, &far);

@@ -65,7 +65,7 @@ pub(crate) fn intercepted(origin: Vec3, normal: Vec3, b: &Aabb) -> f32 {
 /// bounces lose to a moving object ([`crate::later_absorb`]), where the
 /// bounding sphere — three times a ball's cross-section for its box —
 /// would count too much.
-pub(crate) fn intercepted_by_area(origin: Vec3, normal: Vec3, b: &Aabb, area: f32) -> f32 {
+pub fn intercepted_by_area(origin: Vec3, normal: Vec3, b: &Aabb, area: f32) -> f32 {
     let bound = intercepted(origin, normal, b);
     match seen_sphere(origin, normal, b) {
         Some((d2, _, cos)) => {

@@ -205,22 +205,18 @@ def read_later_sources(d: Decoder) -> dict | None:
     most 1). Lengths are checked against the VPL counts by the caller."""
     if not d.option("later_sources"):
         return None
-    n = d.u64("later_sources.first length")
-    if n > MAX_PAYLOAD:
-        raise AssetError(f"manifest.bin: later_sources.first holds {n} entries")
-    first = []
-    for k in range(n):
-        g = d.u32(f"later_sources.first[{k}].group")
-        w = d.f32(f"later_sources.first[{k}].weight")
-        first.append((g, w))
-    n = d.u64("later_sources.weights length")
-    if n > MAX_PAYLOAD:
-        raise AssetError(f"manifest.bin: later_sources.weights holds {n} entries")
-    weights = []
-    for k in range(n):
-        g = d.u32(f"later_sources.weights[{k}].group")
-        w = d.f32(f"later_sources.weights[{k}].weight")
-        weights.append((g, w))
+    def pairs(field: str) -> list[tuple[int, float]]:
+        # A Vec<(u32, f32)>: its count bounded before reading on.
+        n = d.u64(f"later_sources.{field} length")
+        if n > MAX_PAYLOAD:
+            raise AssetError(f"manifest.bin: later_sources.{field} holds {n} entries")
+        return [
+            (d.u32(f"later_sources.{field}[{k}].group"), d.f32(f"later_sources.{field}[{k}].weight"))
+            for k in range(n)
+        ]
+
+    first = pairs("first")
+    weights = pairs("weights")
     if any(
         g >= MAX_SOURCE_GROUPS or not (math.isfinite(w) and w >= 0.0) for g, w in first + weights
     ):

@@ -187,12 +187,16 @@ fn main() {
         .map(|v| {
             let mut l = Vec3::ZERO;
             for (bx, area, rho) in &objects {
-                l += intercepted_by_area(pos[v], nrm[v], bx, *area) * (Vec3::ONE - *rho);
+                l += gibake_runtime::twin::intercepted_by_area(pos[v], nrm[v], bx, *area)
+                    * (Vec3::ONE - *rho);
             }
             l.min(Vec3::ONE)
         })
         .collect();
-    let keep_a: Vec<Vec3> = local.iter().map(|l| local_keep(&pb, tail, *l)).collect();
+    let keep_a: Vec<Vec3> = local
+        .iter()
+        .map(|l| gibake_runtime::twin::local_keep(&pb, tail, *l))
+        .collect();
     // The same with the VPL a disk of its surfels' area.
     let local_d: Vec<Vec3> = (0..nv)
         .map(|v| {
@@ -204,7 +208,10 @@ fn main() {
             l.min(Vec3::ONE)
         })
         .collect();
-    let keep_d: Vec<Vec3> = local_d.iter().map(|l| local_keep(&pb, tail, *l)).collect();
+    let keep_d: Vec<Vec3> = local_d
+        .iter()
+        .map(|l| gibake_runtime::twin::local_keep(&pb, tail, *l))
+        .collect();
 
     let (mut w0, mut wx, mut wa, mut wd) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
     println!("vpl  flux(sum)  loss l_v (R)  exact k (R,G,B)  local_keep k (R,G,B)");
@@ -386,56 +393,6 @@ fn main() {
         (wa / w0).y,
         (wa / w0).z
     );
-}
-
-fn intercepted_by_area(origin: Vec3, normal: Vec3, b: &gibake_scene::Aabb, area: f32) -> f32 {
-    let to = (b.min + b.max) * 0.5 - origin;
-    let r = (b.max - b.min).length() * 0.5;
-    let d2 = to.length_squared();
-    if d2 <= r * r {
-        return 1.0;
-    }
-    let d = d2.sqrt();
-    let s = r / d;
-    let cos = (normal.dot(to / d) + s).clamp(0.0, 1.0);
-    let bound = (s * s * cos).min(1.0);
-    (area * 0.25 / (std::f32::consts::PI * d2) * cos).min(bound)
-}
-
-fn local_keep(per_bounce: &[[f32; 3]], tail: [f32; 3], l: Vec3) -> Vec3 {
-    let l = l.clamp(Vec3::ZERO, Vec3::ONE);
-    (Vec3::ONE - l) * later_scale(per_bounce, tail, l, l)
-}
-
-fn later_scale(per_bounce: &[[f32; 3]], tail: [f32; 3], a1: Vec3, a2: Vec3) -> Vec3 {
-    let keep1 = (Vec3::ONE - a1).clamp(Vec3::ZERO, Vec3::ONE);
-    let keep2 = (Vec3::ONE - a2).clamp(Vec3::ZERO, Vec3::ONE);
-    let mut num = Vec3::ZERO;
-    let mut den = Vec3::ZERO;
-    let mut factor = Vec3::ONE;
-    for (j, p) in per_bounce.iter().enumerate() {
-        let p = Vec3::from_array(*p).max(Vec3::ZERO);
-        num += p * factor;
-        den += p;
-        factor *= if j == 0 { keep1 } else { keep2 };
-    }
-    let tail = Vec3::from_array(tail).max(Vec3::ZERO);
-    let r = match per_bounce {
-        [.., a, b] => {
-            let (a, b) = (Vec3::from_array(*a), Vec3::from_array(*b));
-            Vec3::select(a.cmpgt(Vec3::ZERO), b / a, Vec3::ZERO)
-                .clamp(Vec3::ZERO, Vec3::splat(0.999))
-        }
-        _ => Vec3::ZERO,
-    };
-    num += tail * factor * (Vec3::ONE - r) / (Vec3::ONE - r * keep2);
-    den += tail;
-    let s = Vec3::select(den.cmpgt(Vec3::ZERO), num / den, Vec3::ONE);
-    if s.is_finite() {
-        s.clamp(Vec3::ZERO, Vec3::ONE)
-    } else {
-        Vec3::ONE
-    }
 }
 
 /// The share of a uniform Lambertian disk's flux (centre `origin`, unit
