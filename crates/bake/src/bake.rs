@@ -805,14 +805,17 @@ fn bake_with(
             );
             progress.end();
             lap("later bounces", &mut stages);
-            // Of which where their light came from (crate::later::sources).
-            if let Some(s) = stages.last_mut() {
-                s.seconds = (s.seconds - l.sources_seconds).max(0.0);
+            // Of which where their light came from (crate::later::sources;
+            // only for later bounces the bake keeps).
+            if l.kept(bounces) {
+                if let Some(s) = stages.last_mut() {
+                    s.seconds = (s.seconds - l.sources_seconds).max(0.0);
+                }
+                stages.push(StageTime {
+                    stage: "later sources",
+                    seconds: l.sources_seconds,
+                });
             }
-            stages.push(StageTime {
-                stage: "later sources",
-                seconds: l.sources_seconds,
-            });
             if !l.converged {
                 let w = format!(
                     "the later bounces do not die down (a closed level of albedo near 1): cut at {} bounces, the light of those after is missing",
@@ -821,8 +824,7 @@ fn bake_with(
                 tracing::warn!("{}: {w}", scene.source.display());
                 warnings.push(w);
             }
-            let keep = bounces != crate::later::Bounces::Every
-                || l.later_share() >= crate::later::NEGLIGIBLE_LATER_SHARE;
+            let keep = l.kept(bounces);
             let mut weights = Vec::new();
             if keep {
                 for (i, v) in l.vpls.iter().enumerate() {

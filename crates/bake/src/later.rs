@@ -116,6 +116,13 @@ pub struct Later {
 }
 
 impl Later {
+    /// Whether a bake asked for `bounces` keeps these later bounces: every
+    /// count asked for is kept; under [`Bounces::Every`] they are left out
+    /// when they carry under [`NEGLIGIBLE_LATER_SHARE`] of the light.
+    pub fn kept(&self, bounces: Bounces) -> bool {
+        bounces != Bounces::Every || self.later_share() >= NEGLIGIBLE_LATER_SHARE
+    }
+
     /// The light the bounces after the first carry over all the light the
     /// surfaces reflect (direct, first bounce and later): the share a bake
     /// leaves out when it leaves them out.
@@ -141,25 +148,11 @@ pub fn later_bounces(rays: &RayScene<'_>, opts: &LaterOptions, first: &[VplRecor
     let bounds = rays.scene().static_bounds();
     let diag = (bounds.max - bounds.min).length();
     let sec = secondary::cluster(rays, &surfels, &emitted, opts.vpls, diag);
-    let clock = std::time::Instant::now();
-    let sources = sources::sources(
-        rays,
-        &sources::Solved {
-            surfels: &surfels,
-            links: &links,
-            direct: &direct,
-            emitted: &emitted,
-        },
-        &sec.surfel_vpl,
-        sec.vpls.len(),
-        first,
-    );
-    let sources_seconds = clock.elapsed().as_secs_f64();
     let mut reflected = glam::DVec3::ZERO;
     for ((albedo, d), area) in surfels.albedo.iter().zip(&direct).zip(&surfels.area) {
         reflected += (*albedo * *d * *area).as_dvec3();
     }
-    Later {
+    let mut later = Later {
         vpls: sec.vpls,
         nodes: sec.nodes,
         coherence: sec.coherence,
@@ -168,9 +161,27 @@ pub fn later_bounces(rays: &RayScene<'_>, opts: &LaterOptions, first: &[VplRecor
         direct: reflected.as_vec3(),
         converged: solution.converged,
         surfels: surfels.len(),
-        sources,
-        sources_seconds,
+        sources: sources::Sources::default(),
+        sources_seconds: 0.0,
+    };
+    // Where their light came from, only for later bounces the bake keeps.
+    if later.kept(opts.bounces) {
+        let clock = std::time::Instant::now();
+        later.sources = sources::sources(
+            rays,
+            &sources::Solved {
+                surfels: &surfels,
+                links: &links,
+                direct: &direct,
+                emitted: &emitted,
+            },
+            &sec.surfel_vpl,
+            later.vpls.len(),
+            first,
+        );
+        later.sources_seconds = clock.elapsed().as_secs_f64();
     }
+    later
 }
 
 /// `a > b`, false where either is NaN: `!gt(a, b)` takes a NaN as "not

@@ -17,10 +17,10 @@
 //! surfel's) and to the first-bounce VPL nearest it that it sees; a
 //! first-bounce VPL to the group most of its surfels' light passed on
 //! came from, weighted in the group's mean by that light (a sunlit roof
-//! under the open sky passes on none and weighs nothing). The weights: the directly reflected light of each group
-//! gathered over the bake's links for [`SOURCE_BOUNCES`] bounces, one
-//! channel a group, and the rest of each later VPL's light shared as the
-//! last bounce gathered shares it.
+//! under the open sky passes on none and weighs nothing). The weights:
+//! the directly reflected light of each group gathered over the bake's
+//! links for [`SOURCE_BOUNCES`] bounces, one channel a group, and the rest
+//! of each later VPL's light shared as the last bounce gathered shares it.
 
 use gibake_asset::{SOURCES_PER_LATER_VPL, VplRecord};
 use gibake_raycast::RayScene;
@@ -228,14 +228,20 @@ fn first_vpls(
                 return None;
             }
             let (p, n) = (surfels.position[i], surfels.normal[i]);
-            let mut near: Vec<(f32, usize)> = first
-                .iter()
-                .enumerate()
-                .filter(|(_, v)| Vec3::from_array(v.normal).dot(n) >= 0.5)
-                .map(|(k, v)| ((Vec3::from_array(v.position) - p).length_squared(), k))
-                .collect();
-            near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-            let seen = near.iter().take(4).find(|&&(_, k)| {
+            // The four nearest facing VPLs, nearest first (first on a tie).
+            let mut near: Vec<(f32, usize)> = Vec::with_capacity(5);
+            for (k, v) in first.iter().enumerate() {
+                if Vec3::from_array(v.normal).dot(n) < 0.5 {
+                    continue;
+                }
+                let d = (Vec3::from_array(v.position) - p).length_squared();
+                if near.len() < 4 || d < near[near.len() - 1].0 {
+                    let at = near.partition_point(|e| e.0 <= d);
+                    near.insert(at, (d, k));
+                    near.truncate(4);
+                }
+            }
+            let seen = near.iter().find(|&&(_, k)| {
                 let (a, b) = (
                     p + n * lift,
                     Vec3::from_array(first[k].position) + Vec3::from_array(first[k].normal) * lift,
