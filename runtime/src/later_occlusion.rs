@@ -26,14 +26,14 @@ struct GpuLaterParams {
     _pad: u32,
 }
 
-/// `Source` in `later_occlusion.wgsl` (must match): one of a later VPL's
-/// `gibake_asset::SOURCES_PER_LATER_VPL` source groups and its weight, or
-/// (in the members list) a first-bounce VPL of a group and its weight in
-/// the group's mean.
+/// `Weighted` in `later_occlusion.wgsl` (must match): an index and its
+/// weight — in the sources list one of a later VPL's
+/// `gibake_asset::SOURCES_PER_LATER_VPL` source groups, in the members list
+/// a first-bounce VPL of a group and its weight in the group's mean.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-struct GpuSource {
-    group: u32,
+struct GpuWeighted {
+    index: u32,
     weight: f32,
 }
 
@@ -51,10 +51,10 @@ pub(crate) struct LaterOcclusionPass {
 /// The source groups' members for `first` (each first-bounce VPL's group
 /// and weight, `gibake_asset::LaterSources::first`) in `groups` groups:
 /// `groups + 1` offsets (group `g`'s members are `members[offsets[g] ..
-/// offsets[g + 1]]`) and the members, group by group, each VPL's index (in
-/// `Source::group`) and weight; a VPL of weight 0 or out of range is left
+/// offsets[g + 1]]`) and the members, group by group, each VPL's index and
+/// weight; a VPL of weight 0 or out of range is left
 /// out.
-fn group_members(first: &[(u32, f32)], groups: u32) -> (Vec<u32>, Vec<GpuSource>) {
+fn group_members(first: &[(u32, f32)], groups: u32) -> (Vec<u32>, Vec<GpuWeighted>) {
     let g = groups as usize;
     let counted = |(k, w): &(u32, f32)| (*k as usize) < g && *w > 0.0 && w.is_finite();
     let mut offsets = vec![0u32; g + 1];
@@ -66,15 +66,15 @@ fn group_members(first: &[(u32, f32)], groups: u32) -> (Vec<u32>, Vec<GpuSource>
     }
     let mut at = offsets.clone();
     let mut members = vec![
-        GpuSource {
-            group: 0,
+        GpuWeighted {
+            index: 0,
             weight: 0.0
         };
         offsets[g] as usize
     ];
     for (i, f) in first.iter().enumerate().filter(|(_, f)| counted(f)) {
-        members[at[f.0 as usize] as usize] = GpuSource {
-            group: i as u32,
+        members[at[f.0 as usize] as usize] = GpuWeighted {
+            index: i as u32,
             weight: f.1,
         };
         at[f.0 as usize] += 1;
@@ -128,22 +128,22 @@ impl LaterOcclusionPass {
             _ => (vec![0], Vec::new()),
         };
         if members.is_empty() {
-            members.push(GpuSource {
-                group: 0,
+            members.push(GpuWeighted {
+                index: 0,
                 weight: 0.0,
             });
         }
-        let list: Vec<GpuSource> = match sources {
+        let list: Vec<GpuWeighted> = match sources {
             Some(s) if groups > 0 => s
                 .weights
                 .iter()
-                .map(|&(group, weight)| GpuSource {
-                    group: group.min(groups - 1),
+                .map(|&(group, weight)| GpuWeighted {
+                    index: group.min(groups - 1),
                     weight,
                 })
                 .collect(),
-            _ => vec![GpuSource {
-                group: 0,
+            _ => vec![GpuWeighted {
+                index: 0,
                 weight: 0.0,
             }],
         };
@@ -248,7 +248,7 @@ mod tests {
             3,
         );
         assert_eq!(o, vec![0, 1, 3, 4]);
-        let m: Vec<(u32, f32)> = m.iter().map(|s| (s.group, s.weight)).collect();
+        let m: Vec<(u32, f32)> = m.iter().map(|s| (s.index, s.weight)).collect();
         assert_eq!(m, vec![(1, 2.0), (0, 1.0), (2, 3.0), (3, 4.0)]);
     }
 }

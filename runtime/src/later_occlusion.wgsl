@@ -19,8 +19,8 @@ struct LaterParams {      // GpuLaterParams in later_occlusion.rs
     _p0: u32,
 }
 
-struct Source {           // GpuSource in later_occlusion.rs
-    group: u32,
+struct Weighted {         // GpuWeighted in later_occlusion.rs: an index and its weight
+    index: u32,
     weight: f32,
 }
 
@@ -29,10 +29,10 @@ struct Source {           // GpuSource in later_occlusion.rs
 @group(0) @binding(2) var<uniform> params: LaterParams;
 // groups + 1 offsets into members (later_occlusion.rs group_members)
 @group(0) @binding(3) var<storage, read> offsets: array<u32>;
-// the first-bounce VPLs by group: index (in `group`) and weight in the group's mean
-@group(0) @binding(4) var<storage, read> members: array<Source>;
-// per later VPL, SOURCES of its groups and weights
-@group(0) @binding(5) var<storage, read> sources: array<Source>;
+// the first-bounce VPLs by group: index and weight in the group's mean
+@group(0) @binding(4) var<storage, read> members: array<Weighted>;
+// per later VPL, SOURCES of its groups (index) and weights
+@group(0) @binding(5) var<storage, read> sources: array<Weighted>;
 
 const ONE: f32 = 16777216.0;   // 2^24: fixed-point 1.0 of occlusion sums
 const SIZE: u32 = 256u;        // also gibake_asset::MAX_SOURCE_GROUPS
@@ -57,8 +57,8 @@ fn cs_main(@builtin(local_invocation_index) lid: u32) {
     if (lid < params.groups) {
         for (var k = offsets[lid]; k < offsets[lid + 1u]; k += 1u) {
             let m = members[k];
-            if (m.group < params.first_later) {
-                g += vec2<f32>(m.weight * occluded_share(m.group), m.weight);
+            if (m.index < params.first_later) {
+                g += vec2<f32>(m.weight * occluded_share(m.index), m.weight);
             }
         }
     }
@@ -88,7 +88,7 @@ fn cs_main(@builtin(local_invocation_index) lid: u32) {
             let at = (j - params.first_later) * SOURCES;
             for (var k = 0u; k < SOURCES; k += 1u) {
                 let src = sources[at + k];
-                o += src.weight * group_share[min(src.group, SIZE - 1u)];
+                o += src.weight * group_share[min(src.index, SIZE - 1u)];
                 w += src.weight;
             }
         }

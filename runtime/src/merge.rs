@@ -300,8 +300,12 @@ impl VplMerge {
                 // seen through the map's coarse cells: little or none).
                 |v, k| match frames[v] {
                     Some((o, n)) => {
-                        crate::merge_cull::intercepted_by_area(o, n, &boxes[k], area[k])
-                            * cells.map_or(1.0, |c| c.seen_share(v, o, n, &boxes[k]))
+                        let f = crate::merge_cull::intercepted_by_area(o, n, &boxes[k], area[k]);
+                        if f > 0.0 {
+                            f * cells.map_or(1.0, |c| c.seen_share(v, o, n, &boxes[k]))
+                        } else {
+                            f
+                        }
                     }
                     None => 0.0,
                 },
